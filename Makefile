@@ -1,0 +1,32 @@
+# Set-up and the two README commands. Needs only python3 (>= 3.11) on the machine.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+.PHONY: setup demo test lint bench clean
+
+$(BIN)/.installed: pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e ".[dev]"
+	touch $@
+
+setup: $(BIN)/.installed
+
+demo: setup  ## the main job: A/B evaluation of the filters on the built-in scenario
+	$(BIN)/pfpeople evaluate
+
+test: setup
+	$(BIN)/python -m pytest -q
+
+lint: setup
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/mypy gridbridge pfpeople evaluation
+
+bench: setup
+	$(BIN)/python -m evaluation.bench_grid
+	$(BIN)/python -m evaluation.bench_particles
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,1 @@
+"""pfpeople evaluation: scenarios with ground truth, metrics, A/B evaluation, benchmarks."""

@@ -1,0 +1,1 @@
+"""Subcommands of ``pfpeople-eval``: one module each, discovered by :mod:`evaluation.cli`."""

@@ -1,0 +1,69 @@
+"""Input checks shared by the grid functions: every error names the argument that was wrong."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+def check_grid_array(
+    array: ArrayLike,
+    name: str,
+    *,
+    shape: Sequence[int] | None = None,
+    ndim: int | None = 2,
+    probability: bool = True,
+) -> NDArray[np.float64]:
+    """Return ``array`` as float64 after checking shape, finiteness and (optionally) [0, 1] range."""
+    arr = np.asarray(array)
+    if arr.dtype == bool:
+        arr = arr.astype(float)
+    if not np.issubdtype(arr.dtype, np.number):
+        raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
+    arr = arr.astype(float, copy=False)
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(f"{name} must be a {ndim}-D array, got shape {arr.shape}")
+    if shape is not None and tuple(arr.shape) != tuple(shape):
+        raise ValueError(f"{name} must have shape {tuple(shape)}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} contains NaN or infinite values")
+    if probability and arr.size and (arr.min() < 0.0 or arr.max() > 1.0):
+        raise ValueError(
+            f"{name} must hold probabilities in [0, 1], got values in [{arr.min():.6g}, {arr.max():.6g}]"
+        )
+    return arr
+
+
+def check_probability(value: float, name: str, *, open_low: bool = False, open_high: bool = False) -> float:
+    """Check one probability; ``open_low``/``open_high`` exclude 0 / 1."""
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0 or v > 1.0 or (open_low and v == 0.0) or (open_high and v == 1.0):
+        lo = "(0" if open_low else "[0"
+        hi = "1)" if open_high else "1]"
+        raise ValueError(f"{name} must be a probability in {lo}, {hi}, got {value!r}")
+    return v
+
+
+def check_positive(value: float, name: str, *, allow_zero: bool = False) -> float:
+    """Check a finite positive (or non-negative) number."""
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
+        kind = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")
+    return v
+
+
+def check_finite(value: float, name: str) -> float:
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def check_choice(value: str, name: str, choices: Sequence[str]) -> str:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}; got {value!r}")
+    return value

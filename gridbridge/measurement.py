@@ -1,0 +1,284 @@
+"""Measurement update (Batista & Pereira 2015, Sect. 3.2, eqs. 12-14): the likelihood code both filters share.
+
+Per detector i and cell c the detector either fires (a detection maps to c) or not; the paper's
+confidence is ``P(D_i | p) = PPV_i`` where it fires and ``FNR_i`` where it does not. The fusion is
+
+    P(D_1..D_N | p) = 1 - prod_i (1 - P(D_i | p))      if at least one detector fires     (eq. 13)
+    P(D_1..D_N | p) = min_i FNR_i                        if none fires                     (eq. 14)
+
+and the update (eq. 12) with the usual reading ``P(D | np) = 1 - P(D | p)``:
+
+    bel(p) = L bel'(p) / (L bel'(p) + (1 - L)(1 - bel'(p))),
+
+so each update multiplies a cell's odds by ``L / (1 - L)``.
+
+Decisions the paper leaves open (tested in ``tests/test_measurement.py``):
+
+* Soft detections. A detector may fire with probability ``q`` in a cell (the camera's Gaussian position
+  uncertainty). The fused likelihood is then the expectation of eqs. 13-14 over independent firing events:
+  ``L = 1 - A - N0 (1 - B) + N0 min FNR`` with ``A = prod_i [q_i (1 - PPV_i) + (1 - q_i)(1 - FNR_i)]``,
+  ``N0 = prod_i (1 - q_i)`` and ``B = prod_i (1 - FNR_i)``. For 0/1 values this is exactly eqs. 13-14.
+* Camera (``uncertainty="gaussian"``): a detection at bearing phi fires in cell c with
+  ``q_c = exp(-d^T S^-1 d / 2)``, ``S = R(phi) diag(sigma_range^2, sigma_lateral^2) R(phi)^T``, d from the
+  detection to the cell centre; ``q < exp(-4.5)`` (beyond 3 sd) is set to 0. Several detections of one
+  detector combine by the maximum.
+* Point detections (lasers) fire in the cell that contains them, plus cells whose centre lies within
+  ``footprint_radius``.
+* Fields of view. Only detectors that cover a cell take part in its fusion (the min-FNR of eq. 14 runs over
+  them). A cell covered by no detector gets ``L = 0.5``, which leaves its belief unchanged (odds x 1): nothing
+  observed it. A cell where a point detection lands counts as covered by that detector.
+* ``L = 1`` with prior 0 (or ``L = 0`` with prior 1) makes eq. 12 0/0; the prior is kept there.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from gridbridge._validate import check_grid_array
+from gridbridge.grid import GridSpec
+from gridbridge.params import DetectorModel
+
+__all__ = [
+    "Likelihood",
+    "bayes_update",
+    "detection_map",
+    "detector_likelihood",
+    "fov_mask",
+    "fuse_detectors",
+    "likelihood_from_detections",
+    "rasterise",
+]
+
+#: Gaussian firing weights below exp(-3^2 / 2) (beyond 3 standard deviations) count as not firing.
+GAUSSIAN_CUTOFF = math.exp(-4.5)
+
+
+def _as_positions(positions: ArrayLike, name: str) -> NDArray[np.float64]:
+    pts = np.asarray(positions, dtype=float)
+    if pts.size == 0:
+        return np.zeros((0, 2))
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (M, 2) (x, y in metres), got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError(f"{name} contains NaN or infinite positions")
+    return pts
+
+
+def rasterise(spec: GridSpec, positions: ArrayLike, weights: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Sum of point weights per cell.
+
+    Parameters
+    ----------
+    spec : GridSpec
+    positions : array_like, shape (N, 2)
+        Points (x, y) in the grid's sensor frame (m); points outside the grid are not counted.
+    weights : array_like, shape (N,), optional
+        Weight of each point (1 by default).
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+    """
+    pts = _as_positions(positions, "positions")
+    w = np.ones(len(pts)) if weights is None else np.asarray(weights, dtype=float).ravel()
+    if w.shape != (len(pts),):
+        raise ValueError(f"weights must have shape ({len(pts)},), got {w.shape}")
+    flat = spec.flat_index(pts[:, 0], pts[:, 1])
+    inside = flat >= 0
+    return np.bincount(flat[inside], weights=w[inside], minlength=spec.n_cells).reshape(spec.shape)
+
+
+def fov_mask(spec: GridSpec, model: DetectorModel) -> NDArray[np.bool_]:
+    """Cells whose centre lies in the detector's field of view (bearing range and range interval).
+
+    Returns a read-only ``(nx, ny)`` bool array (cached per grid and model).
+    """
+    return _fov_mask_cached(spec, model)
+
+
+@lru_cache(maxsize=128)
+def _fov_mask_cached(spec: GridSpec, model: DetectorModel) -> NDArray[np.bool_]:
+    gx, gy = spec.cell_centres()
+    dx, dy = gx - model.mount_x, gy - model.mount_y
+    c, s = math.cos(model.mount_yaw), math.sin(model.mount_yaw)
+    lx, ly = c * dx + s * dy, -s * dx + c * dy
+    bearing = np.arctan2(ly, lx)
+    rng = np.hypot(lx, ly)
+    rel = np.mod(bearing - model.fov_min, 2 * math.pi)
+    in_bearing = rel <= (model.fov_max - model.fov_min) + 1e-12
+    mask = in_bearing & (rng >= model.min_range) & (rng <= model.max_range)
+    mask.setflags(write=False)
+    return mask
+
+
+def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) -> NDArray[np.float64]:
+    """Where a detector fires: ``(nx, ny)`` values in [0, 1] (1 = fired) from its detections.
+
+    Parameters
+    ----------
+    spec : GridSpec
+    model : DetectorModel
+        Sets point or Gaussian uncertainty and the footprint.
+    positions : array_like, shape (M, 2)
+        Detected person positions (x, y) in the grid's sensor frame (m). M may be 0.
+    """
+    pts = _as_positions(positions, f"detections of {model.name}")
+    fired = np.zeros(spec.shape)
+    if len(pts) == 0:
+        return fired
+    if model.uncertainty == "point":
+        flat = spec.flat_index(pts[:, 0], pts[:, 1])
+        fired.ravel()[flat[flat >= 0]] = 1.0
+        if model.footprint_radius > 0.0:
+            gx, gy = spec.cell_centres()
+            d2 = (gx[None] - pts[:, 0, None, None]) ** 2 + (gy[None] - pts[:, 1, None, None]) ** 2
+            fired[np.any(d2 <= model.footprint_radius**2, axis=0)] = 1.0
+        return fired
+    gx, gy = spec.cell_centres()
+    bearing = np.arctan2(pts[:, 1] - model.mount_y, pts[:, 0] - model.mount_x)
+    c, s = np.cos(bearing)[:, None, None], np.sin(bearing)[:, None, None]
+    dx, dy = gx[None] - pts[:, 0, None, None], gy[None] - pts[:, 1, None, None]
+    along = (c * dx + s * dy) / model.sigma_range
+    across = (-s * dx + c * dy) / model.sigma_lateral
+    q = np.exp(-0.5 * (along**2 + across**2)).max(axis=0)
+    q[q < GAUSSIAN_CUTOFF] = 0.0
+    return q
+
+
+def detector_likelihood(fired: ArrayLike, ppv: float, fnr: float) -> NDArray[np.float64]:
+    """P(D_i | p) per cell: PPV where the detector fired, FNR where not (expectation for soft firing)."""
+    q = check_grid_array(fired, "fired", ndim=None)
+    return q * ppv + (1.0 - q) * fnr
+
+
+def fuse_detectors(
+    fired: ArrayLike,
+    ppv: ArrayLike,
+    fnr: ArrayLike,
+    *,
+    covered: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """De Morgan fusion of N detectors (eqs. 13-14), with fields of view.
+
+    Parameters
+    ----------
+    fired : array_like, shape (D, nx, ny)
+        Bool (fired or not) or per-cell firing probabilities in [0, 1].
+    ppv, fnr : array_like, shape (D,)
+        Each detector's precision and false-negative rate.
+    covered : array_like of bool, shape (D, nx, ny), optional
+        Field-of-view masks: detector i takes part in cell c only where ``covered[i, c]``. All True by default.
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        P(D_1..D_N | p) per cell; 0.5 where no detector covers the cell.
+    """
+    q = check_grid_array(fired, "fired", ndim=3)
+    d = q.shape[0]
+    ppv_ = check_grid_array(ppv, "ppv", ndim=1, shape=(d,))
+    fnr_ = check_grid_array(fnr, "fnr", ndim=1, shape=(d,))
+    if covered is None:
+        cov = np.ones(q.shape, dtype=bool)
+    else:
+        cov = np.asarray(covered)
+        if cov.dtype != bool:
+            raise ValueError(f"covered must be a bool array, got dtype {cov.dtype}")
+        if cov.shape != q.shape:
+            raise ValueError(f"covered must have the shape of fired {q.shape}, got {cov.shape}")
+    ppv3, fnr3 = ppv_[:, None, None], fnr_[:, None, None]
+    q = np.where(cov, q, 0.0)
+    factor_a = np.where(cov, q * (1.0 - ppv3) + (1.0 - q) * (1.0 - fnr3), 1.0)
+    a = factor_a.prod(axis=0)
+    n0 = (1.0 - q).prod(axis=0)
+    b = np.where(cov, 1.0 - fnr3, 1.0).prod(axis=0)
+    min_fnr = np.where(cov, fnr3, np.inf).min(axis=0)
+    any_cov = cov.any(axis=0)
+    fused = (1.0 - a) - n0 * (1.0 - b) + n0 * np.where(any_cov, min_fnr, 0.0)
+    fused = np.where(any_cov, fused, 0.5)
+    return np.clip(fused, 0.0, 1.0, out=fused)
+
+
+def bayes_update(prior: ArrayLike, likelihood: ArrayLike) -> NDArray[np.float64]:
+    """Binary Bayes update of eq. 12 with P(D | np) = 1 - P(D | p).
+
+    Parameters
+    ----------
+    prior, likelihood : array_like, shape (nx, ny)
+        The predicted belief and P(D_1..D_N | p), both in [0, 1].
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        The posterior; where eq. 12 is 0/0 (L = 1 with prior 0, or L = 0 with prior 1) the prior is kept.
+    """
+    p = check_grid_array(prior, "prior", ndim=None)
+    lik = check_grid_array(likelihood, "likelihood", ndim=None)
+    if p.shape != lik.shape:
+        raise ValueError(f"prior and likelihood shapes differ: {p.shape} vs {lik.shape}")
+    num = lik * p
+    den = num + (1.0 - lik) * (1.0 - p)
+    safe = den > 0.0
+    return np.where(safe, num / np.where(safe, den, 1.0), p)
+
+
+@dataclass(frozen=True, eq=False)
+class Likelihood:
+    """Every stage of the measurement model for one frame (the panels f-i of the paper's Fig. 6).
+
+    Attributes
+    ----------
+    fired : ndarray, shape (D, nx, ny)
+        Where each detector fired (in [0, 1]).
+    covered : ndarray of bool, shape (D, nx, ny)
+        Each detector's field of view this frame (all False for a detector without data this frame).
+    detector_likelihoods : ndarray, shape (D, nx, ny)
+        P(D_i | p) per detector (PPV / FNR; 0.5 outside its field of view).
+    likelihood : ndarray, shape (nx, ny)
+        The fused P(D_1..D_N | p) of eqs. 13-14.
+    """
+
+    fired: NDArray[np.float64]
+    covered: NDArray[np.bool_]
+    detector_likelihoods: NDArray[np.float64]
+    likelihood: NDArray[np.float64]
+
+
+def likelihood_from_detections(
+    spec: GridSpec,
+    detectors: Sequence[DetectorModel],
+    detections: Sequence[ArrayLike | None],
+) -> Likelihood:
+    """Detections of N detectors -> per-detector maps and the fused likelihood.
+
+    Parameters
+    ----------
+    spec : GridSpec
+    detectors : sequence of DetectorModel, length D
+    detections : sequence, length D
+        Entry i is an ``(M_i, 2)`` array of positions (m, grid's sensor frame), or ``None`` when detector i
+        has no data this frame (it then covers no cell).
+    """
+    if len(detections) != len(detectors):
+        raise ValueError(f"detections must have one entry per detector ({len(detectors)}), got {len(detections)}")
+    d = len(detectors)
+    fired = np.zeros((d, *spec.shape))
+    covered = np.zeros((d, *spec.shape), dtype=bool)
+    for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
+        if det is None:
+            continue
+        fired[i] = detection_map(spec, model, det)
+        covered[i] = fov_mask(spec, model)
+        if model.uncertainty == "point":
+            covered[i] |= fired[i] > 0.0
+    ppv = np.array([m.ppv for m in detectors])
+    fnr = np.array([m.fnr for m in detectors])
+    per_det = np.where(covered, fired * ppv[:, None, None] + (1.0 - fired) * fnr[:, None, None], 0.5)
+    fused = fuse_detectors(fired, ppv, fnr, covered=covered)
+    return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)

@@ -1,0 +1,216 @@
+"""Prediction based on people motion (Batista & Pereira 2015, Sect. 3.1.1, eqs. 5-9).
+
+Two kernel forms
+----------------
+``form="paper"``
+    The paper's p_k: ``p_stationary`` at distance 0 and, for a cell k at cell-centre distance d > 0,
+
+        p_k = (1 - p_stationary) * N(d / dt; mu, sigma)                                    (p_k model)
+
+    a *speed density* (units s/m), not a probability. The neighbourhood G holds the cells whose centre lies
+    within ``v_max * dt`` of the centre cell.
+``form="integrated"``
+    The probability that a person placed uniformly in cell k is in cell c after ``dt``. With displacement
+    ``u = s dt (cos a, sin a)``, ``s`` ~ N(mu, sigma) truncated to [0, v_max], ``a`` uniform, and a start
+    uniform in the cell, the probability of moving by ``(di, dj)`` cells is ``E[tri(u_x/r - di) tri(u_y/r - dj)]``
+    with ``tri(t) = max(0, 1 - |t|)`` (the 1-D overlap of a unit box with its shifted copy). This is evaluated
+    with Gauss-Legendre nodes in speed and equally spaced headings (a multiple of 8, so the kernel keeps the
+    grid's symmetries exactly). Because ``sum_d tri(t - d) = 1`` for every t, the kernel sums to one up to
+    round-off; the neighbourhood reaches ``ceil(v_max dt / r) + 1`` cells so no displacement leaves it. This is
+    what a particle filter samples.
+
+Two predictions
+---------------
+``form="paper"`` (eq. 6 with eqs. 7-9)
+    ``bel'_c = p_stationary * bel_c + P_col,c * (1 - bel_c)``. In eq. 8 p_free cancels:
+
+        P_col = 1 - p_free / (p_free + sum_k p_free q_k / (1 - q_k)) = S / (1 + S),
+        S = sum_{k in G, k != c} q_k / (1 - q_k),   q_k = p_k bel_k.
+
+    The centre cell is left out of G (the colonisation term is conditioned on c being empty at t - 1).
+    Both kernel forms may be used with it; the paper used the paper-form kernel.
+``form="linear"``
+    The Chapman-Kolmogorov sum ``bel'_c = sum_k T(c <- k) bel_k`` with the integrated kernel: the expected
+    occupancy when people move independently. This is the grid filter that the particle filter estimates.
+
+Outside the grid the belief is ``outside`` (0.5 in the paper: nothing is known there).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage, special
+
+from gridbridge._validate import check_choice, check_grid_array, check_positive, check_probability
+from gridbridge.grid import GridSpec
+from gridbridge.params import PeopleMotion
+
+__all__ = [
+    "people_motion_kernel",
+    "predict_people",
+    "truncated_speed_pdf",
+]
+
+KernelForm = Literal["paper", "integrated"]
+PredictForm = Literal["paper", "linear"]
+
+#: Quadrature sizes of the integrated kernel: Gauss-Legendre nodes per speed interval, headings (multiple of 8).
+_N_SPEED = 96
+_N_HEADING = 256
+
+
+def truncated_speed_pdf(speed: ArrayLike, motion: PeopleMotion) -> NDArray[np.float64]:
+    """Density (s/m) of walking speed: N(mu, sigma) truncated to [0, v_max] and renormalised.
+
+    This is the speed distribution of a *moving* person, shared by the integrated kernel and the particle
+    sampler (:mod:`pfpeople.motion`).
+    """
+    s = np.asarray(speed, dtype=float)
+    a = (0.0 - motion.mu) / motion.sigma
+    b = (motion.v_max - motion.mu) / motion.sigma
+    z = special.ndtr(b) - special.ndtr(a)
+    pdf = np.exp(-0.5 * ((s - motion.mu) / motion.sigma) ** 2) / (motion.sigma * math.sqrt(2 * math.pi) * z)
+    return np.where((s >= 0.0) & (s <= motion.v_max), pdf, 0.0)
+
+
+def people_motion_kernel(
+    spec: GridSpec,
+    motion: PeopleMotion | None = None,
+    *,
+    dt: float | None = None,
+    form: KernelForm = "paper",
+) -> NDArray[np.float64]:
+    """The people motion kernel as a centred 2-D array (odd side, centre = no displacement).
+
+    Parameters
+    ----------
+    spec : GridSpec
+        Grid whose resolution sets the cell size.
+    motion : PeopleMotion, optional
+        Motion model (Table 1 defaults).
+    dt : float, optional
+        Time step (s); defaults to ``motion.dt``.
+    form : {"paper", "integrated"}
+        See the module docstring.
+
+    Returns
+    -------
+    ndarray, shape (2R + 1, 2R + 1)
+        ``kernel[R + di, R + dj]`` is the weight of a displacement of ``(di, dj)`` cells (x, y). Read-only.
+    """
+    motion = PeopleMotion() if motion is None else motion
+    if not isinstance(spec, GridSpec):
+        raise ValueError(f"spec must be a GridSpec, got {type(spec).__name__}")
+    dt_ = motion.dt if dt is None else check_positive(dt, "dt")
+    check_choice(form, "form", ("paper", "integrated"))
+    # Round dt so that equal steps from different clocks share the cache entry.
+    return _kernel_cached(spec.resolution, motion, round(dt_, 9), form)
+
+
+@lru_cache(maxsize=64)
+def _kernel_cached(resolution: float, motion: PeopleMotion, dt: float, form: str) -> NDArray[np.float64]:
+    kernel = _paper_kernel(resolution, motion, dt) if form == "paper" else _integrated_kernel(resolution, motion, dt)
+    kernel.setflags(write=False)
+    return kernel
+
+
+def _paper_kernel(resolution: float, motion: PeopleMotion, dt: float) -> NDArray[np.float64]:
+    reach = motion.v_max * dt
+    radius = max(1, math.floor(reach / resolution + 1e-9))
+    d = np.arange(-radius, radius + 1) * resolution
+    dist = np.hypot(d[:, None], d[None, :])
+    density = np.exp(-0.5 * ((dist / dt - motion.mu) / motion.sigma) ** 2) / (motion.sigma * math.sqrt(2 * math.pi))
+    kernel = np.where(dist <= reach + 1e-12, (1.0 - motion.p_stationary) * density, 0.0)
+    kernel[radius, radius] = motion.p_stationary
+    return kernel
+
+
+def _integrated_kernel(resolution: float, motion: PeopleMotion, dt: float) -> NDArray[np.float64]:
+    reach_cells = motion.v_max * dt / resolution
+    radius = math.ceil(reach_cells) + 1
+    # Speed quadrature: Gauss-Legendre on sub-intervals of [0, v_max] of at most one cell of travel each,
+    # since the integrand (products of tent functions) has kinks at whole-cell displacements.
+    n_int = max(1, math.ceil(reach_cells))
+    xg, wg = np.polynomial.legendre.leggauss(_N_SPEED)
+    edges = np.linspace(0.0, motion.v_max, n_int + 1)
+    half = 0.5 * np.diff(edges)
+    speeds = (edges[:-1, None] + half[:, None] * (xg[None, :] + 1.0)).ravel()
+    s_weights = (half[:, None] * wg[None, :]).ravel() * truncated_speed_pdf(speeds, motion)
+    s_weights /= s_weights.sum()  # remove quadrature error on the normalisation
+    headings = (np.arange(_N_HEADING) + 0.5) * (2 * math.pi / _N_HEADING)
+    ux = (speeds[:, None] * dt / resolution) * np.cos(headings)[None, :]
+    uy = (speeds[:, None] * dt / resolution) * np.sin(headings)[None, :]
+    w = np.broadcast_to(s_weights[:, None] / _N_HEADING, ux.shape)
+    offsets = np.arange(-radius, radius + 1, dtype=float)
+    tx = np.clip(1.0 - np.abs(ux.ravel()[:, None] - offsets[None, :]), 0.0, None)  # (Q, 2R+1)
+    ty = np.clip(1.0 - np.abs(uy.ravel()[:, None] - offsets[None, :]), 0.0, None)
+    moving = (tx * w.ravel()[:, None]).T @ ty  # (2R+1, 2R+1): E[tri_x tri_y]
+    kernel = (1.0 - motion.p_stationary) * moving
+    kernel[radius, radius] += motion.p_stationary
+    return kernel
+
+
+def predict_people(
+    belief: ArrayLike,
+    kernel: ArrayLike,
+    *,
+    outside: float = 0.5,
+    form: PredictForm = "paper",
+) -> NDArray[np.float64]:
+    """People-motion prediction of a belief grid (eq. 6 with eq. 8, or the linear Chapman-Kolmogorov sum).
+
+    Parameters
+    ----------
+    belief : array_like, shape (nx, ny)
+        bel(x_{t-1} = p) per cell.
+    kernel : array_like, shape (2R + 1, 2R + 1)
+        From :func:`people_motion_kernel`; centred, odd side.
+    outside : float
+        Belief assumed for cells outside the grid (the paper: 0.5).
+    form : {"paper", "linear"}
+        See the module docstring.
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        The predicted belief bel'(x_t = p).
+    """
+    check_choice(form, "form", ("paper", "linear"))
+    bel = check_grid_array(belief, "belief")
+    k = check_grid_array(kernel, "kernel", probability=False)
+    if k.shape[0] != k.shape[1] or k.shape[0] % 2 == 0:
+        raise ValueError(f"kernel must be square with an odd side, got shape {k.shape}")
+    if k.min() < 0.0:
+        raise ValueError("kernel must be non-negative")
+    outside = check_probability(outside, "outside")
+    if form == "linear":
+        out = ndimage.convolve(bel, k, mode="constant", cval=outside)
+        return np.clip(out, 0.0, 1.0, out=out)
+    return _predict_paper(bel, k, outside)
+
+
+def _predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+    radius = kernel.shape[0] // 2
+    off_centre = kernel.copy()
+    off_centre[radius, radius] = 0.0
+    if off_centre.max() >= 1.0:
+        raise ValueError("kernel off-centre values must be below 1 for the paper form (eq. 8 divides by 1 - p_k bel_k)")
+    nx, ny = bel.shape
+    padded = np.pad(bel, radius, mode="constant", constant_values=outside)
+    s = np.zeros_like(bel)
+    di, dj = np.nonzero(kernel)
+    for a, b in zip(di.tolist(), dj.tolist(), strict=True):
+        if a == radius and b == radius:
+            continue
+        # Displacement (a - R, b - R) carries people from cell c - d into c: source window shifted by -d.
+        src = padded[2 * radius - a : 2 * radius - a + nx, 2 * radius - b : 2 * radius - b + ny]
+        q = kernel[a, b] * src
+        s += q / (1.0 - q)
+    p_col = s / (1.0 + s)
+    p_stay = kernel[radius, radius]
+    return p_stay * bel + p_col * (1.0 - bel)

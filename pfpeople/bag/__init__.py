@@ -1,0 +1,24 @@
+"""Rosbag input and output: configuration, reading, TF, time synchronisation and result bags.
+
+Reading uses ``rosbags.highlevel.AnyReader`` (ROS1 ``.bag`` files, ROS2 folders with sqlite3 or mcap storage);
+no ROS installation is needed. See :mod:`pfpeople.bag.config` for the TOML configuration,
+:mod:`pfpeople.bag.sync` for how frames are assembled, and :mod:`pfpeople.pipeline` for the whole run.
+"""
+
+from pfpeople.bag.config import BagConfig, DetectorConfig, FilterConfig, load_config
+from pfpeople.bag.reader import BagReadError, BagSource, open_bag_paths
+from pfpeople.bag.sync import Frame, FrameAssembler
+from pfpeople.bag.tf import TfBuffer
+
+__all__ = [
+    "BagConfig",
+    "BagReadError",
+    "BagSource",
+    "DetectorConfig",
+    "FilterConfig",
+    "Frame",
+    "FrameAssembler",
+    "TfBuffer",
+    "load_config",
+    "open_bag_paths",
+]

@@ -1,0 +1,1 @@
+"""Subcommands of ``pfpeople``: one module each, discovered by :mod:`pfpeople.cli`."""

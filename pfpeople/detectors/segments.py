@@ -1,0 +1,355 @@
+"""Scan segmentation and per-segment geometric features, shared by both laser detectors.
+
+Segmentation
+------------
+Invalid beams (NaN, inf, or a range outside ``[range_min, range_max]`` of the scan, or outside the optional
+``max_range`` of the segmentation) are dropped first: they neither form points nor split segments, so a single
+drop-out inside a leg does not cut it in two. The remaining end points, in beam order, are cut wherever the
+Euclidean distance between two consecutive valid points exceeds ``jump_distance`` (the jump-distance
+segmentation of Arras et al. 2007); segments with fewer than ``min_points`` points are discarded (and counted in
+:attr:`Segments.n_dropped_small`). An empty scan, or one without valid beams, gives zero segments.
+
+Features (Arras, Mozos & Burgard 2007; Spinello & Siegwart 2008)
+-----------------------------------------------------------------
+For a segment with points ``p_1 .. p_n`` (scan frame, m), centroid ``c`` and coordinate-wise median ``m``:
+
+=======================  ================================================================================
+``n_points``             n
+``std``                  sqrt(sum |p_k - c|^2 / (n - 1))
+``avg_median_dev``       mean |p_k - m|
+``width``                |p_n - p_1|
+``linearity``            sum of squared residuals of the total-least-squares line (smallest eigenvalue of
+                         the scatter matrix)
+``circularity``          sum (r_c - |p_k - x_c|)^2 for the algebraic (Kasa) circle fit (x_c, r_c)
+``radius``               r_c of that fit (capped at ``RADIUS_CAP`` m for almost straight segments)
+``boundary_length``      sum |p_{k+1} - p_k|
+``boundary_regularity``  standard deviation of |p_{k+1} - p_k|
+``mean_curvature``       mean signed Menger curvature 4 A / (a b c) over consecutive triples
+``mean_angle_diff``      mean turning angle at interior points (rad, in [0, 2 pi))
+``iav``                  mean inscribed angle at interior points between p_1 and p_n (rad)
+``iav_std``              standard deviation of that inscribed angle (rad)
+``distance``             |m|, range of the segment (m)
+=======================  ================================================================================
+
+All features are computed for all segments of a scan at once with ``numpy.add.reduceat`` (no Python loop
+over segments or points).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gridbridge._validate import check_positive
+from pfpeople.sensors import LaserScan
+
+__all__ = ["FEATURE_NAMES", "RADIUS_CAP", "SegmentationParams", "Segments", "segment_features", "segment_scan"]
+
+#: Names of the columns of :func:`segment_features`, in order.
+FEATURE_NAMES: tuple[str, ...] = (
+    "n_points",
+    "std",
+    "avg_median_dev",
+    "width",
+    "linearity",
+    "circularity",
+    "radius",
+    "boundary_length",
+    "boundary_regularity",
+    "mean_curvature",
+    "mean_angle_diff",
+    "iav",
+    "iav_std",
+    "distance",
+)
+
+#: Largest circle radius reported (m): a straight segment's fitted circle is arbitrarily large.
+RADIUS_CAP = 10.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class SegmentationParams:
+    """Parameters of the jump-distance segmentation.
+
+    Parameters
+    ----------
+    jump_distance : float
+        Two consecutive valid end points further apart than this (m) start a new segment. The default 0.13 m
+        is the clustering distance used to label the leg_tracker training bags (Leigh et al. 2015).
+    min_points : int
+        Segments with fewer points are discarded (>= 3, the features need three points).
+    max_range : float
+        Beams with a larger range (m) are treated as invalid; ``inf`` keeps all valid beams.
+    """
+
+    jump_distance: float = 0.13
+    min_points: int = 3
+    max_range: float = math.inf
+
+    def __post_init__(self) -> None:
+        check_positive(self.jump_distance, "SegmentationParams.jump_distance")
+        if isinstance(self.min_points, bool) or not isinstance(self.min_points, int) or self.min_points < 3:
+            raise ValueError(f"SegmentationParams.min_points must be an integer >= 3, got {self.min_points!r}")
+        if math.isnan(self.max_range) or self.max_range <= 0:
+            raise ValueError(f"SegmentationParams.max_range must be positive, got {self.max_range!r}")
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Segments:
+    """The segments of one scan, stored flat.
+
+    Attributes
+    ----------
+    points : ndarray, shape (N, 2)
+        End points of all kept segments, concatenated in beam order (m, scan frame).
+    beams : ndarray, shape (N,)
+        Beam index of each point in the scan.
+    starts : ndarray, shape (S,)
+        Index into ``points`` of the first point of each segment; segment ``s`` is
+        ``points[starts[s]:starts[s] + counts[s]]``.
+    counts : ndarray, shape (S,)
+        Number of points of each segment.
+    range_before, range_after : ndarray, shape (S,)
+        Range (m) of the valid beam just before the segment's first point and just after its last point
+        (``inf`` when there is none: scan border or only invalid beams). A segment standing in front of its
+        background (a leg) has both larger than its end ranges.
+    n_invalid : int
+        Number of beams dropped as invalid (NaN, inf or out of range).
+    n_dropped_small : int
+        Number of segments discarded for having fewer than ``min_points`` points.
+    """
+
+    points: NDArray[np.float64]
+    beams: NDArray[np.intp]
+    starts: NDArray[np.intp]
+    counts: NDArray[np.intp]
+    range_before: NDArray[np.float64]
+    range_after: NDArray[np.float64]
+    n_invalid: int = 0
+    n_dropped_small: int = 0
+
+    def __len__(self) -> int:
+        return int(self.starts.size)
+
+    @property
+    def segment_ids(self) -> NDArray[np.intp]:
+        """Segment index of every point, shape (N,)."""
+        return np.repeat(np.arange(self.starts.size), self.counts)
+
+    @property
+    def centroids(self) -> NDArray[np.float64]:
+        """Mean point of every segment, shape (S, 2) (m, scan frame)."""
+        if len(self) == 0:
+            return np.zeros((0, 2))
+        return np.add.reduceat(self.points, self.starts, axis=0) / self.counts[:, None]
+
+    def segment(self, s: int) -> NDArray[np.float64]:
+        """Points of segment ``s``, shape (n_s, 2)."""
+        return self.points[self.starts[s] : self.starts[s] + self.counts[s]]
+
+
+def segment_scan(scan: LaserScan, *, params: SegmentationParams | None = None) -> Segments:
+    """Cut a scan into segments at range jumps.
+
+    Parameters
+    ----------
+    scan : LaserScan
+        The scan; invalid beams are dropped (see the module docstring).
+    params : SegmentationParams, optional
+        Jump distance, minimum points and maximum range; defaults to ``SegmentationParams()``.
+
+    Returns
+    -------
+    Segments
+        The kept segments (possibly none).
+    """
+    if not isinstance(scan, LaserScan):
+        raise TypeError(f"scan must be a LaserScan, got {type(scan).__name__}")
+    p = params if params is not None else SegmentationParams()
+    valid = scan.valid
+    with np.errstate(invalid="ignore"):
+        valid &= scan.ranges <= p.max_range
+    beams = np.flatnonzero(valid)
+    n_invalid = int(scan.ranges.size - beams.size)
+    if beams.size == 0:
+        return Segments(
+            points=np.zeros((0, 2)),
+            beams=np.zeros(0, dtype=np.intp),
+            starts=np.zeros(0, dtype=np.intp),
+            counts=np.zeros(0, dtype=np.intp),
+            range_before=np.zeros(0),
+            range_after=np.zeros(0),
+            n_invalid=n_invalid,
+        )
+    r = scan.ranges[beams]
+    a = scan.angle_min + scan.angle_increment * beams
+    pts = np.column_stack((r * np.cos(a), r * np.sin(a)))
+    gaps = np.hypot(*np.diff(pts, axis=0).T)
+    breaks = np.flatnonzero(gaps > p.jump_distance) + 1
+    starts = np.concatenate(([0], breaks))
+    counts = np.diff(np.concatenate((starts, [beams.size])))
+    keep = counts >= p.min_points
+    n_small = int(np.count_nonzero(~keep))
+    keep_pt = np.repeat(keep, counts)
+    ends = starts + counts - 1
+    r_pad = np.concatenate(([np.inf], r, [np.inf]))
+    range_before = r_pad[starts][keep]
+    range_after = r_pad[ends + 2][keep]
+    counts = counts[keep]
+    return Segments(
+        points=pts[keep_pt],
+        beams=beams[keep_pt].astype(np.intp),
+        starts=(np.cumsum(counts) - counts).astype(np.intp),
+        counts=counts.astype(np.intp),
+        range_before=range_before,
+        range_after=range_after,
+        n_invalid=n_invalid,
+        n_dropped_small=n_small,
+    )
+
+
+def _segment_sum(values: NDArray[np.float64], starts: NDArray[np.intp]) -> NDArray[np.float64]:
+    return np.add.reduceat(values, starts, axis=0)
+
+
+def segment_features(segments: Segments) -> NDArray[np.float64]:
+    """Geometric features of every segment (see the module docstring for the definitions).
+
+    Parameters
+    ----------
+    segments : Segments
+        Output of :func:`segment_scan` (every segment has at least 3 points).
+
+    Returns
+    -------
+    ndarray, shape (S, F)
+        One row per segment, columns in the order of :data:`FEATURE_NAMES` (float64, SI units).
+    """
+    S = len(segments)
+    F = len(FEATURE_NAMES)
+    if S == 0:
+        return np.zeros((0, F))
+    pts = segments.points
+    starts, counts = segments.starts, segments.counts
+    if np.any(counts < 3):
+        raise ValueError("segments must have at least 3 points each for segment_features")
+    n = counts.astype(float)
+    sid = segments.segment_ids
+    first = pts[starts]
+    last = pts[starts + counts - 1]
+
+    # centroid, spread and scatter matrix
+    c = _segment_sum(pts, starts) / n[:, None]
+    d = pts - c[sid]
+    sxx = _segment_sum(d[:, 0] ** 2, starts)
+    syy = _segment_sum(d[:, 1] ** 2, starts)
+    sxy = _segment_sum(d[:, 0] * d[:, 1], starts)
+    std = np.sqrt((sxx + syy) / (n - 1.0))
+    # smallest eigenvalue of [[sxx, sxy], [sxy, syy]] = squared residuals of the total-least-squares line
+    half_tr = 0.5 * (sxx + syy)
+    disc = np.sqrt(np.maximum(0.25 * (sxx - syy) ** 2 + sxy**2, 0.0))
+    linearity = np.maximum(half_tr - disc, 0.0)
+
+    # coordinate-wise median (sort points of each segment by (segment, coordinate))
+    med = np.empty((S, 2))
+    lo = starts + (counts - 1) // 2
+    hi = starts + counts // 2
+    for k in range(2):
+        order = np.lexsort((pts[:, k], sid))
+        srt = pts[order, k]
+        med[:, k] = 0.5 * (srt[lo] + srt[hi])
+    avg_median_dev = _segment_sum(np.hypot(*(pts - med[sid]).T), starts) / n
+    distance = np.hypot(med[:, 0], med[:, 1])
+
+    width = np.hypot(*(last - first).T)
+
+    # algebraic circle fit (Kasa): minimise sum (x^2 + y^2 + D x + E y + G)^2, in centred coordinates
+    z = d[:, 0] ** 2 + d[:, 1] ** 2
+    suu, svv, suv = sxx, syy, sxy
+    suz = _segment_sum(d[:, 0] * z, starts)
+    svz = _segment_sum(d[:, 1] * z, starts)
+    det = suu * svv - suv**2
+    scale = np.maximum(suu + svv, 1e-300)
+    ok = det > 1e-12 * scale**2
+    safe_det = np.where(ok, det, 1.0)
+    # centre (a, b) in centred coordinates solves [[suu, suv], [suv, svv]] [a, b] = 0.5 [suz, svz]
+    a_c = np.where(ok, 0.5 * (svv * suz - suv * svz) / safe_det, 0.0)
+    b_c = np.where(ok, 0.5 * (suu * svz - suv * suz) / safe_det, 0.0)
+    r2 = a_c**2 + b_c**2 + (suu + svv) / n
+    radius = np.where(ok, np.sqrt(r2), np.inf)
+    centre = c + np.column_stack((a_c, b_c))
+    resid = np.where(ok[sid], radius[sid] - np.hypot(*(pts - centre[sid]).T), 0.0)
+    circularity = np.where(ok, _segment_sum(resid**2, starts), linearity)
+    radius = np.minimum(radius, RADIUS_CAP)
+
+    # consecutive steps inside segments
+    step = np.hypot(*np.diff(pts, axis=0).T)  # (N-1,)
+    same = sid[1:] == sid[:-1]
+    step_in = np.where(same, step, 0.0)
+    step_sum = np.zeros(S)
+    np.add.at(step_sum, sid[:-1][same], step_in[same])
+    step_sq = np.zeros(S)
+    np.add.at(step_sq, sid[:-1][same], step_in[same] ** 2)
+    n_steps = n - 1.0
+    boundary_length = step_sum
+    boundary_regularity = np.sqrt(np.maximum(step_sq - step_sum**2 / n_steps, 0.0) / np.maximum(n_steps - 1, 1))
+
+    # consecutive triples (right, mid, left) inside segments: curvature and turning angle
+    right, mid, left = pts[:-2], pts[1:-1], pts[2:]
+    tri_ok = sid[:-2] == sid[2:]
+    ml = left - mid
+    mr = right - mid
+    l_ml = np.hypot(*ml.T)
+    l_mr = np.hypot(*mr.T)
+    l_lr = np.hypot(*(left - right).T)
+    cross = ml[:, 0] * mr[:, 1] - ml[:, 1] * mr[:, 0]
+    dot = ml[:, 0] * mr[:, 0] + ml[:, 1] * mr[:, 1]
+    th = np.mod(np.arctan2(cross, dot), 2 * np.pi)
+    denom = l_ml * l_mr * l_lr
+    curv = np.where(denom > 0, 2.0 * cross / np.where(denom > 0, denom, 1.0), 0.0)  # 4 A / (abc), signed
+    tri_seg = sid[1:-1][tri_ok]
+    mean_curvature = np.zeros(S)
+    np.add.at(mean_curvature, tri_seg, curv[tri_ok])
+    mean_curvature /= n
+    mean_angle_diff = np.zeros(S)
+    np.add.at(mean_angle_diff, tri_seg, th[tri_ok])
+    mean_angle_diff /= n
+
+    # inscribed angle at interior points between the first and the last point of the segment
+    interior = np.ones(pts.shape[0], dtype=bool)
+    interior[starts] = False
+    interior[starts + counts - 1] = False
+    iseg = sid[interior]
+    u = first[iseg] - pts[interior]
+    v = last[iseg] - pts[interior]
+    ang = np.mod(np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], (u * v).sum(axis=1)), 2 * np.pi)
+    s1 = np.zeros(S)
+    s2 = np.zeros(S)
+    np.add.at(s1, iseg, ang)
+    n_int = n - 2.0
+    iav = s1 / n_int
+    np.add.at(s2, iseg, (ang - iav[iseg]) ** 2)
+    iav_std = np.sqrt(s2 / np.maximum(n_int - 1.0, 1.0))
+
+    out = np.column_stack(
+        (
+            n,
+            std,
+            avg_median_dev,
+            width,
+            linearity,
+            circularity,
+            radius,
+            boundary_length,
+            boundary_regularity,
+            mean_curvature,
+            mean_angle_diff,
+            iav,
+            iav_std,
+            distance,
+        )
+    )
+    return out

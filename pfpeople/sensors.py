@@ -1,0 +1,154 @@
+"""Sensor data as the detectors and the pipeline see it, independent of ROS message classes.
+
+Frames follow ROS REP-103. Stamps are integer nanoseconds (``stamp_ns``), as in ROS.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["CameraImage", "CameraIntrinsics", "LaserScan", "Pose2D"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Pose2D:
+    """A planar pose: position (m) and yaw (rad) of a child frame in a parent frame."""
+
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+
+    def apply(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Map ``(N, 2)`` points from the child frame to the parent frame."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        return np.column_stack((self.x + c * pts[:, 0] - s * pts[:, 1], self.y + s * pts[:, 0] + c * pts[:, 1]))
+
+    def compose(self, other: Pose2D) -> Pose2D:
+        """``self * other``: the pose of ``other``'s child in ``self``'s parent frame."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return Pose2D(
+            x=self.x + c * other.x - s * other.y,
+            y=self.y + s * other.x + c * other.y,
+            yaw=math.atan2(math.sin(self.yaw + other.yaw), math.cos(self.yaw + other.yaw)),
+        )
+
+    def inverse(self) -> Pose2D:
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return Pose2D(x=-(c * self.x + s * self.y), y=-(-s * self.x + c * self.y), yaw=-self.yaw)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class LaserScan:
+    """One planar laser scan (the content of ``sensor_msgs/LaserScan``).
+
+    Parameters
+    ----------
+    ranges : ndarray, shape (B,)
+        Range of each beam (m); NaN / inf / values outside [range_min, range_max] are invalid returns.
+    angle_min, angle_increment : float
+        Bearing of beam 0 and the step between beams (rad, CCW, in the scan's frame).
+    range_min, range_max : float
+        Valid range interval (m).
+    stamp_ns : int
+        Acquisition time (ns).
+    frame_id : str
+        The scan's frame.
+    """
+
+    ranges: NDArray[np.float64]
+    angle_min: float
+    angle_increment: float
+    range_min: float = 0.0
+    range_max: float = math.inf
+    stamp_ns: int = 0
+    frame_id: str = "laser"
+
+    def __post_init__(self) -> None:
+        r = np.asarray(self.ranges, dtype=float)
+        if r.ndim != 1:
+            raise ValueError(f"LaserScan.ranges must be 1-D, got shape {r.shape}")
+        object.__setattr__(self, "ranges", r)
+        if not (math.isfinite(self.angle_min) and math.isfinite(self.angle_increment)):
+            raise ValueError("LaserScan.angle_min and angle_increment must be finite")
+        if self.angle_increment == 0.0 and r.size > 1:
+            raise ValueError("LaserScan.angle_increment must be non-zero for a scan with more than one beam")
+
+    @property
+    def angles(self) -> NDArray[np.float64]:
+        """Bearing of every beam (rad), shape (B,)."""
+        return self.angle_min + self.angle_increment * np.arange(self.ranges.size)
+
+    @property
+    def valid(self) -> NDArray[np.bool_]:
+        """True for beams with a finite range inside [range_min, range_max]."""
+        r = self.ranges
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
+
+    def points(self) -> NDArray[np.float64]:
+        """Cartesian end points ``(B, 2)`` in the scan's frame (m); invalid beams give NaN rows."""
+        r = np.where(self.valid, self.ranges, np.nan)
+        a = self.angles
+        return np.column_stack((r * np.cos(a), r * np.sin(a)))
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraIntrinsics:
+    """Pinhole intrinsics (pixels) and the camera's mounting for the flat-ground range of Stein et al. (2003).
+
+    Parameters
+    ----------
+    fx, fy, cx, cy : float
+        Focal lengths and principal point (px).
+    width, height : int
+        Image size (px).
+    height_above_ground : float
+        Optical centre above the ground plane (m); the paper's camera sits at 1.63 m.
+    pitch : float
+        Downward tilt of the optical axis (rad, positive looking down).
+    """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+    height_above_ground: float = 1.63
+    pitch: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("fx", "fy"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"CameraIntrinsics.{name} must be positive, got {v!r}")
+        if self.width < 1 or self.height < 1:
+            raise ValueError("CameraIntrinsics.width and height must be positive")
+        if not (math.isfinite(self.height_above_ground) and self.height_above_ground > 0):
+            raise ValueError("CameraIntrinsics.height_above_ground must be positive")
+
+    @property
+    def horizontal_fov(self) -> float:
+        """Horizontal field of view (rad)."""
+        return 2.0 * math.atan2(self.width / 2.0, self.fx)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class CameraImage:
+    """One camera image: ``pixels`` of shape (H, W, 3) uint8 BGR or (H, W) mono8."""
+
+    pixels: NDArray[np.uint8]
+    stamp_ns: int = 0
+    frame_id: str = "camera"
+    extra: dict[str, object] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.pixels)
+        if p.ndim not in (2, 3) or (p.ndim == 3 and p.shape[2] not in (1, 3, 4)):
+            raise ValueError(f"CameraImage.pixels must be (H, W) or (H, W, 3), got shape {p.shape}")
+        object.__setattr__(self, "pixels", p)
