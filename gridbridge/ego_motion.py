@@ -181,4 +181,3 @@ def predict_sensor(
     noise = SensorMotionNoise() if noise is None else noise
     poses, weights = ego_motion_sigma_points(odometry, dt, noise)
     return warp_belief(belief, spec, poses, weights, outside=outside)
-

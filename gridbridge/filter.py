@@ -111,9 +111,11 @@ class GridFilter:
             raise ValueError("detectors must be a non-empty sequence of DetectorModel")
         self.motion = PeopleMotion() if motion is None else motion
         self.noise = SensorMotionNoise() if noise is None else noise
-        self.form = check_choice(form, "form", ("paper", "linear"))
-        default_kernel = "paper" if form == "paper" else "integrated"
-        self.kernel_form = check_choice(kernel_form or default_kernel, "kernel_form", ("paper", "integrated"))
+        check_choice(form, "form", ("paper", "linear"))
+        self.form: Literal["paper", "linear"] = form
+        default_kernel: Literal["paper", "integrated"] = "paper" if form == "paper" else "integrated"
+        check_choice(kernel_form or default_kernel, "kernel_form", ("paper", "integrated"))
+        self.kernel_form: Literal["paper", "integrated"] = kernel_form or default_kernel
         self.initial = check_probability(initial, "initial")
         self.outside = check_probability(outside, "outside")
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)

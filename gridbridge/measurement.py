@@ -91,7 +91,8 @@ def rasterise(spec: GridSpec, positions: ArrayLike, weights: ArrayLike | None = 
         raise ValueError(f"weights must have shape ({len(pts)},), got {w.shape}")
     flat = spec.flat_index(pts[:, 0], pts[:, 1])
     inside = flat >= 0
-    return np.bincount(flat[inside], weights=w[inside], minlength=spec.n_cells).reshape(spec.shape)
+    grid = np.bincount(flat[inside], weights=w[inside], minlength=spec.n_cells)
+    return np.asarray(grid, dtype=np.float64).reshape(spec.shape)
 
 
 def fov_mask(spec: GridSpec, model: DetectorModel) -> NDArray[np.bool_]:
@@ -137,18 +138,29 @@ def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) ->
         fired.ravel()[flat[flat >= 0]] = 1.0
         if model.footprint_radius > 0.0:
             gx, gy = spec.cell_centres()
-            d2 = (gx[None] - pts[:, 0, None, None]) ** 2 + (gy[None] - pts[:, 1, None, None]) ** 2
-            fired[np.any(d2 <= model.footprint_radius**2, axis=0)] = 1.0
+            for px, py in pts:
+                fired[(gx - px) ** 2 + (gy - py) ** 2 <= model.footprint_radius**2] = 1.0
         return fired
-    gx, gy = spec.cell_centres()
-    bearing = np.arctan2(pts[:, 1] - model.mount_y, pts[:, 0] - model.mount_x)
-    c, s = np.cos(bearing)[:, None, None], np.sin(bearing)[:, None, None]
-    dx, dy = gx[None] - pts[:, 0, None, None], gy[None] - pts[:, 1, None, None]
-    along = (c * dx + s * dy) / model.sigma_range
-    across = (-s * dx + c * dy) / model.sigma_lateral
-    q = np.exp(-0.5 * (along**2 + across**2)).max(axis=0)
-    q[q < GAUSSIAN_CUTOFF] = 0.0
-    return q
+    # Gaussian: evaluate each detection in the window of cells within 3 sd (beyond it q = 0).
+    reach = 3.0 * max(model.sigma_range, model.sigma_lateral)
+    r = spec.resolution
+    for px, py in pts:
+        lo_u, lo_v = spec.to_fractional(px - reach, py - reach)
+        hi_u, hi_v = spec.to_fractional(px + reach, py + reach)
+        i0, j0 = max(math.floor(lo_u), 0), max(math.floor(lo_v), 0)
+        i1, j1 = min(math.floor(hi_u), spec.nx - 1), min(math.floor(hi_v), spec.ny - 1)
+        if i0 > i1 or j0 > j1:
+            continue
+        xs = spec.x0 + (np.arange(i0, i1 + 1) + 0.5) * r - px
+        ys = spec.y0 + (np.arange(j0, j1 + 1) + 0.5) * r - py
+        phi = math.atan2(py - model.mount_y, px - model.mount_x)
+        c, s = math.cos(phi), math.sin(phi)
+        along = (c * xs[:, None] + s * ys[None, :]) / model.sigma_range
+        across = (-s * xs[:, None] + c * ys[None, :]) / model.sigma_lateral
+        window = fired[i0 : i1 + 1, j0 : j1 + 1]
+        np.maximum(window, np.exp(-0.5 * (along**2 + across**2)), out=window)
+    fired[fired < GAUSSIAN_CUTOFF] = 0.0
+    return fired
 
 
 def detector_likelihood(fired: ArrayLike, ppv: float, fnr: float) -> NDArray[np.float64]:

@@ -198,4 +198,3 @@ class SensorMotionNoise:
             self.alpha3 * v2 + self.alpha4 * w2,
             self.alpha5 * v2 + self.alpha6 * w2,
         )
-

@@ -81,7 +81,7 @@ class LaserScan:
     @property
     def angles(self) -> NDArray[np.float64]:
         """Bearing of every beam (rad), shape (B,)."""
-        return self.angle_min + self.angle_increment * np.arange(self.ranges.size)
+        return np.asarray(self.angle_min + self.angle_increment * np.arange(self.ranges.size), dtype=np.float64)
 
     @property
     def valid(self) -> NDArray[np.bool_]:
