@@ -46,35 +46,38 @@ def scene(spec: GridSpec, rng: np.random.Generator) -> list[np.ndarray]:
     return [people[rng.random(n_people) < p] for p in (0.7, 0.6, 0.5)]
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", type=int, nargs="+", default=[30, 100, 300], help="grid sides (cells)")
-    parser.add_argument("--repeats", type=int, default=200, help="timed iterations at 30 x 30 (fewer above)")
-    args = parser.parse_args(argv)
-    rng = np.random.default_rng(0)
+def measure_grid(sizes: Sequence[int] = (30, 100, 300), repeats: int = 200, seed: int = 0) -> list[dict[str, float]]:
+    """Median ms of one full iteration per grid side and form; ``repeats`` at 30 x 30, scaled down above."""
+    rng = np.random.default_rng(seed)
     odo = Odometry(v=0.35, omega=0.2)
-    print(f"one full iteration, median over repeats, one core (OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']})")
-    header = f"{'grid':>9} {'form':>7} {'cells':>7} {'ms/iter':>9} {'us/cell':>8} {'x paper 1.78 s':>15}"
-    print(header)
-    base_ms = None
-    for side in args.sizes:
+    rows = []
+    for side in sizes:
         spec = GridSpec.centred_on_edge(side, side, 0.3)
         dets = scene(spec, rng)
-        repeats = max(5, args.repeats * 900 // spec.n_cells)
+        n_rep = max(5, repeats * 900 // spec.n_cells)
         for form in ("paper", "linear"):
             f = GridFilter(spec, form="paper" if form == "paper" else "linear")
-            ms = median_ms(functools.partial(f.step, dets, odo, 0.1), repeats)
-            if side == 30 and form == "paper":
-                base_ms = ms
-            print(
-                f"{side:>4}x{side:<4} {form:>7} {spec.n_cells:>7} {ms:>9.3f} {1e3 * ms / spec.n_cells:>8.3f} "
-                f"{PAPER_SECONDS * 1e3 / ms:>15.0f}"
+            ms = median_ms(functools.partial(f.step, dets, odo, 0.1), n_rep)
+            rows.append(
+                {
+                    "side": side,
+                    "form": form,
+                    "cells": spec.n_cells,
+                    "ms": ms,
+                    "us_per_cell": 1e3 * ms / spec.n_cells,
+                    "speedup_vs_paper": PAPER_SECONDS * 1e3 / ms,
+                }
             )
-    # Naive baseline in the same run: the same equations as plain Python loops (30 x 30, paper form).
+    return rows
+
+
+def measure_plain_loops(repeats: int = 5, seed: int = 0) -> float:
+    """Median ms of the same iteration with the plain-loop reference (30 x 30, paper form)."""
+    rng = np.random.default_rng(seed)
+    odo = Odometry(v=0.35, omega=0.2)
     spec = GridSpec()
     f = GridFilter(spec)
-    dets = scene(spec, rng)
-    lik = f.step(dets, odo, 0.1)
+    lik = f.step(scene(spec, rng), odo, 0.1)
     kernel = people_motion_kernel(spec, form="paper")
     fired = lik.fired > 0
     ppv = np.array([d.ppv for d in f.detectors])
@@ -85,10 +88,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         prior = predict_sensor(people, spec, odo, 0.1, noise=f.noise)
         fuse_and_update_loop(prior, fired, ppv, fnr)
 
-    naive_ms = median_ms(naive, 5, warmup=1)
+    return median_ms(naive, repeats, warmup=1)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[30, 100, 300], help="grid sides (cells)")
+    parser.add_argument("--repeats", type=int, default=200, help="timed iterations at 30 x 30 (fewer above)")
+    args = parser.parse_args(argv)
+    print(f"one full iteration, median over repeats, one core (OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']})")
+    print(f"{'grid':>9} {'form':>7} {'cells':>7} {'ms/iter':>9} {'us/cell':>8} {'x paper 1.78 s':>15}")
+    rows = measure_grid(args.sizes, args.repeats)
+    for r in rows:
+        print(
+            f"{r['side']:>4}x{r['side']:<4} {r['form']:>7} {r['cells']:>7} {r['ms']:>9.3f} {r['us_per_cell']:>8.3f} "
+            f"{r['speedup_vs_paper']:>15.0f}"
+        )
+    naive_ms = measure_plain_loops()
     print(f"plain-loop Python baseline, 30x30 paper form: {naive_ms:.1f} ms/iter")
-    if base_ms is not None:
-        print(f"vectorised speed-up over the plain loops (same run): {naive_ms / base_ms:.0f}x")
+    base = [r["ms"] for r in rows if r["side"] == 30 and r["form"] == "paper"]
+    if base:
+        print(f"vectorised speed-up over the plain loops (same run): {naive_ms / base[0]:.0f}x")
     return 0
 
 
