@@ -20,6 +20,7 @@ outside the grid are not counted: the grid cannot show them.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import platform
@@ -103,7 +104,7 @@ class FilterSpec:
         )
 
 
-def default_filters(particle_counts: Iterable[int] = (1_000, 10_000)) -> list[FilterSpec]:
+def default_filters(particle_counts: Iterable[int] = (5_000, 50_000)) -> list[FilterSpec]:
     """Grid filter (paper and linear form) and the particle filter at each count."""
     out = [FilterSpec(name="grid (paper)", form="paper"), FilterSpec(name="grid (linear)", form="linear")]
     for n in particle_counts:
@@ -307,7 +308,7 @@ def run_ab(
                 blob_params=blob_params,
                 snapshot_frames=figure_frames,
                 noisy_odometry=noisy_odometry,
-                progress=(lambda it, name=fs.name: _progress(it, True, name, len(frames))) if progress else None,
+                progress=functools.partial(_progress, show=True, desc=fs.name, total=len(frames)) if progress else None,
             )
         )
     result = ABResult(

@@ -19,6 +19,7 @@ import functools  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable, Sequence  # noqa: E402
+from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -46,7 +47,7 @@ def scene(spec: GridSpec, rng: np.random.Generator) -> list[np.ndarray]:
     return [people[rng.random(n_people) < p] for p in (0.7, 0.6, 0.5)]
 
 
-def measure_grid(sizes: Sequence[int] = (30, 100, 300), repeats: int = 200, seed: int = 0) -> list[dict[str, float]]:
+def measure_grid(sizes: Sequence[int] = (30, 100, 300), repeats: int = 200, seed: int = 0) -> list[dict[str, Any]]:
     """Median ms of one full iteration per grid side and form; ``repeats`` at 30 x 30, scaled down above."""
     rng = np.random.default_rng(seed)
     odo = Odometry(v=0.35, omega=0.2)

@@ -4,6 +4,7 @@ Public names other packages and outside tools rely on: :class:`GridSpec`, :class
 :func:`people_motion_kernel`, :func:`predict_people`, :func:`fuse_detectors`, :func:`bayes_update`.
 """
 
+from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.ego_motion import (
     Odometry,
     ego_motion_sigma_points,
@@ -28,6 +29,9 @@ from gridbridge.people_motion import people_motion_kernel, predict_people, trunc
 
 __all__ = [
     "PAPER_DETECTORS",
+    "Blob",
+    "BlobParams",
+    "ClassificationResult",
     "DetectorModel",
     "FilterStep",
     "GridFilter",
@@ -38,6 +42,8 @@ __all__ = [
     "SensorMotionNoise",
     "as_odometry",
     "bayes_update",
+    "classify_blobs",
+    "classify_threshold",
     "detection_map",
     "detector_likelihood",
     "ego_motion_sigma_points",

@@ -27,8 +27,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--particles",
         type=int,
         nargs="*",
-        default=[1_000, 10_000],
-        help="particle counts of the particle-filter rows (default: 1000 10000; none for grid only)",
+        default=[5_000, 50_000],
+        help="particle counts of the particle-filter rows (default: 5000 50000; none for grid only; at least one per cell)",
     )
     p.add_argument("--persistent", action="store_true", help="add a particle filter with velocity-persistent walkers")
     p.add_argument("--pf-seed", type=int, default=0, help="seed of the particle filters (default 0)")

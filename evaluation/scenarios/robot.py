@@ -237,4 +237,3 @@ def sensor_to_world(points: ArrayLike, pose: ArrayLike) -> NDArray[np.float64]:
     x, y, yaw = (float(c) for c in np.asarray(pose, dtype=float))
     c, s = math.cos(yaw), math.sin(yaw)
     return np.column_stack((x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]))
-

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +28,7 @@ class LabelledScan:
     legs: NDArray[np.float64]
 
 
-def _reader(path: Path):  # type: ignore[no-untyped-def]
+def _reader(path: Path) -> Any:
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
@@ -36,16 +37,16 @@ def _reader(path: Path):  # type: ignore[no-untyped-def]
     return AnyReader([path], default_typestore=get_typestore(Stores.ROS1_NOETIC))
 
 
-def _to_scan(msg: object) -> LaserScan:
-    stamp = msg.header.stamp  # type: ignore[attr-defined]
+def _to_scan(msg: Any) -> LaserScan:
+    stamp = msg.header.stamp
     return LaserScan(
-        ranges=np.asarray(msg.ranges, dtype=float),  # type: ignore[attr-defined]
-        angle_min=float(msg.angle_min),  # type: ignore[attr-defined]
-        angle_increment=float(msg.angle_increment),  # type: ignore[attr-defined]
-        range_min=float(msg.range_min),  # type: ignore[attr-defined]
-        range_max=float(msg.range_max),  # type: ignore[attr-defined]
+        ranges=np.asarray(msg.ranges, dtype=np.float64),
+        angle_min=float(msg.angle_min),
+        angle_increment=float(msg.angle_increment),
+        range_min=float(msg.range_min),
+        range_max=float(msg.range_max),
         stamp_ns=int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec),
-        frame_id=str(msg.header.frame_id),  # type: ignore[attr-defined]
+        frame_id=str(msg.header.frame_id),
     )
 
 

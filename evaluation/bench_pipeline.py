@@ -1,0 +1,70 @@
+"""Benchmark of the whole bag pipeline on the real person-following bag (7170 scans, 720 s).
+
+Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter, blob classification and the
+run directory output) for each filter and prints frames per second, the real-time factor (recorded seconds
+processed per wall-clock second) and the recall of each detector and of the filter against the ground truth
+(recall only: passers-by are not annotated)::
+
+    python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
+
+Wall-clock figures depend on the machine; tests never assert them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+
+from evaluation.commands.score import score_run
+from evaluation.gt_csv import read_gt_csv
+from pfpeople.bag.config import builtin_config_path, load_config
+from pfpeople.bag.reader import BagSource
+from pfpeople.output import load_run
+from pfpeople.pipeline import Pipeline
+
+BAG = "leg_tracker/person_following_outdoor_1.bag.zip"
+GT = "leg_tracker/person_following_outdoor_1_gt.csv"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m evaluation.bench_pipeline", description=__doc__.split("\n")[0])
+    ap.add_argument("--data", default="../shared/data", help="the shared data folder")
+    ap.add_argument("--filters", nargs="+", default=["grid", "particle"], choices=("grid", "particle"))
+    ap.add_argument("--max-frames", type=int, default=None, help="stop after N frames (default: the whole bag)")
+    ap.add_argument("--particles", type=int, default=2000)
+    args = ap.parse_args(argv)
+    data = Path(args.data)
+    if not (data / BAG).is_file():
+        print(f"{data / BAG} is absent; nothing to benchmark", file=sys.stderr)
+        return 2
+    gt = read_gt_csv(data / GT)
+    cfg0 = load_config(builtin_config_path("person_following_outdoor_1"))
+    print(f"{'filter':<10}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}   recall per source")
+    for kind in args.filters:
+        cfg = replace(cfg0, filter=replace(cfg0.filter, kind=kind, n_particles=args.particles))
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "run"
+            try:
+                with BagSource(data / BAG) as src:
+                    summary, _ = Pipeline(cfg).run(src, out, max_frames=args.max_frames)
+            except ValueError as exc:
+                print(f"{kind:<10} skipped: {exc}")
+                continue
+            run = load_run(out)
+            stamps = run.frames["stamp_ns"]
+            recorded = (stamps[-1] - stamps[0]) * 1e-9 + 0.1 if len(stamps) else 0.0
+            rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
+            scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
+            rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
+            print(
+                f"{kind:<10}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}{rtf:>11.1f}   {rec}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

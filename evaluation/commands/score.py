@@ -1,0 +1,199 @@
+"""``pfpeople-eval score RUN_DIR --gt GT.csv``: score a run against ground truth, per detector and filter.
+
+Each detector alone (its detections in ``detections.csv``) and the filter output (the classified people in
+``people.csv``) are matched one-to-one to the ground truth of every frame with
+:func:`evaluation.metrics.match_people` (distance gate ``--gate``, default 0.5 m). Frames where a detector
+had no data count for it with no detections. Optional limits, applied to ground truth and detections alike
+in the grid frame: a bearing sector ``--sector DEG_MIN DEG_MAX`` and a range ``--max-range M``.
+
+Metrics: recall = TP / (TP + FN); precision = TP / (TP + FP); FPCPF (filter only) = mean over frames of
+the cells classified as people (paper's blob classification of the stored belief) that are free in the
+ground truth, where the ground-truth occupancy of a frame is every cell whose centre lies within
+``--person-radius`` (default 0.3 m) of a true person or that contains one. With ``--recall-only`` (ground
+truth that does not annotate everybody, e.g. passers-by in the leg_tracker person-following bags) precision
+and FPCPF are not reported: unannotated people would count as false positives.
+
+Ground-truth frame: ``--frame grid`` (default) means the GT is in the run's grid frame; ``--frame laser``
+means the frame of the driving sensor; any other name must be one the run recorded (``frames_in_grid`` in
+``run.json``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evaluation.gt_csv import GroundTruth, read_gt_csv
+from evaluation.metrics import DetectionAccumulator
+from gridbridge.classify import classify_blobs
+from gridbridge.grid import GridSpec
+from pfpeople.output import RunData, load_run
+from pfpeople.sensors import Pose2D
+
+__all__ = ["gt_to_grid", "score_run"]
+
+
+def gt_to_grid(run: RunData, gt: GroundTruth, frame: str) -> NDArray[np.float64]:
+    """GT positions ``(N, 2)`` mapped into the run's grid frame."""
+    known: dict[str, list[float]] = run.meta.get("frames_in_grid", {})
+    grid_frame = run.meta.get("grid_frame", "")
+    if frame in ("grid", grid_frame):
+        return gt.xy
+    if frame == "laser":  # the driving sensor's frame, which the grid is attached to
+        return gt.xy
+    if frame not in known:
+        raise ValueError(
+            f"ground-truth frame {frame!r} is not known to run {str(run.path)!r}; use 'grid', 'laser' "
+            f"(the driving sensor) or one of {sorted(known)}"
+        )
+    x, y, yaw = known[frame]
+    return Pose2D(x=x, y=y, yaw=yaw).apply(gt.xy)
+
+
+def _region(xy: NDArray[np.float64], sector: tuple[float, float] | None, max_range: float | None) -> NDArray[np.bool_]:
+    keep = np.ones(len(xy), dtype=bool)
+    if len(xy) == 0:
+        return keep
+    if sector is not None:
+        lo, hi = (math.radians(a) for a in sector)
+        bearing = np.arctan2(xy[:, 1], xy[:, 0])
+        keep &= (bearing >= lo) & (bearing <= hi)
+    if max_range is not None:
+        keep &= np.hypot(xy[:, 0], xy[:, 1]) <= max_range
+    return keep
+
+
+def _occupancy(spec: GridSpec, people: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
+    gx, gy = spec.cell_centres()
+    occ = np.zeros(spec.shape, dtype=bool)
+    for x, y in people:
+        occ |= np.hypot(gx - x, gy - y) <= radius
+        if spec.contains(x, y):
+            i, j = spec.to_cell(x, y)
+            occ[int(i), int(j)] = True
+    return occ
+
+
+def _group(frames: NDArray[np.int64], xy: NDArray[np.float64], n: int) -> list[NDArray[np.float64]]:
+    out: list[list[tuple[float, float]]] = [[] for _ in range(n)]
+    for f, p in zip(frames, xy, strict=True):
+        if 0 <= f < n:
+            out[int(f)].append((float(p[0]), float(p[1])))
+    return [np.asarray(o, dtype=float).reshape(-1, 2) for o in out]
+
+
+def score_run(
+    run: RunData,
+    gt: GroundTruth,
+    *,
+    frame: str = "grid",
+    sector: tuple[float, float] | None = None,
+    max_range: float | None = None,
+    gate: float = 0.5,
+    recall_only: bool = False,
+    person_radius: float = 0.3,
+    tolerance_ns: int = 50_000_000,
+) -> dict[str, Any]:
+    """Score every detector and the filter of ``run`` against ``gt`` (see the module docstring).
+
+    Returns
+    -------
+    dict
+        ``{"frames": F, "gt_rows_unassigned": U, "scores": {name: summary}}`` where ``name`` is each detector
+        and ``"filter"``; a summary has frames, tp, fp, fn, recall and (unless ``recall_only``) precision and,
+        for the filter, fpcpf.
+    """
+    if sector is not None and not sector[0] < sector[1]:
+        raise ValueError(f"--sector needs DEG_MIN < DEG_MAX, got {sector}")
+    if max_range is not None and not max_range > 0:
+        raise ValueError(f"--max-range must be positive, got {max_range}")
+    n = run.n_frames
+    fr = run.frames
+    rows_frame, unassigned = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    gt_xy = gt_to_grid(run, gt, frame)
+    truth = _group(rows_frame, gt_xy, n)
+    truth = [t[_region(t, sector, max_range)] for t in truth]
+    names = list(run.meta["detectors"])
+    det = run.detections
+    sources: dict[str, list[NDArray[np.float64]]] = {}
+    for name in names:
+        sel = det["detector"] == name
+        xy = np.column_stack((det["x_m"][sel], det["y_m"][sel]))
+        sources[name] = _group(det["frame"][sel], xy, n)
+    ppl = run.people
+    sources["filter"] = _group(ppl["frame"], np.column_stack((ppl["x_m"], ppl["y_m"])), n)
+    spec = run.spec
+    gx, gy = spec.cell_centres()
+    cell_region = _region(np.column_stack((gx.ravel(), gy.ravel())), sector, max_range).reshape(spec.shape)
+    scores: dict[str, Any] = {}
+    for name, per_frame in sources.items():
+        acc = DetectionAccumulator(gate=gate)
+        for k in range(n):
+            d = per_frame[k]
+            d = d[_region(d, sector, max_range)]
+            classified = occupancy = None
+            if name == "filter" and not recall_only:
+                classified = classify_blobs(np.asarray(run.grids[k], dtype=float), spec=spec).mask & cell_region
+                occupancy = _occupancy(spec, truth[k], person_radius)
+            acc.add(d, truth[k], classified=classified, occupancy=occupancy)
+        summary = acc.summary()
+        keep = ["frames", "tp", "fp", "fn", "recall", "mean_match_distance_m"]
+        if not recall_only:
+            keep += ["precision"] + (["fpcpf"] if name == "filter" else [])
+        scores[name] = {k: summary[k] for k in keep}
+    return {"frames": n, "gt_rows": len(gt), "gt_rows_unassigned": unassigned, "scores": scores}
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else f"{v:.3f}"
+    return str(v)
+
+
+def _score(args: argparse.Namespace) -> int:
+    run = load_run(args.run_dir)
+    gt = read_gt_csv(args.gt)
+    result = score_run(
+        run,
+        gt,
+        frame=args.frame,
+        sector=tuple(args.sector) if args.sector else None,
+        max_range=args.max_range,
+        gate=args.gate,
+        recall_only=args.recall_only,
+        person_radius=args.person_radius,
+    )
+    status = run.meta.get("status")
+    print(
+        f"run {args.run_dir} ({status}, {result['frames']} frames) vs {args.gt} ({result['gt_rows']} GT rows, "
+        f"{result['gt_rows_unassigned']} outside the run's frames)"
+    )
+    cols = ["tp", "fp", "fn", "recall"] + ([] if args.recall_only else ["precision", "fpcpf"])
+    print(f"{'source':<18}" + "".join(f"{c:>10}" for c in cols))
+    for name, s in result["scores"].items():
+        print(f"{name:<18}" + "".join(f"{_fmt(s.get(c, '')):>10}" for c in cols))
+    if args.recall_only:
+        print("recall only: the ground truth does not annotate everybody (precision/FPCPF not meaningful)")
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=2, default=str) + "\n")
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser("score", help="score a pfpeople run directory against a ground-truth CSV")
+    p.add_argument("run_dir", help="run directory written by 'pfpeople run'")
+    p.add_argument("--gt", required=True, help="ground-truth CSV (see evaluation.gt_csv)")
+    p.add_argument("--frame", default="grid", help="frame of the GT positions: grid (default), laser, or a name")
+    p.add_argument("--sector", nargs=2, type=float, metavar=("DEG_MIN", "DEG_MAX"), help="bearing sector (deg)")
+    p.add_argument("--max-range", type=float, help="range limit (m)")
+    p.add_argument("--gate", type=float, default=0.5, help="matching distance (m), default 0.5")
+    p.add_argument("--recall-only", action="store_true", help="GT does not annotate everybody: recall only")
+    p.add_argument("--person-radius", type=float, default=0.3, help="GT occupancy radius for FPCPF (m)")
+    p.add_argument("--json", help="also write the scores to this JSON file")
+    p.set_defaults(func=_score)

@@ -1,0 +1,355 @@
+"""Configuration of a bag run: topics, frames, time synchronisation, detectors, grid and filter.
+
+A run is configured by a TOML file (read with :mod:`tomllib`) or by the same keys given as a mapping. Every
+table is optional except ``[frames]`` (the driving topic) and at least one ``[[detectors]]`` entry::
+
+    [frames]
+    driver = "/scan"            # the topic whose messages make the frames (one frame per message)
+    grid_frame = ""             # frame the grid is attached to; "" = the driver's header frame_id
+    base_frame = "base_link"    # the robot's body frame (odometry moves it)
+    time_source = "header"      # "header": header stamps (bag time for messages without a header); "bag"
+    sync_tolerance_s = 0.05     # a reading further than this from the frame stamp is not used
+    max_pending_frames = 20     # frames waiting for late messages before they are finalised anyway
+
+    [odometry]
+    topic = "/odom"             # nav_msgs/Odometry; "" = none (the robot is taken as standing)
+
+    [tf]
+    topics = ["/tf_static", "/tf"]   # read when present in the bag
+
+    [mounts]                    # static 2-D mounts used when the bag has no TF for a frame:
+    laser = [0.1, 0.0, 0.0]     #   child frame = [x, y, yaw] in base_frame (m, m, rad)
+
+    [grid]                      # gridbridge.GridSpec fields
+    nx = 30
+    ny = 30
+    resolution = 0.3
+    x0 = 0.0
+    y0 = -4.5
+
+    [filter]
+    kind = "grid"               # "grid" (gridbridge.GridFilter) or "particle" (pfpeople.ParticleFilter)
+    form = "paper"              # GridFilter form
+    initial = 0.5
+    n_particles = 2000
+    seed = 0
+
+    [[detectors]]
+    name = "laser-legs"
+    kind = "leg"                # "leg" | "boosted" | "hog" (built-in detectors) | "topic" (detections in the bag)
+    topic = "/scan"             # its input: LaserScan for leg/boosted, Image/CompressedImage for hog,
+                                #   PoseArray or any message with a pose / poses field for "topic"
+    frame = ""                  # frame of its output when the message has no header ("" = the message's)
+    assign = "nearest"          # "nearest": the message closest to the frame stamp (within the tolerance);
+                                #   "preceding": all messages from this frame's stamp to the next frame's
+    [detectors.model]           # DetectorModel fields overriding the detector's own (radians, metres)
+    ppv = 0.95
+    fnr = 0.30
+    [detectors.params]          # keyword arguments of the built-in detector's constructor
+
+Angles are radians, lengths metres, times seconds (REP-103 frames).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from gridbridge.grid import GridSpec
+from gridbridge.params import DetectorModel
+
+__all__ = ["DETECTOR_KINDS", "BagConfig", "DetectorConfig", "FilterConfig", "config_from_mapping", "load_config"]
+
+#: Detector kinds: the built-in detectors and detections read from a topic.
+DETECTOR_KINDS = ("leg", "boosted", "hog", "topic")
+_MODEL_FIELDS = {f.name for f in fields(DetectorModel)}
+
+
+def _check_str(value: object, name: str, *, allow_empty: bool = False) -> str:
+    if not isinstance(value, str) or (not allow_empty and not value):
+        raise ValueError(f"{name} must be a {'' if allow_empty else 'non-empty '}string, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True, kw_only=True)
+class DetectorConfig:
+    """One detector of a run.
+
+    Parameters
+    ----------
+    name : str
+        Unique name (used in the outputs).
+    kind : {"leg", "boosted", "hog", "topic"}
+        Built-in detector run on the input topic, or ``"topic"``: positions read from the topic.
+    topic : str
+        Input topic.
+    frame : str
+        Frame of the detections when the message has no header; ``""`` = the message's frame_id (or the
+        grid frame when the message has none).
+    assign : {"nearest", "preceding"}
+        How messages of the topic are assigned to frames (see the module docstring).
+    model : mapping
+        :class:`gridbridge.params.DetectorModel` fields overriding the detector's own model. Required (at
+        least ``ppv`` and ``fnr``) for ``kind="topic"``.
+    params : mapping
+        Keyword arguments of the built-in detector's constructor.
+    """
+
+    name: str
+    kind: str
+    topic: str
+    frame: str = ""
+    assign: str = "nearest"
+    model: Mapping[str, Any] = field(default_factory=dict)
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        _check_str(self.name, "DetectorConfig.name")
+        if self.kind not in DETECTOR_KINDS:
+            raise ValueError(f"DetectorConfig({self.name}).kind must be one of {DETECTOR_KINDS}, got {self.kind!r}")
+        _check_str(self.topic, f"DetectorConfig({self.name}).topic")
+        _check_str(self.frame, f"DetectorConfig({self.name}).frame", allow_empty=True)
+        if self.assign not in ("nearest", "preceding"):
+            raise ValueError(
+                f"DetectorConfig({self.name}).assign must be 'nearest' or 'preceding', got {self.assign!r}"
+            )
+        unknown = set(self.model) - _MODEL_FIELDS
+        if unknown:
+            raise ValueError(
+                f"DetectorConfig({self.name}).model has unknown fields {sorted(unknown)}; "
+                f"DetectorModel fields are {sorted(_MODEL_FIELDS)}"
+            )
+        if self.kind == "topic" and not {"ppv", "fnr"} <= set(self.model):
+            raise ValueError(f"DetectorConfig({self.name}).model must give ppv and fnr for a kind='topic' detector")
+        if "name" in self.model and self.model["name"] != self.name:
+            raise ValueError(f"DetectorConfig({self.name}).model.name must equal the detector's name")
+        if not isinstance(self.params, Mapping):
+            raise ValueError(f"DetectorConfig({self.name}).params must be a table")
+
+
+@dataclass(frozen=True, kw_only=True)
+class FilterConfig:
+    """Which filter a run uses and its options.
+
+    Parameters
+    ----------
+    kind : {"grid", "particle"}
+        ``gridbridge.GridFilter`` (the paper's reference) or ``pfpeople.ParticleFilter``.
+    form : str
+        The GridFilter's people-motion form (``"paper"`` or ``"linear"``).
+    initial : float
+        Initial belief of every cell.
+    n_particles : int
+        Number of particles (particle filter only).
+    seed : int
+        Seed of the particle filter's ``numpy.random.Generator``.
+    """
+
+    kind: str = "grid"
+    form: str = "paper"
+    initial: float = 0.5
+    n_particles: int = 2000
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("grid", "particle"):
+            raise ValueError(f"FilterConfig.kind must be 'grid' or 'particle', got {self.kind!r}")
+        _check_str(self.form, "FilterConfig.form")
+        if not (isinstance(self.initial, int | float) and 0.0 <= self.initial <= 1.0):
+            raise ValueError(f"FilterConfig.initial must be a probability in [0, 1], got {self.initial!r}")
+        if isinstance(self.n_particles, bool) or not isinstance(self.n_particles, int) or self.n_particles < 1:
+            raise ValueError(f"FilterConfig.n_particles must be a positive integer, got {self.n_particles!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int):
+            raise ValueError(f"FilterConfig.seed must be an integer, got {self.seed!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class BagConfig:
+    """Everything a bag run needs besides the bag (see the module docstring for the TOML form).
+
+    Parameters
+    ----------
+    driver : str
+        Topic whose messages make the frames.
+    detectors : tuple of DetectorConfig
+        The detectors, in the order the filter sees them.
+    grid_frame : str
+        Frame of the grid (``""``: the driver's frame_id).
+    base_frame : str
+        Robot body frame.
+    time_source : {"header", "bag"}
+        Stamps used for synchronisation.
+    sync_tolerance_s : float
+        Largest distance (s) between a frame stamp and a reading used for it.
+    max_pending_frames : int
+        Frames kept waiting for late messages (memory bound).
+    odometry : str
+        ``nav_msgs/Odometry`` topic, ``""`` for none.
+    tf_topics : tuple of str
+        TF topics read when present.
+    mounts : mapping of str to (x, y, yaw)
+        Static mounts of frames in ``base_frame`` used when TF does not give them.
+    grid : GridSpec
+        The local grid in the grid frame.
+    filter : FilterConfig
+        The filter.
+    """
+
+    driver: str
+    detectors: tuple[DetectorConfig, ...]
+    grid_frame: str = ""
+    base_frame: str = "base_link"
+    time_source: str = "header"
+    sync_tolerance_s: float = 0.05
+    max_pending_frames: int = 20
+    odometry: str = ""
+    tf_topics: tuple[str, ...] = ("/tf_static", "/tf")
+    mounts: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
+    grid: GridSpec = field(default_factory=GridSpec)
+    filter: FilterConfig = field(default_factory=FilterConfig)
+
+    def __post_init__(self) -> None:
+        _check_str(self.driver, "BagConfig.driver")
+        if not self.detectors:
+            raise ValueError("BagConfig.detectors must name at least one detector")
+        if not all(isinstance(d, DetectorConfig) for d in self.detectors):
+            raise ValueError("BagConfig.detectors must be DetectorConfig objects")
+        names = [d.name for d in self.detectors]
+        if len(set(names)) != len(names):
+            raise ValueError(f"BagConfig.detectors: names must be unique, got {names}")
+        _check_str(self.grid_frame, "BagConfig.grid_frame", allow_empty=True)
+        _check_str(self.base_frame, "BagConfig.base_frame")
+        if self.time_source not in ("header", "bag"):
+            raise ValueError(f"BagConfig.time_source must be 'header' or 'bag', got {self.time_source!r}")
+        tol = self.sync_tolerance_s
+        if isinstance(tol, bool) or not isinstance(tol, int | float) or not (math.isfinite(tol) and tol >= 0):
+            raise ValueError(f"BagConfig.sync_tolerance_s must be a finite non-negative time (s), got {tol!r}")
+        mp = self.max_pending_frames
+        if isinstance(mp, bool) or not isinstance(mp, int) or mp < 1:
+            raise ValueError(f"BagConfig.max_pending_frames must be a positive integer, got {mp!r}")
+        _check_str(self.odometry, "BagConfig.odometry", allow_empty=True)
+        for t in self.tf_topics:
+            _check_str(t, "BagConfig.tf_topics")
+        for frame, mount in self.mounts.items():
+            if len(mount) != 3 or not all(math.isfinite(float(v)) for v in mount):
+                raise ValueError(f"BagConfig.mounts[{frame!r}] must be three finite numbers [x, y, yaw]")
+        if not isinstance(self.grid, GridSpec):
+            raise ValueError("BagConfig.grid must be a GridSpec")
+        if not isinstance(self.filter, FilterConfig):
+            raise ValueError("BagConfig.filter must be a FilterConfig")
+
+    @property
+    def sync_tolerance_ns(self) -> int:
+        return round(self.sync_tolerance_s * 1e9)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON/TOML-able mapping that :func:`config_from_mapping` turns back into this config."""
+        return {
+            "frames": {
+                "driver": self.driver,
+                "grid_frame": self.grid_frame,
+                "base_frame": self.base_frame,
+                "time_source": self.time_source,
+                "sync_tolerance_s": self.sync_tolerance_s,
+                "max_pending_frames": self.max_pending_frames,
+            },
+            "odometry": {"topic": self.odometry},
+            "tf": {"topics": list(self.tf_topics)},
+            "mounts": {k: list(v) for k, v in self.mounts.items()},
+            "grid": {f.name: getattr(self.grid, f.name) for f in fields(GridSpec)},
+            "filter": {f.name: getattr(self.filter, f.name) for f in fields(FilterConfig)},
+            "detectors": [
+                {
+                    "name": d.name,
+                    "kind": d.kind,
+                    "topic": d.topic,
+                    "frame": d.frame,
+                    "assign": d.assign,
+                    "model": dict(d.model),
+                    "params": dict(d.params),
+                }
+                for d in self.detectors
+            ],
+        }
+
+
+def _table(data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+    value = data.get(key, {})
+    if not isinstance(value, Mapping):
+        raise ValueError(f"config: [{key}] must be a table, got {type(value).__name__}")
+    return value
+
+
+def _only(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
+    unknown = set(table) - allowed
+    if unknown:
+        raise ValueError(f"config: unknown keys {sorted(unknown)} in [{where}]; allowed: {sorted(allowed)}")
+
+
+def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
+    """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
+    _only(data, {"frames", "odometry", "tf", "mounts", "grid", "filter", "detectors"}, "top level")
+    frames = _table(data, "frames")
+    _only(
+        frames,
+        {"driver", "grid_frame", "base_frame", "time_source", "sync_tolerance_s", "max_pending_frames"},
+        "frames",
+    )
+    if "driver" not in frames:
+        raise ValueError("config: [frames] driver (the topic that drives the frames) is required")
+    odometry = _table(data, "odometry")
+    _only(odometry, {"topic"}, "odometry")
+    tf = _table(data, "tf")
+    _only(tf, {"topics"}, "tf")
+    grid = _table(data, "grid")
+    _only(grid, {f.name for f in fields(GridSpec)}, "grid")
+    filt = _table(data, "filter")
+    _only(filt, {f.name for f in fields(FilterConfig)}, "filter")
+    dets = data.get("detectors", [])
+    if not isinstance(dets, list):
+        raise ValueError("config: detectors must be an array of tables ([[detectors]])")
+    detectors = []
+    for k, d in enumerate(dets):
+        if not isinstance(d, Mapping):
+            raise ValueError(f"config: detectors[{k}] must be a table")
+        _only(d, {f.name for f in fields(DetectorConfig)}, f"detectors[{k}]")
+        detectors.append(DetectorConfig(**d))
+    mounts = {str(k): tuple(float(x) for x in v) for k, v in _table(data, "mounts").items()}
+    return BagConfig(
+        **frames,
+        detectors=tuple(detectors),
+        odometry=odometry.get("topic", ""),
+        tf_topics=tuple(tf.get("topics", ("/tf_static", "/tf"))),
+        mounts=mounts,  # type: ignore[arg-type]
+        grid=GridSpec(**grid),
+        filter=FilterConfig(**filt),
+    )
+
+
+def load_config(path: str | Path) -> BagConfig:
+    """Read a TOML run configuration; errors name the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"config file {str(path)!r} does not exist")
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"config file {str(path)!r} is not valid TOML: {exc}") from None
+    try:
+        return config_from_mapping(data)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"config file {str(path)!r}: {exc}") from None
+
+
+def builtin_config_path(name: str) -> Path:
+    """Path of a configuration shipped in ``pfpeople/bag/configs`` (``name`` without ``.toml``)."""
+    path = Path(__file__).with_name("configs") / f"{name}.toml"
+    if not path.is_file():
+        have = sorted(p.stem for p in path.parent.glob("*.toml"))
+        raise FileNotFoundError(f"no built-in config {name!r}; available: {have}")
+    return path

@@ -1,0 +1,260 @@
+"""Time synchronisation: frames driven by one topic, other topics assigned to them in a stream.
+
+Every message of the *driver* topic makes one frame at its stamp ``t``. Every other topic is assigned to the
+frame by a policy:
+
+``"nearest"``
+    The paper's rule (Sect. 4: the laser reading closest to the latest image): the message whose stamp is
+    closest to ``t``, if within the tolerance; otherwise the topic has no data in this frame (the pipeline then
+    treats its detector as covering no cell).
+``"preceding"``
+    All messages with stamps in ``[t, t_next)`` (``t_next`` the next frame's stamp, at most ``t + tolerance``
+    for the last frame): for headerless detection messages written after the reading they belong to.
+``"interpolate"``
+    The two messages bracketing ``t`` (for odometry, interpolated by the pipeline); a single one within the
+    tolerance when ``t`` is not bracketed; none otherwise.
+
+Streaming: a frame is finalised as soon as no later message can change its assignment, i.e. once every topic
+has a message at or after the frame's bound (``t``, or ``t_next`` for "preceding"), or the driver is more
+than two tolerances past the bound, or more than ``max_pending`` frames wait (then it is finalised with what
+arrived, and this is counted). Buffers keep only what pending frames can still use, so memory does not grow
+with the bag's length.
+
+Non-monotonic stamps: a message whose stamp is earlier than the previous one of its topic (or equal, for the
+driver) cannot be placed in a stream; it is skipped, counted in :attr:`FrameAssembler.stats` and logged
+(a warning the first time per topic). Never an exception.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from .reader import BagMessage
+
+__all__ = ["POLICIES", "Frame", "FrameAssembler"]
+
+log = logging.getLogger(__name__)
+
+POLICIES = ("nearest", "preceding", "interpolate")
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Frame:
+    """One synchronised frame.
+
+    Attributes
+    ----------
+    index : int
+        Position of the frame in the run (0, 1, ...).
+    driver : BagMessage
+        The driving message; ``driver.index`` is its index on its topic (e.g. the scan index).
+    stamp_ns : int
+        Frame stamp (ns): the driver's stamp.
+    inputs : dict of str to list of BagMessage
+        Messages assigned to the frame per secondary topic (empty list: no data in this frame).
+    forced : bool
+        True when the frame was finalised by the pending limit before every topic caught up.
+    """
+
+    index: int
+    driver: BagMessage
+    stamp_ns: int
+    inputs: dict[str, list[BagMessage]] = field(default_factory=dict)
+    forced: bool = False
+
+    @property
+    def bag_time_ns(self) -> int:
+        return self.driver.bag_time_ns
+
+
+@dataclass
+class _Topic:
+    policy: str
+    buffer: deque[BagMessage] = field(default_factory=deque)
+    last_stamp: int | None = None
+
+
+class FrameAssembler:
+    """Assemble frames from a stream of messages (see the module docstring).
+
+    Parameters
+    ----------
+    driver : str
+        The driving topic.
+    policies : mapping of str to str
+        Policy (``"nearest"``, ``"preceding"``, ``"interpolate"``) per secondary topic.
+    tolerance_ns : int
+        Synchronisation tolerance (ns).
+    max_pending : int
+        Frames allowed to wait for late messages.
+    max_buffer : int
+        Messages kept per secondary topic (oldest dropped and counted beyond it).
+    """
+
+    def __init__(
+        self,
+        driver: str,
+        policies: Mapping[str, str],
+        *,
+        tolerance_ns: int,
+        max_pending: int = 20,
+        max_buffer: int = 2000,
+    ) -> None:
+        if tolerance_ns < 0:
+            raise ValueError(f"tolerance_ns must be non-negative, got {tolerance_ns}")
+        if max_pending < 1 or max_buffer < 2:
+            raise ValueError("max_pending must be >= 1 and max_buffer >= 2")
+        for topic, policy in policies.items():
+            if policy not in POLICIES:
+                raise ValueError(f"sync policy of topic {topic!r} must be one of {POLICIES}, got {policy!r}")
+        if driver in policies:
+            raise ValueError(f"topic {driver!r} cannot be both the driver and a secondary topic")
+        self.driver = driver
+        self.tolerance_ns = int(tolerance_ns)
+        self.max_pending = max_pending
+        self.max_buffer = max_buffer
+        self._topics = {t: _Topic(p) for t, p in policies.items()}
+        self._pending: deque[BagMessage] = deque()
+        self._last_driver: int | None = None
+        self._closed = False
+        self._next_index = 0
+        #: Counters: frames, skipped non-monotonic messages per topic, forced frames, buffer overflows.
+        self.stats: dict[str, dict[str, int]] = {
+            "frames": {"emitted": 0, "forced": 0},
+            "non_monotonic": {},
+            "buffer_overflow": {},
+        }
+
+    def _skip_non_monotonic(self, msg: BagMessage, last: int) -> None:
+        counts = self.stats["non_monotonic"]
+        if msg.topic not in counts:
+            log.warning(
+                "topic %s: stamp %d ns is not after the previous one (%d ns); skipping such messages "
+                "(counted in the run's statistics)",
+                msg.topic,
+                msg.stamp_ns,
+                last,
+            )
+        counts[msg.topic] = counts.get(msg.topic, 0) + 1
+
+    def push(self, msg: BagMessage) -> list[Frame]:
+        """Add one message; returns the frames that became final (in order)."""
+        if self._closed:
+            raise RuntimeError("FrameAssembler.push after finish()")
+        if msg.topic == self.driver:
+            if self._last_driver is not None and msg.stamp_ns <= self._last_driver:
+                self._skip_non_monotonic(msg, self._last_driver)
+                return []
+            self._last_driver = msg.stamp_ns
+            self._pending.append(msg)
+        else:
+            topic = self._topics.get(msg.topic)
+            if topic is None:
+                raise ValueError(f"FrameAssembler got a message of topic {msg.topic!r}, which it was not given")
+            if topic.last_stamp is not None and msg.stamp_ns < topic.last_stamp:
+                self._skip_non_monotonic(msg, topic.last_stamp)
+                return []
+            topic.last_stamp = msg.stamp_ns
+            topic.buffer.append(msg)
+            if len(topic.buffer) > self.max_buffer:
+                topic.buffer.popleft()
+                over = self.stats["buffer_overflow"]
+                if msg.topic not in over:
+                    log.warning(
+                        "topic %s: more than %d messages without a frame; dropping the oldest",
+                        msg.topic,
+                        self.max_buffer,
+                    )
+                over[msg.topic] = over.get(msg.topic, 0) + 1
+        return self._drain()
+
+    def finish(self) -> list[Frame]:
+        """End of the stream: finalise every pending frame."""
+        self._closed = True
+        return self._drain()
+
+    # -- internals ---------------------------------------------------------------------------------------
+
+    def _bound(self, topic: _Topic, k: int) -> int | None:
+        """Stamp a topic must reach for pending frame ``k`` to be final (None: unknown yet)."""
+        t = self._pending[k].stamp_ns
+        if topic.policy != "preceding":
+            return t
+        if k + 1 < len(self._pending):
+            return self._pending[k + 1].stamp_ns
+        return None if not self._closed else t + self.tolerance_ns
+
+    def _ready(self, k: int) -> bool:
+        if self._closed:
+            return True
+        newest = self._last_driver if self._last_driver is not None else 0
+        for topic in self._topics.values():
+            bound = self._bound(topic, k)
+            if bound is None:
+                return False
+            if topic.last_stamp is not None and topic.last_stamp >= bound:
+                continue
+            if newest - bound > 2 * self.tolerance_ns:
+                continue
+            return False
+        return True
+
+    def _drain(self) -> list[Frame]:
+        out: list[Frame] = []
+        while self._pending:
+            forced = False
+            if not self._ready(0):
+                if len(self._pending) <= self.max_pending:
+                    break
+                forced = True
+            out.append(self._finalise(forced))
+        return out
+
+    def _finalise(self, forced: bool) -> Frame:
+        drv = self._pending[0]
+        t = drv.stamp_ns
+        tol = self.tolerance_ns
+        t_next = self._pending[1].stamp_ns if len(self._pending) > 1 else t + tol
+        inputs: dict[str, list[BagMessage]] = {}
+        for name, topic in self._topics.items():
+            buf = topic.buffer
+            if topic.policy == "nearest":
+                best = min(buf, key=lambda m: abs(m.stamp_ns - t), default=None)
+                inputs[name] = [best] if best is not None and abs(best.stamp_ns - t) <= tol else []
+            elif topic.policy == "preceding":
+                inputs[name] = [m for m in buf if t <= m.stamp_ns < t_next]
+            else:
+                before = [m for m in buf if m.stamp_ns <= t]
+                after = [m for m in buf if m.stamp_ns > t]
+                if before and after:
+                    inputs[name] = [before[-1], after[0]]
+                else:
+                    near = before[-1:] or after[:1]
+                    inputs[name] = [m for m in near if abs(m.stamp_ns - t) <= tol]
+        self._pending.popleft()
+        # Trim: keep only what later frames can still use.
+        t_keep = self._pending[0].stamp_ns if self._pending else t
+        for topic in self._topics.values():
+            buf = topic.buffer
+            if topic.policy == "preceding":
+                while buf and buf[0].stamp_ns < t_next:
+                    buf.popleft()
+            else:
+                while len(buf) >= 2 and buf[1].stamp_ns <= t_keep:
+                    buf.popleft()
+        frame = Frame(index=self._next_index, driver=drv, stamp_ns=t, inputs=inputs, forced=forced)
+        self._next_index += 1
+        self.stats["frames"]["emitted"] += 1
+        if forced:
+            if self.stats["frames"]["forced"] == 0:
+                log.warning(
+                    "frame at %d ns finalised after %d pending frames before every topic caught up "
+                    "(late messages are not used; counted as 'forced')",
+                    t,
+                    self.max_pending,
+                )
+            self.stats["frames"]["forced"] += 1
+        return frame

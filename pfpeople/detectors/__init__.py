@@ -1,0 +1,45 @@
+"""The built-in people detectors (Batista & Pereira 2015, Sect. 4): two laser detectors and one camera detector.
+
+========================  ==========================================================  =====================
+class                     method                                                      default model (Table 1)
+========================  ==========================================================  =====================
+:class:`LegDetector`      geometric leg candidates paired into people (Bellotto & Hu)  PPV 0.95, FNR 0.30
+:class:`BoostedSegment    boosted segment classifier (Arras et al.; Spinello &         PPV 0.50, FNR 0.40
+Detector`                 Siegwart), trained by ``pfpeople train-detector``
+:class:`HogCameraDetec    OpenCV HOG + flat-ground range (Stein et al. 2003)           PPV 0.95, FNR 0.50
+tor`
+========================  ==========================================================  =====================
+
+Each has ``detect(...) -> (M, 2)`` person positions (m) and a ``.model`` (:class:`gridbridge.DetectorModel`).
+"""
+
+from pfpeople.detectors.boosted import BoostedSegmentDetector, default_model_path
+from pfpeople.detectors.camera import HogCameraDetector, HogParams, default_intrinsics, foot_points, horizon_row
+from pfpeople.detectors.legs import LegDetector, LegDetectorParams, PairingParams, pair_legs, people_from_legs
+from pfpeople.detectors.segments import (
+    FEATURE_NAMES,
+    SegmentationParams,
+    Segments,
+    segment_features,
+    segment_scan,
+)
+
+__all__ = [
+    "FEATURE_NAMES",
+    "BoostedSegmentDetector",
+    "HogCameraDetector",
+    "HogParams",
+    "LegDetector",
+    "LegDetectorParams",
+    "PairingParams",
+    "SegmentationParams",
+    "Segments",
+    "default_intrinsics",
+    "default_model_path",
+    "foot_points",
+    "horizon_row",
+    "pair_legs",
+    "people_from_legs",
+    "segment_features",
+    "segment_scan",
+]

@@ -1,0 +1,108 @@
+"""Laser detector 2: a learned segment classifier (boosted features, Arras et al. 2007; Spinello & Siegwart 2008).
+
+Every segment of the scan (:mod:`pfpeople.detectors.segments`) is described by the geometric features of
+:data:`~pfpeople.detectors.segments.FEATURE_NAMES` and scored by an OpenCV ``cv2.ml.Boost`` classifier trained
+on labelled LEG segments (:mod:`pfpeople.detectors.training`, command ``pfpeople train-detector``). Segments
+with a score above ``threshold`` are legs; legs become people with the same pairing as the leg-pattern detector
+(:func:`pfpeople.detectors.legs.people_from_legs`: legs-together segments alone, pairs at 0.1-0.6 m, optional
+single legs).
+
+The shipped model ``pfpeople/models/boosted_legs.yml`` (with its JSON sidecar of data, parameters and metrics)
+loads by default through ``importlib.resources``.
+"""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+from pathlib import Path
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from pfpeople.detectors.legs import PairingParams, people_from_legs
+from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams
+from pfpeople.detectors.training import boost_scores, scan_features
+from pfpeople.sensors import LaserScan
+
+__all__ = ["DEFAULT_MODEL_NAME", "BoostedSegmentDetector", "default_model_path"]
+
+DEFAULT_MODEL_NAME = "boosted_legs"
+
+
+def default_model_path() -> Path:
+    """Path of the shipped model file ``pfpeople/models/boosted_legs.yml``."""
+    ref = resources.files("pfpeople.models").joinpath(f"{DEFAULT_MODEL_NAME}.yml")
+    return Path(str(ref))
+
+
+class BoostedSegmentDetector:
+    """Laser detector 2: segments classified as legs by a boosted classifier, paired into people.
+
+    Parameters
+    ----------
+    model_path : str or Path, optional
+        An OpenCV Boost model saved by :func:`pfpeople.detectors.training.train_from_directory`; its JSON
+        sidecar (same name, ``.json``) is read when present and must list the same features and segmentation.
+        Default: the shipped model.
+    threshold : float
+        Score above which a segment is a leg (0 = the classifier's decision).
+    pairing : PairingParams, optional
+        How legs become people (shared with :class:`~pfpeople.detectors.legs.LegDetector`).
+    model : DetectorModel, optional
+        PPV / FNR and field of view for the grid; default the paper's Table 1 detector 2 (PPV 0.50, FNR 0.40,
+        180 deg).
+    """
+
+    def __init__(
+        self,
+        model_path: str | Path | None = None,
+        *,
+        threshold: float = 0.0,
+        pairing: PairingParams | None = None,
+        model: DetectorModel | None = None,
+    ) -> None:
+        path = Path(model_path) if model_path is not None else default_model_path()
+        if not path.is_file():
+            raise FileNotFoundError(f"boosted model file not found: {path}")
+        if not np.isfinite(threshold):
+            raise ValueError(f"threshold must be finite, got {threshold!r}")
+        self.model_path = path
+        self.threshold = float(threshold)
+        self.pairing = pairing if pairing is not None else PairingParams()
+        self.model = model if model is not None else PAPER_DETECTORS[1]
+        self.segmentation = SegmentationParams()
+        self.sidecar: dict[str, object] = {}
+        side = path.with_suffix(".json")
+        if side.is_file():
+            self.sidecar = json.loads(side.read_text())
+            feats = self.sidecar.get("features")
+            if feats is not None and tuple(feats) != FEATURE_NAMES:  # type: ignore[arg-type]
+                raise ValueError(f"{side}: features {feats} differ from this version's {list(FEATURE_NAMES)}")
+            seg = self.sidecar.get("segmentation")
+            if isinstance(seg, dict):
+                self.segmentation = SegmentationParams(**seg)
+        self._boost = cv2.ml.Boost.load(str(path))
+        if self._boost is None or not self._boost.isTrained() or self._boost.getVarCount() != len(FEATURE_NAMES):
+            raise ValueError(f"{path} is not a trained Boost model on {len(FEATURE_NAMES)} features")
+
+    def segment_scores(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Centroids ``(S, 2)`` (m, scan frame) and boosted scores ``(S,)`` of every segment of ``scan``."""
+        feats, centroids, _ = scan_features(scan, segmentation=self.segmentation)
+        return centroids, boost_scores(self._boost, feats.astype(np.float32))
+
+    def _legs(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        feats, centroids, widths = scan_features(scan, segmentation=self.segmentation)
+        keep = boost_scores(self._boost, feats.astype(np.float32)) > self.threshold
+        return centroids[keep], widths[keep]
+
+    def detect_legs(self, scan: LaserScan) -> NDArray[np.float64]:
+        """Positions ``(K, 2)`` of segments classified as legs (centroids, m, scan frame)."""
+        return self._legs(scan)[0]
+
+    def detect(self, scan: LaserScan) -> NDArray[np.float64]:
+        """Person positions ``(M, 2)`` (m, scan frame); ``(0, 2)`` for an empty or all-invalid scan."""
+        legs, widths = self._legs(scan)
+        return people_from_legs(legs, widths, params=self.pairing)

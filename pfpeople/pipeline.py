@@ -1,0 +1,631 @@
+"""The bag pipeline: bag -> synchronised frames -> detectors -> filter -> classification -> run directory.
+
+Per frame (driven by the config's ``driver`` topic, see :mod:`pfpeople.bag.sync`):
+
+1. Inputs: each detector's input message is chosen by its sync policy; a detector whose input is missing
+   (nothing within the tolerance), empty (a LaserScan with no beams) or undecodable has **no data** in the
+   frame: its entry is ``None`` and the filter treats it as covering no cell (counted and logged once).
+2. Detections: built-in detectors (``leg``, ``boosted``, ``hog``) run on the converted message; ``topic``
+   detectors read positions from the messages. Positions are mapped from the detector's frame to the grid
+   frame by the 2-D TF mount, which is also written into the detector's ``DetectorModel`` (``mount_x``,
+   ``mount_y``, ``mount_yaw``) so its field of view is placed correctly.
+3. Ego-motion: the odometry pose of the base frame is interpolated to the frame stamps (linear in x, y and
+   the wrapped yaw), composed with the grid frame's mount on the base (``P_grid = P_base * T_base_grid``),
+   and the relative motion ``D = P_grid(t_{k-1})^-1 P_grid(t_k)`` is converted to the velocity motion model's
+   controls over ``dt = t_k - t_{k-1}``:
+
+       omega = dtheta / dt,   v = (dtheta/2) / sin(dtheta/2) * (dx cos(dtheta/2) + dy sin(dtheta/2)) / dt
+
+   (exact for motion on an arc; the lateral part ``-dx sin(dtheta/2) + dy cos(dtheta/2)``, which a sensor
+   mounted off the rotation axis can have, is not representable by (v, omega); its largest magnitude is
+   reported in the run statistics). Without odometry the robot is taken as standing (logged once).
+4. Filter step (``GridFilter`` or ``ParticleFilter``, same ``step`` signature), the paper's blob
+   classification of the belief (:func:`gridbridge.classify.classify_blobs`), and one frame of output.
+
+The first frame uses ``dt = 0.1 s`` (the paper's step; the initial belief is uniform, so the prediction has no
+effect there). A gap between frames longer than ``max_gap_s`` restarts the filter (counted; a prediction over
+a long gap would be meaningless and its kernel very large).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import inspect
+import logging
+import math
+import time
+import typing
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gridbridge.classify import classify_blobs
+from gridbridge.ego_motion import Odometry
+from gridbridge.filter import GridFilter
+from gridbridge.grid import GridSpec
+from gridbridge.params import DetectorModel
+from pfpeople.bag.config import BagConfig, DetectorConfig, FilterConfig
+from pfpeople.bag.reader import (
+    IMAGE_TYPES,
+    LASER_TYPES,
+    ODOMETRY_TYPES,
+    BagMessage,
+    BagReadError,
+    BagSource,
+    image_from_msg,
+    laser_from_msg,
+    odometry_pose_from_msg,
+    positions_from_msg,
+)
+from pfpeople.bag.sync import Frame, FrameAssembler
+from pfpeople.bag.tf import TfBuffer, TfLookupError
+from pfpeople.output import RunWriter
+from pfpeople.sensors import Pose2D
+
+__all__ = [
+    "FIRST_DT_S",
+    "MAX_GAP_S",
+    "Detector",
+    "FrameResult",
+    "Pipeline",
+    "RunSummary",
+    "build_detector",
+    "make_filter",
+    "odometry_between",
+]
+
+log = logging.getLogger(__name__)
+
+#: dt of the first frame (s).
+FIRST_DT_S = 0.1
+#: A gap between frames longer than this (s) restarts the filter.
+MAX_GAP_S = 2.0
+#: TF on /tf (not static) read before the run to find sensor mounts: the first this many seconds of the bag.
+TF_PRELOAD_S = 1.0
+
+# kind -> class name in pfpeople.detectors (imported lazily).
+_BUILTIN = {"leg": "LegDetector", "boosted": "BoostedSegmentDetector", "hog": "HogCameraDetector"}
+#: Kinds whose detector maps its positions into the grid frame itself (given ``mounting``).
+_SELF_MOUNTED = {"hog"}
+
+
+class Detector(Protocol):
+    """What the pipeline needs of a detector."""
+
+    model: DetectorModel
+
+    def detect(self, data: Any, /) -> NDArray[np.float64]: ...
+
+
+class StepFilter(Protocol):
+    belief: NDArray[np.float64]
+
+    def step(self, detections: Sequence[Any], odometry: Odometry | None, dt: float) -> Any: ...
+
+    def reset(self) -> None: ...
+
+
+def _import_builtin(kind: str) -> type:
+    cls_name = _BUILTIN[kind]
+    try:
+        module = importlib.import_module("pfpeople.detectors")
+        return getattr(module, cls_name)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(
+            f"detector kind {kind!r} needs pfpeople.detectors.{cls_name}, which cannot be imported: {exc}"
+        ) from None
+
+
+def _kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
+    """Constructor keyword arguments from ``[detectors.params]``; tables become the annotated dataclass."""
+    sig = inspect.signature(cls)
+    hints = typing.get_type_hints(cls.__init__)  # type: ignore[misc]
+    kwargs: dict[str, Any] = {}
+    for key, value in table.items():
+        if key not in sig.parameters or key == "model":
+            allowed = sorted(k for k in sig.parameters if k != "model")
+            raise ValueError(f"{cls.__name__} has no constructor argument {key!r}; it takes {allowed}")
+        if isinstance(value, Mapping):
+            options = typing.get_args(hints.get(key)) or (hints.get(key),)
+            candidates: list[Any] = [t for t in options if isinstance(t, type) and dataclasses.is_dataclass(t)]
+            if not candidates:
+                raise ValueError(f"{cls.__name__}.{key} does not take a table")
+            value = candidates[0](**value)
+        kwargs[key] = value
+    return kwargs
+
+
+def build_detector(cfg: DetectorConfig, mount: Pose2D) -> Detector | None:
+    """The built-in detector of ``cfg`` with its model overridden by ``cfg.model`` and mounted at ``mount``.
+
+    Returns None for ``kind="topic"`` (no detector object: positions come from the bag).
+    """
+    if cfg.kind == "topic":
+        return None
+    cls = _import_builtin(cfg.kind)
+    kwargs = _kwargs_from_table(cls, cfg.params)
+    if cfg.kind in _SELF_MOUNTED:
+        kwargs.setdefault("mounting", mount)
+    base: DetectorModel = cls(**kwargs).model
+    return cls(**kwargs, model=_model_for(cfg, mount, base))
+
+
+def _model_for(cfg: DetectorConfig, mount: Pose2D, base: DetectorModel | None) -> DetectorModel:
+    over = dict(cfg.model)
+    over["name"] = cfg.name
+    over.setdefault("mount_x", mount.x)
+    over.setdefault("mount_y", mount.y)
+    over.setdefault("mount_yaw", mount.yaw)
+    if base is None:
+        return DetectorModel(**over)
+    return replace(base, **over)
+
+
+def make_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[DetectorModel]) -> StepFilter:
+    """The run's filter: ``GridFilter`` or (imported lazily) ``pfpeople.ParticleFilter``."""
+    if config.kind == "grid":
+        return GridFilter(spec, detectors=detectors, form=config.form, initial=config.initial)  # type: ignore[arg-type]
+    pf_cls = getattr(importlib.import_module("pfpeople"), "ParticleFilter", None)
+    if pf_cls is None:  # not exported (yet): the module that defines it
+        try:
+            pf_cls = importlib.import_module("pfpeople.particle_filter").ParticleFilter
+        except (ImportError, AttributeError) as exc:
+            raise ValueError(
+                f"--filter particle needs pfpeople.ParticleFilter, which is not available ({exc}); use --filter grid"
+            ) from None
+    return pf_cls(
+        spec,
+        detectors=detectors,
+        n_particles=config.n_particles,
+        rng=np.random.default_rng(config.seed),
+        initial=config.initial,
+    )
+
+
+def _interpolate(a: tuple[int, Pose2D], b: tuple[int, Pose2D], t: int) -> Pose2D:
+    (ta, pa), (tb, pb) = a, b
+    if tb == ta:
+        return pb
+    f = (t - ta) / (tb - ta)
+    dyaw = math.atan2(math.sin(pb.yaw - pa.yaw), math.cos(pb.yaw - pa.yaw))
+    return Pose2D(x=pa.x + f * (pb.x - pa.x), y=pa.y + f * (pb.y - pa.y), yaw=pa.yaw + f * dyaw)
+
+
+def odometry_between(p0: Pose2D, p1: Pose2D, dt: float) -> tuple[Odometry, float]:
+    """Velocity-model controls moving a frame from pose ``p0`` to ``p1`` in ``dt`` s (see module docstring).
+
+    Returns
+    -------
+    odometry : Odometry
+        ``v`` (m/s) and ``omega`` (rad/s) in the moving frame.
+    lateral : float
+        The lateral displacement (m) the arc model cannot represent.
+    """
+    d = p0.inverse().compose(p1)
+    half = 0.5 * d.yaw
+    along = d.x * math.cos(half) + d.y * math.sin(half)
+    lateral = -d.x * math.sin(half) + d.y * math.cos(half)
+    arc = 1.0 if abs(half) < 1e-9 else half / math.sin(half)
+    return Odometry(v=arc * along / dt, omega=d.yaw / dt), lateral
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class FrameResult:
+    """One processed frame: detections in the grid frame (None: no data), belief, classified people."""
+
+    frame: Frame
+    dt: float
+    odometry: Odometry | None
+    detections: list[NDArray[np.float64] | None]
+    belief: NDArray[np.float64]
+    people: NDArray[np.float64]
+    people_size: list[int] = field(default_factory=list)
+    people_probability: list[float] = field(default_factory=list)
+    step: Any = None
+
+
+@dataclass
+class RunSummary:
+    """Counts of a run (also written to ``run.json`` as ``stats``)."""
+
+    frames: int = 0
+    elapsed_s: float = 0.0
+    no_data: dict[str, int] = field(default_factory=dict)
+    empty_scans: dict[str, int] = field(default_factory=dict)
+    bad_messages: dict[str, int] = field(default_factory=dict)
+    frames_without_odometry: int = 0
+    filter_restarts: int = 0
+    max_lateral_m: float = 0.0
+    sync: dict[str, dict[str, int]] = field(default_factory=dict)
+    error: str | None = None
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.elapsed_s if self.elapsed_s > 0 else math.nan
+
+    def as_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["fps"] = self.fps
+        return out
+
+
+class Pipeline:
+    """Run a :class:`BagConfig` over a bag.
+
+    Parameters
+    ----------
+    config : BagConfig
+        Topics, frames, detectors, grid and filter.
+    detectors : mapping of str to Detector, optional
+        Detector objects to use instead of building the built-in ones (by detector name); their ``model``
+        is used as given (name and mount included).
+    filter_factory : callable, optional
+        ``(spec, models) -> filter`` replacing :func:`make_filter`.
+    """
+
+    def __init__(
+        self,
+        config: BagConfig,
+        *,
+        detectors: Mapping[str, Detector] | None = None,
+        filter_factory: Callable[[GridSpec, Sequence[DetectorModel]], StepFilter] | None = None,
+    ) -> None:
+        self.config = config
+        self._given = dict(detectors or {})
+        unknown = set(self._given) - {d.name for d in config.detectors}
+        if unknown:
+            raise ValueError(f"detectors {sorted(unknown)} are not in the config")
+        self._filter_factory = filter_factory
+        self.summary = RunSummary()
+        self.grid_frame = config.grid_frame
+        self.models: list[DetectorModel] = []
+        self.mounts: list[Pose2D] = []
+        self.filter: StepFilter | None = None
+        self._detectors: list[Detector | None] = []
+        self._warned: set[str] = set()
+
+    # -- preparation -----------------------------------------------------------------------------------------
+
+    def _topics(self) -> list[str]:
+        c = self.config
+        topics = {c.driver, *(d.topic for d in c.detectors)}
+        if c.odometry:
+            topics.add(c.odometry)
+        return sorted(topics)
+
+    def _first_messages(self, bag: BagSource, topics: Sequence[str]) -> dict[str, BagMessage]:
+        first: dict[str, BagMessage] = {}
+        for topic in topics:
+            for m in bag.messages([topic]):
+                first[topic] = m
+                break
+        return first
+
+    def prepare(self, bag: BagSource) -> TfBuffer:
+        """Check topics and types, read the TF mounts, build the detectors and the filter."""
+        c = self.config
+        types: dict[str, Sequence[str]] = {c.driver: (*LASER_TYPES, *IMAGE_TYPES)}
+        for d in c.detectors:
+            if d.kind in ("leg", "boosted"):
+                types[d.topic] = LASER_TYPES
+            elif d.kind == "hog":
+                types[d.topic] = IMAGE_TYPES
+        if c.odometry:
+            types[c.odometry] = ODOMETRY_TYPES
+        bag.require(self._topics(), types=types)
+        tf = TfBuffer(fallback_parent=c.base_frame, fallback=c.mounts)
+        for topic in (t for t in c.tf_topics if t in bag.topics):
+            static = topic.endswith("tf_static")
+            for m in bag.messages([topic]):
+                if not static and m.bag_time_ns - bag.start_time_ns > TF_PRELOAD_S * 1e9:
+                    break
+                tf.add_message(m.msg)
+        first = self._first_messages(bag, [c.driver, *(d.topic for d in c.detectors)])
+        ids = {t: m.frame_id for t, m in first.items()}
+        for d in c.detectors:
+            if d.kind == "topic" and d.topic in first:  # fails early, naming the type, if it holds no positions
+                positions_from_msg(first[d.topic].msg, topic=d.topic, msgtype=first[d.topic].msgtype)
+        if not self.grid_frame:
+            self.grid_frame = ids.get(c.driver, "")
+            if not self.grid_frame:
+                raise ValueError(f"driver topic {c.driver!r} has no frame_id; set [frames] grid_frame in the config")
+        self.models, self.mounts, self._detectors = [], [], []
+        self.frame_mounts: dict[str, Pose2D] = {self.grid_frame: Pose2D()}
+        for d in c.detectors:
+            src = d.frame or ids.get(d.topic, "") or self.grid_frame
+            try:
+                mount = tf.lookup(self.grid_frame, src)
+            except TfLookupError as exc:
+                raise ValueError(f"detector {d.name!r}: {exc}") from None
+            if d.name in self._given:
+                det: Detector | None = self._given[d.name]
+                model = det.model  # type: ignore[union-attr]
+            else:
+                det = build_detector(d, mount)
+                model = det.model if det is not None else _model_for(d, mount, None)
+            self._detectors.append(det)
+            self.models.append(model)
+            self.mounts.append(mount)
+            self.frame_mounts[src] = mount
+        self._base_to_grid: Pose2D | None = None
+        if c.odometry:
+            try:
+                self._base_to_grid = tf.lookup(c.base_frame, self.grid_frame)
+            except TfLookupError as exc:
+                raise ValueError(f"odometry needs the grid frame's mount on the base frame: {exc}") from None
+        factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
+        self.filter = factory(c.grid, self.models)
+        return tf
+
+    # -- running ---------------------------------------------------------------------------------------------
+
+    def _once(self, key: str, msg: str, *args: object) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            log.warning(msg, *args)
+
+    def _count(self, table: dict[str, int], name: str) -> None:
+        table[name] = table.get(name, 0) + 1
+
+    def _inputs(self, frame: Frame, d: DetectorConfig) -> list[BagMessage]:
+        if d.topic == self.config.driver:
+            return [frame.driver]
+        return frame.inputs.get(d.topic, [])
+
+    def _detect(self, k: int, d: DetectorConfig, frame: Frame) -> NDArray[np.float64] | None:
+        msgs = self._inputs(frame, d)
+        s = self.summary
+        if not msgs:
+            if d.assign == "preceding" and d.kind == "topic":
+                return np.zeros((0, 2))
+            self._count(s.no_data, d.name)
+            self._once(
+                f"nodata:{d.name}",
+                "detector %s: no %s message within the tolerance of frame %d "
+                "(it covers no cell in such frames; counted)",
+                d.name,
+                d.topic,
+                frame.index,
+            )
+            return None
+        det = self._detectors[k]
+        try:
+            if d.kind == "topic":
+                pts = np.concatenate([positions_from_msg(m.msg, topic=m.topic, msgtype=m.msgtype) for m in msgs])
+            else:
+                m = msgs[0]
+                if d.kind == "hog":
+                    data: Any = image_from_msg(
+                        m.msg, m.msgtype, stamp_ns=m.stamp_ns, frame_id=m.frame_id, topic=m.topic
+                    )
+                else:
+                    data = laser_from_msg(m.msg, stamp_ns=m.stamp_ns, frame_id=m.frame_id, topic=m.topic)
+                    if data.ranges.size == 0:
+                        self._count(s.empty_scans, d.name)
+                        self._count(s.no_data, d.name)
+                        self._once(
+                            f"empty:{d.name}",
+                            "topic %s: empty LaserScan (no beams) at %d ns; detector %s "
+                            "has no data in such frames (counted)",
+                            m.topic,
+                            m.stamp_ns,
+                            d.name,
+                        )
+                        return None
+                assert det is not None
+                pts = np.asarray(det.detect(data), dtype=float).reshape(-1, 2)
+        except ValueError as exc:
+            self._count(s.bad_messages, d.name)
+            self._count(s.no_data, d.name)
+            self._once(
+                f"bad:{d.name}", "detector %s: unusable input (%s); no data in such frames (counted)", d.name, exc
+            )
+            return None
+        if not len(pts):
+            return np.zeros((0, 2))
+        return pts if d.kind in _SELF_MOUNTED else self.mounts[k].apply(pts)
+
+    def _odometry_pose(self, frame: Frame) -> Pose2D | None:
+        c = self.config
+        if not c.odometry:
+            return None
+        msgs = frame.inputs.get(c.odometry, [])
+        poses = []
+        for m in msgs:
+            try:
+                pose, _child = odometry_pose_from_msg(m.msg, topic=m.topic)
+            except ValueError as exc:
+                self._count(self.summary.bad_messages, c.odometry)
+                self._once("bad:odom", "%s (such messages are not used; counted)", exc)
+                return None
+            poses.append((m.stamp_ns, pose))
+        if not poses:
+            return None
+        base = poses[0][1] if len(poses) == 1 else _interpolate(poses[0], poses[1], frame.stamp_ns)
+        assert self._base_to_grid is not None
+        return base.compose(self._base_to_grid)
+
+    def frames(self, bag: BagSource, *, max_frames: int | None = None) -> Iterator[FrameResult]:
+        """Process the bag frame by frame (call :meth:`prepare` first, or let this call it)."""
+        if self.filter is None:
+            self.prepare(bag)
+        assert self.filter is not None
+        c = self.config
+        policies: dict[str, str] = {}
+        for d in c.detectors:
+            if d.topic != c.driver:
+                old = policies.setdefault(d.topic, d.assign)
+                if old != d.assign:
+                    raise ValueError(f"topic {d.topic!r} is given two sync policies ({old!r}, {d.assign!r})")
+        if c.odometry:
+            if c.odometry in policies or c.odometry == c.driver:
+                raise ValueError(f"odometry topic {c.odometry!r} is also a detector or driver topic")
+            policies[c.odometry] = "interpolate"
+        else:
+            log.info("no odometry topic configured: the robot is taken as standing in every frame")
+        sync = FrameAssembler(c.driver, policies, tolerance_ns=c.sync_tolerance_ns, max_pending=c.max_pending_frames)
+        use_bag_time = c.time_source == "bag"
+        prev_stamp: int | None = None
+        prev_pose: Pose2D | None = None
+        done = 0
+
+        def process(frame: Frame) -> FrameResult:
+            nonlocal prev_stamp, prev_pose
+            assert self.filter is not None
+            s = self.summary
+            dt = FIRST_DT_S if prev_stamp is None else (frame.stamp_ns - prev_stamp) * 1e-9
+            if dt > MAX_GAP_S:
+                s.filter_restarts += 1
+                log.warning("gap of %.3f s before frame %d: restarting the filter", dt, frame.index)
+                self.filter.reset()
+                dt, prev_pose = FIRST_DT_S, None
+            pose = self._odometry_pose(frame)
+            odo: Odometry | None = None
+            if c.odometry:
+                if pose is None:
+                    s.frames_without_odometry += 1
+                    self._once(
+                        "noodo",
+                        "frame %d has no odometry within the tolerance: robot taken as standing (counted)",
+                        frame.index,
+                    )
+                elif prev_pose is not None:
+                    odo, lateral = odometry_between(prev_pose, pose, dt)
+                    s.max_lateral_m = max(s.max_lateral_m, abs(lateral))
+            dets = [self._detect(k, d, frame) for k, d in enumerate(c.detectors)]
+            step = self.filter.step(dets, odo, dt)
+            belief = np.asarray(step.posterior, dtype=float)
+            cls = classify_blobs(belief, spec=c.grid)
+            people = cls.positions.reshape(-1, 2)
+            prev_stamp, prev_pose = frame.stamp_ns, pose
+            s.frames += 1
+            return FrameResult(
+                frame=frame,
+                dt=dt,
+                odometry=odo,
+                detections=dets,
+                belief=belief,
+                people=people,
+                people_size=[b.size for b in cls.people],
+                people_probability=[b.mean_probability for b in cls.people],
+                step=step,
+            )
+
+        t0 = time.perf_counter()
+        try:
+            for m in bag.messages(self._topics()):
+                if use_bag_time:
+                    m = BagMessage(m.topic, m.msgtype, m.index, m.bag_time_ns, m.bag_time_ns, m.frame_id, m.msg)
+                for frame in sync.push(m):
+                    yield process(frame)
+                    done += 1
+                    if max_frames is not None and done >= max_frames:
+                        return
+            for frame in sync.finish():
+                yield process(frame)
+                done += 1
+                if max_frames is not None and done >= max_frames:
+                    return
+        finally:
+            self.summary.elapsed_s = time.perf_counter() - t0
+            self.summary.sync = sync.stats
+
+    def run(
+        self,
+        bag: BagSource,
+        out_dir: str | Path | None = None,
+        *,
+        max_frames: int | None = None,
+        progress: bool = False,
+        overwrite: bool = False,
+        metadata: Mapping[str, Any] | None = None,
+        bag_out: str | Path | None = None,
+        keep: bool = False,
+    ) -> tuple[RunSummary, list[FrameResult]]:
+        """Run over ``bag``, writing ``out_dir`` (and ``bag_out``) incrementally.
+
+        A bag that turns out truncated or corrupt part-way ends the run with ``status = "failed"`` in
+        ``run.json`` and the frames processed so far kept; :class:`BagReadError` is then re-raised.
+        Returns the summary and (with ``keep=True``) every :class:`FrameResult`.
+        """
+        self.prepare(bag)
+        writer = None
+        if out_dir is not None:
+            meta = {
+                "config": self.config.to_dict(),
+                "grid_frame": self.grid_frame,
+                "frames_in_grid": {k: [p.x, p.y, p.yaw] for k, p in self.frame_mounts.items()},
+                "detector_models": [dataclasses.asdict(m) for m in self.models],
+                "provenance": {"bag": [str(p) for p in bag.paths], "bag_topics": bag.topics, **dict(metadata or {})},
+            }
+            writer = RunWriter(
+                out_dir,
+                spec=self.config.grid,
+                detector_names=[d.name for d in self.config.detectors],
+                metadata=meta,
+                overwrite=overwrite,
+            )
+        bag_writer = None
+        if bag_out is not None:
+            from pfpeople.bag.writer import ResultBagWriter
+
+            bag_writer = ResultBagWriter(
+                bag_out,
+                spec=self.config.grid,
+                frame_id=self.grid_frame,
+                detector_names=[d.name for d in self.config.detectors],
+            )
+        kept: list[FrameResult] = []
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            total = bag.message_counts.get(self.config.driver)
+            bar = tqdm(total=min(total, max_frames) if total and max_frames else total, unit="frame")
+        status, error = "complete", None
+        try:
+            for r in self.frames(bag, max_frames=max_frames):
+                f = r.frame
+                if writer is not None:
+                    writer.write_frame(
+                        frame=f.index,
+                        driver_index=f.driver.index,
+                        stamp_ns=f.stamp_ns,
+                        bag_time_ns=f.bag_time_ns,
+                        dt_s=r.dt,
+                        odometry=None if r.odometry is None else (r.odometry.v, r.odometry.omega),
+                        forced=f.forced,
+                        belief=r.belief,
+                        people=r.people,
+                        people_size=r.people_size,
+                        people_probability=r.people_probability,
+                        detections=r.detections,
+                    )
+                if bag_writer is not None:
+                    bag_writer.write(r.frame.bag_time_ns, r.frame.stamp_ns, r.belief, r.people, r.detections)
+                if keep:
+                    kept.append(r)
+                if bar is not None:
+                    bar.update(1)
+        except (BagReadError, KeyboardInterrupt) as exc:
+            status, error = "failed", f"{type(exc).__name__}: {exc}"
+            self.summary.error = error
+            log.error("run stopped after %d frames: %s", self.summary.frames, error)
+            raise
+        except Exception as exc:
+            status, error = "failed", f"{type(exc).__name__}: {exc}"
+            self.summary.error = error
+            raise
+        finally:
+            if bar is not None:
+                bar.close()
+            if bag_writer is not None:
+                bag_writer.close()
+            if writer is not None:
+                writer.close(status=status, error=error, stats=self.summary.as_dict())
+        return self.summary, kept

@@ -1,0 +1,254 @@
+"""Resampling: plain functions returning ancestor indices, chosen by name (as nchopin/particles).
+
+Each resampler takes weights ``w`` (non-negative, any positive sum; normalised here to ``W``) and a number of
+draws ``n`` and returns ``n`` ancestor indices ``a`` with ``E[#{k : a_k = i}] = n W_i``:
+
+``systematic``  one uniform ``u``; positions ``(k + u) / n``.
+``stratified``  one uniform per stratum; positions ``(k + u_k) / n``.
+``residual``    ``floor(n W_i)`` copies each, the remainder by multinomial draws on the residual weights.
+``multinomial`` ``n`` independent draws (sorted uniforms from exponential spacings).
+
+All are vectorised and O(N) apart from a binary search (``np.searchsorted``); systematic resampling counts
+offspring directly from the cumulative weights (``ceil(n C_i - u)`` differences), no search. The last
+cumulative weight is set to exactly 1 so that round-off (weights summing to 1 - 1e-12) never yields an index
+past the end. Ancestors come out sorted. ``systematic`` and ``stratified`` accept the offsets
+(``u=``) so they can be compared with ``filterpy.monte_carlo`` on the same random numbers.
+
+:func:`resample_by_cell` is the occupancy-grid resampling the particle filter uses: it keeps the particle count
+at ``n`` and every cell's mass unchanged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "RESAMPLERS",
+    "Resampler",
+    "effective_sample_size",
+    "get_resampler",
+    "multinomial",
+    "resample_by_cell",
+    "residual",
+    "stratified",
+    "systematic",
+]
+
+
+class Resampler(Protocol):
+    def __call__(
+        self, weights: ArrayLike, n: int | None = None, *, rng: np.random.Generator | None = None
+    ) -> NDArray[np.intp]: ...
+
+
+def _normalised_cumsum(weights: ArrayLike) -> NDArray[np.float64]:
+    w = np.asarray(weights, dtype=float)
+    if w.ndim != 1 or w.size == 0:
+        raise ValueError(f"weights must be a non-empty 1-D array, got shape {w.shape}")
+    cum = np.cumsum(w)
+    total = cum[-1]
+    if not np.isfinite(total) or not np.all(np.isfinite(w)):
+        raise ValueError("weights contain NaN or infinite values")
+    if total <= 0.0 or w.min() < 0.0:
+        raise ValueError("weights must be non-negative with a positive sum")
+    cum /= total
+    cum[-1] = 1.0  # guard: positions in [0, 1) always fall inside
+    return cum
+
+
+def _count(n: int | None, size: int) -> int:
+    m = size if n is None else n
+    if isinstance(m, bool) or not isinstance(m, int | np.integer) or m < 0:
+        raise ValueError(f"n must be a non-negative integer, got {n!r}")
+    return int(m)
+
+
+def _need_rng(rng: np.random.Generator | None) -> np.random.Generator:
+    if rng is None:
+        raise ValueError("rng (a numpy.random.Generator) is required unless the offsets u are given")
+    return rng
+
+
+def _from_positions(cum: NDArray[np.float64], positions: NDArray[np.float64]) -> NDArray[np.intp]:
+    # First i with position < cum[i] (as filterpy's loops).
+    idx = np.searchsorted(cum, positions, side="right")
+    return np.minimum(idx, cum.size - 1).astype(np.intp, copy=False)
+
+
+def systematic(
+    weights: ArrayLike,
+    n: int | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+    u: float | None = None,
+) -> NDArray[np.intp]:
+    """Systematic resampling: ``n`` (default ``len(weights)``) ancestors from positions ``(k + u) / n``.
+
+    Parameters
+    ----------
+    weights : array_like, shape (N,)
+        Non-negative, positive sum (normalised here).
+    n : int, optional
+        Number of draws.
+    rng : numpy.random.Generator, optional
+        Draws ``u`` when ``u`` is not given.
+    u : float in [0, 1), optional
+        The offset (filterpy's ``random()``).
+
+    Returns
+    -------
+    ndarray of intp, shape (n,)
+        Sorted ancestor indices.
+    """
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    off = float(_need_rng(rng).random()) if u is None else float(u)
+    if not 0.0 <= off < 1.0:
+        raise ValueError(f"u must lie in [0, 1), got {u!r}")
+    # Number of positions (k + u) / m below cum[i] is ceil(m cum[i] - u), clipped to [0, m].
+    below = np.clip(np.ceil(m * cum - off), 0, m).astype(np.intp)
+    below[-1] = m
+    counts = np.diff(below, prepend=0)
+    return np.repeat(np.arange(cum.size, dtype=np.intp), counts)
+
+
+def stratified(
+    weights: ArrayLike,
+    n: int | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+    u: ArrayLike | None = None,
+) -> NDArray[np.intp]:
+    """Stratified resampling: positions ``(k + u_k) / n`` with independent uniforms ``u_k``.
+
+    ``u`` (shape ``(n,)``, values in [0, 1)) may be given instead of ``rng``. Returns sorted ancestors.
+    """
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    off = _need_rng(rng).random(m) if u is None else np.asarray(u, dtype=float)
+    if off.shape != (m,) or (m and (off.min() < 0.0 or off.max() >= 1.0)):
+        raise ValueError(f"u must be {m} numbers in [0, 1)")
+    return _from_positions(cum, (np.arange(m) + off) / m)
+
+
+def multinomial(
+    weights: ArrayLike, n: int | None = None, *, rng: np.random.Generator | None = None
+) -> NDArray[np.intp]:
+    """Multinomial resampling: ``n`` independent draws by weight. Returns sorted ancestors."""
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    spacings = np.cumsum(_need_rng(rng).exponential(size=m + 1))
+    return _from_positions(cum, spacings[:-1] / spacings[-1])
+
+
+def residual(weights: ArrayLike, n: int | None = None, *, rng: np.random.Generator | None = None) -> NDArray[np.intp]:
+    """Residual resampling: ``floor(n W_i)`` copies, the rest multinomial on the residuals. Sorted output."""
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    w = np.diff(cum, prepend=0.0)
+    scaled = m * w
+    copies = np.floor(scaled).astype(np.intp)
+    rest = m - int(copies.sum())
+    if rest > 0:
+        extra = multinomial(scaled - copies, rest, rng=rng)
+        copies += np.bincount(extra, minlength=cum.size)
+    return np.repeat(np.arange(cum.size, dtype=np.intp), copies)
+
+
+RESAMPLERS: dict[str, Callable[..., NDArray[np.intp]]] = {
+    "systematic": systematic,
+    "stratified": stratified,
+    "residual": residual,
+    "multinomial": multinomial,
+}
+
+
+def get_resampler(name: str) -> Callable[..., NDArray[np.intp]]:
+    """The resampler called ``name`` (one of :data:`RESAMPLERS`)."""
+    try:
+        return RESAMPLERS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"resampler must be one of {', '.join(map(repr, RESAMPLERS))}; got {name!r}") from None
+
+
+def effective_sample_size(weights: ArrayLike) -> float:
+    """ESS = (sum w)^2 / sum w^2 (0 for all-zero weights)."""
+    w = np.asarray(weights, dtype=float)
+    sq = float(np.dot(w, w))
+    return float(w.sum()) ** 2 / sq if sq > 0.0 else 0.0
+
+
+def resample_by_cell(
+    cells: ArrayLike,
+    weights: ArrayLike,
+    n: int,
+    *,
+    n_cells: int,
+    rng: np.random.Generator,
+    resampler: str | Callable[..., NDArray[np.intp]] = "systematic",
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Resample occupancy-mass particles to exactly ``n``, keeping every cell's mass.
+
+    Scheme: every cell with positive mass first gets one particle, drawn within the cell in proportion to
+    weight (so no cell that holds mass loses all its particles); the other ``n - K`` (K = cells with mass)
+    are drawn from all particles by weight with ``resampler``. Each new particle in cell c then carries
+    ``M_c / n_c`` (the cell's mass shared equally by its ``n_c`` new particles), so cell masses are preserved
+    to round-off. Every new particle is marginally a weight-proportional draw from its cell's particles.
+
+    Parameters
+    ----------
+    cells : array_like of int, shape (N,)
+        Flat cell index of each particle, in ``[0, n_cells)``.
+    weights : array_like, shape (N,)
+        Occupancy masses, >= 0.
+    n : int
+        Particle count after resampling; must be at least the number of cells with positive mass.
+    n_cells : int
+        Number of grid cells.
+    rng : numpy.random.Generator
+    resampler : str or callable
+        A name in :data:`RESAMPLERS`, or ``f(weights, n, rng=rng) -> ancestors``.
+
+    Returns
+    -------
+    ancestors : ndarray of intp, shape (n,)
+    new_weights : ndarray, shape (n,)
+    """
+    fn = get_resampler(resampler) if isinstance(resampler, str) else resampler
+    c = np.asarray(cells, dtype=np.intp)
+    w = np.asarray(weights, dtype=float)
+    if c.shape != w.shape or c.ndim != 1:
+        raise ValueError(f"cells and weights must be 1-D of equal length, got {c.shape} and {w.shape}")
+    if not np.all(np.isfinite(w)) or (w.size and w.min() < 0.0):
+        raise ValueError("weights must be finite and non-negative")
+    if c.size and (c.min() < 0 or c.max() >= n_cells):
+        raise ValueError(f"cells must lie in [0, {n_cells})")
+    mass = np.bincount(c, weights=w, minlength=n_cells)
+    occupied = np.flatnonzero(mass > 0.0)
+    k = occupied.size
+    if k == 0:
+        raise ValueError("weights are all zero: nothing to resample")
+    if n < k:
+        raise ValueError(f"n={n} particles cannot keep one in each of the {k} cells holding mass")
+    # One particle per occupied cell, by weight within the cell: sort by cell (radix sort on small ints).
+    key = c.astype(np.int16 if n_cells <= np.iinfo(np.int16).max else np.int32)
+    order = np.argsort(key, kind="stable")
+    cum = np.cumsum(w[order])
+    counts = np.bincount(c, minlength=n_cells)
+    end = np.cumsum(counts)
+    start = end - counts
+    before = np.where(start > 0, cum[np.maximum(start - 1, 0)], 0.0)
+    target = before[occupied] + rng.random(k) * mass[occupied]
+    pos = np.searchsorted(cum, target, side="right")
+    pos = np.clip(pos, start[occupied], end[occupied] - 1)
+    forced = order[pos]
+    rest = fn(w, n - k, rng=rng) if n > k else np.zeros(0, dtype=np.intp)
+    ancestors = np.concatenate((forced, rest))
+    new_cells = c[ancestors]
+    n_new = np.bincount(new_cells, minlength=n_cells)
+    share = np.divide(mass, n_new, out=np.zeros(n_cells), where=n_new > 0)
+    return ancestors, share[new_cells]
