@@ -60,9 +60,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
             scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
             rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
-            print(
-                f"{kind:<10}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}{rtf:>11.1f}   {rec}"
-            )
+            print(f"{kind:<10}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}{rtf:>11.1f}   {rec}")
     return 0
 
 

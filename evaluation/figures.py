@@ -1,6 +1,7 @@
 """Figures in the style of the paper's Fig. 6: truth, people prior, sensor prior, each detector, fusion, posterior.
 
-Grids are drawn as the paper draws them: the sensor at the bottom middle, x (forward) up, y (left) to the left.
+Drawn with matplotlib's object-oriented API on an Agg canvas (no pyplot state, any backend). Grids are drawn
+as the paper draws them: the sensor at the bottom middle, x (forward) up, y (left) to the left.
 Only the display is flipped (``grid[::-1, ::-1]``), never the data.
 """
 
@@ -9,11 +10,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from evaluation.scenarios.scenario import Frame
@@ -59,7 +58,9 @@ def fig6_panels(
     n = len(panels)
     cols = min(n, 5)
     rows = -(-n // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols, 3.2 * rows), squeeze=False)
+    fig = Figure(figsize=(3.0 * cols, 3.2 * rows))
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(rows, cols, squeeze=False)
     for ax, (name, grid, cmap) in zip(axes.ravel(), panels, strict=False):
         ax.imshow(display(grid), cmap=cmap, vmin=0.0, vmax=1.0, extent=_extent(spec), interpolation="nearest")
         ax.set_title(name, fontsize=9)
@@ -76,5 +77,4 @@ def fig6_panels(
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
-    plt.close(fig)
     return path

@@ -279,8 +279,9 @@ def test_image_messages_decode_to_bgr() -> None:
     rgb[..., 0] = 200  # red in RGB
     padded = np.zeros((4, 16), dtype=np.uint8)  # step 16 > 5 * 3: row padding is dropped
     padded[:, :15] = rgb.reshape(4, 15)
-    msg = T["sensor_msgs/msg/Image"](header=header, height=4, width=5, encoding="rgb8", is_bigendian=0, step=16,
-                                     data=padded.ravel())
+    msg = T["sensor_msgs/msg/Image"](
+        header=header, height=4, width=5, encoding="rgb8", is_bigendian=0, step=16, data=padded.ravel()
+    )
     img = image_from_msg(msg, "sensor_msgs/msg/Image", stamp_ns=1, frame_id="cam", topic="/img")
     assert img.pixels.shape == (4, 5, 3) and img.pixels[0, 0].tolist() == [0, 0, 200]  # BGR
     ok, png = cv2.imencode(".png", img.pixels)
@@ -291,7 +292,8 @@ def test_image_messages_decode_to_bgr() -> None:
     bad = T["sensor_msgs/msg/CompressedImage"](header=header, format="jpeg", data=np.arange(50, dtype=np.uint8))
     with pytest.raises(ValueError, match=r"topic '/img': CompressedImage .* cannot be decoded"):
         image_from_msg(bad, "sensor_msgs/msg/CompressedImage", stamp_ns=1, frame_id="cam", topic="/img")
-    msg16 = T["sensor_msgs/msg/Image"](header=header, height=1, width=1, encoding="16UC1", is_bigendian=0, step=2,
-                                       data=np.zeros(2, np.uint8))
+    msg16 = T["sensor_msgs/msg/Image"](
+        header=header, height=1, width=1, encoding="16UC1", is_bigendian=0, step=2, data=np.zeros(2, np.uint8)
+    )
     with pytest.raises(ValueError, match=r"image encoding '16UC1' not supported"):
         image_from_msg(msg16, "sensor_msgs/msg/Image", stamp_ns=1, frame_id="cam", topic="/img")

@@ -203,8 +203,15 @@ def write_bag(
     for k in range(n_images):
         stamp = T0_NS + 37_000_000 + k * 250_000_000
         pixels = np.full(480 * 640, 90, dtype=np.uint8)
-        img = m.T["sensor_msgs/msg/Image"](header=m.header(stamp, "laser"), height=480, width=640, encoding="mono8",
-                                           is_bigendian=0, step=640, data=pixels)
+        img = m.T["sensor_msgs/msg/Image"](
+            header=m.header(stamp, "laser"),
+            height=480,
+            width=640,
+            encoding="mono8",
+            is_bigendian=0,
+            step=640,
+            data=pixels,
+        )
         items.append((stamp + 30_000_000, "/image", "sensor_msgs/msg/Image", img))
     items.sort(key=lambda it: it[0])
     if ros2:

@@ -28,7 +28,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         type=int,
         nargs="*",
         default=[5_000, 50_000],
-        help="particle counts of the particle-filter rows (default: 5000 50000; none for grid only; at least one per cell)",
+        help="particle counts of the particle-filter rows (default: 5000 50000; none: grid only; >= 1 per cell)",
     )
     p.add_argument("--persistent", action="store_true", help="add a particle filter with velocity-persistent walkers")
     p.add_argument("--pf-seed", type=int, default=0, help="seed of the particle filters (default 0)")
