@@ -32,7 +32,7 @@ from scipy.optimize import linear_sum_assignment
 from scipy.stats import norm
 
 from evaluation.scenarios.sensors import in_field_of_view
-from gridbridge._validate import check_positive, check_probability
+from gridbridge._validate import check_positions, check_positive, check_probability
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 
@@ -159,17 +159,6 @@ class CalibrationResult:
         )
 
 
-def _points(arr: ArrayLike, name: str) -> NDArray[np.float64]:
-    pts = np.asarray(arr, dtype=float)
-    if pts.size == 0:
-        return np.zeros((0, 2))
-    if pts.ndim != 2 or pts.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (N, 2) (x, y in metres), got {pts.shape}")
-    if not np.all(np.isfinite(pts)):
-        raise ValueError(f"{name} contains NaN or infinite values")
-    return pts
-
-
 def _distances(
     det: NDArray[np.float64],
     truth: NDArray[np.float64],
@@ -216,8 +205,8 @@ def match_detections(
     det_index, truth_index : ndarray of int, shape (K,)
         Matched pairs.
     """
-    det = _points(detections, "detections")
-    tru = _points(truth, "truth")
+    det = check_positions(detections, "detections")
+    tru = check_positions(truth, "truth")
     gate = check_positive(gate, "gate")
     if metric not in ("euclidean", "mahalanobis"):
         raise ValueError(f"metric must be 'euclidean' or 'mahalanobis', got {metric!r}")
@@ -268,8 +257,8 @@ def frame_counts(
 ) -> CalibrationCounts:
     """Counts of one frame (see :func:`calibrate_detector`)."""
     metric_, gate_ = _resolve_metric(metric, gate, model)
-    det = _points(detections, "detections")
-    tru = _points(truth, "truth")
+    det = check_positions(detections, "detections")
+    tru = check_positions(truth, "truth")
     tru = tru[_in_view(model, tru)]
     di, ti = match_detections(det, tru, gate=gate_, metric=metric_, model=model)
     det_in = _in_region(region, det)
@@ -390,7 +379,7 @@ def oracle_calibration(
         ids = frame.person_ids  # type: ignore[attr-defined]
         people = frame.people  # type: ignore[attr-defined]
         for out in frame.outputs:  # type: ignore[attr-defined]
-            det_in = _in_region(region, _points(out.positions, "positions"))
+            det_in = _in_region(region, check_positions(out.positions, "positions"))
             in_view = np.isin(ids, out.in_view_ids)
             tru_in = in_view & _in_region(region, people)
             found = np.isin(ids, out.source[out.source >= 0])

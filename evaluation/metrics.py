@@ -41,6 +41,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import rankdata
 
+from gridbridge._validate import check_positions
+
 __all__ = [
     "DetectionAccumulator",
     "Match",
@@ -56,17 +58,6 @@ __all__ = [
 ]
 
 DEFAULT_EPS = 1e-12
-
-
-def _positions(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = np.asarray(value, dtype=float)
-    if arr.size == 0:
-        return np.zeros((0, 2))
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (N, 2) of (x, y) positions in metres, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contains NaN or infinite values")
-    return arr
 
 
 def _masks(value: ArrayLike | None, name: str, n: int) -> NDArray[np.bool_]:
@@ -132,8 +123,8 @@ def match_people(
     -------
     Match
     """
-    det = _positions(detected, "detected")
-    tru = _positions(truth, "truth")
+    det = check_positions(detected, "detected")
+    tru = check_positions(truth, "truth")
     k, p = det.shape[0], tru.shape[0]
     if rule not in ("distance", "overlap"):
         raise ValueError(f"rule must be 'distance' or 'overlap', got {rule!r}")

@@ -35,6 +35,21 @@ def check_grid_array(
     return arr
 
 
+def check_positions(positions: ArrayLike, name: str) -> NDArray[np.float64]:
+    """Return an ``(N, 2)`` float array of (x, y) positions (m); empty input gives shape (0, 2).
+
+    Raises ValueError naming ``name`` for another shape or NaN / infinite values.
+    """
+    pts = np.asarray(positions, dtype=float)
+    if pts.size == 0:
+        return np.zeros((0, 2))
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (N, 2) of (x, y) positions in metres, got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError(f"{name} contains NaN or infinite positions")
+    return pts
+
+
 def check_probability(value: float, name: str, *, open_low: bool = False, open_high: bool = False) -> float:
     """Check one probability; ``open_low``/``open_high`` exclude 0 / 1."""
     v = float(value)

@@ -40,7 +40,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_grid_array
+from gridbridge._validate import check_grid_array, check_positions
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 
@@ -59,17 +59,6 @@ __all__ = [
 GAUSSIAN_CUTOFF = math.exp(-4.5)
 
 
-def _as_positions(positions: ArrayLike, name: str) -> NDArray[np.float64]:
-    pts = np.asarray(positions, dtype=float)
-    if pts.size == 0:
-        return np.zeros((0, 2))
-    if pts.ndim != 2 or pts.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (M, 2) (x, y in metres), got {pts.shape}")
-    if not np.all(np.isfinite(pts)):
-        raise ValueError(f"{name} contains NaN or infinite positions")
-    return pts
-
-
 def rasterise(spec: GridSpec, positions: ArrayLike, weights: ArrayLike | None = None) -> NDArray[np.float64]:
     """Sum of point weights per cell.
 
@@ -85,7 +74,7 @@ def rasterise(spec: GridSpec, positions: ArrayLike, weights: ArrayLike | None = 
     -------
     ndarray, shape (nx, ny)
     """
-    pts = _as_positions(positions, "positions")
+    pts = check_positions(positions, "positions")
     w = np.ones(len(pts)) if weights is None else np.asarray(weights, dtype=float).ravel()
     if w.shape != (len(pts),):
         raise ValueError(f"weights must have shape ({len(pts)},), got {w.shape}")
@@ -129,7 +118,7 @@ def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) ->
     positions : array_like, shape (M, 2)
         Detected person positions (x, y) in the grid's sensor frame (m). M may be 0.
     """
-    pts = _as_positions(positions, f"detections of {model.name}")
+    pts = check_positions(positions, f"detections of {model.name}")
     fired = np.zeros(spec.shape)
     if len(pts) == 0:
         return fired

@@ -51,8 +51,10 @@ from gridbridge.grid import GridSpec
 from gridbridge.params import PeopleMotion
 
 __all__ = [
+    "DT_QUANTUM_S",
     "people_motion_kernel",
     "predict_people",
+    "quantise_dt",
     "truncated_speed_pdf",
 ]
 
@@ -114,8 +116,12 @@ def people_motion_kernel(
     # Kernels are cached per (resolution, motion, dt, form). Real sensor clocks jitter (0.0998 s, 0.1003 s, ...),
     # so dt is quantised to DT_QUANTUM_S: the kernel of a 0.1003 s step is the 0.100 s kernel (a 0.3 % change of
     # the reachable distance, far below the speed model's spread) and is computed once, not every frame.
-    dt_q = max(DT_QUANTUM_S, round(dt_ / DT_QUANTUM_S) * DT_QUANTUM_S)
-    return _kernel_cached(spec.resolution, motion, round(dt_q, 9), form)
+    return _kernel_cached(spec.resolution, motion, quantise_dt(dt_), form)
+
+
+def quantise_dt(dt: float) -> float:
+    """``dt`` (s) on the ``DT_QUANTUM_S`` grid (at least one quantum): the key of kernels and their caches."""
+    return round(max(DT_QUANTUM_S, round(dt / DT_QUANTUM_S) * DT_QUANTUM_S), 9)
 
 
 @lru_cache(maxsize=64)

@@ -79,6 +79,7 @@ from gridbridge import (
     warp_belief,
 )
 from gridbridge._validate import check_choice, check_positive, check_probability
+from gridbridge.people_motion import quantise_dt
 from pfpeople.motion import (
     PersistentMotion,
     apply_ego_motion,
@@ -252,7 +253,7 @@ class ParticleFilter:
 
     def people_inflow(self, dt: float) -> NDArray[np.float64]:
         """Mass entering each cell from outside over ``dt`` (nx, ny): ``outside * sum_{k out} T(c <- k)``."""
-        key = round(float(dt), 9)
+        key = quantise_dt(float(dt))  # the kernel's own dt grid: the cache stays small on jittering clocks
         cached = self._inflow_cache.get(key)
         if cached is None:
             kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
