@@ -14,7 +14,7 @@ $(BIN)/.installed: pyproject.toml
 setup: $(BIN)/.installed
 
 demo: setup  ## the main job: A/B evaluation of the filters on the built-in scenario
-	$(BIN)/pfpeople evaluate
+	$(BIN)/pfpeople-eval evaluate
 
 test: setup
 	$(BIN)/python -m pytest -q

@@ -35,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--data", default="../shared/data", help="the shared data folder")
     ap.add_argument("--filters", nargs="+", default=["grid", "particle"], choices=("grid", "particle"))
     ap.add_argument("--max-frames", type=int, default=None, help="stop after N frames (default: the whole bag)")
-    ap.add_argument("--particles", type=int, default=2000)
+    ap.add_argument("--particles", type=int, default=5000, help="particle count of the particle filter")
     args = ap.parse_args(argv)
     data = Path(args.data)
     if not (data / BAG).is_file():

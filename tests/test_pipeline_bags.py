@@ -10,6 +10,7 @@ true positions as a detector's output.
 from __future__ import annotations
 
 import csv
+import json
 import logging
 import math
 from dataclasses import dataclass, replace
@@ -24,6 +25,7 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from evaluation.cli import main as eval_main
 from evaluation.commands.score import score_run
 from evaluation.gt_csv import read_gt_csv
 from gridbridge.grid import GridSpec
@@ -500,7 +502,6 @@ def test_sync_tolerance_no_data_for_a_late_topic(tmp_path: Path) -> None:
 
 
 def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from evaluation.cli import main as eval_main
     from pfpeople.cli import main
 
     bag = tmp_path / "cmd.bag"
@@ -567,7 +568,7 @@ def test_run_command_error_is_clean(tmp_path: Path, capsys: pytest.CaptureFixtur
 
 
 @pytest.mark.realdata
-@pytest.mark.parametrize(("kind", "frames", "particles"), [("grid", 600, 0), ("particle", 300, 1000)])
+@pytest.mark.parametrize(("kind", "frames", "particles"), [("grid", 600, 0), ("particle", 300, 5000)])
 def test_real_bag_recall_per_detector_and_filter(
     shared_data: Path, tmp_path_factory: pytest.TempPathFactory, kind: str, frames: int, particles: int
 ) -> None:
@@ -575,8 +576,6 @@ def test_real_bag_recall_per_detector_and_filter(
     gt_path = shared_data / "leg_tracker" / "person_following_outdoor_1_gt.csv"
     if not zbag.is_file() or not gt_path.is_file():
         pytest.skip(f"{zbag.name} or its GT CSV is absent")
-    if kind == "particle":
-        pytest.importorskip("pfpeople.particle_filter", reason="pfpeople.ParticleFilter not written yet")
     cfg = load_config(builtin_config_path("person_following_outdoor_1"))
     cfg = replace(cfg, filter=replace(cfg.filter, kind=kind, n_particles=max(particles, 1)))
     out = tmp_path_factory.mktemp("real") / "run"
@@ -586,8 +585,16 @@ def test_real_bag_recall_per_detector_and_filter(
     result = score_run(load_run(out), read_gt_csv(gt_path), frame="laser", recall_only=True)
     s = result["scores"]
     # Measured (gate 0.5 m): first 600 scans, grid filter: legs 0.466, boosted 0.541, filter 0.653;
-    # first 300 scans, particle filter (1000 particles, seed 0): legs 0.416, boosted 0.460, filter 0.509.
+    # first 300 scans, particle filter (5000 particles, seed 0): legs 0.416, boosted 0.460, filter 0.629.
     assert s["laser-legs"]["recall"] > 0.35
     assert s["laser-boosted"]["recall"] > 0.35
     assert s["filter"]["recall"] > max(s["laser-legs"]["recall"], s["laser-boosted"]["recall"]) - 0.05
     assert "precision" not in s["filter"]
+    # Calibration from the same ground truth: FNR only (passers-by are not annotated), FNR = 1 - recall.
+    cal_json = out.parent / "cal.json"
+    args = ["calibrate", "--run", str(out), "--gt", str(gt_path), "--frame", "laser", "--recall-only"]
+    assert eval_main([*args, "--json", str(cal_json)]) == 0
+    cal = json.loads(cal_json.read_text())["matched"]
+    for name in ("laser-legs", "laser-boosted"):
+        assert cal[name]["ppv"] is None
+        assert cal[name]["fnr"] == pytest.approx(1.0 - s[name]["recall"], abs=1e-9)

@@ -1,9 +1,13 @@
 """``pfpeople-eval calibrate``: measure detectors' PPV and FNR against ground truth.
 
-Two sources:
+Three sources:
 
 - ``--scenario NAME``: simulate a scenario and calibrate every detector (also prints the configured miss
   rate and the label-based "oracle" values that matching should recover);
+- ``--run RUN_DIR --gt GT.csv``: a ``pfpeople run`` output directory and its ground truth (the CSV format of
+  ``pfpeople-eval score``; ``--frame`` names the GT's frame). Every detector of the run is calibrated with its
+  recorded field of view. With ``--recall-only`` (ground truth that does not annotate everybody) only the FNR
+  is measured: unannotated people would count as false positives;
 - ``--truth FILE --detections FILE --detector NAME``: CSV files with a header and columns
   ``frame, x_m, y_m`` (truth: ``frame, person_id, x_m, y_m``; extra columns are ignored), positions in the
   grid's sensor frame; frames run from 0 to the largest frame number in either file (frames without rows
@@ -21,9 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from evaluation.calibration import CalibrationResult, calibrate_detector, calibrate_frames, oracle_calibration
+from evaluation.gt_csv import read_gt_csv
+from evaluation.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
 from gridbridge.grid import GridSpec
-from gridbridge.params import PAPER_DETECTORS
+from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from pfpeople.output import load_run
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -36,6 +43,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--scenario", help="built-in scenario name or scenario TOML file")
     src.add_argument("--truth", type=Path, help="ground-truth CSV (frame, person_id, x_m, y_m)")
+    src.add_argument("--run", type=Path, help="run directory written by 'pfpeople run' (with --gt)")
+    p.add_argument("--gt", type=Path, help="ground-truth CSV for --run (see evaluation.gt_csv)")
+    p.add_argument("--frame", default="grid", help="frame of the --gt positions: grid (default), laser, or a name")
+    p.add_argument("--recall-only", action="store_true", help="--gt does not annotate everybody: FNR only")
     p.add_argument("--detections", type=Path, help="detections CSV (frame, x_m, y_m) for --truth")
     p.add_argument(
         "--detector",
@@ -94,12 +105,15 @@ def _read_csv(path: Path, what: str) -> dict[int, list[tuple[float, float]]]:
     return rows
 
 
-def _print(results: dict[str, CalibrationResult], extra: dict[str, str] | None = None) -> None:
+def _print(
+    results: dict[str, CalibrationResult], extra: dict[str, str] | None = None, *, with_ppv: bool = True
+) -> None:
     print(f"{'detector':>16} {'PPV':>6} {'95% CI':>15} {'FNR':>6} {'95% CI':>15} {'TP/det':>11} {'miss/people':>12}")
     for name, r in results.items():
         c = r.counts
+        ppv = f"{r.ppv:6.3f} [{r.ppv_interval[0]:.3f},{r.ppv_interval[1]:.3f}]" if with_ppv else f"{'n/a':>6} {'':15}"
         print(
-            f"{name:>16} {r.ppv:6.3f} [{r.ppv_interval[0]:.3f},{r.ppv_interval[1]:.3f}] {r.fnr:6.3f} "
+            f"{name:>16} {ppv} {r.fnr:6.3f} "
             f"[{r.fnr_interval[0]:.3f},{r.fnr_interval[1]:.3f}] {c.n_true_positives:>5}/{c.n_detections:<5} "
             f"{c.n_missed:>5}/{c.n_people:<6} {(extra or {}).get(name, '')}"
         )
@@ -123,6 +137,37 @@ def _as_json(results: dict[str, CalibrationResult]) -> dict:
             "detected_people": c.n_detected_people,
         }
     return out
+
+
+def _calibrate_run(args: argparse.Namespace, named: dict[str, float], default_gate: float | None) -> dict:
+    """Calibrate every detector of a pipeline run against a ground-truth CSV."""
+    if args.gt is None:
+        raise ValueError("--run needs --gt")
+    run_data = load_run(args.run)
+    truth, sources, unassigned = truth_and_sources(run_data, read_gt_csv(args.gt), frame=args.frame)
+    models = {m["name"]: DetectorModel(**m) for m in run_data.meta.get("detector_models", [])}
+    unknown = set(named) - set(models)
+    if unknown:
+        raise ValueError(f"--gate names detector(s) {sorted(unknown)} that run {args.run} does not have")
+    results = {
+        name: calibrate_detector(
+            sources[name],
+            truth,
+            model=model,
+            gate=named.get(name, default_gate),
+            region=None if args.no_region else run_data.spec,
+        )
+        for name, model in models.items()
+    }
+    print(f"run {args.run} ({run_data.n_frames} frames) vs {args.gt} ({unassigned} GT rows outside the run's frames)")
+    _print(results, with_ppv=not args.recall_only)
+    matched = _as_json(results)
+    if args.recall_only:
+        print("recall only: the ground truth does not annotate everybody, so PPV is not measured (FNR only)")
+        for entry in matched.values():
+            entry["ppv"] = None
+            entry["ppv_interval"] = None
+    return {"run": str(args.run), "gt": str(args.gt), "matched": matched}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -150,6 +195,8 @@ def run(args: argparse.Namespace) -> int:
         }
         _print(results, extra)
         report = {"scenario": cfg.name, "seed": cfg.seed, "matched": _as_json(results), "labels": _as_json(oracle)}
+    elif args.run is not None:
+        report = _calibrate_run(args, named, default_gate)
     else:
         if args.detections is None:
             raise ValueError("--truth needs --detections")

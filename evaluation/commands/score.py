@@ -31,42 +31,12 @@ from numpy.typing import NDArray
 
 from evaluation.gt_csv import GroundTruth, read_gt_csv
 from evaluation.metrics import DetectionAccumulator
+from evaluation.run_truth import in_region, truth_and_sources
 from gridbridge.classify import classify_blobs
 from gridbridge.grid import GridSpec
 from pfpeople.output import RunData, load_run
-from pfpeople.sensors import Pose2D
 
-__all__ = ["gt_to_grid", "score_run"]
-
-
-def gt_to_grid(run: RunData, gt: GroundTruth, frame: str) -> NDArray[np.float64]:
-    """GT positions ``(N, 2)`` mapped into the run's grid frame."""
-    known: dict[str, list[float]] = run.meta.get("frames_in_grid", {})
-    grid_frame = run.meta.get("grid_frame", "")
-    if frame in ("grid", grid_frame):
-        return gt.xy
-    if frame == "laser":  # the driving sensor's frame, which the grid is attached to
-        return gt.xy
-    if frame not in known:
-        raise ValueError(
-            f"ground-truth frame {frame!r} is not known to run {str(run.path)!r}; use 'grid', 'laser' "
-            f"(the driving sensor) or one of {sorted(known)}"
-        )
-    x, y, yaw = known[frame]
-    return Pose2D(x=x, y=y, yaw=yaw).apply(gt.xy)
-
-
-def _region(xy: NDArray[np.float64], sector: tuple[float, float] | None, max_range: float | None) -> NDArray[np.bool_]:
-    keep = np.ones(len(xy), dtype=bool)
-    if len(xy) == 0:
-        return keep
-    if sector is not None:
-        lo, hi = (math.radians(a) for a in sector)
-        bearing = np.arctan2(xy[:, 1], xy[:, 0])
-        keep &= (bearing >= lo) & (bearing <= hi)
-    if max_range is not None:
-        keep &= np.hypot(xy[:, 0], xy[:, 1]) <= max_range
-    return keep
+__all__ = ["score_run"]
 
 
 def _occupancy(spec: GridSpec, people: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
@@ -78,14 +48,6 @@ def _occupancy(spec: GridSpec, people: NDArray[np.float64], radius: float) -> ND
             i, j = spec.to_cell(x, y)
             occ[int(i), int(j)] = True
     return occ
-
-
-def _group(frames: NDArray[np.int64], xy: NDArray[np.float64], n: int) -> list[NDArray[np.float64]]:
-    out: list[list[tuple[float, float]]] = [[] for _ in range(n)]
-    for f, p in zip(frames, xy, strict=True):
-        if 0 <= f < n:
-            out[int(f)].append((float(p[0]), float(p[1])))
-    return [np.asarray(o, dtype=float).reshape(-1, 2) for o in out]
 
 
 def score_run(
@@ -109,34 +71,18 @@ def score_run(
         and ``"filter"``; a summary has frames, tp, fp, fn, recall and (unless ``recall_only``) precision and,
         for the filter, fpcpf.
     """
-    if sector is not None and not sector[0] < sector[1]:
-        raise ValueError(f"--sector needs DEG_MIN < DEG_MAX, got {sector}")
-    if max_range is not None and not max_range > 0:
-        raise ValueError(f"--max-range must be positive, got {max_range}")
+    truth, sources, unassigned = truth_and_sources(
+        run, gt, frame=frame, sector=sector, max_range=max_range, tolerance_ns=tolerance_ns
+    )
     n = run.n_frames
-    fr = run.frames
-    rows_frame, unassigned = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
-    gt_xy = gt_to_grid(run, gt, frame)
-    truth = _group(rows_frame, gt_xy, n)
-    truth = [t[_region(t, sector, max_range)] for t in truth]
-    names = list(run.meta["detectors"])
-    det = run.detections
-    sources: dict[str, list[NDArray[np.float64]]] = {}
-    for name in names:
-        sel = det["detector"] == name
-        xy = np.column_stack((det["x_m"][sel], det["y_m"][sel]))
-        sources[name] = _group(det["frame"][sel], xy, n)
-    ppl = run.people
-    sources["filter"] = _group(ppl["frame"], np.column_stack((ppl["x_m"], ppl["y_m"])), n)
     spec = run.spec
     gx, gy = spec.cell_centres()
-    cell_region = _region(np.column_stack((gx.ravel(), gy.ravel())), sector, max_range).reshape(spec.shape)
+    cell_region = in_region(np.column_stack((gx.ravel(), gy.ravel())), sector, max_range).reshape(spec.shape)
     scores: dict[str, Any] = {}
     for name, per_frame in sources.items():
         acc = DetectionAccumulator(gate=gate)
         for k in range(n):
             d = per_frame[k]
-            d = d[_region(d, sector, max_range)]
             classified = occupancy = None
             if name == "filter" and not recall_only:
                 classified = classify_blobs(np.asarray(run.grids[k], dtype=float), spec=spec).mask & cell_region

@@ -31,7 +31,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     kind = "grid"               # "grid" (gridbridge.GridFilter) or "particle" (pfpeople.ParticleFilter)
     form = "paper"              # GridFilter form
     initial = 0.5
-    n_particles = 2000
+    n_particles = 5000           # at least ~5 per cell (see pfpeople.particle_filter)
     seed = 0
 
     [[detectors]]
@@ -144,7 +144,7 @@ class FilterConfig:
     initial : float
         Initial belief of every cell.
     n_particles : int
-        Number of particles (particle filter only).
+        Number of particles (particle filter only); at least the number of cells, ~5 per cell advised.
     seed : int
         Seed of the particle filter's ``numpy.random.Generator``.
     """
@@ -152,7 +152,7 @@ class FilterConfig:
     kind: str = "grid"
     form: str = "paper"
     initial: float = 0.5
-    n_particles: int = 2000
+    n_particles: int = 5000
     seed: int = 0
 
     def __post_init__(self) -> None:

@@ -1,0 +1,95 @@
+"""A pipeline run (``pfpeople run``) next to its ground truth, frame by frame, in the run's grid frame.
+
+Used by ``pfpeople-eval score`` and ``pfpeople-eval calibrate --run``: ground-truth rows are assigned to the
+run's frames (:meth:`evaluation.gt_csv.GroundTruth.assign`), mapped into the grid frame, and limited to an
+optional bearing sector and range; each detector's detections (``detections.csv``) and the filter's classified
+people (``people.csv``) are grouped per frame the same way.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evaluation.gt_csv import GroundTruth
+from pfpeople.output import RunData
+from pfpeople.sensors import Pose2D
+
+__all__ = ["group_by_frame", "gt_to_grid", "in_region", "truth_and_sources"]
+
+
+def gt_to_grid(run: RunData, gt: GroundTruth, frame: str) -> NDArray[np.float64]:
+    """GT positions ``(N, 2)`` mapped into the run's grid frame."""
+    known: dict[str, list[float]] = run.meta.get("frames_in_grid", {})
+    grid_frame = run.meta.get("grid_frame", "")
+    if frame in ("grid", grid_frame):
+        return gt.xy
+    if frame == "laser":  # the driving sensor's frame, which the grid is attached to
+        return gt.xy
+    if frame not in known:
+        raise ValueError(
+            f"ground-truth frame {frame!r} is not known to run {str(run.path)!r}; use 'grid', 'laser' "
+            f"(the driving sensor) or one of {sorted(known)}"
+        )
+    x, y, yaw = known[frame]
+    return Pose2D(x=x, y=y, yaw=yaw).apply(gt.xy)
+
+
+def in_region(
+    xy: NDArray[np.float64], sector: tuple[float, float] | None, max_range: float | None
+) -> NDArray[np.bool_]:
+    keep = np.ones(len(xy), dtype=bool)
+    if len(xy) == 0:
+        return keep
+    if sector is not None:
+        lo, hi = (math.radians(a) for a in sector)
+        bearing = np.arctan2(xy[:, 1], xy[:, 0])
+        keep &= (bearing >= lo) & (bearing <= hi)
+    if max_range is not None:
+        keep &= np.hypot(xy[:, 0], xy[:, 1]) <= max_range
+    return keep
+
+
+def group_by_frame(frames: NDArray[np.int64], xy: NDArray[np.float64], n: int) -> list[NDArray[np.float64]]:
+    out: list[list[tuple[float, float]]] = [[] for _ in range(n)]
+    for f, p in zip(frames, xy, strict=True):
+        if 0 <= f < n:
+            out[int(f)].append((float(p[0]), float(p[1])))
+    return [np.asarray(o, dtype=float).reshape(-1, 2) for o in out]
+
+
+def truth_and_sources(
+    run: RunData,
+    gt: GroundTruth,
+    *,
+    frame: str = "grid",
+    sector: tuple[float, float] | None = None,
+    max_range: float | None = None,
+    tolerance_ns: int = 50_000_000,
+) -> tuple[list[NDArray[np.float64]], dict[str, list[NDArray[np.float64]]], int]:
+    """Per frame: true positions and, per source (each detector and ``"filter"``), positions (m, grid frame).
+
+    Returns ``(truth, sources, unassigned)``: ``truth[k]`` is ``(P, 2)``, ``sources[name][k]`` is ``(M, 2)``,
+    both limited to the sector and range; ``unassigned`` counts GT rows outside the run's frames.
+    """
+    if sector is not None and not sector[0] < sector[1]:
+        raise ValueError(f"--sector needs DEG_MIN < DEG_MAX, got {sector}")
+    if max_range is not None and not max_range > 0:
+        raise ValueError(f"--max-range must be positive, got {max_range}")
+    n = run.n_frames
+    fr = run.frames
+    rows_frame, unassigned = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    truth = group_by_frame(rows_frame, gt_to_grid(run, gt, frame), n)
+    truth = [t[in_region(t, sector, max_range)] for t in truth]
+    det = run.detections
+    sources: dict[str, list[NDArray[np.float64]]] = {}
+    for name in run.meta["detectors"]:
+        sel = det["detector"] == name
+        sources[name] = group_by_frame(det["frame"][sel], np.column_stack((det["x_m"][sel], det["y_m"][sel])), n)
+    ppl = run.people
+    sources["filter"] = group_by_frame(ppl["frame"], np.column_stack((ppl["x_m"], ppl["y_m"])), n)
+    for name, per_frame in sources.items():
+        sources[name] = [d[in_region(d, sector, max_range)] for d in per_frame]
+    return truth, sources, unassigned
