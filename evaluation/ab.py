@@ -48,6 +48,7 @@ __all__ = [
     "FilterSpec",
     "default_filters",
     "format_table",
+    "particles_label",
     "run_ab",
 ]
 
@@ -86,8 +87,11 @@ class FilterSpec:
             raise ValueError(f"FilterSpec.kind must be 'grid' or 'particle', got {self.kind!r}")
         if self.form not in ("paper", "linear"):
             raise ValueError(f"FilterSpec.form must be 'paper' or 'linear', got {self.form!r}")
-        if self.n_particles < 1:
-            raise ValueError(f"FilterSpec.n_particles must be positive, got {self.n_particles!r}")
+        n = self.n_particles
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+            raise ValueError(f"FilterSpec.n_particles must be a positive integer, got {n!r}")
+        if self.motion_model not in ("paper", "persistent"):
+            raise ValueError(f"FilterSpec.motion_model must be 'paper' or 'persistent', got {self.motion_model!r}")
 
     def build(self, spec: GridSpec, detectors: Sequence[DetectorModel], seed: int) -> StepFilter:
         """A fresh filter for ``spec`` and ``detectors``; particle filters draw from ``default_rng(seed)``."""
@@ -104,11 +108,21 @@ class FilterSpec:
         )
 
 
+def particles_label(n: int) -> str:
+    """Row label of a particle filter with ``n`` particles, e.g. ``particles 5e3``.
+
+    The exact count (``particles 12345``) when one significant digit would round it: two counts must not share
+    a label (it names the figure files).
+    """
+    short = f"{n:.0e}".replace("e+0", "e").replace("e+", "e")
+    return f"particles {short if float(short) == n else n}"
+
+
 def default_filters(particle_counts: Iterable[int] = (5_000, 50_000)) -> list[FilterSpec]:
     """Grid filter (paper and linear form) and the particle filter at each count."""
     out = [FilterSpec(name="grid (paper)", form="paper"), FilterSpec(name="grid (linear)", form="linear")]
     for n in particle_counts:
-        out.append(FilterSpec(name=f"particles {n:.0e}".replace("e+0", "e"), kind="particle", n_particles=n))
+        out.append(FilterSpec(name=particles_label(n), kind="particle", n_particles=n))
     return out
 
 
@@ -149,7 +163,7 @@ def score_detectors(frames: Sequence[Frame], spec: GridSpec, models: Sequence[De
         for fr in frames:
             _, truth = _people_in_grid(fr, spec)
             det = fr.outputs[i].positions
-            det = det[spec.contains(det[:, 0], det[:, 1])] if len(det) else det
+            det = det[spec.contains(det[:, 0], det[:, 1])]
             cells = rasterise(spec, det) > 0
             acc.add(det, truth, classified=cells, occupancy=fr.truth_grid)
         out[model.name] = acc.summary()
@@ -289,10 +303,10 @@ def run_ab(
     blob_params = BlobParams() if blob_params is None else blob_params
     spec = scenario.spec
     models = scenario.config.detector_models
-    frames = list(_progress(scenario.frames(), progress, "simulate", len(scenario)))
     for k in figure_frames:
-        if not 0 <= k < len(frames):
-            raise ValueError(f"figure frame {k} is outside the scenario's {len(frames)} frames")
+        if not 0 <= k < len(scenario):
+            raise ValueError(f"figure frame {k} is outside the scenario's {len(scenario)} frames")
+    frames = list(_progress(scenario.frames(), progress, "simulate", len(scenario)))
     detector_scores = score_detectors(frames, spec, models, gate)
     runs = []
     for fs in filters:
@@ -322,7 +336,15 @@ def run_ab(
             for k in figure_frames:
                 for run in runs:
                     path = out_dir / f"fig6_frame{k:04d}_{_slug(run.name)}.png"
-                    fig6_panels(frames[k], run.snapshots[k], spec, models, path, title=f"{run.name}, frame {k}")
+                    fig6_panels(
+                        frames[k],
+                        run.snapshots[k],
+                        spec,
+                        models,
+                        path,
+                        title=f"{run.name}, frame {k}",
+                        blob_params=blob_params,
+                    )
                     result.figure_paths.append(path)
         result.record_path = write_record(
             result, scenario, filters, out_dir / "run.json", gate=gate, seed=seed, blob_params=blob_params

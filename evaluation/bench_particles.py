@@ -35,6 +35,7 @@ import numpy as np  # noqa: E402
 from filterpy.monte_carlo import systematic_resample  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
+from evaluation.bench_grid import FORMS  # noqa: E402
 from gridbridge import GridFilter, Odometry  # noqa: E402
 from pfpeople.particle_filter import ParticleFilter  # noqa: E402
 
@@ -92,8 +93,8 @@ def measure(sizes: Sequence[int], repeats: int, warmup: int, baseline_max: int) 
     """
     _pf_case(max(sizes), 3, 1)  # untimed: lets the process grow its heap once, so the first row is not penalised
     grid = {}
-    for form in ("paper", "linear"):
-        gf = GridFilter(form="paper" if form == "paper" else "linear")
+    for form in FORMS:
+        gf = GridFilter(form=form)
         grid[form], _ = _time_steps(functools.partial(gf.step, DETECTIONS, ODOMETRY, DT), warmup, repeats)
     rows = []
     for n in sizes:

@@ -4,7 +4,8 @@ The paper found PPV and FNR "experimentally" (Batista & Pereira 2015, Sect. 3.2,
 filter as P(D_i | p) = PPV where detector i fires and FNR where it does not (eqs. 13-14). Here:
 
 - detections and true people of one frame are matched one-to-one by the Hungarian algorithm
-  (:func:`scipy.optimize.linear_sum_assignment`) on their distances, pairs farther than a gate are refused;
+  (:func:`evaluation.metrics.assign_one_to_one`: most pairs, then least total distance); pairs farther than a
+  gate are refused;
   ``metric = "euclidean"`` gates in metres (default 0.5 m, for lasers); ``metric = "mahalanobis"`` gates in
   standard deviations of the model's line-of-sight Gaussian (``sigma_lateral`` across, ``sigma_range``
   along the ray from the detector to the true person; default 3.0), for the camera's large range error;
@@ -28,9 +29,9 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 from scipy.stats import norm
 
+from evaluation.metrics import assign_one_to_one
 from evaluation.scenarios.sensors import in_field_of_view
 from gridbridge._validate import check_positions, check_positive, check_probability
 from gridbridge.grid import GridSpec
@@ -185,7 +186,7 @@ def match_detections(
     metric: Literal["euclidean", "mahalanobis"] = "euclidean",
     model: DetectorModel | None = None,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """One-to-one matching of detections to true people within a gate (Hungarian, minimum total distance).
+    """One-to-one matching of detections to true people within a gate (most pairs, then minimum total distance).
 
     Parameters
     ----------
@@ -212,14 +213,8 @@ def match_detections(
         raise ValueError(f"metric must be 'euclidean' or 'mahalanobis', got {metric!r}")
     if metric == "mahalanobis" and model is None:
         raise ValueError("metric='mahalanobis' needs a model (its sigma_lateral / sigma_range)")
-    empty = np.zeros(0, dtype=np.intp)
-    if det.shape[0] == 0 or tru.shape[0] == 0:
-        return empty, empty
     dist = _distances(det, tru, metric, model)
-    cost = np.where(dist <= gate, dist, gate * 1e3 + 1e6)
-    rows, cols = linear_sum_assignment(cost)
-    ok = dist[rows, cols] <= gate
-    return rows[ok].astype(np.intp), cols[ok].astype(np.intp)
+    return assign_one_to_one(dist, dist <= gate)
 
 
 def _in_view(model: DetectorModel | None, pts: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -339,27 +334,34 @@ def calibrate_frames(
 ) -> dict[str, CalibrationResult]:
     """Calibrate every detector of simulated frames (:class:`evaluation.scenarios.Frame`) by matching.
 
-    ``gates`` maps detector name to gate (units as :func:`calibrate_detector` with ``metric="auto"``).
-    Frames are consumed once (works with a lazy :class:`~evaluation.scenarios.Scenario`).
+    ``gates`` maps detector name to gate (units as :func:`calibrate_detector` with ``metric="auto"``); a name
+    that is not one of ``models`` raises ``ValueError``. Frames are consumed once (works with a lazy
+    :class:`~evaluation.scenarios.Scenario`).
     """
     gates = dict(gates or {})
+    unknown = set(gates) - {m.name for m in models}
+    if unknown:
+        raise ValueError(f"gates names unknown detector(s) {sorted(unknown)}")
+    resolved = {m.name: _resolve_metric("auto", gates.get(m.name), m) for m in models}
     totals = {m.name: CalibrationCounts(0, 0, 0, 0, 0) for m in models}
-    for frame in frames:
+    for t, frame in enumerate(frames):
         detections = frame.detections  # type: ignore[attr-defined]
         people = frame.people  # type: ignore[attr-defined]
         if len(detections) != len(models):
-            raise ValueError(f"frame has {len(detections)} detectors, models has {len(models)}")
+            raise ValueError(f"frame {t}: has {len(detections)} detectors, models has {len(models)}")
         for model, det in zip(models, detections, strict=True):
-            totals[model.name] = totals[model.name] + frame_counts(
-                det, people, model=model, gate=gates.get(model.name), region=region
-            )
-    out = {}
-    for model in models:
-        metric, gate = _resolve_metric("auto", gates.get(model.name), model)
-        out[model.name] = CalibrationResult.from_counts(
-            model.name, totals[model.name], confidence=confidence, metric=metric, gate=gate
+            metric, gate = resolved[model.name]
+            try:
+                counts = frame_counts(det, people, model=model, gate=gate, metric=metric, region=region)
+            except ValueError as exc:
+                raise ValueError(f"frame {t}, detector {model.name!r}: {exc}") from exc
+            totals[model.name] = totals[model.name] + counts
+    return {
+        m.name: CalibrationResult.from_counts(
+            m.name, totals[m.name], confidence=confidence, metric=resolved[m.name][0], gate=resolved[m.name][1]
         )
-    return out
+        for m in models
+    }
 
 
 def oracle_calibration(

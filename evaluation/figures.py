@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from evaluation.scenarios.scenario import Frame
 from gridbridge import GridSpec
-from gridbridge.classify import classify_blobs
+from gridbridge.classify import BlobParams, classify_blobs
 from gridbridge.filter import FilterStep
 from gridbridge.params import DetectorModel
 
@@ -42,9 +42,13 @@ def fig6_panels(
     path: Path,
     *,
     title: str = "",
+    blob_params: BlobParams | None = None,
 ) -> Path:
-    """Draw one frame's stages as a row of panels and save a PNG at ``path``."""
-    cls = classify_blobs(step.posterior, spec=spec)
+    """Draw one frame's stages as a row of panels and save a PNG at ``path``.
+
+    The "classified people" panel classifies the posterior with ``blob_params`` (default the paper's).
+    """
+    cls = classify_blobs(step.posterior, spec=spec, params=blob_params)
     panels: list[tuple[str, NDArray[np.float64], str]] = [
         ("ground truth", frame.truth_grid.astype(float), "Reds"),
         ("people prior", step.people_prior, "Greys"),

@@ -46,6 +46,7 @@ from gridbridge._validate import check_positions
 __all__ = [
     "DetectionAccumulator",
     "Match",
+    "assign_one_to_one",
     "brier_score",
     "false_positive_cells",
     "fpcpf",
@@ -83,7 +84,7 @@ class Match:
     pairs : ndarray, shape (tp, 2), int
         ``(detection index, person index)`` of each matched pair.
     distances : ndarray, shape (tp,)
-        Distance (m) of each matched pair (NaN with ``rule='overlap'`` when positions are not given).
+        Distance (m) between the positions of each matched pair (with ``rule='overlap'`` too).
     """
 
     tp: int
@@ -142,16 +143,40 @@ def match_people(
         overlap = np.einsum("kij,pij->kp", dm.astype(np.int64), tm.astype(np.int64)) if k and p else dist
         feasible = overlap > 0
         score = -overlap.astype(float)
-    if k == 0 or p == 0 or not feasible.any():
-        return Match(tp=0, fp=k, fn=p, pairs=np.zeros((0, 2), dtype=np.intp), distances=np.zeros(0))
-    # Price infeasible pairs above any total of feasible ones: maximum cardinality first, then best score.
+    rows, cols = assign_one_to_one(score, feasible)
+    pairs = np.stack([rows, cols], axis=1)
+    tp = int(rows.size)
+    return Match(tp=tp, fp=k - tp, fn=p - tp, pairs=pairs, distances=dist[rows, cols])
+
+
+def assign_one_to_one(
+    score: NDArray[np.float64], feasible: NDArray[np.bool_]
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """One-to-one assignment of rows to columns among ``feasible`` pairs (Hungarian algorithm).
+
+    Maximises the number of pairs first, then minimises the total ``score`` of the pairs
+    (:func:`scipy.optimize.linear_sum_assignment` with infeasible pairs priced above any total of feasible ones).
+
+    Parameters
+    ----------
+    score : ndarray, shape (K, P)
+        Cost of each pair (e.g. a distance); only feasible entries are used.
+    feasible : ndarray of bool, shape (K, P)
+        Which pairs may be matched.
+
+    Returns
+    -------
+    rows, cols : ndarray of int, shape (T,)
+        The matched pairs, in increasing row order.
+    """
+    empty = np.zeros(0, dtype=np.intp)
+    if not feasible.any():
+        return empty, empty
     span = float(np.abs(score[feasible]).sum()) + 1.0
-    cost = np.where(feasible, score, 2.0 * span * (1 + min(k, p)))
+    cost = np.where(feasible, score, 2.0 * span * (1 + min(feasible.shape)))
     rows, cols = linear_sum_assignment(cost)
     keep = feasible[rows, cols]
-    pairs = np.stack([rows[keep], cols[keep]], axis=1).astype(np.intp)
-    tp = int(keep.sum())
-    return Match(tp=tp, fp=k - tp, fn=p - tp, pairs=pairs, distances=dist[pairs[:, 0], pairs[:, 1]])
+    return rows[keep].astype(np.intp), cols[keep].astype(np.intp)
 
 
 def recall(tp: int, fn: int) -> float:
@@ -391,8 +416,7 @@ class DetectionAccumulator:
         self.tp += match.tp
         self.fp += match.fp
         self.fn += match.fn
-        if match.tp and np.all(np.isfinite(match.distances)):
-            self.error_sum += float(match.distances.sum())
+        self.error_sum += float(match.distances.sum())
         if fp_cells is not None:
             self.fp_cells += fp_cells
             self.fp_cell_frames += 1
@@ -463,6 +487,8 @@ def tracking_summary(
         the gate), ``mean_error_m``, ``median_error_m``, ``max_error_m`` (over tracked frames),
         ``all_missed_frames`` and ``held_while_all_missed`` (tracked and correct in those frames).
     """
+    if not (math.isfinite(gate) and gate >= 0):
+        raise ValueError(f"gate must be a finite non-negative distance (m), got {gate!r}")
     tr = np.asarray(tracked)
     if tr.dtype != bool or tr.ndim != 1:
         raise ValueError(f"tracked must be a 1-D bool array, got {tr.dtype} {tr.shape}")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,9 +28,9 @@ MOVING = Odometry(v=0.75, omega=0.3)
 NOISELESS = SensorMotionNoise.noiseless()
 
 
-def grid_belief(odo: Odometry | None, form: str) -> NDArray[np.float64]:
-    """The grid filter's belief after ``FRAMES`` steps (``form`` "paper" or "linear")."""
-    gf = GridFilter(form="paper" if form == "paper" else "linear", noise=NOISELESS)
+def grid_belief(odo: Odometry | None, form: Literal["paper", "linear"]) -> NDArray[np.float64]:
+    """The grid filter's belief after ``FRAMES`` steps."""
+    gf = GridFilter(form=form, noise=NOISELESS)
     for _ in range(FRAMES):
         gf.step(DETECTIONS, odo, 0.1)
     return gf.belief

@@ -39,6 +39,6 @@ def run(prog: str, description: str, commands: ModuleType, argv: Sequence[str] |
     )
     try:
         return int(args.func(args) or 0)
-    except (ValueError, FileNotFoundError, KeyError) as exc:
+    except (ValueError, OSError, KeyError) as exc:  # bad input or files: a message, not a traceback
         print(f"{prog} {args.command}: error: {exc}", file=sys.stderr)
         return 2

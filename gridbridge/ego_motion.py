@@ -144,7 +144,10 @@ def warp_belief(
     """
     bel = spec.check_grid(belief, "belief")
     outside = check_probability(outside, "outside")
-    p = np.asarray(poses, dtype=float).reshape(-1, 3)
+    p = np.asarray(poses, dtype=float)
+    if p.ndim not in (1, 2) or p.shape[-1] != 3 or p.size == 0:
+        raise ValueError(f"poses must have shape (S, 3) or (3,) of (dx, dy, dtheta), S >= 1, got {p.shape}")
+    p = p.reshape(-1, 3)
     if not np.all(np.isfinite(p)):
         raise ValueError("poses contain NaN or infinite values")
     w = np.full(len(p), 1.0 / len(p)) if weights is None else np.asarray(weights, dtype=float).ravel()

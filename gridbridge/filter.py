@@ -27,7 +27,7 @@ from gridbridge.measurement import bayes_update, likelihood_from_detections
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
 from gridbridge.people_motion import people_motion_kernel, predict_people
 
-__all__ = ["FilterStep", "GridFilter", "as_odometry"]
+__all__ = ["FilterStep", "GridFilter", "as_odometry", "filter_models"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,10 +62,35 @@ def as_odometry(odometry: Odometry | tuple[float, float] | None) -> Odometry | N
     if odometry is None or isinstance(odometry, Odometry):
         return odometry
     try:
-        v, omega = odometry
+        v, omega = (float(c) for c in odometry)
     except (TypeError, ValueError):
         raise ValueError(f"odometry must be Odometry, a (v, omega) pair or None, got {odometry!r}") from None
-    return Odometry(v=float(v), omega=float(omega))
+    return Odometry(v=v, omega=omega)
+
+
+def filter_models(
+    spec: GridSpec | None,
+    detectors: Sequence[DetectorModel],
+    motion: PeopleMotion | None,
+    noise: SensorMotionNoise | None,
+) -> tuple[GridSpec, tuple[DetectorModel, ...], PeopleMotion, SensorMotionNoise]:
+    """A filter's grid, detectors and models with the defaults filled in; ValueError naming a wrong type.
+
+    Shared by :class:`GridFilter` and the particle filter, which take the same arguments.
+    """
+    spec_ = GridSpec() if spec is None else spec
+    if not isinstance(spec_, GridSpec):
+        raise ValueError(f"spec must be a GridSpec, got {type(spec).__name__}")
+    dets = tuple(detectors)
+    if not dets or not all(isinstance(d, DetectorModel) for d in dets):
+        raise ValueError("detectors must be a non-empty sequence of DetectorModel")
+    motion_ = PeopleMotion() if motion is None else motion
+    if not isinstance(motion_, PeopleMotion):
+        raise ValueError(f"motion must be a PeopleMotion, got {type(motion).__name__}")
+    noise_ = SensorMotionNoise() if noise is None else noise
+    if not isinstance(noise_, SensorMotionNoise):
+        raise ValueError(f"noise must be a SensorMotionNoise, got {type(noise).__name__}")
+    return spec_, dets, motion_, noise_
 
 
 class GridFilter:
@@ -103,14 +128,7 @@ class GridFilter:
         initial: float = 0.5,
         outside: float = 0.5,
     ) -> None:
-        self.spec = GridSpec() if spec is None else spec
-        if not isinstance(self.spec, GridSpec):
-            raise ValueError(f"spec must be a GridSpec, got {type(spec).__name__}")
-        self.detectors = tuple(detectors)
-        if not self.detectors or not all(isinstance(d, DetectorModel) for d in self.detectors):
-            raise ValueError("detectors must be a non-empty sequence of DetectorModel")
-        self.motion = PeopleMotion() if motion is None else motion
-        self.noise = SensorMotionNoise() if noise is None else noise
+        self.spec, self.detectors, self.motion, self.noise = filter_models(spec, detectors, motion, noise)
         check_choice(form, "form", ("paper", "linear"))
         self.form: Literal["paper", "linear"] = form
         default_kernel: Literal["paper", "integrated"] = "paper" if form == "paper" else "integrated"

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gridbridge._validate import check_grid_array
+
 __all__ = ["GridSpec"]
 
 
@@ -127,6 +129,4 @@ class GridSpec:
         ValueError
             Naming ``name`` and what is wrong.
         """
-        from gridbridge._validate import check_grid_array
-
         return check_grid_array(array, name, shape=self.shape, probability=probability)

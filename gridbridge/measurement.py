@@ -152,10 +152,13 @@ def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) ->
     return fired
 
 
-def detector_likelihood(fired: ArrayLike, ppv: float, fnr: float) -> NDArray[np.float64]:
-    """P(D_i | p) per cell: PPV where the detector fired, FNR where not (expectation for soft firing)."""
+def detector_likelihood(fired: ArrayLike, ppv: ArrayLike, fnr: ArrayLike) -> NDArray[np.float64]:
+    """P(D_i | p) per cell: PPV where the detector fired, FNR where not (expectation for soft firing).
+
+    ``ppv`` and ``fnr`` are one detector's numbers, or arrays broadcasting against ``fired``.
+    """
     q = check_grid_array(fired, "fired", ndim=None)
-    return q * ppv + (1.0 - q) * fnr
+    return q * np.asarray(ppv, dtype=float) + (1.0 - q) * np.asarray(fnr, dtype=float)
 
 
 def fuse_detectors(
@@ -280,6 +283,6 @@ def likelihood_from_detections(
             covered[i] |= fired[i] > 0.0
     ppv = np.array([m.ppv for m in detectors])
     fnr = np.array([m.fnr for m in detectors])
-    per_det = np.where(covered, fired * ppv[:, None, None] + (1.0 - fired) * fnr[:, None, None], 0.5)
+    per_det = np.where(covered, detector_likelihood(fired, ppv[:, None, None], fnr[:, None, None]), 0.5)
     fused = fuse_detectors(fired, ppv, fnr, covered=covered)
     return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)

@@ -213,10 +213,10 @@ def apply_ego_motion(state: ParticleState, poses: NDArray[np.float64]) -> None:
         an exact draw from the motion model, and particles ``S`` apart in the arrays share it. (The poses are
         i.i.d., so a fixed assignment needs no further randomness.)
     """
-    p = np.asarray(poses, dtype=float).reshape(-1, 3)
+    p = np.asarray(poses, dtype=float)
     n = state.size
-    if len(p) == 0 or len(p) > max(n, 1):
-        raise ValueError(f"poses must hold between 1 and N={n} displacements, got {len(p)}")
+    if p.ndim != 2 or p.shape[1] != 3 or not 1 <= len(p) <= max(n, 1):
+        raise ValueError(f"poses must have shape (S, 3) with 1 <= S <= N={n}, got {p.shape}")
     cos_t, sin_t = np.cos(p[:, 2]), np.sin(p[:, 2])
     x, y, vx, vy = state.x, state.y, state.vx, state.vy
     out = np.empty((4, n))

@@ -84,13 +84,14 @@ def _json_default(obj: object) -> object:
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
-def _finite_or_none(value: Any) -> Any:
+def _json_safe(value: Any) -> Any:
+    """``value`` with every non-finite float written as a string (``"inf"``, ``"-inf"``, ``"nan"``): strict JSON."""
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
     if isinstance(value, dict):
-        return {k: _finite_or_none(v) for k, v in value.items()}
+        return {k: _json_safe(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_finite_or_none(v) for v in value]
+        return [_json_safe(v) for v in value]
     return value
 
 
@@ -156,7 +157,7 @@ class RunWriter:
 
     def _write_json(self) -> None:
         tmp = self.path / "run.json.tmp"
-        tmp.write_text(json.dumps(_finite_or_none(self._meta), indent=2, default=_json_default) + "\n")
+        tmp.write_text(json.dumps(_json_safe(self._meta), indent=2, default=_json_default) + "\n")
         tmp.replace(self.path / "run.json")
 
     def __enter__(self) -> RunWriter:

@@ -4,7 +4,9 @@ Per frame (driven by the config's ``driver`` topic, see :mod:`pfpeople.bag.sync`
 
 1. Inputs: each detector's input message is chosen by its sync policy; a detector whose input is missing
    (nothing within the tolerance), empty (a LaserScan with no beams) or undecodable has **no data** in the
-   frame: its entry is ``None`` and the filter treats it as covering no cell (counted and logged once).
+   frame: its entry is ``None`` and the filter treats it as covering no cell (counted and logged once). A
+   ``topic`` detector with ``assign = "preceding"`` and no message in the frame detected nobody (an empty
+   array): such topics typically publish only when someone is detected.
 2. Detections: built-in detectors (``leg``, ``boosted``, ``hog``) run on the converted message; ``topic``
    detectors read positions from the messages. Positions are mapped from the detector's frame to the grid
    frame by the 2-D TF mount, which is also written into the detector's ``DetectorModel`` (``mount_x``,
@@ -18,12 +20,14 @@ Per frame (driven by the config's ``driver`` topic, see :mod:`pfpeople.bag.sync`
 
    (exact for motion on an arc; the lateral part ``-dx sin(dtheta/2) + dy cos(dtheta/2)``, which a sensor
    mounted off the rotation axis can have, is not representable by (v, omega); its largest magnitude is
-   reported in the run statistics). Without odometry the robot is taken as standing (logged once).
+   reported in the run statistics). Without odometry the robot is taken as standing (logged once); after a
+   frame without odometry, the next frame with odometry moves the grid by the whole displacement since the
+   last frame that had it, so no motion is lost.
 4. Filter step (``GridFilter`` or ``ParticleFilter``, same ``step`` signature), the paper's blob
    classification of the belief (:func:`gridbridge.classify.classify_blobs`), and one frame of output.
 
 The first frame uses ``dt = 0.1 s`` (the paper's step; the initial belief is uniform, so the prediction has no
-effect there). A gap between frames longer than ``max_gap_s`` restarts the filter (counted; a prediction over
+effect there). A gap between frames longer than ``MAX_GAP_S`` restarts the filter (counted; a prediction over
 a long gap would be meaningless and its kernel very large).
 """
 
@@ -32,11 +36,12 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import inspect
+import itertools
 import logging
 import math
 import time
 import typing
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
@@ -55,7 +60,6 @@ from pfpeople.bag.reader import (
     LASER_TYPES,
     ODOMETRY_TYPES,
     BagMessage,
-    BagReadError,
     BagSource,
     image_from_msg,
     laser_from_msg,
@@ -151,8 +155,9 @@ def build_detector(cfg: DetectorConfig, mount: Pose2D) -> Detector | None:
     kwargs = _kwargs_from_table(cls, cfg.params)
     if cfg.kind in _SELF_MOUNTED:
         kwargs.setdefault("mounting", mount)
-    base: DetectorModel = cls(**kwargs).model
-    return cls(**kwargs, model=_model_for(cfg, mount, base))
+    det: Detector = cls(**kwargs)  # built once: the boosted detector loads its model file here
+    det.model = _model_for(cfg, mount, det.model)
+    return det
 
 
 def _model_for(cfg: DetectorConfig, mount: Pose2D, base: DetectorModel | None) -> DetectorModel:
@@ -185,6 +190,11 @@ def make_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detect
         rng=np.random.default_rng(config.seed),
         initial=config.initial,
     )
+
+
+def _check_max_frames(max_frames: int | None) -> None:
+    if max_frames is not None and (isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < 0):
+        raise ValueError(f"max_frames must be a non-negative integer or None, got {max_frames!r}")
 
 
 def _interpolate(a: tuple[int, Pose2D], b: tuple[int, Pose2D], t: int) -> Pose2D:
@@ -450,8 +460,9 @@ class Pipeline:
         assert self._base_to_grid is not None
         return base.compose(self._base_to_grid)
 
-    def frames(self, bag: BagSource, *, max_frames: int | None = None) -> Iterator[FrameResult]:
+    def frames(self, bag: BagSource, *, max_frames: int | None = None) -> Generator[FrameResult, None, None]:
         """Process the bag frame by frame (call :meth:`prepare` first, or let this call it)."""
+        _check_max_frames(max_frames)
         if self.filter is None:
             self.prepare(bag)
         assert self.filter is not None
@@ -471,8 +482,7 @@ class Pipeline:
         sync = FrameAssembler(c.driver, policies, tolerance_ns=c.sync_tolerance_ns, max_pending=c.max_pending_frames)
         use_bag_time = c.time_source == "bag"
         prev_stamp: int | None = None
-        prev_pose: Pose2D | None = None
-        done = 0
+        prev_pose: Pose2D | None = None  # the grid frame's pose in the latest frame that had odometry
 
         def process(frame: Frame) -> FrameResult:
             nonlocal prev_stamp, prev_pose
@@ -502,7 +512,9 @@ class Pipeline:
             belief = np.asarray(step.posterior, dtype=float)
             cls = classify_blobs(belief, spec=c.grid)
             people = cls.positions.reshape(-1, 2)
-            prev_stamp, prev_pose = frame.stamp_ns, pose
+            prev_stamp = frame.stamp_ns
+            if pose is not None:  # a frame without odometry keeps the last pose: its motion is not lost
+                prev_pose = pose
             s.frames += 1
             return FrameResult(
                 frame=frame,
@@ -516,21 +528,15 @@ class Pipeline:
                 step=step,
             )
 
+        def synced() -> Iterator[Frame]:
+            for m in bag.messages(self._topics()):
+                yield from sync.push(replace(m, stamp_ns=m.bag_time_ns) if use_bag_time else m)
+            yield from sync.finish()
+
         t0 = time.perf_counter()
         try:
-            for m in bag.messages(self._topics()):
-                if use_bag_time:
-                    m = BagMessage(m.topic, m.msgtype, m.index, m.bag_time_ns, m.bag_time_ns, m.frame_id, m.msg)
-                for frame in sync.push(m):
-                    yield process(frame)
-                    done += 1
-                    if max_frames is not None and done >= max_frames:
-                        return
-            for frame in sync.finish():
+            for frame in itertools.islice(synced(), max_frames):
                 yield process(frame)
-                done += 1
-                if max_frames is not None and done >= max_frames:
-                    return
         finally:
             self.summary.elapsed_s = time.perf_counter() - t0
             self.summary.sync = sync.stats
@@ -549,11 +555,14 @@ class Pipeline:
     ) -> tuple[RunSummary, list[FrameResult]]:
         """Run over ``bag``, writing ``out_dir`` (and ``bag_out``) incrementally.
 
-        A bag that turns out truncated or corrupt part-way ends the run with ``status = "failed"`` in
-        ``run.json`` and the frames processed so far kept; :class:`BagReadError` is then re-raised.
+        A run that stops part-way (a truncated or corrupt bag, :class:`~pfpeople.bag.reader.BagReadError`;
+        any other error; Ctrl-C) ends with ``status = "failed"`` and the error in ``run.json``, the frames
+        processed so far kept (and the result bag closed), and the exception re-raised.
         Returns the summary and (with ``keep=True``) every :class:`FrameResult`.
         """
+        _check_max_frames(max_frames)
         self.prepare(bag)
+        names = [d.name for d in self.config.detectors]
         writer = None
         if out_dir is not None:
             meta = {
@@ -563,33 +572,25 @@ class Pipeline:
                 "detector_models": [dataclasses.asdict(m) for m in self.models],
                 "provenance": {"bag": [str(p) for p in bag.paths], "bag_topics": bag.topics, **dict(metadata or {})},
             }
-            writer = RunWriter(
-                out_dir,
-                spec=self.config.grid,
-                detector_names=[d.name for d in self.config.detectors],
-                metadata=meta,
-                overwrite=overwrite,
-            )
+            writer = RunWriter(out_dir, spec=self.config.grid, detector_names=names, metadata=meta, overwrite=overwrite)
+        results = self.frames(bag, max_frames=max_frames)
         bag_writer = None
-        if bag_out is not None:
-            from pfpeople.bag.writer import ResultBagWriter
-
-            bag_writer = ResultBagWriter(
-                bag_out,
-                spec=self.config.grid,
-                frame_id=self.grid_frame,
-                detector_names=[d.name for d in self.config.detectors],
-            )
-        kept: list[FrameResult] = []
         bar = None
-        if progress:
-            from tqdm import tqdm
-
-            total = bag.message_counts.get(self.config.driver)
-            bar = tqdm(total=min(total, max_frames) if total and max_frames else total, unit="frame")
+        kept: list[FrameResult] = []
         status, error = "complete", None
-        try:
-            for r in self.frames(bag, max_frames=max_frames):
+        try:  # from here on, whatever stops the run is recorded in run.json and the frames written stay valid
+            if bag_out is not None:
+                from pfpeople.bag.writer import ResultBagWriter
+
+                bag_writer = ResultBagWriter(
+                    bag_out, spec=self.config.grid, frame_id=self.grid_frame, detector_names=names
+                )
+            if progress:
+                from tqdm import tqdm
+
+                total = bag.message_counts.get(self.config.driver)
+                bar = tqdm(total=total if max_frames is None or total is None else min(total, max_frames), unit="frame")
+            for r in results:
                 f = r.frame
                 if writer is not None:
                     writer.write_frame(
@@ -607,21 +608,18 @@ class Pipeline:
                         detections=r.detections,
                     )
                 if bag_writer is not None:
-                    bag_writer.write(r.frame.bag_time_ns, r.frame.stamp_ns, r.belief, r.people, r.detections)
+                    bag_writer.write(f.bag_time_ns, f.stamp_ns, r.belief, r.people, r.detections)
                 if keep:
                     kept.append(r)
                 if bar is not None:
                     bar.update(1)
-        except (BagReadError, KeyboardInterrupt) as exc:
+        except BaseException as exc:  # BaseException: an interrupted run (Ctrl-C) is recorded as failed too
             status, error = "failed", f"{type(exc).__name__}: {exc}"
             self.summary.error = error
             log.error("run stopped after %d frames: %s", self.summary.frames, error)
             raise
-        except Exception as exc:
-            status, error = "failed", f"{type(exc).__name__}: {exc}"
-            self.summary.error = error
-            raise
         finally:
+            results.close()  # ends the frame generator now, so the summary has its elapsed time and sync stats
             if bar is not None:
                 bar.close()
             if bag_writer is not None:

@@ -21,14 +21,12 @@ at ``n`` and every cell's mass unchanged.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "RESAMPLERS",
-    "Resampler",
     "effective_sample_size",
     "get_resampler",
     "multinomial",
@@ -37,12 +35,6 @@ __all__ = [
     "stratified",
     "systematic",
 ]
-
-
-class Resampler(Protocol):
-    def __call__(
-        self, weights: ArrayLike, n: int | None = None, *, rng: np.random.Generator | None = None
-    ) -> NDArray[np.intp]: ...
 
 
 def _normalised_cumsum(weights: ArrayLike) -> NDArray[np.float64]:
@@ -69,7 +61,7 @@ def _count(n: int | None, size: int) -> int:
 
 def _need_rng(rng: np.random.Generator | None) -> np.random.Generator:
     if rng is None:
-        raise ValueError("rng (a numpy.random.Generator) is required unless the offsets u are given")
+        raise ValueError("rng (a numpy.random.Generator) is required (systematic and stratified: or the offsets u)")
     return rng
 
 

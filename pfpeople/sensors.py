@@ -140,7 +140,8 @@ class CameraIntrinsics:
 
 @dataclass(frozen=True, kw_only=True, eq=False)
 class CameraImage:
-    """One camera image: ``pixels`` of shape (H, W, 3) uint8 BGR or (H, W) mono8."""
+    """One camera image: ``pixels`` of shape (H, W, 3) uint8 BGR or (H, W) mono8 ((H, W, 1) and BGRA (H, W, 4)
+    are accepted too)."""
 
     pixels: NDArray[np.uint8]
     stamp_ns: int = 0
@@ -150,5 +151,5 @@ class CameraImage:
     def __post_init__(self) -> None:
         p = np.asarray(self.pixels)
         if p.ndim not in (2, 3) or (p.ndim == 3 and p.shape[2] not in (1, 3, 4)):
-            raise ValueError(f"CameraImage.pixels must be (H, W) or (H, W, 3), got shape {p.shape}")
+            raise ValueError(f"CameraImage.pixels must be (H, W) or (H, W, 1 | 3 | 4), got shape {p.shape}")
         object.__setattr__(self, "pixels", p)

@@ -279,13 +279,15 @@ class BlobTracker:
             if near:
                 chosen, rule = self._best(near, ref), "nearest"
             else:
-                masks = [b.mask(shape) for b in cands]
-                over = [b for b, m in zip(cands, masks, strict=True) if np.any(m & self._ref_mask)]
+                # Blobs are the labels of the result's label image: read the labels under the previous blob.
+                under = set(np.unique(result.labels[self._ref_mask]).tolist())
+                over = [b for b in cands if b.label in under]
                 if over:
                     chosen, rule = self._best(over, ref), "overlap"
                 else:
                     ring = ndimage.binary_dilation(self._ref_mask, structure=np.ones((3, 3), dtype=bool))
-                    adj = [b for b, m in zip(cands, masks, strict=True) if np.any(m & ring)]
+                    near_ring = set(np.unique(result.labels[ring]).tolist())
+                    adj = [b for b in cands if b.label in near_ring]
                     if adj:
                         chosen, rule = self._best(adj, ref), "neighbour"
             if chosen is None:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from evaluation.ab import FilterSpec, format_table, run_ab
+from evaluation.ab import FilterSpec, default_filters, format_table, particles_label, run_ab
 from evaluation.cli import main as eval_main
 from evaluation.scenarios.scenario import Scenario
 from gridbridge import GridFilter
@@ -103,3 +103,20 @@ def test_evaluate_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     assert "Recall" in out and "particles" in out and str(tmp_path / "run.json") in out
     assert eval_main(["evaluate", "--frames", "0", "--out", str(tmp_path)]) == 2
     assert "--frames must be positive" in capsys.readouterr().err
+
+
+def test_particle_labels_are_unique() -> None:
+    """Labels name the figure files: 10000 and 12000 particles must not both be 'particles 1e4'."""
+    assert particles_label(5_000) == "particles 5e3" and particles_label(50_000) == "particles 5e4"
+    assert particles_label(12_000) == "particles 12000"
+    names = [f.name for f in default_filters([10_000, 12_000, 12_345])]
+    assert len(set(names)) == len(names)
+    with pytest.raises(ValueError, match="motion_model"):
+        FilterSpec(name="x", kind="particle", motion_model="brownian")  # type: ignore[arg-type]
+
+
+def test_evaluate_command_on_a_single_frame(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The default figure frames (the middle two) stay inside a one-frame scenario."""
+    args = ["evaluate", "--scenario", "default", "--frames", "1", "--particles", "--no-progress", "--out"]
+    assert eval_main([*args, str(tmp_path)]) == 0
+    assert "figures (2)" in capsys.readouterr().out  # frame 0 for each of the two grid filters

@@ -10,13 +10,14 @@ import numpy as np
 import pytest
 
 from evaluation.gt_csv import read_gt_csv
+from evaluation.run_truth import gt_to_grid
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, config_from_mapping, load_config
 from pfpeople.bag.reader import BagMessage
 from pfpeople.bag.sync import FrameAssembler
 from pfpeople.bag.tf import TfBuffer, TfLookupError, yaw_from_quaternion
-from pfpeople.output import RunWriter, load_run
+from pfpeople.output import RunData, RunWriter, load_run
 from pfpeople.pipeline import odometry_between
 from pfpeople.sensors import Pose2D
 
@@ -183,6 +184,8 @@ def test_config_round_trip_and_errors(tmp_path: Path) -> None:
         load_config(bad)
     with pytest.raises(FileNotFoundError, match=r"available: \['person_following_outdoor_1'"):
         builtin_config_path("nope")
+    with pytest.raises(ValueError, match=r"\[tf\] topics must be an array"):  # not the characters of "/tf"
+        config_from_mapping({"frames": {"driver": "/s"}, "tf": {"topics": "/tf"}})
 
 
 # -- output ----------------------------------------------------------------------------------------------------
@@ -246,6 +249,28 @@ def test_gt_csv_reading_and_frame_assignment(tmp_path: Path) -> None:
     p3.write_text("frame,person_id,x,y\n")
     with pytest.raises(ValueError, match=r"needs one of the columns \['scan_index', 'stamp_ns', 'bag_time_ns'\]"):
         read_gt_csv(p3)
+
+
+def test_gt_frames_map_into_the_grid_frame(tmp_path: Path) -> None:
+    p = tmp_path / "gt.csv"
+    p.write_text("scan_index,person_id,x_laser_m,y_laser_m\n0,1,1.0,0.0\n")
+    gt = read_gt_csv(p)
+
+    def run(grid_frame: str, frames_in_grid: dict[str, list[float]]) -> RunData:
+        meta = {"grid_frame": grid_frame, "frames_in_grid": frames_in_grid}
+        return RunData(
+            path=tmp_path, meta=meta, grids=np.zeros((0, 1, 1), np.float32), frames={}, people={}, detections={}
+        )
+
+    # Grid on the driving laser: "laser" is an alias of the grid frame.
+    np.testing.assert_allclose(
+        gt_to_grid(run("base_laser_link", {"base_laser_link": [0, 0, 0]}), gt, "laser"), [[1, 0]]
+    )
+    # Grid on base_link with a recorded "laser" frame: its mount applies.
+    mounted = run("base_link", {"base_link": [0, 0, 0], "laser": [0.2, 0.1, math.pi / 2]})
+    np.testing.assert_allclose(gt_to_grid(mounted, gt, "laser"), [[0.2, 1.1]], atol=1e-12)
+    with pytest.raises(ValueError, match="ground-truth frame 'camera' is not known"):
+        gt_to_grid(mounted, gt, "camera")
 
 
 # -- ego-motion ------------------------------------------------------------------------------------------------

@@ -50,6 +50,21 @@ def test_hungarian_matching_with_a_gate() -> None:
         match_detections(det, truth, gate=-1.0)
 
 
+def test_matching_takes_the_most_pairs_before_the_least_distance() -> None:
+    # det0 is closest to truth0, but only det0 can reach truth1: two pairs beat one shorter pair
+    det = np.array([[0.0, 0.0], [0.45, 0.0]])
+    truth = np.array([[0.05, 0.0], [-0.4, 0.0]])
+    di, ti = match_detections(det, truth, gate=0.5)
+    assert sorted(zip(di.tolist(), ti.tolist(), strict=True)) == [(0, 1), (1, 0)]
+
+
+def test_calibrate_frames_rejects_gates_of_unknown_detectors() -> None:
+    frames = list(Scenario.from_name("default", n_frames=2))
+    models = load_scenario_config("default").detector_models
+    with pytest.raises(ValueError, match="laser-leg"):
+        calibrate_frames(frames, models, gates={"laser-leg": 0.3})
+
+
 def test_mahalanobis_gate_follows_the_line_of_sight() -> None:
     truth = np.array([[5.0, 0.0]])
     # 3 m along the ray is 1.76 sd (sigma_range 1.7); 3 m across is 3 sd (sigma_lateral 1.0)

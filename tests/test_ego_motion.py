@@ -86,6 +86,8 @@ def test_sigma_points_match_control_moments() -> None:
     [
         (lambda: warp_belief(np.zeros((3, 3)), GridSpec(), [0, 0, 0]), "belief"),
         (lambda: warp_belief(np.zeros((30, 30)), GridSpec(), [0, np.nan, 0]), "poses"),
+        (lambda: warp_belief(np.zeros((30, 30)), GridSpec(), np.zeros((0, 3))), "poses"),  # was ZeroDivisionError
+        (lambda: warp_belief(np.zeros((30, 30)), GridSpec(), [0.0, 0.1]), "poses"),
         (lambda: warp_belief(np.zeros((30, 30)), GridSpec(), [[0, 0, 0]], [-1.0]), "weights"),
         (lambda: predict_sensor(np.zeros((30, 30)), GridSpec(), Odometry(v=1.0), -0.1), "dt"),
         (lambda: Odometry(v=math.inf), "Odometry.v"),

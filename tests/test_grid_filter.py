@@ -78,6 +78,7 @@ def test_reset_and_initial() -> None:
         (([[[np.nan, 1.0]], EMPTY, EMPTY], None, 0.1), "NaN"),
         (([np.zeros((2, 3)), EMPTY, EMPTY], None, 0.1), "shape"),
         (([EMPTY, EMPTY, EMPTY], "fast", 0.1), "odometry"),
+        (([EMPTY, EMPTY, EMPTY], "ab", 0.1), "odometry"),  # a pair that is not numbers
     ],
 )
 def test_bad_input_names_it_and_keeps_state(args: tuple[object, object, float], name: str) -> None:
@@ -96,4 +97,8 @@ def test_constructor_validation() -> None:
         GridFilter(detectors=[])
     with pytest.raises(ValueError, match="spec"):
         GridFilter(spec=(30, 30))  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="motion must be a PeopleMotion"):
+        GridFilter(motion={"mu": 1.4})  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="noise must be a SensorMotionNoise"):
+        GridFilter(noise=0.1)  # type: ignore[arg-type]
     assert GridFilter(GridSpec(nx=10, ny=12)).belief.shape == (10, 12)

@@ -203,3 +203,5 @@ def test_tracking_summary_hand_values():
         tracking_summary(tracked, cent[:3], truth)
     with pytest.raises(ValueError, match="tracked"):
         tracking_summary(tracked.astype(int), cent, truth)
+    with pytest.raises(ValueError, match="gate"):
+        tracking_summary(tracked, cent, truth, gate=float("nan"))  # NaN would silently count nothing correct

@@ -125,6 +125,9 @@ def test_ego_rotation_rotates_positions_and_velocities() -> None:
     st = ParticleState(x=np.array([1.0]), y=np.array([0.0]), vx=np.array([1.0]), vy=np.array([0.0]), w=np.ones(1))
     apply_ego_motion(st, np.array([[0.0, 0.0, math.pi / 2]]))  # robot turns left 90 deg
     np.testing.assert_allclose([st.x[0], st.y[0], st.vx[0], st.vy[0]], [0.0, -1.0, 0.0, -1.0], atol=1e-15)
+    for bad in (np.zeros((0, 3)), np.zeros((2, 3)), np.zeros(4)):  # none, more than N, not (S, 3)
+        with pytest.raises(ValueError, match=r"poses must have shape \(S, 3\)"):
+            apply_ego_motion(st, bad)
 
 
 def test_redraw_stays_in_cell_and_is_uniform() -> None:

@@ -144,12 +144,14 @@ def write_bag(
     scan_hook: Any = None,
     chunk_threshold: int | None = None,
     n_images: int = 0,
+    odom_gap_s: tuple[float, float] | None = None,
 ) -> Truth:
     """Write the synthetic scene (see the module docstring); returns the true people in the laser frame.
 
     ROS1: the custom detections are headerless ``test_msgs/Person`` messages (one per person, in the laser
     frame, written 20 ms after their scan, like leg_tracker's ground truth). ROS2: a stamped
-    ``test_msgs/PersonArray`` in base_link. ``scan_hook(k, stamp_ns, ranges) -> (stamp_ns, ranges)`` alters scans.
+    ``test_msgs/PersonArray`` in base_link. ``scan_hook(k, stamp_ns, ranges) -> (stamp_ns, ranges)`` alters scans;
+    no odometry is written strictly inside ``odom_gap_s`` (s from the first scan).
     """
     ts = _typestore(ros2)
     m = _Msgs(ts, ros2)
@@ -161,6 +163,8 @@ def write_bag(
     if odometry:
         for k in range(-5, 5 * n_scans + 6):
             t_ns = T0_NS + k * 20_000_000
+            if odom_gap_s is not None and odom_gap_s[0] < k * 0.02 - 1e-9 and k * 0.02 + 1e-9 < odom_gap_s[1]:
+                continue
             items.append((t_ns + 1_000_000, "/odom", "nav_msgs/msg/Odometry", m.odom(t_ns, base_pose(k * 0.02))))
     truth = Truth([], [])
     inc = math.radians(0.5)
@@ -440,6 +444,7 @@ def test_corrupt_tail_keeps_the_frames_already_processed(tmp_path: Path) -> None
     assert run.meta["status"] == "failed" and "BagReadError" in run.meta["error"]
     assert 5 <= run.n_frames < 40
     assert len(run.frames["frame"]) == run.n_frames and np.all(np.isfinite(run.grids[: run.n_frames]))
+    assert run.meta["stats"]["frames"] == run.n_frames == run.meta["stats"]["sync"]["frames"]["emitted"]
 
 
 def test_nan_inf_and_empty_scans_and_non_monotonic_stamps(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
@@ -482,6 +487,26 @@ def test_without_odometry_the_robot_stands_and_it_is_logged_once(
         _, results = Pipeline(config(odometry=False)).run(src, None, keep=True)
     assert all(r.odometry is None for r in results)
     assert caplog.text.count("taken as standing") == 1
+    with BagSource(bag) as src:
+        assert Pipeline(config(odometry=False)).run(src, None, max_frames=0)[0].frames == 0
+        with pytest.raises(ValueError, match="max_frames must be a non-negative integer"):
+            Pipeline(config(odometry=False)).run(src, None, max_frames=-1)
+
+
+def test_a_frame_without_odometry_does_not_lose_the_motion(tmp_path: Path) -> None:
+    bag = tmp_path / "g.bag"
+    write_bag(bag, n_scans=10, odom_gap_s=(0.4, 0.8))
+    with BagSource(bag) as src:
+        summary, results = Pipeline(config()).run(src, None, keep=True)
+    # The frame at 0.5 s is finalised (the driver is more than two tolerances past it) before odometry resumes
+    # at 0.8 s: it takes the robot as standing. The frame at 0.6 s (bracketed by 0.4 s and 0.8 s) then moves
+    # the grid by both frames' motion, from the pose of the frame at 0.4 s.
+    assert summary.frames_without_odometry == 1
+    assert [r.odometry is None for r in results[4:8]] == [False, True, False, False]
+    got = results[6].odometry
+    assert got is not None and got.omega == pytest.approx(2 * W, rel=1e-6)
+    expect, _ = odometry_between(laser_pose(0.4), laser_pose(0.6), 0.1)
+    assert got.v == pytest.approx(expect.v, rel=1e-2)  # odometry interpolated linearly over the gap
 
 
 def test_sync_tolerance_no_data_for_a_late_topic(tmp_path: Path) -> None:
@@ -553,6 +578,15 @@ def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
     # A sector from -90 to -20 deg keeps only the person at -39 .. -62 deg (the other is at -2 .. -14 deg).
     left = score_run(load_run(out), read_gt_csv(gt), frame="laser", sector=(-90.0, -20.0))
     assert left["scores"]["laser-legs"]["tp"] + left["scores"]["laser-legs"]["fn"] == 20
+    # Calibration from the run: its detector model has an unbounded range, stored as "inf" in run.json.
+    assert load_run(out).meta["detector_models"][0]["max_range"] == "inf"
+    cal = tmp_path / "cal.json"
+    assert eval_main(["calibrate", "--run", str(out), "--gt", str(gt), "--frame", "laser", "--json", str(cal)]) == 0
+    assert json.loads(cal.read_text())["matched"]["laser-legs"]["fnr"] == pytest.approx(0.0)
+    capsys.readouterr()
+    # Running again into the same directory is refused with a message, not a traceback.
+    assert main(["run", str(bag), "--config", str(cfg_path), "--out", str(out), "--no-progress"]) == 2
+    assert "already holds a run" in capsys.readouterr().err
 
 
 def test_run_command_error_is_clean(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

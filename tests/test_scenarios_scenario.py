@@ -173,6 +173,15 @@ miss_rate = 0.1
     bad.write_text('name = "x"\nnframes = 3\n')
     with pytest.raises(ValueError, match="nframes"):
         ScenarioConfig.from_toml(bad)
+    # by path (as the commands load them), errors name the file too, also for an override or bad TOML
+    with pytest.raises(ValueError, match=r"bad\.toml: .*nframes"):
+        load_scenario_config(bad)
+    with pytest.raises(ValueError, match=r"mine\.toml: .*n_frames"):
+        load_scenario_config(path, n_frames=0)
+    broken = tmp_path / "broken.toml"
+    broken.write_text("name = \n")
+    with pytest.raises(ValueError, match=r"broken\.toml: invalid TOML"):
+        load_scenario_config(broken)
 
 
 @pytest.mark.parametrize(

@@ -159,6 +159,13 @@ def test_detector_from_dict() -> None:
         SimulatedDetector.from_dict({"base": "laser-legs", "mis_rate": 0.2})
     with pytest.raises(ValueError, match="base"):
         SimulatedDetector.from_dict({"base": "radar"})
+    # without a base, miss_rate is required (was a bare KeyError with people_in_view)
+    own = {"model": {"name": "radar", "ppv": 0.9, "fnr": 0.2}, "people_in_view": 2.0}
+    with pytest.raises(ValueError, match="miss_rate"):
+        SimulatedDetector.from_dict(own)
+    assert SimulatedDetector.from_dict({**own, "miss_rate": 0.2}).clutter_rate == pytest.approx(
+        clutter_for_ppv(0.9, 0.2, 2.0)
+    )
 
 
 def test_bad_truth_input_is_named() -> None:

@@ -21,6 +21,7 @@ import csv
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -139,13 +140,25 @@ def _as_json(results: dict[str, CalibrationResult]) -> dict:
     return out
 
 
+def _model_from_run(entry: dict[str, Any]) -> DetectorModel:
+    """A ``detector_models`` entry of ``run.json`` as a DetectorModel.
+
+    ``run.json`` is strict JSON, so the run writer stores non-finite floats (an unbounded ``max_range``) as
+    the strings ``"inf"``, ``"-inf"``, ``"nan"``; they are turned back into floats here.
+    """
+    kwargs: dict[str, Any] = {
+        k: float(v) if k != "name" and v in ("inf", "-inf", "nan") else v for k, v in entry.items()
+    }
+    return DetectorModel(**kwargs)
+
+
 def _calibrate_run(args: argparse.Namespace, named: dict[str, float], default_gate: float | None) -> dict:
     """Calibrate every detector of a pipeline run against a ground-truth CSV."""
     if args.gt is None:
         raise ValueError("--run needs --gt")
     run_data = load_run(args.run)
     truth, sources, unassigned = truth_and_sources(run_data, read_gt_csv(args.gt), frame=args.frame)
-    models = {m["name"]: DetectorModel(**m) for m in run_data.meta.get("detector_models", [])}
+    models = {m["name"]: _model_from_run(m) for m in run_data.meta.get("detector_models", [])}
     unknown = set(named) - set(models)
     if unknown:
         raise ValueError(f"--gate names detector(s) {sorted(unknown)} that run {args.run} does not have")

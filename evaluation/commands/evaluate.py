@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from evaluation.ab import FilterSpec, default_filters, format_table, run_ab
+from evaluation.ab import FilterSpec, default_filters, format_table, particles_label, run_ab
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
 
 
@@ -48,14 +48,17 @@ def run(args: argparse.Namespace) -> int:
         n = max(args.particles) if args.particles else 10_000
         filters.append(
             FilterSpec(
-                name=f"particles {n:.0e} persistent".replace("e+0", "e"),
+                name=f"{particles_label(n)} persistent",
                 kind="particle",
                 n_particles=n,
                 motion_model="persistent",
             )
         )
     n_frames = len(scenario)
-    figure_frames = args.figure_frames if args.figure_frames is not None else [n_frames // 2, n_frames // 2 + 1]
+    if args.figure_frames is None:  # two middle frames (one when the scenario has a single frame)
+        figure_frames = sorted({n_frames // 2, min(n_frames // 2 + 1, n_frames - 1)})
+    else:
+        figure_frames = args.figure_frames
     result = run_ab(
         scenario,
         filters,

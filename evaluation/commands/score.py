@@ -39,8 +39,12 @@ from pfpeople.output import RunData, load_run
 __all__ = ["score_run"]
 
 
-def _occupancy(spec: GridSpec, people: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
-    gx, gy = spec.cell_centres()
+def _occupancy(
+    spec: GridSpec, centres: tuple[NDArray[np.float64], NDArray[np.float64]], people: NDArray[np.float64], radius: float
+) -> NDArray[np.bool_]:
+    """Ground-truth occupancy: cells whose centre (``spec.cell_centres()``) is within ``radius`` of a person
+    or that contain one."""
+    gx, gy = centres
     occ = np.zeros(spec.shape, dtype=bool)
     for x, y in people:
         occ |= np.hypot(gx - x, gy - y) <= radius
@@ -68,15 +72,16 @@ def score_run(
     -------
     dict
         ``{"frames": F, "gt_rows_unassigned": U, "scores": {name: summary}}`` where ``name`` is each detector
-        and ``"filter"``; a summary has frames, tp, fp, fn, recall and (unless ``recall_only``) precision and,
-        for the filter, fpcpf.
+        and ``"filter"``; a summary has frames, tp, fp, fn, recall, mean_match_distance_m and (unless
+        ``recall_only``) precision and, for the filter, fpcpf.
     """
     truth, sources, unassigned = truth_and_sources(
         run, gt, frame=frame, sector=sector, max_range=max_range, tolerance_ns=tolerance_ns
     )
     n = run.n_frames
     spec = run.spec
-    gx, gy = spec.cell_centres()
+    centres = spec.cell_centres()
+    gx, gy = centres
     cell_region = in_region(np.column_stack((gx.ravel(), gy.ravel())), sector, max_range).reshape(spec.shape)
     scores: dict[str, Any] = {}
     for name, per_frame in sources.items():
@@ -86,7 +91,7 @@ def score_run(
             classified = occupancy = None
             if name == "filter" and not recall_only:
                 classified = classify_blobs(np.asarray(run.grids[k], dtype=float), spec=spec).mask & cell_region
-                occupancy = _occupancy(spec, truth[k], person_radius)
+                occupancy = _occupancy(spec, centres, truth[k], person_radius)
             acc.add(d, truth[k], classified=classified, occupancy=occupancy)
         summary = acc.summary()
         keep = ["frames", "tp", "fp", "fn", "recall", "mean_match_distance_m"]

@@ -278,17 +278,22 @@ class ScenarioConfig:
 
     @classmethod
     def from_toml(cls, path: str | os.PathLike[str]) -> ScenarioConfig:
-        """Read a scenario TOML file."""
-        path = Path(path)
-        try:
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"{path}: invalid TOML ({exc})") from exc
-        try:
-            return cls.from_dict(data)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{path}: {exc}") from exc
+        """Read a scenario TOML file (errors name the file)."""
+        return _config_from_file(Path(path), {})
+
+
+def _config_from_file(path: Path, overrides: Mapping[str, Any]) -> ScenarioConfig:
+    """A scenario TOML file with top-level ``overrides``; any error is a ``ValueError`` naming the file."""
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: invalid TOML ({exc})") from exc
+    data.update(overrides)
+    try:
+        return ScenarioConfig.from_dict(data)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path}: {exc}") from exc
 
 
 def _build(kind: type, table: Mapping[str, Any], where: str) -> Any:
@@ -314,19 +319,18 @@ def load_scenario_config(name_or_path: str | os.PathLike[str], **overrides: Any)
         Unknown name (listing the built-in ones) or a bad file.
     """
     text = os.fspath(name_or_path)
+    given = {k: v for k, v in overrides.items() if v is not None}
     if text in builtin_scenarios():
         res = resources.files("evaluation.scenarios") / f"{text}.toml"
         data = tomllib.loads(res.read_text(encoding="utf-8"))
-    else:
-        path = Path(text)
-        if not path.is_file():
-            raise ValueError(
-                f"scenario {text!r} is neither a built-in scenario ({', '.join(builtin_scenarios())}) nor a file"
-            )
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    data.update({k: v for k, v in overrides.items() if v is not None})
-    return ScenarioConfig.from_dict(data)
+        data.update(given)
+        return ScenarioConfig.from_dict(data)
+    path = Path(text)
+    if not path.is_file():
+        raise ValueError(
+            f"scenario {text!r} is neither a built-in scenario ({', '.join(builtin_scenarios())}) nor a file"
+        )
+    return _config_from_file(path, given)
 
 
 @dataclass(frozen=True, eq=False)
@@ -498,7 +502,7 @@ def _auto_start_pose(world_people: NDArray[np.float64]) -> tuple[float, float, f
     vel = vel[np.all(np.isfinite(vel), axis=1)]
     heading = np.array([1.0, 0.0])
     if vel.shape[0] >= 2:
-        _, _, vt = np.linalg.svd(vel - 0.0, full_matrices=False)
+        _, _, vt = np.linalg.svd(vel, full_matrices=False)
         heading = vt[0]
         if float(vel.mean(axis=0) @ heading) > 0:
             heading = -heading

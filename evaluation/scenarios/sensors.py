@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -148,15 +148,17 @@ class SimulatedDetector:
             if key in model_over:
                 model_over[key[:-4]] = math.radians(float(model_over.pop(key)))
         if base is not None:
-            model = DetectorModel(**{**_model_fields(base.model), **model_over})
+            model = replace(base.model, **model_over)
             fields_ = {**_sim_fields(base), **data}
         else:
             model = DetectorModel(**model_over)
             fields_ = dict(data)
-        known = set(_sim_fields_names())
+        known = set(_SIM_FIELDS)
         unknown = set(fields_) - known
         if unknown:
             raise ValueError(f"unknown detector field(s) {sorted(unknown)}; known: {sorted(known)}")
+        if "miss_rate" not in fields_:
+            raise ValueError(f"detector {model.name!r} needs 'miss_rate' (or a 'base' that sets it)")
         if people_in_view is not None:
             ppv = float(target_ppv) if target_ppv is not None else model.ppv
             fields_["clutter_rate"] = clutter_for_ppv(ppv, float(fields_["miss_rate"]), float(people_in_view))
@@ -165,25 +167,12 @@ class SimulatedDetector:
         return cls(model=model, **fields_)
 
 
-def _sim_fields_names() -> tuple[str, ...]:
-    return (
-        "miss_rate",
-        "clutter_rate",
-        "noise",
-        "sigma_lateral",
-        "sigma_range",
-        "occlusion",
-        "occlusion_threshold",
-        "crop_to_grid",
-    )
+#: The fields of :class:`SimulatedDetector` a TOML detector table sets directly (all but ``model``).
+_SIM_FIELDS = tuple(f.name for f in fields(SimulatedDetector) if f.name != "model")
 
 
 def _sim_fields(det: SimulatedDetector) -> dict[str, Any]:
-    return {name: getattr(det, name) for name in _sim_fields_names()}
-
-
-def _model_fields(model: DetectorModel) -> dict[str, Any]:
-    return {f.name: getattr(model, f.name) for f in fields(model)}
+    return {name: getattr(det, name) for name in _SIM_FIELDS}
 
 
 def paper_simulated_detectors(*, people_in_view: float = 3.0) -> tuple[SimulatedDetector, ...]:

@@ -305,6 +305,9 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     _only(odometry, {"topic"}, "odometry")
     tf = _table(data, "tf")
     _only(tf, {"topics"}, "tf")
+    tf_topics = tf.get("topics", ("/tf_static", "/tf"))
+    if not isinstance(tf_topics, list | tuple):  # a bare string would be read as its characters
+        raise ValueError(f"config: [tf] topics must be an array of topic names, got {tf_topics!r}")
     grid = _table(data, "grid")
     _only(grid, {f.name for f in fields(GridSpec)}, "grid")
     filt = _table(data, "filter")
@@ -323,7 +326,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
         **frames,
         detectors=tuple(detectors),
         odometry=odometry.get("topic", ""),
-        tf_topics=tuple(tf.get("topics", ("/tf_static", "/tf"))),
+        tf_topics=tuple(tf_topics),
         mounts=mounts,  # type: ignore[arg-type]
         grid=GridSpec(**grid),
         filter=FilterConfig(**filt),

@@ -9,16 +9,14 @@ Examples::
 from __future__ import annotations
 
 import argparse
-import logging
+import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
-from pfpeople.bag.reader import BagSource
+from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.pipeline import Pipeline
-
-log = logging.getLogger(__name__)
 
 
 def config_from_args(args: argparse.Namespace) -> BagConfig:
@@ -53,17 +51,22 @@ def config_from_args(args: argparse.Namespace) -> BagConfig:
 def _run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
     out = Path(args.out) if args.out else Path(f"{Path(args.bag).name.split('.')[0]}_{cfg.filter.kind}_run")
-    with BagSource(args.bag) as bag:
-        pipe = Pipeline(cfg)
-        summary, _ = pipe.run(
-            bag,
-            out,
-            max_frames=args.max_frames,
-            progress=not args.no_progress,
-            overwrite=args.overwrite,
-            metadata={"command": "pfpeople run"},
-            bag_out=args.bag_out,
-        )
+    try:
+        with BagSource(args.bag) as bag:
+            summary, _ = Pipeline(cfg).run(
+                bag,
+                out,
+                max_frames=args.max_frames,
+                progress=not args.no_progress,
+                overwrite=args.overwrite,
+                metadata={"command": "pfpeople run"},
+                bag_out=args.bag_out,
+            )
+    except (BagReadError, FileExistsError) as exc:  # not caught by the shared CLI plumbing: no traceback
+        print(f"pfpeople run: error: {exc}", file=sys.stderr)
+        if (out / "run.json").is_file() and not isinstance(exc, FileExistsError):
+            print(f"pfpeople run: the frames processed before the error are in {out}", file=sys.stderr)
+        return 2
     print(
         f"{summary.frames} frames in {summary.elapsed_s:.2f} s: {summary.fps:.1f} frames/s "
         f"({cfg.filter.kind} filter) -> {out}"

@@ -24,12 +24,15 @@ For a segment with points ``p_1 .. p_n`` (scan frame, m), centroid ``c`` and coo
 ``radius``               r_c of that fit (capped at ``RADIUS_CAP`` m for almost straight segments)
 ``boundary_length``      sum |p_{k+1} - p_k|
 ``boundary_regularity``  standard deviation of |p_{k+1} - p_k|
-``mean_curvature``       mean signed Menger curvature 4 A / (a b c) over consecutive triples
-``mean_angle_diff``      mean turning angle at interior points (rad, in [0, 2 pi))
+``mean_curvature``       signed Menger curvature 4 A / (a b c), summed over consecutive triples, divided by n
+``mean_angle_diff``      turning angle at interior points (rad, in [0, 2 pi)), summed, divided by n
 ``iav``                  mean inscribed angle at interior points between p_1 and p_n (rad)
 ``iav_std``              standard deviation of that inscribed angle (rad)
 ``distance``             |m|, range of the segment (m)
 =======================  ================================================================================
+
+The two "means" divide by the number of points n, not by the n - 2 triples, as leg_tracker's
+``calcClusterFeatures`` does (the shipped boosted model was trained on these values).
 
 All features are computed for all segments of a scan at once with ``numpy.add.reduceat`` (no Python loop
 over segments or points).
