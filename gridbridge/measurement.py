@@ -51,6 +51,7 @@ __all__ = [
     "detector_likelihood",
     "fov_mask",
     "fuse_detectors",
+    "in_field_of_view",
     "likelihood_from_detections",
     "rasterise",
 ]
@@ -95,16 +96,22 @@ def fov_mask(spec: GridSpec, model: DetectorModel) -> NDArray[np.bool_]:
 @lru_cache(maxsize=128)
 def _fov_mask_cached(spec: GridSpec, model: DetectorModel) -> NDArray[np.bool_]:
     gx, gy = spec.cell_centres()
-    dx, dy = gx - model.mount_x, gy - model.mount_y
-    c, s = math.cos(model.mount_yaw), math.sin(model.mount_yaw)
-    lx, ly = c * dx + s * dy, -s * dx + c * dy
-    bearing = np.arctan2(ly, lx)
-    rng = np.hypot(lx, ly)
-    rel = np.mod(bearing - model.fov_min, 2 * math.pi)
-    in_bearing = rel <= (model.fov_max - model.fov_min) + 1e-12
-    mask = in_bearing & (rng >= model.min_range) & (rng <= model.max_range)
+    mask = in_field_of_view(model, gx, gy)
     mask.setflags(write=False)
     return mask
+
+
+def in_field_of_view(model: DetectorModel, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
+    """True where points (m, grid's sensor frame; any broadcastable shape) lie in the detector's field of view:
+    bearing in [fov_min, fov_max] and range in [min_range, max_range], both seen from the detector's mount."""
+    dx = np.asarray(x, dtype=float) - model.mount_x
+    dy = np.asarray(y, dtype=float) - model.mount_y
+    c, s = math.cos(model.mount_yaw), math.sin(model.mount_yaw)
+    lx, ly = c * dx + s * dy, -s * dx + c * dy
+    rng = np.hypot(lx, ly)
+    rel = np.mod(np.arctan2(ly, lx) - model.fov_min, 2 * math.pi)
+    in_bearing = rel <= (model.fov_max - model.fov_min) + 1e-12
+    return np.asarray(in_bearing & (rng >= model.min_range) & (rng <= model.max_range), dtype=bool)
 
 
 def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) -> NDArray[np.float64]:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 from gridbridge._validate import check_finite, check_positive, check_probability
 
@@ -190,8 +190,8 @@ class SensorMotionNoise:
     def noiseless(cls) -> SensorMotionNoise:
         return cls(alpha1=0.0, alpha2=0.0, alpha3=0.0, alpha4=0.0, alpha5=0.0, alpha6=0.0)
 
-    def variances(self, v: float, w: float) -> tuple[float, float, float]:
-        """Variances of (v_hat, w_hat, gamma_hat) for controls ``v`` (m/s), ``w`` (rad/s)."""
+    def variances(self, v: Any, w: Any) -> tuple[Any, Any, Any]:
+        """Variances of (v_hat, w_hat, gamma_hat) for controls ``v`` (m/s), ``w`` (rad/s): floats or arrays."""
         v2, w2 = v * v, w * w
         return (
             self.alpha1 * v2 + self.alpha2 * w2,

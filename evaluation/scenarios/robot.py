@@ -217,8 +217,7 @@ def noisy_odometry(
     """
     v = np.asarray(v, dtype=float)
     w = np.asarray(omega, dtype=float)
-    var_v = noise.alpha1 * v**2 + noise.alpha2 * w**2
-    var_w = noise.alpha3 * v**2 + noise.alpha4 * w**2
+    var_v, var_w, _ = noise.variances(v, w)
     return v + rng.standard_normal(v.shape) * np.sqrt(var_v), w + rng.standard_normal(w.shape) * np.sqrt(var_w)
 
 

@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gridbridge._validate import check_positive, check_probability
 from gridbridge.grid import GridSpec
+from gridbridge.measurement import in_field_of_view as grid_in_field_of_view
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
 
 __all__ = [
@@ -232,26 +233,13 @@ class DetectorOutput:
         return self.source >= 0
 
 
-def _relative(model: DetectorModel, positions: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-    """Range (m) and bearing (rad, in the detector's frame, wrapped to [-pi, pi)) of sensor-frame points."""
-    dx = positions[:, 0] - model.mount_x
-    dy = positions[:, 1] - model.mount_y
-    rng_ = np.hypot(dx, dy)
-    bearing = np.arctan2(dy, dx) - model.mount_yaw
-    return rng_, (bearing + math.pi) % (2 * math.pi) - math.pi
-
-
 def in_field_of_view(model: DetectorModel, positions: ArrayLike) -> NDArray[np.bool_]:
-    """Whether each sensor-frame point ``(N, 2)`` lies in the model's field of view and range limits."""
+    """Whether each sensor-frame point ``(N, 2)`` lies in the model's field of view and range limits.
+
+    The test of :func:`gridbridge.measurement.in_field_of_view`, the one the filters' field-of-view masks use.
+    """
     pts = np.asarray(positions, dtype=float).reshape(-1, 2)
-    r, b = _relative(model, pts)
-    lo, hi = model.fov_min, model.fov_max
-    if hi - lo >= 2 * math.pi - 1e-12:
-        in_angle = np.ones(pts.shape[0], dtype=bool)
-    else:
-        # bearing measured from fov_min, wrapped to [0, 2 pi)
-        in_angle = ((b - lo) % (2 * math.pi)) <= (hi - lo)
-    return in_angle & (r >= model.min_range) & (r <= model.max_range)
+    return grid_in_field_of_view(model, pts[:, 0], pts[:, 1])
 
 
 def occluded(
