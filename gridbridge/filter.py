@@ -21,11 +21,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge._validate import check_choice, check_positive, check_probability
-from gridbridge.ego_motion import Odometry, predict_sensor
+from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
-from gridbridge.measurement import bayes_update, likelihood_from_detections
+from gridbridge.components import (
+    Appearance,
+    BeliefBounds,
+    EgoMotionModel,
+    LinearPrediction,
+    PaperPrediction,
+    PeoplePrediction,
+    VelocityEgoMotion,
+)
+from gridbridge.measurement import Likelihood, bayes_update, likelihood_from_detections
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
-from gridbridge.people_motion import people_motion_kernel, predict_people
 
 __all__ = ["FilterStep", "GridFilter", "as_odometry", "filter_models"]
 
@@ -94,7 +102,10 @@ def filter_models(
 
 
 class GridFilter:
-    """The paper's recursive Bayes filter on a local semantic grid.
+    """The paper's recursive Bayes filter on a local semantic grid, composed of components.
+
+    One step: people-motion prediction -> sensor-motion prediction -> [appearance] -> De Morgan likelihood and
+    Bayes update -> [bounds]. With neither appearance nor bounds it is the paper's filter, bit for bit.
 
     Parameters
     ----------
@@ -103,17 +114,25 @@ class GridFilter:
     detectors : sequence of DetectorModel
         Detector models, in the order of the detections passed to :meth:`step`.
     motion : PeopleMotion
-        People motion model (Table 1).
+        People motion model (Table 1), used when ``prediction`` is not given.
     noise : SensorMotionNoise
-        Odometry noise of the velocity motion model.
+        Odometry noise of the velocity motion model, used when ``ego_motion`` is not given.
     form : {"paper", "linear"}
-        Prediction form (see :mod:`gridbridge.people_motion`). The kernel form follows: paper -> paper kernel,
-        linear -> integrated kernel, unless ``kernel_form`` says otherwise.
-    kernel_form : {"paper", "integrated"}, optional
+        Shorthand for the people prediction when ``prediction`` is not given: ``"paper"`` ->
+        :class:`~gridbridge.components.PaperPrediction` (paper kernel, eq. 8), ``"linear"`` ->
+        :class:`~gridbridge.components.LinearPrediction` (integrated kernel). The kernel follows the form.
     initial : float
         Initial belief of every cell (0.5: nothing known).
     outside : float
-        Belief outside the grid (0.5 in the paper).
+        Belief outside the grid (0.5 in the paper), used by the default prediction and ego-motion.
+    prediction : PeoplePrediction, optional
+        The people-motion component (overrides ``form``, ``motion`` and ``outside`` for it).
+    ego_motion : EgoMotionModel, optional
+        The sensor-motion component (default :class:`~gridbridge.components.VelocityEgoMotion`).
+    appearance : Appearance, optional
+        Birth probability applied to the prior of the update (not in the paper).
+    bounds : BeliefBounds, optional
+        Clamp of the posterior (not in the paper).
     """
 
     def __init__(
@@ -124,18 +143,36 @@ class GridFilter:
         motion: PeopleMotion | None = None,
         noise: SensorMotionNoise | None = None,
         form: Literal["paper", "linear"] = "paper",
-        kernel_form: Literal["paper", "integrated"] | None = None,
         initial: float = 0.5,
         outside: float = 0.5,
+        prediction: PeoplePrediction | None = None,
+        ego_motion: EgoMotionModel | None = None,
+        appearance: Appearance | None = None,
+        bounds: BeliefBounds | None = None,
     ) -> None:
         self.spec, self.detectors, self.motion, self.noise = filter_models(spec, detectors, motion, noise)
         check_choice(form, "form", ("paper", "linear"))
-        self.form: Literal["paper", "linear"] = form
-        default_kernel: Literal["paper", "integrated"] = "paper" if form == "paper" else "integrated"
-        check_choice(kernel_form or default_kernel, "kernel_form", ("paper", "integrated"))
-        self.kernel_form: Literal["paper", "integrated"] = kernel_form or default_kernel
         self.initial = check_probability(initial, "initial")
         self.outside = check_probability(outside, "outside")
+        if prediction is None:
+            cls = PaperPrediction if form == "paper" else LinearPrediction
+            prediction = cls(motion=self.motion, outside=self.outside)
+        if not isinstance(prediction, PeoplePrediction):
+            raise TypeError(f"prediction must be a PeoplePrediction component, got {type(prediction).__name__}")
+        if ego_motion is None:
+            ego_motion = VelocityEgoMotion(noise=self.noise, outside=self.outside)
+        if not isinstance(ego_motion, EgoMotionModel):
+            raise TypeError(f"ego_motion must be an EgoMotionModel component, got {type(ego_motion).__name__}")
+        if appearance is not None and not isinstance(appearance, Appearance):
+            raise TypeError(f"appearance must be an Appearance or None, got {type(appearance).__name__}")
+        if bounds is not None and not isinstance(bounds, BeliefBounds):
+            raise TypeError(f"bounds must be a BeliefBounds or None, got {type(bounds).__name__}")
+        self.prediction = prediction
+        self.motion = prediction.motion
+        self.form = str(getattr(prediction, "form", "custom"))
+        self.ego_motion = ego_motion
+        self.appearance = appearance
+        self.bounds = bounds
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
 
     def reset(self, belief: ArrayLike | None = None) -> None:
@@ -147,15 +184,36 @@ class GridFilter:
 
     def kernel(self, dt: float) -> NDArray[np.float64]:
         """The people-motion kernel used for a step of ``dt`` seconds."""
-        return people_motion_kernel(self.spec, self.motion, dt=dt, form=self.kernel_form)
+        return self.prediction.kernel(self.spec, dt)
 
     def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Both predictions; returns ``(people_prior, sensor_prior)`` without changing the belief."""
+        """Both predictions; returns ``(people_prior, prior)`` without changing the belief.
+
+        ``prior`` is the sensor-motion prediction with appearances added (when the filter has an
+        :class:`~gridbridge.components.Appearance`): the prior of the update.
+        """
         dt = check_positive(dt, "dt")
         odo = as_odometry(odometry)
-        people = predict_people(self.belief, self.kernel(dt), outside=self.outside, form=self.form)
-        sensor = predict_sensor(people, self.spec, odo, dt, noise=self.noise, outside=self.outside)
+        people = self.prediction.predict(self.belief, self.spec, dt)
+        sensor = self.ego_motion.predict(people, self.spec, odo, dt)
+        if self.appearance is not None:
+            sensor = self.appearance.apply(sensor, dt)
         return people, sensor
+
+    def update(
+        self, prior: ArrayLike, detections: Sequence[ArrayLike | None]
+    ) -> tuple[Likelihood, NDArray[np.float64]]:
+        """Measurement update (eqs. 12-14) of ``prior`` (then the bounds); sets and returns the belief.
+
+        Returns ``(likelihood, posterior)``; on bad input nothing changes.
+        """
+        prior_ = self.spec.check_grid(prior, "prior")
+        lik = likelihood_from_detections(self.spec, self.detectors, detections)
+        posterior = bayes_update(prior_, lik.likelihood)
+        if self.bounds is not None:
+            posterior = self.bounds.apply(posterior)
+        self.belief = posterior
+        return lik, posterior
 
     def step(
         self,
@@ -181,9 +239,7 @@ class GridFilter:
             All stages; ``self.belief`` becomes the posterior. On bad input nothing changes.
         """
         people, sensor = self.predict(odometry, dt)
-        lik = likelihood_from_detections(self.spec, self.detectors, detections)
-        posterior = bayes_update(sensor, lik.likelihood)
-        self.belief = posterior
+        lik, posterior = self.update(sensor, detections)
         return FilterStep(
             people_prior=people,
             sensor_prior=sensor,

@@ -1,0 +1,213 @@
+"""Classifiers: belief grid -> people, as components with one interface.
+
+==========================  ==================================================================================
+component                   what it does
+==========================  ==================================================================================
+:class:`BlobClassifier`     the paper's blob algorithm (Sect. 4; :func:`gridbridge.classify.classify_blobs`)
+:class:`ThresholdClassifier` connected cells above a threshold, each one person (the paper's "plain" classifier)
+:class:`PeakClassifier`     local maxima above a threshold with non-maximum suppression; the position is the
+                            belief-weighted mean of the cells around the peak (sub-cell); separates people
+                            standing or walking close together, which connected components merge
+==========================  ==================================================================================
+
+Every classifier returns :class:`People`: positions (m, grid's sensor frame), a score per person (its peak
+belief), its size in cells and the mask of cells it classified as people (for FPCPF).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from gridbridge._validate import check_positive, check_probability
+from gridbridge.classify import BlobParams, ClassificationResult, classify_blobs, classify_threshold
+from gridbridge.grid import GridSpec
+
+__all__ = [
+    "BlobClassifier",
+    "Classifier",
+    "PeakClassifier",
+    "People",
+    "ThresholdClassifier",
+    "classify_peaks",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class People:
+    """People classified in one belief grid.
+
+    Attributes
+    ----------
+    positions : ndarray, shape (K, 2)
+        (x, y) in metres, the grid's sensor frame.
+    scores : ndarray, shape (K,)
+        Confidence of each person in [0, 1] (peak or mean belief, see the classifier).
+    sizes : ndarray of int, shape (K,)
+        Cells of each person.
+    mask : ndarray of bool, shape (nx, ny)
+        Cells classified as people.
+    """
+
+    positions: NDArray[np.float64]
+    scores: NDArray[np.float64]
+    sizes: NDArray[np.int64]
+    mask: NDArray[np.bool_]
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+
+def _from_blobs(result: ClassificationResult) -> People:
+    sel = result.people
+    return People(
+        positions=result.positions.reshape(-1, 2),
+        scores=np.array([b.mean_probability for b in sel], dtype=float),
+        sizes=np.array([b.size for b in sel], dtype=np.int64),
+        mask=result.mask,
+    )
+
+
+@runtime_checkable
+class Classifier(Protocol):
+    """What a classifier does: ``classify(belief (nx, ny), spec) -> People``."""
+
+    def classify(self, belief: ArrayLike, spec: GridSpec) -> People: ...
+
+
+@dataclass(frozen=True, kw_only=True)
+class BlobClassifier:
+    """The paper's blob classification (Sect. 4) with :class:`~gridbridge.classify.BlobParams`."""
+
+    params: BlobParams = field(default_factory=BlobParams)
+
+    def classify(self, belief: ArrayLike, spec: GridSpec) -> People:
+        return _from_blobs(classify_blobs(belief, spec=spec, params=self.params))
+
+
+@dataclass(frozen=True, kw_only=True)
+class ThresholdClassifier:
+    """Connected components of cells above ``threshold``, each one person."""
+
+    threshold: float = 0.5
+
+    def __post_init__(self) -> None:
+        check_probability(self.threshold, "ThresholdClassifier.threshold")
+
+    def classify(self, belief: ArrayLike, spec: GridSpec) -> People:
+        return _from_blobs(classify_threshold(belief, self.threshold, spec=spec))
+
+
+def classify_peaks(
+    belief: ArrayLike,
+    spec: GridSpec,
+    *,
+    threshold: float = 0.5,
+    min_separation: float = 0.6,
+    centroid_radius: float = 0.35,
+) -> People:
+    """People at local maxima of the belief, with non-maximum suppression.
+
+    1. Candidates: cells with belief ``>= threshold`` that are the maximum of the square window of half-width
+       ``ceil(min_separation / r)`` cells around them.
+    2. Non-maximum suppression: candidates in decreasing belief order (ties: row-major cell order); a candidate
+       closer than ``min_separation`` (centre to centre) to a kept one is dropped (plateaus give one person).
+    3. Position: the belief-weighted mean of the cell centres within ``centroid_radius`` of the peak cell whose
+       belief is at least half the threshold; score: the peak belief; size: those cells.
+
+    Parameters
+    ----------
+    belief : array_like, shape (nx, ny)
+        Probability of a person per cell.
+    spec : GridSpec
+    threshold : float
+        Smallest peak belief that is a person.
+    min_separation : float
+        Two people are at least this far apart (m).
+    centroid_radius : float
+        Radius (m) of the cells averaged into the position.
+
+    Returns
+    -------
+    People
+    """
+    if not isinstance(spec, GridSpec):
+        raise TypeError(f"spec must be a GridSpec, got {type(spec).__name__}")
+    grid = spec.check_grid(belief, "belief")
+    check_probability(threshold, "threshold")
+    check_positive(min_separation, "min_separation")
+    check_positive(centroid_radius, "centroid_radius", allow_zero=True)
+    r = spec.resolution
+    half = max(1, math.ceil(min_separation / r - 1e-9))
+    local_max = ndimage.maximum_filter(grid, size=2 * half + 1, mode="constant", cval=0.0)
+    cand = np.argwhere((grid >= threshold) & (grid >= local_max))
+    empty = People(
+        positions=np.zeros((0, 2)),
+        scores=np.zeros(0),
+        sizes=np.zeros(0, dtype=np.int64),
+        mask=np.zeros(spec.shape, dtype=bool),
+    )
+    if len(cand) == 0:
+        return empty
+    values = grid[cand[:, 0], cand[:, 1]]
+    order = np.lexsort((cand[:, 1], cand[:, 0], -values))
+    cand, values = cand[order], values[order]
+    kept: list[int] = []
+    sep2 = (min_separation / r) ** 2 - 1e-9
+    for k in range(len(cand)):
+        if all(float(np.sum((cand[k] - cand[m]) ** 2)) >= sep2 for m in kept):
+            kept.append(k)
+    reach = math.floor(centroid_radius / r + 1e-9)
+    di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    disk = (di**2 + dj**2) * r * r <= centroid_radius**2 + 1e-12
+    di, dj = di[disk], dj[disk]
+    mask = np.zeros(spec.shape, dtype=bool)
+    positions, scores, sizes = [], [], []
+    for k in kept:
+        i, j = int(cand[k, 0]), int(cand[k, 1])
+        ii, jj = i + di, j + dj
+        ok = (ii >= 0) & (ii < spec.nx) & (jj >= 0) & (jj < spec.ny)
+        ii, jj = ii[ok], jj[ok]
+        w = grid[ii, jj]
+        use = w >= 0.5 * threshold
+        ii, jj, w = ii[use], jj[use], w[use]
+        ci = float(np.sum(w * ii) / np.sum(w))
+        cj = float(np.sum(w * jj) / np.sum(w))
+        positions.append(spec.cell_centre(ci, cj))
+        scores.append(float(values[k]))
+        sizes.append(len(w))
+        mask[ii, jj] = True
+    return People(
+        positions=np.asarray(positions, dtype=float).reshape(-1, 2),
+        scores=np.asarray(scores, dtype=float),
+        sizes=np.asarray(sizes, dtype=np.int64),
+        mask=mask,
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class PeakClassifier:
+    """:func:`classify_peaks` as a component (parameters as there)."""
+
+    threshold: float = 0.5
+    min_separation: float = 0.6
+    centroid_radius: float = 0.35
+
+    def __post_init__(self) -> None:
+        check_probability(self.threshold, "PeakClassifier.threshold")
+        check_positive(self.min_separation, "PeakClassifier.min_separation")
+        check_positive(self.centroid_radius, "PeakClassifier.centroid_radius", allow_zero=True)
+
+    def classify(self, belief: ArrayLike, spec: GridSpec) -> People:
+        return classify_peaks(
+            belief,
+            spec,
+            threshold=self.threshold,
+            min_separation=self.min_separation,
+            centroid_radius=self.centroid_radius,
+        )
