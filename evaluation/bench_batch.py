@@ -1,6 +1,6 @@
 """Benchmark of ``pfpeople batch`` on Dask: speed-up of 2 workers over 1, and the per-task overhead.
 
-``python -m evaluation.bench_batch [--bags 6] [--scans 300] [--out DIR]`` writes ``--bags`` synthetic ROS 1
+``python -m evaluation.bench_batch [--bags 4] [--scans 300] [--out DIR]`` writes ``--bags`` synthetic ROS 1
 bags (:func:`write_synthetic_bag`: a laser-only scene of people walking past a standing robot, legs ray-cast
 with :func:`pfpeople.detectors.synthetic.render_scan`; the scan-level simulator's ``write_scene_bag`` was not
 available on this branch), then runs the batch (grid filter, one leg detector) on local clusters of worker
@@ -15,7 +15,9 @@ machine: with other jobs running, two workers on two cores cannot give 2x.
 from __future__ import annotations
 
 import argparse
+import logging
 import math
+import os
 import sys
 import tempfile
 import time
@@ -131,11 +133,12 @@ def _overhead(workers: int, n_tasks: int) -> float:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m evaluation.bench_batch", description=__doc__.split("\n")[0])
-    parser.add_argument("--bags", type=int, default=6, help="number of synthetic bags (default 6)")
+    parser.add_argument("--bags", type=int, default=4, help="number of synthetic bags (default 4)")
     parser.add_argument("--scans", type=int, default=300, help="scans per bag (default 300)")
     parser.add_argument("--noop-tasks", type=int, default=200, help="trivial tasks for the overhead (default 200)")
     parser.add_argument("--out", type=Path, default=None, help="working folder (default: a temporary one)")
     args = parser.parse_args(argv)
+    logging.getLogger("distributed").setLevel(logging.WARNING)
     if args.bags < 1 or args.scans < 1 or args.noop_tasks < 1:
         parser.error("--bags, --scans and --noop-tasks must be positive")
     with tempfile.TemporaryDirectory() as tmp:
@@ -143,7 +146,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         work.mkdir(parents=True, exist_ok=True)
         rng = np.random.default_rng(12)
         bags = [write_synthetic_bag(work / f"scene{k}.bag", n_scans=args.scans, rng=rng) for k in range(args.bags)]
-        print(f"{args.bags} synthetic bags x {args.scans} scans (ROS 1, one leg detector, grid filter)")
+        load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
+        print(
+            f"{args.bags} synthetic bags x {args.scans} scans (ROS 1, one leg detector, grid filter); "
+            f"{os.cpu_count()} cores, load average {load:.1f} before the run"
+        )
         times = {}
         for workers in (1, 2):
             total, tasks, rows = _timed_batch(bags, work / f"runs_{workers}w", workers)
@@ -152,10 +159,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"failed: {bad}", file=sys.stderr)
                 return 1
             fps = np.mean([r["fps"] for r in rows])
+            busy = sum(r["wall_s"] for r in rows)
             times[workers] = (total, tasks)
             print(
                 f"{workers} worker(s): {tasks:6.2f} s for the tasks, {total:6.2f} s with cluster start; "
-                f"pipeline {fps:.0f} frames/s per task"
+                f"pipeline {fps:.0f} frames/s per task; tasks busy {busy / tasks:.2f} workers on average"
             )
         print(
             f"speed-up 2 over 1 workers: {times[1][1] / times[2][1]:.2f}x (tasks), "

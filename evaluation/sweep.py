@@ -148,7 +148,9 @@ class SweepPoint:
         return re.sub(r"[^A-Za-z0-9_.=-]", "_", "_".join(parts))
 
 
-def sweep_points(scenarios: Sequence[str], seeds: Sequence[int], params: Mapping[str, Sequence[Any]]) -> list[SweepPoint]:
+def sweep_points(
+    scenarios: Sequence[str], seeds: Sequence[int], params: Mapping[str, Sequence[Any]]
+) -> list[SweepPoint]:
     """The Cartesian product ``scenarios x seeds x params`` (in that order, the last key varying fastest)."""
     if not scenarios:
         raise ValueError("no scenario given")
@@ -315,8 +317,10 @@ def run_sweep(
     client, scheduler, workers, processes
         As :func:`pfpeople.batch.run_batch`.
     """
-    from pfpeople.batch import dask_client, run_tasks
+    from pfpeople.batch import check_cluster_args, dask_client, run_tasks
 
+    if client is None:
+        check_cluster_args(scheduler, workers)
     checked: dict[str, list[Any]] = {}
     for key, values in params.items():  # values given programmatically are checked like parsed ones
         if key not in SWEEP_KEYS:

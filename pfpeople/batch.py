@@ -40,6 +40,7 @@ from pfpeople.bag.config import BagConfig
 __all__ = [
     "ROW_COLUMNS",
     "TABLE_SUFFIXES",
+    "check_cluster_args",
     "check_table_path",
     "dask_client",
     "run_bag",
@@ -57,15 +58,16 @@ TABLE_SUFFIXES = (".csv", ".parquet")
 ERROR_FILE = "batch_error.txt"
 
 
-def _check_workers(workers: int | None) -> None:
+def check_cluster_args(scheduler: str | None, workers: int | None) -> None:
+    """``workers``: None or a positive integer, and not together with a ``scheduler`` address."""
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
+    if scheduler is not None and workers is not None:
+        raise ValueError("workers sets the size of a local cluster; it cannot be combined with a scheduler address")
 
 
 @contextmanager
-def dask_client(
-    scheduler: str | None = None, workers: int | None = None, *, processes: bool = True
-) -> Iterator[Any]:
+def dask_client(scheduler: str | None = None, workers: int | None = None, *, processes: bool = True) -> Iterator[Any]:
     """A ``distributed.Client``: to ``scheduler`` (an address such as ``tcp://host:8786``) or a local cluster.
 
     Parameters
@@ -80,10 +82,8 @@ def dask_client(
     """
     from distributed import Client, LocalCluster
 
-    _check_workers(workers)
+    check_cluster_args(scheduler, workers)
     if scheduler is not None:
-        if workers is not None:
-            raise ValueError("workers sets the size of a local cluster; it cannot be combined with a scheduler address")
         with Client(scheduler) as client:
             yield client
         return
@@ -293,7 +293,8 @@ def run_batch(
         raise ValueError("no bags given")
     if not isinstance(config, BagConfig):
         raise TypeError(f"config must be a BagConfig, got {type(config).__name__}")
-    _check_workers(workers)
+    if client is None:
+        check_cluster_args(scheduler, workers)
     out = Path(out_dir).absolute()
     names = run_dir_names(bags)
     run_dirs = [out / n for n in names]

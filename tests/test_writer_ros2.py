@@ -138,8 +138,8 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
     legs = [_xy(m) for _, m in msgs[detection_topic("laser-legs")]]
     cam = [_xy(m) for _, m in msgs["/pfpeople/detections/hog_cam"]]
     assert len(legs) == 3 and len(cam) == 2 and cam[0].shape == (0, 2)
-    np.testing.assert_allclose(legs[2], w.dets[2][0], atol=1e-12)
-    np.testing.assert_allclose(cam[1], w.dets[2][1], atol=1e-12)
+    np.testing.assert_allclose(legs[2], np.asarray(w.dets[2][0]), atol=1e-12)
+    np.testing.assert_allclose(cam[1], np.asarray(w.dets[2][1]), atol=1e-12)
     # Tracks: two frames had them; positions, velocity heading (identity at rest).
     tracks = msgs[TOPIC_TRACKS]
     assert len(tracks) == 2
@@ -161,7 +161,7 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
     lengths = [math.dist((a.points[0].x, a.points[0].y), (a.points[1].x, a.points[1].y)) for a in arrows]
     assert [a.id for a in arrows] == [3, 7] and lengths == pytest.approx([1.0, 1.0], abs=1e-12)
     assert (arrows[1].points[1].x, arrows[1].points[1].y) == pytest.approx((3.4, -0.7), abs=1e-12)
-    at_rest = [m for m in arrays[1] if m.type == MARKER_ARROW and m.action == 0][0]
+    at_rest = next(m for m in arrays[1] if m.type == MARKER_ARROW and m.action == 0)
     assert math.dist((at_rest.points[0].x, at_rest.points[0].y), (at_rest.points[1].x, at_rest.points[1].y)) == 0
 
 
@@ -171,7 +171,7 @@ def test_format_from_suffix_and_bad_outputs(tmp_path: Path) -> None:
     assert bag_format_for(tmp_path / "a", "sqlite3") == "sqlite3"
     with pytest.raises(ValueError, match=r"'.*x': unknown format 'hdf5'"):
         check_bag_out(tmp_path / "x", "hdf5")
-    with pytest.raises(ValueError, match="ROS 1 bag must end in .bag"):
+    with pytest.raises(ValueError, match=r"ROS 1 bag must end in \.bag"):
         check_bag_out(tmp_path / "x", "ros1")
     with pytest.raises(ValueError, match="is a folder"):
         check_bag_out(tmp_path / "x.bag", "mcap")

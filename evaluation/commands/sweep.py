@@ -77,9 +77,9 @@ def run(args: argparse.Namespace) -> int:
             groups[(r["scenario"], *(r[k] for k in params), r["filter"])].append(r)
     head = ["scenario", *params, "filter"]
     print(" | ".join(head) + " | recall | precision | FPCPF | ms/iter | seeds")
-    for key, rs in groups.items():
+    for group, rs in groups.items():
         m = [_mean([r[c] for r in rs]) for c in ("recall", "precision", "fpcpf", "ms_per_iter")]
-        print(" | ".join(str(k) for k in key) + f" | {m[0]:.2f} | {m[1]:.2f} | {m[2]:.2f} | {m[3]:.2f} | {len(rs)}")
+        print(" | ".join(str(k) for k in group) + f" | {m[0]:.2f} | {m[1]:.2f} | {m[2]:.2f} | {m[3]:.2f} | {len(rs)}")
     for task in failed:
         err = next(r["error"] for r in rows if r["task"] == task)
         print(f"failed: {task}: {err}")

@@ -109,9 +109,7 @@ def bag_format_for(path: str | Path, bag_format: str | None = None) -> str:
     if bag_format == "ros1" and p.suffix != ".bag":
         raise ValueError(f"bag output {str(p)!r}: a ROS 1 bag must end in .bag")
     if bag_format != "ros1" and p.suffix == ".bag":
-        raise ValueError(
-            f"bag output {str(p)!r}: a rosbag2 ({bag_format}) is a folder; give a name not ending in .bag"
-        )
+        raise ValueError(f"bag output {str(p)!r}: a rosbag2 ({bag_format}) is a folder; give a name not ending in .bag")
     return bag_format
 
 
@@ -272,7 +270,7 @@ class ResultBagWriter:
 
     def _add(self, topic: str, msgtype: str, *, static: bool = False) -> None:
         if self.ros2:
-            qos = ()
+            qos: tuple[Qos, ...] = ()
             if static:
                 zero = QosTime(sec=0, nsec=0)
                 qos = (
