@@ -45,12 +45,14 @@ def write_synthetic_bag(
     n_people: int = 2,
     rng: np.random.Generator,
     dt: float = 0.1,
+    chunk_threshold: int | None = None,
 ) -> Path:
     """A ROS 1 bag of ``n_scans`` LaserScans (``/scan``, frame ``laser``, 0.5 deg beams over 180 deg) at ``dt``.
 
     People walk on straight lines at 0.3-1.2 m/s, starting 2-7 m ahead and -3..3 m aside (laser frame); each
     is two legs (circles of 6 cm radius 0.3 m apart across the walking direction). No odometry, no TF: the
-    grid frame is the laser frame.
+    grid frame is the laser frame. ``chunk_threshold`` (bytes) sets rosbags' chunk size (small chunks let a test
+    corrupt the end of a bag only).
 
     Returns
     -------
@@ -70,7 +72,10 @@ def write_synthetic_bag(
     vel = np.column_stack([np.cos(heading), np.sin(heading)]) * speed[:, None]
     inc = math.radians(0.5)
     p = Path(path)
-    with Writer(p) as w:
+    writer = Writer(p)
+    if chunk_threshold is not None:
+        writer.chunk_threshold = chunk_threshold
+    with writer as w:
         conn = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=ts)
         for k in range(n_scans):
             stamp = _T0_NS + round(k * dt * 1e9)
@@ -160,10 +165,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                 return 1
             fps = np.mean([r["fps"] for r in rows])
             busy = sum(r["wall_s"] for r in rows)
+            cpu = sum(r["cpu_s"] for r in rows)
             times[workers] = (total, tasks)
             print(
                 f"{workers} worker(s): {tasks:6.2f} s for the tasks, {total:6.2f} s with cluster start; "
-                f"pipeline {fps:.0f} frames/s per task; tasks busy {busy / tasks:.2f} workers on average"
+                f"pipeline {fps:.0f} frames/s per task; {busy / tasks:.2f} tasks running and "
+                f"{cpu / tasks:.2f} cores used on average, {cpu:.1f} CPU s in all"
             )
         print(
             f"speed-up 2 over 1 workers: {times[1][1] / times[2][1]:.2f}x (tasks), "

@@ -10,7 +10,8 @@ tasks as they complete, and returns one row per bag (:data:`ROW_COLUMNS`), in th
   (``""`` otherwise);
 - ``frames``: frames processed (those before the error for a failed run, from its ``run.json``);
   ``fps``: frames per second of the pipeline loop; ``wall_s``: the task's wall time (s, opening the bag and
-  preparing included); ``people_per_frame``: mean number of classified people per frame (NaN without frames).
+  preparing included); ``cpu_s``: the CPU time of the task's thread (s; ``cpu_s / wall_s`` below 1 shows a
+  worker waiting for a core or the disk); ``people_per_frame``: mean number of classified people per frame (NaN without frames).
 
 A failing bag (corrupt, truncated, missing topic ...) does not stop the others: the task catches the error,
 records it in its row and in ``RUN_DIR/batch_error.txt`` (the traceback; the pipeline's own ``run.json`` with
@@ -51,7 +52,7 @@ __all__ = [
 ]
 
 #: Columns of a batch row.
-ROW_COLUMNS = ("bag", "run_dir", "status", "frames", "fps", "wall_s", "people_per_frame", "error")
+ROW_COLUMNS = ("bag", "run_dir", "status", "frames", "fps", "wall_s", "cpu_s", "people_per_frame", "error")
 #: Table formats by suffix.
 TABLE_SUFFIXES = (".csv", ".parquet")
 #: File with the traceback of a failed bag, in its run directory.
@@ -177,7 +178,7 @@ def run_bag(
     from pfpeople.bag.reader import BagSource
     from pfpeople.pipeline import Pipeline
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     out = Path(run_dir)
     row: dict[str, Any] = {
         "bag": str(bag),
@@ -186,6 +187,7 @@ def run_bag(
         "frames": 0,
         "fps": math.nan,
         "wall_s": math.nan,
+        "cpu_s": math.nan,
         "people_per_frame": math.nan,
         "error": "",
     }
@@ -205,6 +207,7 @@ def run_bag(
         except OSError:  # the row still has the error
             pass
     row["wall_s"] = time.perf_counter() - t0
+    row["cpu_s"] = time.thread_time() - c0
     return row
 
 
@@ -317,6 +320,7 @@ def run_batch(
             "frames": _frames_from_record(run_dirs[i]),
             "fps": math.nan,
             "wall_s": math.nan,
+            "cpu_s": math.nan,
             "people_per_frame": math.nan,
             "error": f"{type(exc).__name__}: {exc}",
         }
