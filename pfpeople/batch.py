@@ -11,7 +11,8 @@ tasks as they complete, and returns one row per bag (:data:`ROW_COLUMNS`), in th
 - ``frames``: frames processed (those before the error for a failed run, from its ``run.json``);
   ``fps``: frames per second of the pipeline loop; ``wall_s``: the task's wall time (s, opening the bag and
   preparing included); ``cpu_s``: the CPU time of the task's thread (s; ``cpu_s / wall_s`` below 1 shows a
-  worker waiting for a core or the disk); ``people_per_frame``: mean number of classified people per frame (NaN without frames).
+  worker waiting for a core or the disk); ``people_per_frame``: mean number of classified people per frame
+  (NaN without frames).
 
 A failing bag (corrupt, truncated, missing topic ...) does not stop the others: the task catches the error,
 records it in its row and in ``RUN_DIR/batch_error.txt`` (the traceback; the pipeline's own ``run.json`` with

@@ -39,7 +39,7 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     # Corrupt from the middle on: the data of the second half of its chunks overwritten (the index is intact).
     corrupt = write_synthetic_bag(root / "corrupt.bag", n_scans=2 * N_SCANS, rng=rng, chunk_threshold=2048)
     with AnyReader([corrupt]) as r:
-        chunk_pos = sorted(c.pos for rd in r.readers for c in rd.chunk_infos)  # type: ignore[attr-defined]
+        chunk_pos = sorted(c.pos for rd in r.readers for c in rd.chunk_infos)  # type: ignore[union-attr]
     data = bytearray(corrupt.read_bytes())
     start = chunk_pos[len(chunk_pos) // 2]
     data[start + 60 : start + 120] = b"\xff" * 60  # the first record header in that chunk
