@@ -43,6 +43,15 @@ FORMATS = [("ros1", "out.bag", None), ("sqlite3", "out_db", "sqlite3"), ("mcap",
 
 
 @dataclass
+class _Obj:
+    id: int
+    x: float
+    y: float
+    vx: float
+    vy: float
+
+
+@dataclass
 class Written:
     beliefs: list[NDArray[np.float64]]
     people: list[NDArray[np.float64]]
@@ -193,6 +202,15 @@ def test_format_from_suffix_and_bad_outputs(tmp_path: Path) -> None:
         w.write(T0, T0, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [])
     msgs, _ = _read(tmp_path / "r2")
     assert len(msgs[TOPIC_BELIEF]) == 1
+    # Track objects with id, x, y, vx, vy attributes are accepted as well as arrays; an empty frame of tracks
+    # writes an empty PoseArray and a lone DELETEALL.
+    with ResultBagWriter(tmp_path / "obj.bag", spec=SPEC, frame_id="laser", detector_names=[]) as w:
+        w.write(T0, T0, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [], [_Obj(id=4, x=1.0, y=2.0, vx=0, vy=-2.0)])
+        w.write(T0 + 1, T0 + 1, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [], [])
+    msgs, _ = _read(tmp_path / "obj.bag")
+    assert [len(m.poses) for _, m in msgs[TOPIC_TRACKS]] == [1, 0]
+    assert _yaw(msgs[TOPIC_TRACKS][0][1].poses[0].orientation) == pytest.approx(-math.pi / 2, abs=1e-12)
+    assert [[k.action for k in m.markers] for _, m in msgs[TOPIC_TRACK_MARKERS]] == [[MARKER_DELETEALL, 0, 0], [3]]
     with pytest.raises(ValueError, match=r"tracks must have shape \(K, 5\)"):
         with ResultBagWriter(tmp_path / "t.bag", spec=SPEC, frame_id="laser", detector_names=[]) as w:
             w.write(T0, T0, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [], np.zeros((2, 4)))

@@ -180,6 +180,10 @@ def _message(ts: Any, typename: str, **given: Any) -> Any:
 
 
 def _check_tracks(tracks: Any) -> NDArray[np.float64]:
+    if not isinstance(tracks, np.ndarray) and all(
+        hasattr(t, a) for t in tracks for a in ("id", "x", "y", "vx", "vy")
+    ):  # track objects (e.g. pfpeople.mot Track snapshots)
+        tracks = [[t.id, t.x, t.y, t.vx, t.vy] for t in tracks] if len(tracks) else np.zeros((0, 5))
     arr = np.asarray(tracks, dtype=float)
     if arr.ndim != 2 or arr.shape[1] != 5:
         raise ValueError(f"tracks must have shape (K, 5) [id, x, y, vx, vy], got {arr.shape}")
@@ -399,7 +403,7 @@ class ResultBagWriter:
         belief: NDArray[np.float64],
         people: NDArray[np.float64],
         detections: Sequence[NDArray[np.float64] | None],
-        tracks: NDArray[np.float64] | None = None,
+        tracks: NDArray[np.float64] | Sequence[Any] | None = None,
     ) -> None:
         """Write one frame.
 
@@ -413,9 +417,10 @@ class ResultBagWriter:
             Classified people (m, grid frame).
         detections : sequence of ndarray (D_i, 2) or None
             Each detector's detections (m, grid frame); None: no data (nothing written on its topic).
-        tracks : ndarray (K, 5), optional
-            ``[id, x, y, vx, vy]`` (id a non-negative integer; m and m/s in the grid frame). None: no track
-            topics in this frame; an empty (0, 5) array writes an empty PoseArray and a lone DELETEALL.
+        tracks : ndarray (K, 5) or sequence of track objects, optional
+            ``[id, x, y, vx, vy]`` (id a non-negative integer; m and m/s in the grid frame), or objects with
+            those attributes (``id``, ``x``, ``y``, ``vx``, ``vy``). None: no track topics in this frame; an
+            empty (0, 5) array writes an empty PoseArray and a lone DELETEALL.
         """
         if self._closed:
             raise ValueError(f"bag output {str(self.path)!r} is closed")
