@@ -552,15 +552,22 @@ class Pipeline:
         metadata: Mapping[str, Any] | None = None,
         bag_out: str | Path | None = None,
         keep: bool = False,
+        bag_format: str | None = None,
     ) -> tuple[RunSummary, list[FrameResult]]:
         """Run over ``bag``, writing ``out_dir`` (and ``bag_out``) incrementally.
 
         A run that stops part-way (a truncated or corrupt bag, :class:`~pfpeople.bag.reader.BagReadError`;
         any other error; Ctrl-C) ends with ``status = "failed"`` and the error in ``run.json``, the frames
         processed so far kept (and the result bag closed), and the exception re-raised.
-        Returns the summary and (with ``keep=True``) every :class:`FrameResult`.
+        Returns the summary and (with ``keep=True``) every :class:`FrameResult`. ``bag_out`` is a ROS 1 ``.bag``
+        or a rosbag2 folder (``bag_format`` "ros1", "mcap" or "sqlite3"; default from the path, see
+        :mod:`pfpeople.bag.writer`), checked before anything runs; ``overwrite`` also replaces an existing one.
         """
         _check_max_frames(max_frames)
+        if bag_out is not None:
+            from pfpeople.bag.writer import check_bag_out
+
+            check_bag_out(bag_out, bag_format, overwrite=overwrite)
         self.prepare(bag)
         names = [d.name for d in self.config.detectors]
         writer = None
@@ -583,7 +590,12 @@ class Pipeline:
                 from pfpeople.bag.writer import ResultBagWriter
 
                 bag_writer = ResultBagWriter(
-                    bag_out, spec=self.config.grid, frame_id=self.grid_frame, detector_names=names
+                    bag_out,
+                    spec=self.config.grid,
+                    frame_id=self.grid_frame,
+                    detector_names=names,
+                    bag_format=bag_format,
+                    overwrite=overwrite,
                 )
             if progress:
                 from tqdm import tqdm
@@ -608,7 +620,9 @@ class Pipeline:
                         detections=r.detections,
                     )
                 if bag_writer is not None:
-                    bag_writer.write(f.bag_time_ns, f.stamp_ns, r.belief, r.people, r.detections)
+                    bag_writer.write(
+                        f.bag_time_ns, f.stamp_ns, r.belief, r.people, r.detections, getattr(r, "tracks", None)
+                    )
                 if keep:
                     kept.append(r)
                 if bar is not None:

@@ -4,6 +4,8 @@ Examples::
 
     pfpeople run person_following_outdoor_1.bag.zip --config person_following_outdoor_1 --out runs/pf1
     pfpeople run my.bag --driver /scan --odom /odom --filter particle --max-frames 500 --bag-out out.bag
+    pfpeople run my.bag --config my.toml --bag-out results_ros2              # rosbag2 folder, MCAP storage
+    pfpeople run my.bag --config my.toml --bag-out results_db --bag-format sqlite3
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from typing import Any
 
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
+from pfpeople.bag.writer import BAG_FORMATS, check_bag_out
 from pfpeople.pipeline import Pipeline
 
 
@@ -50,6 +53,10 @@ def config_from_args(args: argparse.Namespace) -> BagConfig:
 
 def _run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
+    if args.bag_out is not None:  # a bad --bag-out fails now, not after the run
+        check_bag_out(args.bag_out, args.bag_format, overwrite=args.overwrite)
+    elif args.bag_format is not None:
+        raise ValueError("--bag-format needs --bag-out")
     out = Path(args.out) if args.out else Path(f"{Path(args.bag).name.split('.')[0]}_{cfg.filter.kind}_run")
     try:
         with BagSource(args.bag) as bag:
@@ -61,6 +68,7 @@ def _run(args: argparse.Namespace) -> int:
                 overwrite=args.overwrite,
                 metadata={"command": "pfpeople run"},
                 bag_out=args.bag_out,
+                bag_format=args.bag_format,
             )
     except (BagReadError, FileExistsError) as exc:  # not caught by the shared CLI plumbing: no traceback
         print(f"pfpeople run: error: {exc}", file=sys.stderr)
@@ -86,13 +94,22 @@ def register(subparsers: Any) -> None:
     p.add_argument("--filter", choices=("grid", "particle"), help="filter (default: the config's, else grid)")
     p.add_argument("--out", help="output run directory (default: <bag>_<filter>_run)")
     p.add_argument("--max-frames", type=int, default=None, help="stop after N frames")
-    p.add_argument("--bag-out", help="also write the results to this ROS1 .bag (OccupancyGrid, PoseArray)")
+    p.add_argument(
+        "--bag-out",
+        help="also write the results as a bag: a ROS 1 .bag file, or a rosbag2 folder (any other name): "
+        "OccupancyGrid, PoseArrays, track MarkerArray, /tf_static",
+    )
+    p.add_argument(
+        "--bag-format",
+        choices=BAG_FORMATS,
+        help="format of --bag-out (default: ros1 for a .bag name, otherwise mcap)",
+    )
     p.add_argument("--driver", help="topic driving the frames (overrides the config)")
     p.add_argument("--odom", help="nav_msgs/Odometry topic ('' for none; overrides the config)")
     p.add_argument("--time-source", choices=("header", "bag"), help="stamps used for synchronisation")
     p.add_argument("--tolerance", type=float, help="synchronisation tolerance (s)")
     p.add_argument("--particles", type=int, help="number of particles (particle filter)")
     p.add_argument("--seed", type=int, help="particle filter seed")
-    p.add_argument("--overwrite", action="store_true", help="replace an existing run in --out")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing run in --out (and --bag-out)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_run)

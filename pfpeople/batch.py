@@ -1,0 +1,338 @@
+"""Many bags on Dask: one task per bag, each running the whole pipeline into its own run directory.
+
+``run_batch`` submits :func:`run_bag` once per bag to a ``dask.distributed`` cluster (a local one by default:
+one single-threaded worker process per core, or an existing scheduler by address), shows progress over the
+tasks as they complete, and returns one row per bag (:data:`ROW_COLUMNS`), in the order the bags were given:
+
+- ``bag``: the bag path as given; ``run_dir``: its run directory ``OUT/<bag stem>`` (``<stem>-2``, ... when two
+  bags share a stem);
+- ``status``: ``"complete"`` or ``"failed"``; ``error``: ``"<ExceptionType>: <message>"`` of a failed bag
+  (``""`` otherwise);
+- ``frames``: frames processed (those before the error for a failed run, from its ``run.json``);
+  ``fps``: frames per second of the pipeline loop; ``wall_s``: the task's wall time (s, opening the bag and
+  preparing included); ``cpu_s``: the CPU time of the task's thread (s; ``cpu_s / wall_s`` below 1 shows a
+  worker waiting for a core or the disk); ``people_per_frame``: mean number of classified people per frame
+  (NaN without frames).
+
+A failing bag (corrupt, truncated, missing topic ...) does not stop the others: the task catches the error,
+records it in its row and in ``RUN_DIR/batch_error.txt`` (the traceback; the pipeline's own ``run.json`` with
+``status = "failed"`` is there too when the run had started), and returns. A task lost with its worker (killed,
+out of memory) is recorded the same way from the future's exception.
+
+With a remote cluster (``scheduler``), the bag paths and the output folder must be reachable by the workers
+under the same paths (shared file system), and pfpeople must be installed in the workers' environment.
+:func:`dask_client` and :func:`run_tasks` are shared with :mod:`evaluation.sweep`.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import time
+import traceback
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from pfpeople.bag.config import BagConfig
+
+__all__ = [
+    "ROW_COLUMNS",
+    "TABLE_SUFFIXES",
+    "check_cluster_args",
+    "check_table_path",
+    "dask_client",
+    "run_bag",
+    "run_batch",
+    "run_dir_names",
+    "run_tasks",
+    "write_table",
+]
+
+#: Columns of a batch row.
+ROW_COLUMNS = ("bag", "run_dir", "status", "frames", "fps", "wall_s", "cpu_s", "people_per_frame", "error")
+#: Table formats by suffix.
+TABLE_SUFFIXES = (".csv", ".parquet")
+#: File with the traceback of a failed bag, in its run directory.
+ERROR_FILE = "batch_error.txt"
+
+
+def check_cluster_args(scheduler: str | None, workers: int | None) -> None:
+    """``workers``: None or a positive integer, and not together with a ``scheduler`` address."""
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
+    if scheduler is not None and workers is not None:
+        raise ValueError("workers sets the size of a local cluster; it cannot be combined with a scheduler address")
+
+
+@contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None, *, processes: bool = True) -> Iterator[Any]:
+    """A ``distributed.Client``: to ``scheduler`` (an address such as ``tcp://host:8786``) or a local cluster.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of a running scheduler; None starts ``LocalCluster(n_workers=workers, threads_per_worker=1,
+        processes=processes)``, closed on exit.
+    workers : int, optional
+        Local workers (default: ``os.cpu_count()``); not allowed with ``scheduler`` (the cluster has its own).
+    processes : bool
+        Local workers as processes (default; the pipeline holds the GIL in Python code) or threads.
+    """
+    from distributed import Client, LocalCluster
+
+    check_cluster_args(scheduler, workers)
+    if scheduler is not None:
+        with Client(scheduler) as client:
+            yield client
+        return
+    n = workers or os.cpu_count() or 1
+    with (
+        LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0") as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+def run_tasks(
+    client: Any,
+    fn: Callable[..., Any],
+    args: Sequence[tuple[Any, ...]],
+    *,
+    keys: Sequence[str],
+    on_error: Callable[[int, BaseException], Any],
+    progress: bool = True,
+    desc: str = "tasks",
+) -> list[Any]:
+    """Run ``fn(*args[i])`` as one Dask task each; results in the order of ``args``.
+
+    Progress (tqdm) counts tasks as they complete. A task whose future fails (the function raised, or its
+    worker died) yields ``on_error(i, exception)`` instead of a result; the other tasks go on.
+    """
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    if len(keys) != len(args) or len(set(keys)) != len(keys):
+        raise ValueError("run_tasks: keys must be unique, one per task")
+    futures = [client.submit(fn, *a, key=k, pure=False) for a, k in zip(args, keys, strict=True)]
+    index = {f.key: i for i, f in enumerate(futures)}
+    results: list[Any] = [None] * len(futures)
+    with tqdm(total=len(futures), desc=desc, unit="task", disable=not progress) as bar:
+        for fut in as_completed(futures):
+            i = index[fut.key]
+            try:
+                results[i] = fut.result()
+            except Exception as exc:  # the task raised or its worker was lost: recorded, the others go on
+                results[i] = on_error(i, exc)
+            fut.release()
+            bar.update(1)
+    return results
+
+
+def run_dir_names(bags: Sequence[str | Path]) -> list[str]:
+    """Run-directory names: each bag's stem (``a.bag`` / ``a.bag.zip`` / folder ``a`` -> ``a``), made unique
+    by ``-2``, ``-3``, ... in the order given."""
+    names: list[str] = []
+    seen: dict[str, int] = {}
+    for bag in bags:
+        stem = Path(bag).name.split(".")[0] or "bag"
+        seen[stem] = seen.get(stem, 0) + 1
+        names.append(stem if seen[stem] == 1 else f"{stem}-{seen[stem]}")
+    while len(set(names)) != len(names):  # a stem like "a-2" given as well: suffix again
+        dup = {n for n in names if names.count(n) > 1}
+        names = [f"{n}-x{k}" if n in dup else n for k, n in enumerate(names)]
+    return names
+
+
+def _people_per_frame(run_dir: Path) -> float:
+    path = run_dir / "frames.csv"
+    if not path.is_file():
+        return math.nan
+    with path.open(newline="") as fh:
+        counts = [int(r["n_people"]) for r in csv.DictReader(fh)]
+    return sum(counts) / len(counts) if counts else math.nan
+
+
+def _frames_from_record(run_dir: Path) -> int:
+    try:
+        meta = json.loads((run_dir / "run.json").read_text())
+        return int(meta.get("stats", {}).get("frames", 0))
+    except (OSError, ValueError, TypeError):
+        return 0
+
+
+def run_bag(
+    bag: str | Path,
+    config: BagConfig,
+    run_dir: str | Path,
+    *,
+    max_frames: int | None = None,
+    overwrite: bool = False,
+) -> dict[str, Any]:
+    """Run the pipeline over one bag into ``run_dir``; never raises for a bad bag: returns its row.
+
+    See the module docstring for the row.
+    """
+    from pfpeople.bag.reader import BagSource
+    from pfpeople.pipeline import Pipeline
+
+    t0, c0 = time.perf_counter(), time.thread_time()
+    out = Path(run_dir)
+    row: dict[str, Any] = {
+        "bag": str(bag),
+        "run_dir": str(out),
+        "status": "failed",
+        "frames": 0,
+        "fps": math.nan,
+        "wall_s": math.nan,
+        "cpu_s": math.nan,
+        "people_per_frame": math.nan,
+        "error": "",
+    }
+    try:
+        with BagSource(bag) as src:
+            summary, _ = Pipeline(config).run(
+                src, out, max_frames=max_frames, overwrite=overwrite, metadata={"command": "pfpeople batch"}
+            )
+        row.update(status="complete", frames=summary.frames, fps=summary.fps, people_per_frame=_people_per_frame(out))
+    except Exception as exc:
+        row["error"] = f"{type(exc).__name__}: {exc}"
+        row["frames"] = _frames_from_record(out)
+        row["people_per_frame"] = _people_per_frame(out)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            (out / ERROR_FILE).write_text(f"bag: {bag}\n{traceback.format_exc()}")
+        except OSError:  # the row still has the error
+            pass
+    row["wall_s"] = time.perf_counter() - t0
+    row["cpu_s"] = time.thread_time() - c0
+    return row
+
+
+def check_table_path(path: str | Path) -> Path:
+    """A results table path: ``.csv`` or ``.parquet`` (needs pyarrow), in an existing or creatable folder."""
+    p = Path(path)
+    if p.suffix not in TABLE_SUFFIXES:
+        raise ValueError(f"table {str(p)!r}: the name must end in one of {list(TABLE_SUFFIXES)}")
+    if p.suffix == ".parquet":
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            raise ValueError(f"table {str(p)!r}: Parquet needs pyarrow (pip install pyarrow), or use .csv") from None
+    if p.is_dir():
+        raise ValueError(f"table {str(p)!r} is a folder")
+    return p
+
+
+def write_table(rows: Sequence[Mapping[str, Any]], path: str | Path, columns: Sequence[str] | None = None) -> Path:
+    """Write ``rows`` as CSV or Parquet (by suffix); columns: ``columns`` or the union of the rows' keys in order.
+
+    NaN is written as an empty CSV cell and a Parquet null.
+    """
+    p = check_table_path(path)
+    cols = list(columns) if columns is not None else list(dict.fromkeys(k for r in rows for k in r))
+    p.parent.mkdir(parents=True, exist_ok=True)
+
+    def clean(v: Any) -> Any:
+        return None if isinstance(v, float) and math.isnan(v) else v
+
+    if p.suffix == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.Table.from_pylist([{c: clean(r.get(c)) for c in cols} for r in rows])
+        if not rows:
+            table = pa.table({c: pa.array([], type=pa.null()) for c in cols})
+        pq.write_table(table, p)
+    else:
+        with p.open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=cols, extrasaction="ignore")
+            w.writeheader()
+            for r in rows:
+                w.writerow({c: "" if clean(r.get(c)) is None else r.get(c) for c in cols})
+    return p
+
+
+def run_batch(
+    bags: Sequence[str | Path],
+    config: BagConfig,
+    out_dir: str | Path,
+    *,
+    client: Any = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    processes: bool = True,
+    max_frames: int | None = None,
+    overwrite: bool = False,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Run the pipeline over every bag, one Dask task per bag (see the module docstring).
+
+    Parameters
+    ----------
+    bags : sequence of path
+        ROS 1 ``.bag`` files, rosbag2 folders or ``.zip`` files of either.
+    config : BagConfig
+        The run configuration, the same for every bag.
+    out_dir : path
+        Run directories go to ``out_dir / <bag stem>`` (created).
+    client : distributed.Client, optional
+        Use this client; otherwise one from :func:`dask_client` (``scheduler``, ``workers``, ``processes``).
+    max_frames : int, optional
+        Stop each run after this many frames.
+    overwrite : bool
+        Replace existing runs; without it, existing run directories are an error before anything runs.
+    progress : bool
+        A tqdm bar over completed bags.
+
+    Returns
+    -------
+    list of dict
+        One row per bag (:data:`ROW_COLUMNS`), in the order of ``bags``.
+    """
+    if not bags:
+        raise ValueError("no bags given")
+    if not isinstance(config, BagConfig):
+        raise TypeError(f"config must be a BagConfig, got {type(config).__name__}")
+    if client is None:
+        check_cluster_args(scheduler, workers)
+    out = Path(out_dir).absolute()
+    names = run_dir_names(bags)
+    run_dirs = [out / n for n in names]
+    if not overwrite:
+        held = [str(d) for d in run_dirs if (d / "run.json").exists() or (d / ERROR_FILE).exists()]
+        if held:
+            raise FileExistsError(f"run directories already hold runs (use overwrite): {held}")
+    out.mkdir(parents=True, exist_ok=True)
+    args = [(str(Path(b).absolute()), config, str(d)) for b, d in zip(bags, run_dirs, strict=True)]
+    keys = [f"pfpeople-batch-{k}-{n}-{time.time_ns()}" for k, n in enumerate(names)]
+
+    def task(bag: str, cfg: BagConfig, run_dir: str) -> dict[str, Any]:
+        return run_bag(bag, cfg, run_dir, max_frames=max_frames, overwrite=overwrite)
+
+    def lost(i: int, exc: BaseException) -> dict[str, Any]:
+        return {
+            "bag": str(bags[i]),
+            "run_dir": str(run_dirs[i]),
+            "status": "failed",
+            "frames": _frames_from_record(run_dirs[i]),
+            "fps": math.nan,
+            "wall_s": math.nan,
+            "cpu_s": math.nan,
+            "people_per_frame": math.nan,
+            "error": f"{type(exc).__name__}: {exc}",
+        }
+
+    def go(c: Any) -> list[dict[str, Any]]:
+        rows = run_tasks(c, task, args, keys=keys, on_error=lost, progress=progress, desc="bags")
+        for row, bag in zip(rows, bags, strict=True):
+            row["bag"] = str(bag)  # as given, not the absolute path sent to the worker
+        return rows
+
+    if client is not None:
+        return go(client)
+    with dask_client(scheduler, workers, processes=processes) as c:
+        return go(c)
