@@ -93,7 +93,12 @@ def test_gt_beyond_a_run_cut_short_is_reported(
     gt_path.write_text("scan_index,person_id,x_laser_m,y_laser_m\n" + "\n".join(rows) + "\n")
     run, gt = load_run(run_dir), read_gt_csv(gt_path)
     cov = gt_coverage(run, gt)
-    assert cov == {"gt_frames": 10, "gt_frames_without_run_frame": 6, "gt_frames_beyond_run": 6, "gt_rows_beyond_run": 7}
+    assert cov == {
+        "gt_frames": 10,
+        "gt_frames_without_run_frame": 6,
+        "gt_frames_beyond_run": 6,
+        "gt_rows_beyond_run": 7,
+    }
     with caplog.at_level(logging.WARNING, logger="evaluation.run_truth"):
         result = score_run(run, gt)
     assert "7 ground-truth row(s)" in caplog.text and "6 frame key(s)" in caplog.text
