@@ -20,33 +20,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pfpeople.gt_csv import GroundTruth, resolve_gt_frame
+from pfpeople.gt_csv import GroundTruth, gt_to_grid, resolve_gt_frame
 from pfpeople.output import RunData
-from pfpeople.sensors import Pose2D
 
 __all__ = ["group_by_frame", "gt_coverage", "gt_to_grid", "in_region", "truth_and_sources"]
 
 log = logging.getLogger(__name__)
-
-
-def gt_to_grid(run: RunData, gt: GroundTruth, frame: str) -> NDArray[np.float64]:
-    """GT positions ``(N, 2)`` mapped into the run's grid frame.
-
-    ``frame`` is ``"grid"``, the run's grid frame, a frame the run recorded in ``frames_in_grid`` (mapped by
-    its mount), or else ``"laser"`` as an alias of the driving sensor's frame, which the grid is attached to.
-    """
-    known: dict[str, list[float]] = run.meta.get("frames_in_grid", {})
-    if frame in ("grid", run.meta.get("grid_frame", "")):
-        return gt.xy
-    if frame in known:  # before the "laser" alias: a recorded frame named "laser" has its own mount
-        x, y, yaw = known[frame]
-        return Pose2D(x=x, y=y, yaw=yaw).apply(gt.xy)
-    if frame == "laser":
-        return gt.xy
-    raise ValueError(
-        f"ground-truth frame {frame!r} is not known to run {str(run.path)!r}; use 'grid', 'laser' "
-        f"(the driving sensor) or one of {sorted(known)}"
-    )
 
 
 def gt_coverage(run: RunData, gt: GroundTruth, *, tolerance_ns: int = 50_000_000) -> dict[str, Any]:

@@ -30,7 +30,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KEY_COLUMNS", "GroundTruth", "read_gt_csv", "resolve_gt_frame"]
+from pfpeople.output import RunData
+from pfpeople.sensors import Pose2D
+
+__all__ = ["KEY_COLUMNS", "GroundTruth", "gt_to_grid", "read_gt_csv", "resolve_gt_frame", "truth_per_frame"]
 
 KEY_COLUMNS = ("scan_index", "stamp_ns", "bag_time_ns")
 
@@ -228,3 +231,41 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
         frame=frame,
         path=path,
     )
+
+
+def gt_to_grid(run: RunData, gt: GroundTruth, frame: str) -> NDArray[np.float64]:
+    """GT positions ``(N, 2)`` mapped into the run's grid frame.
+
+    ``frame`` is ``"grid"``, the run's grid frame, a frame the run recorded in ``frames_in_grid`` (mapped by
+    its mount), or else ``"laser"`` as an alias of the driving sensor's frame, which the grid is attached to.
+    """
+    known: dict[str, list[float]] = run.meta.get("frames_in_grid", {})
+    if frame in ("grid", run.meta.get("grid_frame", "")):
+        return gt.xy
+    if frame in known:  # before the "laser" alias: a recorded frame named "laser" has its own mount
+        x, y, yaw = known[frame]
+        return Pose2D(x=x, y=y, yaw=yaw).apply(gt.xy)
+    if frame == "laser":
+        return gt.xy
+    raise ValueError(
+        f"ground-truth frame {frame!r} is not known to run {str(run.path)!r}; use 'grid', 'laser' "
+        f"(the driving sensor) or one of {sorted(known)}"
+    )
+
+
+def truth_per_frame(
+    run: RunData, gt: GroundTruth, *, frame: str | None = None, tolerance_ns: int = 50_000_000
+) -> tuple[list[NDArray[np.float64]], int]:
+    """Ground-truth positions of every run frame, ``(P, 2)`` each, in the run's grid frame (m).
+
+    ``frame`` as :func:`resolve_gt_frame` (None: the file's, else ``"grid"``), mapped by :func:`gt_to_grid`.
+    Returns the per-frame positions and the number of GT rows that fall on no run frame.
+    """
+    xy = gt_to_grid(run, gt, resolve_gt_frame(gt, frame))
+    fr = run.frames
+    rows, unassigned = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    out: list[list[tuple[float, float]]] = [[] for _ in range(run.n_frames)]
+    for f, p in zip(rows, xy, strict=True):
+        if 0 <= f < run.n_frames:
+            out[int(f)].append((float(p[0]), float(p[1])))
+    return [np.asarray(o, dtype=float).reshape(-1, 2) for o in out], unassigned
