@@ -103,7 +103,8 @@ def truth_and_sources(
     if beyond.any():
         log.warning(
             "%d ground-truth row(s) of %s (%d frame key(s)) lie after the last frame of run %s (%d frames, "
-            "status %s): they are not scored; the run or its frames.csv ended early",
+            "status %s): they are not scored (the run stopped early, e.g. --max-frames, or its frames.csv "
+            "was cut short)",
             int(beyond.sum()),
             gt.path,
             int(np.unique(gt.keys[beyond]).size),

@@ -70,8 +70,8 @@ def test_video_is_decoded_with_the_frame_count_and_the_known_cell(tmp_path: Path
     run_dir = write_run(tmp_path / "run")
     out = tmp_path / "v.mp4"
     args = ["view", str(run_dir), "--out", str(out), "--frames", "2:10", "--size", "480x320", "--no-progress"]
-    assert main([*args, "--fps", "5"]) == 0
-    assert (run_dir / "summary.png").is_file() and iio.imread(run_dir / "summary.png").shape[2] in (3, 4)
+    assert main([*args, "--fps", "5", "--no-summary"]) == 0
+    assert not (run_dir / "summary.png").exists()
     # Decoded by OpenCV's own FFmpeg build (an independent decoder), BGR -> RGB.
     cap = cv2.VideoCapture(str(out))
     assert cap.isOpened()
@@ -131,6 +131,16 @@ def test_tracks_and_ground_truth_are_drawn(tmp_path: Path) -> None:
     bad.write_text("frame,id,x,y\n0,1,1,1\n")
     with pytest.raises(ValueError, match=r"tracks file .*bad_tracks.csv.*expected columns"):
         read_tracks(bad)
+
+
+def test_summary_page(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    run_dir = write_run(tmp_path / "run", n_frames=4)
+    png = tmp_path / "s.png"
+    assert main(["view", str(run_dir), "--no-video", "--summary", str(png), "--dpi", "40"]) == 0
+    assert f"summary -> {png}" in capsys.readouterr().out
+    image = iio.imread(png)
+    assert image.shape[:2] == (340, 440)  # 11 x 8.5 inches at 40 dpi
+    assert not (run_dir / "view.mp4").exists()
 
 
 def test_robot_path_follows_the_arc() -> None:

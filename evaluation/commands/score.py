@@ -142,7 +142,7 @@ def _score(args: argparse.Namespace) -> int:
     print(
         f"GT frames: {result['gt_frames']}, of which {result['gt_frames_without_run_frame']} had no run frame"
         + (
-            f" ({result['gt_frames_beyond_run']} after the run's last frame: the run or its frames.csv ended early)"
+            f" ({result['gt_frames_beyond_run']} after the run's last frame: stopped early or frames.csv cut short)"
             if result["gt_frames_beyond_run"]
             else ""
         )

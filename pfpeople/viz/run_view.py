@@ -452,6 +452,6 @@ def render_summary(
     ]
     a.text(0.0, 1.0, "\n".join(lines), va="top", fontsize=9, family="monospace", transform=a.transAxes)
     fig.suptitle(f"pfpeople run summary: {run.path.name}")
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.08, right=0.97, bottom=0.07, top=0.91, wspace=0.25, hspace=0.35)
     fig.savefig(path)
     return path
