@@ -7,7 +7,8 @@ Points (m, grid frame) are plotted at ``(y, x)`` on those axes.
 
 One animation frame shows:
 
-- the belief grid (probability of a person per cell, grey scale from 0 = white to 1 = black);
+- the belief grid (probability of a person per cell, grey scale from 0 = white to 1 = black) and each
+  detector's field of view (dashed, from ``run.json`` ``detector_models``: mount, fov_min/max, max_range);
 - each detector's detections (one marker and colour per detector, in the legend), the classified people
   (red circles), ground truth when given (green plus signs), tracks when the run has ``tracks.csv``
   (columns :data:`TRACK_COLUMNS`: id labels and velocity arrows showing one second of motion);
@@ -235,6 +236,7 @@ class RunFrameRenderer:
         ax.set_xlabel("y (m, left is +y)")
         ax.set_ylabel("x (m, forward)")
         self.fig.colorbar(self.image, ax=ax, fraction=0.04, pad=0.02, label="belief")
+        self._draw_fields_of_view()
         self.det_artists = []
         for k, name in enumerate(self.detectors):
             (art,) = ax.plot(
@@ -292,6 +294,28 @@ class RunFrameRenderer:
             s.set_yticks([])
         self.canvas.draw()
         self._background = self.canvas.copy_from_bbox(self.fig.bbox)
+
+    def _draw_fields_of_view(self) -> None:
+        """Each detector's field of view (``run.json`` ``detector_models``) as a dashed outline."""
+        spec = self.spec
+        reach = math.hypot(spec.x1 - spec.x0, spec.y1 - spec.y0) + abs(spec.x0) + abs(spec.y0)
+        models = {m.get("name"): m for m in self.run.meta.get("detector_models", []) if isinstance(m, dict)}
+        for k, name in enumerate(self.detectors):
+            m = models.get(name)
+            if m is None:
+                continue
+            try:
+                lo, hi = float(m.get("fov_min", -math.pi / 2)), float(m.get("fov_max", math.pi / 2))
+                rng = min(float(m.get("max_range", math.inf)), reach)  # "inf" in run.json reads as inf
+                mx, my, myaw = (float(m.get(f, 0.0)) for f in ("mount_x", "mount_y", "mount_yaw"))
+            except (TypeError, ValueError):
+                continue
+            a = myaw + np.linspace(lo, hi, 60)
+            xs = np.concatenate(([mx], mx + rng * np.cos(a), [mx]))
+            ys = np.concatenate(([my], my + rng * np.sin(a), [my]))
+            (line,) = self.ax.plot(ys, xs, linestyle="--", lw=0.8, color=_COLOURS[k % len(_COLOURS)], alpha=0.7)
+            line.set_animated(True)  # drawn over the belief image every frame
+            self._animated.append(line)
 
     def _rows(self, order: NDArray[np.int64], frames: NDArray[np.int64], k: int) -> NDArray[np.int64]:
         return order[np.searchsorted(frames, k, "left") : np.searchsorted(frames, k, "right")]
@@ -415,11 +439,14 @@ def render_summary(
     a.legend(fontsize=8)
     a = axes[0, 1]
     det = run.detections
+    window = max(1, min(10, n // 20))  # a running mean keeps long runs readable
+    kernel = np.ones(window) / window
     for k, name in enumerate(run.meta.get("detectors", [])):
         frames = det["frame"][det["detector"] == name]
-        counts = np.bincount(frames, minlength=n)[:n]
-        a.plot(t, counts, drawstyle="steps-post", color=_COLOURS[k % len(_COLOURS)], label=f"{name} ({len(frames)})")
-    a.set_title("detections per frame, per detector (total)")
+        counts = np.bincount(frames, minlength=n)[:n].astype(float)
+        smooth = np.convolve(counts, kernel, mode="same")
+        a.plot(t, smooth, color=_COLOURS[k % len(_COLOURS)], label=f"{name} ({len(frames)} in all)")
+    a.set_title(f"detections per frame, per detector (mean over {window} frames)")
     a.set_xlabel("time (s)")
     a.set_ylabel("detections")
     a.legend(fontsize=8)
