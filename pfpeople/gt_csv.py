@@ -160,9 +160,13 @@ def resolve_gt_frame(gt: GroundTruth, requested: str | None) -> str:
         return requested or "grid"
     if requested is None or requested == gt.frame:
         return gt.frame
-    raise ValueError(
-        f"ground-truth file {str(gt.path)!r} has positions in frame {gt.frame!r} (columns x_{gt.frame}_m, "
-        f"y_{gt.frame}_m) but frame {requested!r} was requested; give --frame {gt.frame} or leave --frame out"
+    raise ValueError(_mismatch(gt.path, gt.frame, requested))
+
+
+def _mismatch(path: Path, have: str, requested: str) -> str:
+    return (
+        f"ground-truth file {str(path)!r} has positions in frame {have!r} (columns x_{have}_m, y_{have}_m) "
+        f"but frame {requested!r} was requested; give --frame {have} or leave --frame out"
     )
 
 
@@ -174,8 +178,8 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
     path : path
         The CSV file (UTF-8, with or without a byte-order mark).
     frame : str, optional
-        Which ``x_<frame>_m, y_<frame>_m`` pair to read when the file has several (or to check that the
-        file has it). Ignored for plain ``x``/``y`` columns.
+        Which ``x_<frame>_m, y_<frame>_m`` pair to read when the file has several; a file naming another
+        frame is an error naming both. Ignored for plain ``x``/``y`` columns (the caller says their frame).
     """
     path = Path(path)
     if not path.is_file():
@@ -200,6 +204,8 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
             if not named:
                 raise ValueError(f"{path}: needs position columns x, y or x_<frame>_m, y_<frame>_m; has {cols}")
             if frame is not None and frame not in named:
+                if len(named) == 1:
+                    raise ValueError(_mismatch(path, named[0], frame))
                 raise ValueError(f"{path}: has no columns x_{frame}_m, y_{frame}_m; its frames are {named}")
             if frame is None and len(named) > 1:
                 raise ValueError(f"{path}: positions in several frames {named}; choose one (frame=, --frame)")

@@ -80,8 +80,11 @@ def test_frame_named_by_the_columns_is_carried_and_checked(tmp_path: Path) -> No
     with pytest.raises(ValueError, match=r"several frames \['laser', 'base_link'\]"):
         read_gt_csv(two)
     np.testing.assert_array_equal(read_gt_csv(two, frame="base_link").xy, [[3.0, 4.0]])
-    with pytest.raises(ValueError, match=r"no columns x_odom_m, y_odom_m"):
+    with pytest.raises(ValueError, match=r"no columns x_odom_m, y_odom_m; its frames are \['laser', 'base_link'\]"):
         read_gt_csv(two, frame="odom")
+    with pytest.raises(ValueError, match=r"in frame 'base_link' .* but frame 'odom' was requested"):
+        read_gt_csv(p, frame="odom")
+    assert read_gt_csv(plain, frame="odom").frame is None  # plain x, y: the caller names the frame
 
 
 def test_gt_beyond_a_run_cut_short_is_reported(

@@ -123,7 +123,7 @@ def _fmt(v: Any) -> str:
 
 def _score(args: argparse.Namespace) -> int:
     run = load_run(args.run_dir)
-    gt = read_gt_csv(args.gt)
+    gt = read_gt_csv(args.gt, frame=args.frame)
     result = score_run(
         run,
         gt,
