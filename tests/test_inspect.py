@@ -12,8 +12,10 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
-from test_pipeline_bags import MOUNT, write_bag
+from rosbags.rosbag1 import Writer as Writer1
+from test_pipeline_bags import MOUNT, T0_NS, _Msgs, _typestore, write_bag
 
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import FilterConfig, load_config
@@ -138,3 +140,27 @@ def test_every_real_bag(shared_data: Path, tmp_path_factory: pytest.TempPathFact
     with BagSource(shared_data / "leg_tracker" / "demo_stationary_simple_environment.bag") as src:
         summary, _ = Pipeline(load_config(cfg_path)).run(src, None, max_frames=10)
     assert summary.frames == 10
+
+
+def test_reversed_laser_is_flagged_and_its_fov_kept(tmp_path: Path) -> None:
+    ts = _typestore(False)
+    m = _Msgs(ts, False)
+    bag = tmp_path / "rev.bag"
+    inc = -math.radians(0.5)
+    with Writer1(bag) as w:
+        conn = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=ts)
+        for k in range(3):
+            t = T0_NS + k * 10**8
+            scan = m.scan(t, np.full(181, 3.0), math.radians(45.0), inc)  # beams from +45 deg down to -45 deg
+            w.write(conn, t, ts.serialize_ros1(scan, "sensor_msgs/msg/LaserScan"))
+    report = inspect_path(bag)
+    (laser,) = report.lasers
+    assert laser.increment_sign == -1 and laser.angle_min_deg == pytest.approx(45.0)
+    assert (laser.fov_min_rad, laser.fov_max_rad) == pytest.approx((-math.pi / 4, math.pi / 4), abs=1e-6)
+    assert any("negative angle_increment" in w for w in report.warnings)
+    assert "[sign - (CW: reversed or upside down)]" in format_report(report)
+    assert report.odometry == () and report.tf == ()
+    cfg_path = tmp_path / "rev.toml"
+    cfg_path.write_text(starter_config(report))
+    cfg = load_config(cfg_path)
+    assert cfg.odometry == "" and cfg.detectors[0].model["fov_min"] == pytest.approx(-math.pi / 4, abs=1e-5)

@@ -106,7 +106,7 @@ def _run(args: argparse.Namespace) -> int:
     span = f"frames {frames.start}..{frames.stop - 1}"
     for path, n in ((mp4, counts["mp4_frames"]), (gif, counts["gif_frames"])):
         if path is not None:
-            print(f"{n} frames ({span}) at {options.fps:g} fps, {w}x{h} px -> {path}")
+            print(f"{n} frames ({span}) at {options.fps:g} fps, {options.width_px}x{options.height_px} px -> {path}")
     return 0
 
 
