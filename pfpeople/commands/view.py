@@ -20,8 +20,6 @@ from typing import Any
 
 from pfpeople.gt_csv import read_gt_csv, resolve_gt_frame, truth_per_frame
 from pfpeople.output import RunData, load_run
-from pfpeople.viz.run_view import RunFrameRenderer, ViewOptions, read_tracks, render_summary
-from pfpeople.viz.video import write_animation
 
 #: Selections of at most this many frames also get a GIF (unless --no-gif).
 SMALL_RUN_FRAMES = 100
@@ -68,6 +66,10 @@ def _check_run(run: RunData) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    # Drawing and encoding libraries are imported here, not when the CLI builds its parser for every command.
+    from pfpeople.viz.run_view import RunFrameRenderer, ViewOptions, read_tracks, render_summary
+    from pfpeople.viz.video import write_animation
+
     run_dir = Path(args.run)
     if not run_dir.is_dir():
         raise FileNotFoundError(f"run directory {str(run_dir)!r} does not exist")
