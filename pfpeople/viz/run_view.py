@@ -376,8 +376,9 @@ class RunFrameRenderer:
                         self.ax.annotate(
                             str(int(tid)),
                             (yi, xi),
-                            xytext=(6, 6),
+                            xytext=(7, -15),
                             textcoords="offset points",
+                            bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "tab:green", "lw": 0.6},
                             color="tab:green",
                             fontsize=9,
                             weight="bold",
