@@ -33,7 +33,7 @@ def test_synthetic_bag_report_and_config_that_runs(tmp_path: Path, ros2: bool, s
     topics = {t.topic: t for t in report.topics}
     assert report.storage == ("ROS 2 bag" if ros2 else "ROS 1 bag")
     assert topics["/scan"].count == 12 and topics["/scan"].rate_hz == pytest.approx(10.0, rel=1e-9)
-    assert topics["/scan"].frame_ids == ("laser",)
+    assert topics["/scan"].frame_ids == ("laser",) and topics["/scan"].header_rate_hz == pytest.approx(10.0, rel=1e-9)
     assert topics["/scan"].header_offset_s == pytest.approx(-0.003, abs=1e-9)
     assert topics["/odom"].rate_hz == pytest.approx(50.0, rel=1e-9)
     (edge,) = report.tf

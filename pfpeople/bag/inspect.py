@@ -4,8 +4,9 @@
 message (without decoding it) for counts, rates and the time span, and decodes only what it needs:
 
 - the first ``sample`` messages of every topic: header frame ids and the header-stamp minus record-time offset
-  (median, s); for ``sensor_msgs/LaserScan`` also the geometry (angles, beams, increment sign, range interval),
-  and whether it changes between those messages; for ``nav_msgs/Odometry`` the frame and child frame;
+  (median, s) and the header-stamp rate; for ``sensor_msgs/LaserScan`` also the geometry (angles, beams,
+  increment sign, range interval) and whether it changes between those messages; for ``nav_msgs/Odometry``
+  the frame and child frame;
 - every ``tf2_msgs/TFMessage`` on ``/tf`` and ``/tf_static``: the TF tree as 2-D edges parent -> child
   (x, y, yaw: the planar projection of :mod:`pfpeople.bag.tf`, latest transform per edge).
 
@@ -60,7 +61,11 @@ TIME_SOURCE_THRESHOLD_S = 1.0
 
 @dataclass(frozen=True, kw_only=True)
 class TopicInfo:
-    """One topic: type, message count, rate (Hz, from record times), header frame ids, stamp offset (s)."""
+    """One topic: type, message count, rate (Hz, from record times), header frame ids, stamp offset (s).
+
+    ``header_rate_hz`` is the rate of the header stamps of the sampled messages (None without headers); it
+    differs from ``rate_hz`` in bags whose messages were re-recorded (e.g. leg_tracker's extracted bags).
+    """
 
     topic: str
     msgtype: str
@@ -70,6 +75,7 @@ class TopicInfo:
     header_offset_s: float | None
     first_ns: int
     last_ns: int
+    header_rate_hz: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -226,7 +232,9 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         t = times.get(topic, [])
         msgs = decoded.get(topic, [])
         ids = sorted({str(m.header.frame_id).lstrip("/") for _, m in msgs if hasattr(m, "header")})
-        offsets = [(s - bt) / 1e9 for bt, m in msgs if (s := header_stamp_ns(m)) is not None]
+        stamps = [(bt, s) for bt, m in msgs if (s := header_stamp_ns(m)) is not None]
+        offsets = [(s - bt) / 1e9 for bt, s in stamps]
+        hs = sorted(s for _, s in stamps)
         topics.append(
             TopicInfo(
                 topic=topic,
@@ -237,6 +245,7 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
                 header_offset_s=statistics.median(offsets) if offsets else None,
                 first_ns=t[0] if t else 0,
                 last_ns=t[-1] if t else 0,
+                header_rate_hz=_rate(len(hs), hs[0], hs[-1]) if hs else None,
             )
         )
     by_topic = {i.topic: i for i in topics}
@@ -363,13 +372,13 @@ def format_report(report: BagReport) -> str:
         f"bag: {report.bag} ({report.storage})",
         f"time span: {report.duration_s:.3f} s (record times {report.start_ns} .. {report.end_ns} ns)",
         "",
-        f"{'topic':<36} {'type':<36} {'count':>7} {'rate Hz':>8} {'hdr-rec s':>10}  frame ids",
+        f"{'topic':<32} {'type':<36} {'count':>7} {'rate Hz':>8} {'hdr Hz':>8} {'hdr-rec s':>10}  frame ids",
     ]
     for t in report.topics:
         ids = ", ".join(t.frame_ids) if t.frame_ids else "(no header)"
         lines.append(
-            f"{t.topic:<36} {t.msgtype:<36} {t.count:>7} {_fmt(t.rate_hz):>8} {_fmt(t.header_offset_s, '.3f'):>10}  "
-            f"{ids}"
+            f"{t.topic:<32} {t.msgtype:<36} {t.count:>7} {_fmt(t.rate_hz):>8} {_fmt(t.header_rate_hz):>8} "
+            f"{_fmt(t.header_offset_s, '.3f'):>10}  {ids}"
         )
     lines.append("")
     if report.tf:
