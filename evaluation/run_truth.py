@@ -1,7 +1,7 @@
 """A pipeline run (``pfpeople run``) next to its ground truth, frame by frame, in the run's grid frame.
 
 Used by ``pfpeople-eval score`` and ``pfpeople-eval calibrate --run``: ground-truth rows are assigned to the
-run's frames (:meth:`evaluation.gt_csv.GroundTruth.assign`), mapped into the grid frame, and limited to an
+run's frames (:meth:`pfpeople.gt_csv.GroundTruth.assign`), mapped into the grid frame, and limited to an
 optional bearing sector and range; each detector's detections (``detections.csv``) and the filter's classified
 people (``people.csv``) are grouped per frame the same way.
 

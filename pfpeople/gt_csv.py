@@ -17,6 +17,11 @@ and it would otherwise become part of the first column's name.
 
 Example: ``../shared/data/leg_tracker/person_following_outdoor_1_gt.csv`` (scan_index, bag_time_ns,
 person_id, x_laser_m, y_laser_m).
+
+A run's frames: :meth:`GroundTruth.assign` gives the run frame of every row, :meth:`GroundTruth.beyond` the
+rows after the run's last frame, :func:`gt_to_grid` maps positions into the run's grid frame and
+:func:`truth_per_frame` does both (used by ``pfpeople view --gt``; scoring is in :mod:`evaluation.run_truth`).
+This module lives in ``pfpeople`` so that the viewer can read ground truth; ``evaluation.gt_csv`` re-exports it.
 """
 
 from __future__ import annotations
