@@ -180,3 +180,7 @@ def test_frames_option_and_bad_input(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert "has no frames" in capsys.readouterr().err
     assert main(["view", str(run_dir), "--tracks", str(tmp_path / "t.csv"), "--no-progress"]) == 2
     assert "--tracks" in capsys.readouterr().err
+    gt = tmp_path / "gt.csv"
+    gt.write_text("scan_index,person_id,x_laser_m,y_laser_m\n10,1,2.5,-2.0\n")
+    assert main(["view", str(run_dir), "--gt", str(gt), "--gt-frame", "grid", "--no-progress"]) == 2
+    assert "in frame 'laser' (columns x_laser_m, y_laser_m) but frame 'grid' was requested" in capsys.readouterr().err
