@@ -1,43 +1,53 @@
 """A pipeline run (``pfpeople run``) next to its ground truth, frame by frame, in the run's grid frame.
 
 Used by ``pfpeople-eval score`` and ``pfpeople-eval calibrate --run``: ground-truth rows are assigned to the
-run's frames (:meth:`evaluation.gt_csv.GroundTruth.assign`), mapped into the grid frame, and limited to an
+run's frames (:meth:`pfpeople.gt_csv.GroundTruth.assign`), mapped into the grid frame, and limited to an
 optional bearing sector and range; each detector's detections (``detections.csv``) and the filter's classified
 people (``people.csv``) are grouped per frame the same way.
+
+The ground-truth frame: a file whose columns name one (``x_laser_m``) is in that frame; a requested frame that
+differs is an error naming both (:func:`pfpeople.gt_csv.resolve_gt_frame`). GT rows after the run's last frame
+(a run stopped early, a ``frames.csv`` cut short) are counted and logged as a warning, never dropped silently:
+see :func:`gt_coverage`.
 """
 
 from __future__ import annotations
 
+import logging
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from evaluation.gt_csv import GroundTruth
+from pfpeople.gt_csv import GroundTruth, gt_to_grid, resolve_gt_frame
 from pfpeople.output import RunData
-from pfpeople.sensors import Pose2D
 
-__all__ = ["group_by_frame", "gt_to_grid", "in_region", "truth_and_sources"]
+__all__ = ["group_by_frame", "gt_coverage", "gt_to_grid", "in_region", "truth_and_sources"]
+
+log = logging.getLogger(__name__)
 
 
-def gt_to_grid(run: RunData, gt: GroundTruth, frame: str) -> NDArray[np.float64]:
-    """GT positions ``(N, 2)`` mapped into the run's grid frame.
+def gt_coverage(run: RunData, gt: GroundTruth, *, tolerance_ns: int = 50_000_000) -> dict[str, Any]:
+    """How much of the ground truth the run's frames cover.
 
-    ``frame`` is ``"grid"``, the run's grid frame, a frame the run recorded in ``frames_in_grid`` (mapped by
-    its mount), or else ``"laser"`` as an alias of the driving sensor's frame, which the grid is attached to.
+    Returns
+    -------
+    dict
+        ``gt_frames``: distinct GT frame keys; ``gt_frames_without_run_frame``: keys no run frame was assigned
+        to (skipped frames, rows before the run, rows after it); ``gt_frames_beyond_run`` and
+        ``gt_rows_beyond_run``: keys and rows after the run's last frame (a run stopped early or a
+        ``frames.csv`` cut short).
     """
-    known: dict[str, list[float]] = run.meta.get("frames_in_grid", {})
-    if frame in ("grid", run.meta.get("grid_frame", "")):
-        return gt.xy
-    if frame in known:  # before the "laser" alias: a recorded frame named "laser" has its own mount
-        x, y, yaw = known[frame]
-        return Pose2D(x=x, y=y, yaw=yaw).apply(gt.xy)
-    if frame == "laser":
-        return gt.xy
-    raise ValueError(
-        f"ground-truth frame {frame!r} is not known to run {str(run.path)!r}; use 'grid', 'laser' "
-        f"(the driving sensor) or one of {sorted(known)}"
-    )
+    fr = run.frames
+    rows_frame, _ = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    beyond = gt.beyond(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    return {
+        "gt_frames": int(np.unique(gt.keys).size),
+        "gt_frames_without_run_frame": int(np.unique(gt.keys[rows_frame < 0]).size),
+        "gt_frames_beyond_run": int(np.unique(gt.keys[beyond]).size),
+        "gt_rows_beyond_run": int(np.count_nonzero(beyond)),
+    }
 
 
 def in_region(
@@ -67,16 +77,21 @@ def truth_and_sources(
     run: RunData,
     gt: GroundTruth,
     *,
-    frame: str = "grid",
+    frame: str | None = None,
     sector: tuple[float, float] | None = None,
     max_range: float | None = None,
     tolerance_ns: int = 50_000_000,
 ) -> tuple[list[NDArray[np.float64]], dict[str, list[NDArray[np.float64]]], int]:
     """Per frame: true positions and, per source (each detector and ``"filter"``), positions (m, grid frame).
 
+    ``frame`` is the frame of the GT positions (see :func:`gt_to_grid`); None takes the one the file's
+    columns name, else ``"grid"``; a frame other than the file's raises ValueError naming both.
+
     Returns ``(truth, sources, unassigned)``: ``truth[k]`` is ``(P, 2)``, ``sources[name][k]`` is ``(M, 2)``,
-    both limited to the sector and range; ``unassigned`` counts GT rows outside the run's frames.
+    both limited to the sector and range; ``unassigned`` counts GT rows outside the run's frames. GT rows
+    after the run's last frame are logged as a warning with their count.
     """
+    frame = resolve_gt_frame(gt, frame)
     if sector is not None and not sector[0] < sector[1]:
         raise ValueError(f"--sector needs DEG_MIN < DEG_MAX, got {sector}")
     if max_range is not None and not max_range > 0:
@@ -84,6 +99,19 @@ def truth_and_sources(
     n = run.n_frames
     fr = run.frames
     rows_frame, unassigned = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    beyond = gt.beyond(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    if beyond.any():
+        log.warning(
+            "%d ground-truth row(s) of %s (%d frame key(s)) lie after the last frame of run %s (%d frames, "
+            "status %s): they are not scored (the run stopped early, e.g. --max-frames, or its frames.csv "
+            "was cut short)",
+            int(beyond.sum()),
+            gt.path,
+            int(np.unique(gt.keys[beyond]).size),
+            run.path,
+            n,
+            run.meta.get("status"),
+        )
     truth = group_by_frame(rows_frame, gt_to_grid(run, gt, frame), n)
     truth = [t[in_region(t, sector, max_range)] for t in truth]
     det = run.detections

@@ -46,7 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     src.add_argument("--truth", type=Path, help="ground-truth CSV (frame, person_id, x_m, y_m)")
     src.add_argument("--run", type=Path, help="run directory written by 'pfpeople run' (with --gt)")
     p.add_argument("--gt", type=Path, help="ground-truth CSV for --run (see evaluation.gt_csv)")
-    p.add_argument("--frame", default="grid", help="frame of the --gt positions: grid (default), laser, or a name")
+    p.add_argument("--frame", default=None, help="frame of the --gt positions (default: from its columns, else grid)")
     p.add_argument("--recall-only", action="store_true", help="--gt does not annotate everybody: FNR only")
     p.add_argument("--detections", type=Path, help="detections CSV (frame, x_m, y_m) for --truth")
     p.add_argument(

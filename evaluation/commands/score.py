@@ -13,9 +13,14 @@ ground truth, where the ground-truth occupancy of a frame is every cell whose ce
 truth that does not annotate everybody, e.g. passers-by in the leg_tracker person-following bags) precision
 and FPCPF are not reported: unannotated people would count as false positives.
 
-Ground-truth frame: ``--frame grid`` (default) means the GT is in the run's grid frame; ``--frame laser``
-means the frame of the driving sensor; any other name must be one the run recorded (``frames_in_grid`` in
-``run.json``).
+Ground-truth frame: a GT file whose columns name a frame (``x_laser_m``) is in that frame, and ``--frame``, if
+given, must agree (else an error naming both). For plain ``x``, ``y`` columns: ``--frame grid`` (default) means
+the GT is in the run's grid frame; ``--frame laser`` means the frame of the driving sensor; any other name must
+be one the run recorded (``frames_in_grid`` in ``run.json``).
+
+Coverage: the score says how many GT frames had no run frame (``gt_frames_without_run_frame``) and how many
+lie after the run's last frame (``gt_frames_beyond_run``: a run stopped early or a ``frames.csv`` cut short);
+the latter are also logged as a warning.
 """
 
 from __future__ import annotations
@@ -29,11 +34,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from evaluation.gt_csv import GroundTruth, read_gt_csv
 from evaluation.metrics import DetectionAccumulator
-from evaluation.run_truth import in_region, truth_and_sources
+from evaluation.run_truth import gt_coverage, in_region, truth_and_sources
 from gridbridge.classify import classify_blobs
 from gridbridge.grid import GridSpec
+from pfpeople.gt_csv import GroundTruth, read_gt_csv, resolve_gt_frame
 from pfpeople.output import RunData, load_run
 
 __all__ = ["score_run"]
@@ -58,7 +63,7 @@ def score_run(
     run: RunData,
     gt: GroundTruth,
     *,
-    frame: str = "grid",
+    frame: str | None = None,
     sector: tuple[float, float] | None = None,
     max_range: float | None = None,
     gate: float = 0.5,
@@ -71,9 +76,11 @@ def score_run(
     Returns
     -------
     dict
-        ``{"frames": F, "gt_rows_unassigned": U, "scores": {name: summary}}`` where ``name`` is each detector
-        and ``"filter"``; a summary has frames, tp, fp, fn, recall, mean_match_distance_m and (unless
-        ``recall_only``) precision and, for the filter, fpcpf.
+        ``{"frames": F, "gt_rows": R, "gt_rows_unassigned": U, "gt_frames": G, "gt_frames_without_run_frame": M,
+        "gt_frames_beyond_run": B, "gt_rows_beyond_run": RB, "gt_frame": name, "scores": {name: summary}}``
+        (see :func:`evaluation.run_truth.gt_coverage`) where ``name`` is each detector and ``"filter"``; a
+        summary has frames, tp, fp, fn, recall, mean_match_distance_m and (unless ``recall_only``) precision
+        and, for the filter, fpcpf.
     """
     truth, sources, unassigned = truth_and_sources(
         run, gt, frame=frame, sector=sector, max_range=max_range, tolerance_ns=tolerance_ns
@@ -98,7 +105,14 @@ def score_run(
         if not recall_only:
             keep += ["precision"] + (["fpcpf"] if name == "filter" else [])
         scores[name] = {k: summary[k] for k in keep}
-    return {"frames": n, "gt_rows": len(gt), "gt_rows_unassigned": unassigned, "scores": scores}
+    return {
+        "frames": n,
+        "gt_rows": len(gt),
+        "gt_rows_unassigned": unassigned,
+        **gt_coverage(run, gt, tolerance_ns=tolerance_ns),
+        "gt_frame": resolve_gt_frame(gt, frame),
+        "scores": scores,
+    }
 
 
 def _fmt(v: Any) -> str:
@@ -109,7 +123,7 @@ def _fmt(v: Any) -> str:
 
 def _score(args: argparse.Namespace) -> int:
     run = load_run(args.run_dir)
-    gt = read_gt_csv(args.gt)
+    gt = read_gt_csv(args.gt, frame=args.frame)
     result = score_run(
         run,
         gt,
@@ -123,7 +137,15 @@ def _score(args: argparse.Namespace) -> int:
     status = run.meta.get("status")
     print(
         f"run {args.run_dir} ({status}, {result['frames']} frames) vs {args.gt} ({result['gt_rows']} GT rows, "
-        f"{result['gt_rows_unassigned']} outside the run's frames)"
+        f"{result['gt_rows_unassigned']} outside the run's frames; GT frame {result['gt_frame']!r})"
+    )
+    print(
+        f"GT frames: {result['gt_frames']}, of which {result['gt_frames_without_run_frame']} had no run frame"
+        + (
+            f" ({result['gt_frames_beyond_run']} after the run's last frame: stopped early or frames.csv cut short)"
+            if result["gt_frames_beyond_run"]
+            else ""
+        )
     )
     cols = ["tp", "fp", "fn", "recall"] + ([] if args.recall_only else ["precision", "fpcpf"])
     print(f"{'source':<18}" + "".join(f"{c:>10}" for c in cols))
@@ -140,7 +162,11 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser("score", help="score a pfpeople run directory against a ground-truth CSV")
     p.add_argument("run_dir", help="run directory written by 'pfpeople run'")
     p.add_argument("--gt", required=True, help="ground-truth CSV (see evaluation.gt_csv)")
-    p.add_argument("--frame", default="grid", help="frame of the GT positions: grid (default), laser, or a name")
+    p.add_argument(
+        "--frame",
+        default=None,
+        help="frame of the GT positions: the one its columns name (x_<frame>_m), else grid (default), laser, a name",
+    )
     p.add_argument("--sector", nargs=2, type=float, metavar=("DEG_MIN", "DEG_MAX"), help="bearing sector (deg)")
     p.add_argument("--max-range", type=float, help="range limit (m)")
     p.add_argument("--gate", type=float, default=0.5, help="matching distance (m), default 0.5")

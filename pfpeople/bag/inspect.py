@@ -1,0 +1,534 @@
+"""What is in a bag, and a starter run configuration for it (``pfpeople inspect BAG``).
+
+:func:`inspect_bag` reads a bag once through :class:`pfpeople.bag.reader.BagSource`: the record time of every
+message (without decoding it) for counts, rates and the time span, and decodes only what it needs:
+
+- the first ``sample`` messages of every topic: header frame ids and the header-stamp minus record-time offset
+  (median, s) and the header-stamp rate; for ``sensor_msgs/LaserScan`` also the geometry (angles, beams,
+  increment sign, range interval) and whether it changes between those messages; for ``nav_msgs/Odometry``
+  the frame and child frame;
+- every ``tf2_msgs/TFMessage`` on ``/tf`` and ``/tf_static``: the TF tree as 2-D edges parent -> child
+  (x, y, yaw: the planar projection of :mod:`pfpeople.bag.tf`, latest transform per edge).
+
+Rates are (count - 1) / (last - first record time) in Hz. Angles are reported in degrees (display) and kept in
+radians where a configuration needs them.
+
+:func:`starter_config` turns a report into the TOML text of a run configuration (format:
+:mod:`pfpeople.bag.config`) that ``pfpeople run BAG --config FILE`` accepts unchanged:
+
+- ``[frames] driver``: the LaserScan topic with the most messages (ties: the first by name); the others are
+  listed in comments. ``time_source = "bag"`` when the driver's header stamps are more than
+  :data:`TIME_SOURCE_THRESHOLD_S` (1 s, median) from its record times (e.g. leg_tracker's
+  person_following_outdoor_1, ~130 s), else ``"header"``.
+- ``[odometry] topic``: the ``nav_msgs/Odometry`` topic with the most messages, when one exists; then
+  ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
+  laser at the base origin (flagged in a comment and in the report's warnings: measure it).
+- two detectors on the driver: ``laser-legs`` (kind ``leg``) and ``laser-boosted`` (kind ``boosted``) with
+  ``[detectors.model] fov_min, fov_max, max_range`` from the scan (radians, metres).
+- no ``[filter]`` and no ``[grid]`` table: the product's defaults apply.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pfpeople.bag.reader import LASER_TYPES, ODOMETRY_TYPES, TF_TYPES, BagReadError, BagSource, header_stamp_ns
+from pfpeople.bag.tf import TfBuffer, TfLookupError, yaw_from_quaternion
+from pfpeople.sensors import Pose2D
+
+__all__ = [
+    "TIME_SOURCE_THRESHOLD_S",
+    "BagReport",
+    "LaserInfo",
+    "OdometryInfo",
+    "TfEdge",
+    "TopicInfo",
+    "format_report",
+    "inspect_bag",
+    "inspect_path",
+    "starter_config",
+]
+
+#: Median |header stamp - record time| (s) of the driver above which frames are synchronised on bag time.
+TIME_SOURCE_THRESHOLD_S = 1.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class TopicInfo:
+    """One topic: type, message count, rate (Hz, from record times), header frame ids, stamp offset (s).
+
+    ``header_rate_hz`` is the rate of the header stamps of the sampled messages (None without headers); it
+    differs from ``rate_hz`` in bags whose messages were re-recorded (e.g. leg_tracker's extracted bags).
+    """
+
+    topic: str
+    msgtype: str
+    count: int
+    rate_hz: float | None
+    frame_ids: tuple[str, ...]
+    header_offset_s: float | None
+    first_ns: int
+    last_ns: int
+    header_rate_hz: float | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class LaserInfo:
+    """Geometry of a ``sensor_msgs/LaserScan`` topic (from its first message; ``varies`` if it changes).
+
+    Angles in the scan's frame (REP-103, CCW); ``fov_min_rad``/``fov_max_rad`` are the smallest and largest
+    beam angles whatever the sign of the increment.
+    """
+
+    topic: str
+    frame_id: str
+    beams: int
+    angle_min_deg: float
+    angle_max_deg: float
+    angle_increment_deg: float
+    increment_sign: int
+    fov_min_rad: float
+    fov_max_rad: float
+    range_min_m: float
+    range_max_m: float
+    varies: bool
+    mount_in_base: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class OdometryInfo:
+    """A ``nav_msgs/Odometry`` topic: its frame (odom) and child frame (the robot's base)."""
+
+    topic: str
+    frame_id: str
+    child_frame_id: str
+    count: int
+    rate_hz: float | None
+
+
+@dataclass(frozen=True, kw_only=True)
+class TfEdge:
+    """Latest 2-D transform parent -> child (pose of child in parent: x, y in m, yaw in rad)."""
+
+    parent: str
+    child: str
+    x: float
+    y: float
+    yaw: float
+    static: bool
+    count: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class BagReport:
+    """Everything :func:`inspect_bag` found (see the module docstring)."""
+
+    bag: str
+    storage: str
+    start_ns: int
+    end_ns: int
+    topics: tuple[TopicInfo, ...]
+    lasers: tuple[LaserInfo, ...]
+    odometry: tuple[OdometryInfo, ...]
+    tf: tuple[TfEdge, ...]
+    driver: str | None
+    time_source: str
+    warnings: tuple[str, ...] = field(default=())
+
+    @property
+    def duration_s(self) -> float:
+        return (self.end_ns - self.start_ns) / 1e9
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-able mapping (non-finite floats as strings)."""
+        out = asdict(self)
+        out["duration_s"] = self.duration_s
+        return _json_safe(out)
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def _rate(count: int, first_ns: int, last_ns: int) -> float | None:
+    return (count - 1) / ((last_ns - first_ns) / 1e9) if count >= 2 and last_ns > first_ns else None
+
+
+def _laser_geometry(msg: Any) -> tuple[float, float, float, int, float, float]:
+    n = len(msg.ranges)
+    return (
+        float(msg.angle_min),
+        float(msg.angle_max),
+        float(msg.angle_increment),
+        n,
+        float(msg.range_min),
+        float(msg.range_max),
+    )
+
+
+def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -> BagReport:
+    """Inspect an open bag (see the module docstring).
+
+    Parameters
+    ----------
+    bag : BagSource
+        The open bag.
+    sample : int
+        Messages decoded per topic (TF topics: all) for frame ids, stamp offsets and scan geometry.
+    name : str, optional
+        Name of the bag in the report (default: the opened path; a zip's is its extracted copy).
+
+    Returns
+    -------
+    BagReport
+    """
+    if sample < 1:
+        raise ValueError(f"sample must be a positive number of messages, got {sample}")
+    # BagSource's reader (same package): record times without decoding, then only the sampled messages.
+    reader = bag._reader
+    times: dict[str, list[int]] = {}
+    decoded: dict[str, list[tuple[int, Any]]] = {}
+    types = bag.topics
+    tf_topics = {t for t, m in types.items() if m in TF_TYPES}
+    it = reader.messages()
+    last = "the start"
+    while True:
+        try:
+            conn, bag_time, raw = next(it)
+        except StopIteration:
+            break
+        except Exception as exc:  # rosbags raises several error types for damaged files
+            raise BagReadError(
+                f"bag {bag.name!r} is truncated or corrupt after {last}: {type(exc).__name__}: {exc}"
+            ) from None
+        topic = conn.topic
+        t = times.setdefault(topic, [])
+        t.append(int(bag_time))
+        last = f"message {len(t) - 1} of {topic!r} at bag time {bag_time} ns"
+        dec = decoded.setdefault(topic, [])
+        if topic in tf_topics or len(dec) < sample:
+            try:
+                dec.append((int(bag_time), reader.deserialize(raw, conn.msgtype)))
+            except Exception as exc:
+                raise BagReadError(
+                    f"cannot decode a {conn.msgtype} message on topic {topic!r} at bag time {bag_time} ns "
+                    f"in {bag.name!r}: {type(exc).__name__}: {exc}"
+                ) from None
+    warnings: list[str] = []
+    topics: list[TopicInfo] = []
+    for topic in sorted(types):
+        t = times.get(topic, [])
+        msgs = decoded.get(topic, [])
+        ids = sorted({str(m.header.frame_id).lstrip("/") for _, m in msgs if hasattr(m, "header")})
+        stamps = [(bt, s) for bt, m in msgs if (s := header_stamp_ns(m)) is not None]
+        offsets = [(s - bt) / 1e9 for bt, s in stamps]
+        hs = sorted(s for _, s in stamps)
+        topics.append(
+            TopicInfo(
+                topic=topic,
+                msgtype=types[topic],
+                count=len(t),
+                rate_hz=_rate(len(t), t[0], t[-1]) if t else None,
+                frame_ids=tuple(ids),
+                header_offset_s=statistics.median(offsets) if offsets else None,
+                first_ns=t[0] if t else 0,
+                last_ns=t[-1] if t else 0,
+                header_rate_hz=_rate(len(hs), hs[0], hs[-1]) if hs else None,
+            )
+        )
+    by_topic = {i.topic: i for i in topics}
+    # TF tree.
+    edges: dict[tuple[str, str], tuple[Pose2D, int, bool, int]] = {}
+    tfbuf = TfBuffer()
+    for topic in sorted(tf_topics):
+        static = topic.endswith("tf_static")
+        for _, msg in decoded.get(topic, []):
+            tfbuf.add_message(msg)
+            for tr in msg.transforms:
+                parent, child = str(tr.header.frame_id).lstrip("/"), str(tr.child_frame_id).lstrip("/")
+                stamp = int(tr.header.stamp.sec) * 1_000_000_000 + int(tr.header.stamp.nanosec)
+                tt, q = tr.transform.translation, tr.transform.rotation
+                pose = Pose2D(x=float(tt.x), y=float(tt.y), yaw=yaw_from_quaternion(q.x, q.y, q.z, q.w))
+                old = edges.get((parent, child))
+                count = 1 + (old[3] if old else 0)
+                if old is None or old[1] <= stamp:
+                    edges[(parent, child)] = (pose, stamp, static, count)
+                else:
+                    edges[(parent, child)] = (*old[:3], count)
+    tf = tuple(
+        TfEdge(parent=p, child=c, x=pose.x, y=pose.y, yaw=pose.yaw, static=st, count=n)
+        for (p, c), (pose, _, st, n) in sorted(edges.items())
+    )
+    # Odometry.
+    odometry: list[OdometryInfo] = []
+    for topic in sorted(t for t, m in types.items() if m in ODOMETRY_TYPES):
+        msgs = decoded.get(topic, [])
+        info = by_topic[topic]
+        if not msgs:
+            warnings.append(f"odometry topic {topic} has no messages")
+            continue
+        first = msgs[0][1]
+        odometry.append(
+            OdometryInfo(
+                topic=topic,
+                frame_id=str(first.header.frame_id).lstrip("/"),
+                child_frame_id=str(first.child_frame_id).lstrip("/"),
+                count=info.count,
+                rate_hz=info.rate_hz,
+            )
+        )
+    base = max(odometry, key=lambda o: o.count).child_frame_id if odometry else "base_link"
+    base = base or "base_link"
+    # Lasers.
+    lasers: list[LaserInfo] = []
+    for topic in sorted(t for t, m in types.items() if m in LASER_TYPES):
+        msgs = decoded.get(topic, [])
+        if not msgs:
+            warnings.append(f"LaserScan topic {topic} has no messages")
+            continue
+        first = msgs[0][1]
+        geo = _laser_geometry(first)
+        a_min, a_max, inc, n, r_min, r_max = geo
+        last_angle = a_min + inc * max(n - 1, 0)
+        frame_id = str(first.header.frame_id).lstrip("/")
+        mount: tuple[float, float, float] | None = None
+        if frame_id and tfbuf.frames:
+            try:
+                p = tfbuf.lookup(base, frame_id)
+                mount = (p.x, p.y, p.yaw)
+            except TfLookupError:
+                mount = None
+        varies = any(_laser_geometry(m) != geo for _, m in msgs[1:])
+        if varies:
+            warnings.append(f"{topic}: the scan geometry changes between messages (the first one is reported)")
+        if inc < 0:
+            warnings.append(
+                f"{topic}: negative angle_increment (beams run clockwise: a laser mounted upside down or reversed)"
+            )
+        if not (math.isfinite(r_max) and r_max > 0) or not (math.isfinite(r_min) and r_min < r_max):
+            warnings.append(f"{topic}: range interval [{r_min}, {r_max}] m is not a valid interval")
+        lasers.append(
+            LaserInfo(
+                topic=topic,
+                frame_id=frame_id,
+                beams=n,
+                angle_min_deg=math.degrees(a_min),
+                angle_max_deg=math.degrees(a_max),
+                angle_increment_deg=math.degrees(inc),
+                increment_sign=1 if inc > 0 else -1 if inc < 0 else 0,
+                fov_min_rad=min(a_min, last_angle),
+                fov_max_rad=max(a_min, last_angle),
+                range_min_m=r_min,
+                range_max_m=r_max,
+                varies=varies,
+                mount_in_base=mount,
+            )
+        )
+    driver = None
+    if lasers:
+        driver = sorted(lasers, key=lambda li: (-by_topic[li.topic].count, li.topic))[0].topic
+    else:
+        warnings.append("no sensor_msgs/LaserScan topic: a run needs a driver topic (see pfpeople run --driver)")
+    time_source = "header"
+    if driver is not None:
+        off = by_topic[driver].header_offset_s
+        if off is not None and abs(off) > TIME_SOURCE_THRESHOLD_S:
+            time_source = "bag"
+    storage = "ROS 1 bag" if all(p.suffix == ".bag" for p in bag.paths) else "ROS 2 bag"
+    return BagReport(
+        bag=name or bag.name,
+        storage=storage + (" (zip)" if name and name.endswith(".zip") else ""),
+        start_ns=bag.start_time_ns,
+        end_ns=bag.end_time_ns,
+        topics=tuple(topics),
+        lasers=tuple(lasers),
+        odometry=tuple(odometry),
+        tf=tf,
+        driver=driver,
+        time_source=time_source,
+        warnings=tuple(warnings),
+    )
+
+
+def _fmt(v: float | None, spec: str = ".2f") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def format_report(report: BagReport) -> str:
+    """The report as human-readable text (tables)."""
+    lines = [
+        f"bag: {report.bag} ({report.storage})",
+        f"time span: {report.duration_s:.3f} s (record times {report.start_ns} .. {report.end_ns} ns)",
+        "",
+        f"{'topic':<32} {'type':<36} {'count':>7} {'rate Hz':>8} {'hdr Hz':>8} {'hdr-rec s':>10}  frame ids",
+    ]
+    for t in report.topics:
+        ids = ", ".join(t.frame_ids) if t.frame_ids else "(no header)"
+        lines.append(
+            f"{t.topic:<32} {t.msgtype:<36} {t.count:>7} {_fmt(t.rate_hz):>8} {_fmt(t.header_rate_hz):>8} "
+            f"{_fmt(t.header_offset_s, '.3f'):>10}  {ids}"
+        )
+    lines.append("")
+    if report.tf:
+        lines.append("TF tree (2-D: x, y in m, yaw in deg; latest transform per edge):")
+        for e in report.tf:
+            kind = "static" if e.static else f"dynamic, {e.count} msgs"
+            lines.append(f"  {e.parent} -> {e.child}: x={e.x:.3f} y={e.y:.3f} yaw={math.degrees(e.yaw):.1f} ({kind})")
+    else:
+        lines.append("TF: none (no /tf or /tf_static messages)")
+    lines.append("")
+    for li in report.lasers:
+        sign = {1: "+ (CCW)", -1: "- (CW: reversed or upside down)", 0: "0"}[li.increment_sign]
+        mount = (
+            f"; in base: x={li.mount_in_base[0]:.3f} y={li.mount_in_base[1]:.3f} "
+            f"yaw={math.degrees(li.mount_in_base[2]):.1f} deg"
+            if li.mount_in_base is not None
+            else ""
+        )
+        lines.append(
+            f"LaserScan {li.topic} (frame {li.frame_id or '?'}): FOV {li.angle_min_deg:.1f} .. "
+            f"{li.angle_max_deg:.1f} deg, {li.beams} beams, increment {li.angle_increment_deg:.4f} deg "
+            f"[sign {sign}], range {li.range_min_m:g} .. {li.range_max_m:g} m"
+            + (" [geometry varies]" if li.varies else "")
+            + mount
+        )
+    if not report.lasers:
+        lines.append("LaserScan: none")
+    for o in report.odometry:
+        lines.append(
+            f"odometry {o.topic}: frame {o.frame_id} -> child {o.child_frame_id}, {o.count} msgs, {_fmt(o.rate_hz)} Hz"
+        )
+    if not report.odometry:
+        lines.append("odometry: none (nav_msgs/Odometry absent: a run takes the robot as standing)")
+    lines.append("")
+    lines.append(f"suggested driver: {report.driver or '-'}; time source: {report.time_source}")
+    for w in report.warnings:
+        lines.append(f"warning: {w}")
+    return "\n".join(lines)
+
+
+def _q(s: str) -> str:
+    return json.dumps(s)  # a TOML basic string for plain text
+
+
+def starter_config(report: BagReport, *, driver: str | None = None) -> str:
+    """TOML text of a starter run configuration for the inspected bag (see the module docstring).
+
+    Parameters
+    ----------
+    report : BagReport
+        From :func:`inspect_bag`.
+    driver : str, optional
+        LaserScan topic to drive the frames (default: ``report.driver``).
+
+    Raises
+    ------
+    ValueError
+        When the bag has no LaserScan topic (or ``driver`` is not one of them).
+    """
+    lasers = {li.topic: li for li in report.lasers}
+    driver = driver or report.driver
+    if driver is None or driver not in lasers:
+        have = sorted(lasers) or "none"
+        raise ValueError(
+            f"bag {report.bag!r}: cannot write a config: driver {driver!r} is not a LaserScan topic; "
+            f"LaserScan topics: {have}"
+        )
+    li = lasers[driver]
+    counts = {t.topic: t for t in report.topics}
+    drv = counts[driver]
+    out = [
+        f"# Starter configuration written by `pfpeople inspect` for {report.bag}",
+        "# (format: pfpeople/bag/config.py). Use it with: pfpeople run BAG --config THIS_FILE",
+        "# No [grid] and no [filter] table: the product's defaults apply.",
+        "",
+        "[frames]",
+        f"# The LaserScan topic with the most messages ({drv.count}, {_fmt(drv.rate_hz)} Hz) makes the frames.",
+    ]
+    others = [t for t in sorted(lasers) if t != driver]
+    if others:
+        out.append("# Other LaserScan topics in the bag (use one instead, or add detectors on them):")
+        for t in others:
+            out.append(f"#   {t}: {counts[t].count} msgs, {_fmt(counts[t].rate_hz)} Hz, frame {lasers[t].frame_id!r}")
+    out.append(f"driver = {_q(driver)}")
+    off = drv.header_offset_s
+    if report.time_source == "bag":
+        out.append(f"# Header stamps are {off:.3f} s (median) from the record times (> {TIME_SOURCE_THRESHOLD_S:g} s):")
+        out.append("# synchronise on bag (record) time.")
+    else:
+        what = "no header stamps" if off is None else f"header stamps within {abs(off):.3f} s of the record times"
+        out.append(f"# {what}: synchronise on header stamps.")
+    out.append(f"time_source = {_q(report.time_source)}")
+    mounts: dict[str, tuple[float, float, float]] = {}
+    if report.odometry:
+        odom = max(report.odometry, key=lambda o: o.count)
+        base = odom.child_frame_id or "base_link"
+        out.append(f"# The robot's body frame: the child frame of the odometry ({odom.topic}).")
+        out.append(f"base_frame = {_q(base)}")
+        if li.mount_in_base is None and li.frame_id and li.frame_id != base:
+            mounts[li.frame_id] = (0.0, 0.0, 0.0)
+        out += [
+            "",
+            "[odometry]",
+            f"# nav_msgs/Odometry: {odom.count} msgs, {_fmt(odom.rate_hz)} Hz, "
+            f"{odom.frame_id} -> {odom.child_frame_id}.",
+        ]
+        if len(report.odometry) > 1:
+            out.append("# Other odometry topics: " + ", ".join(o.topic for o in report.odometry if o is not odom))
+        out.append(f"topic = {_q(odom.topic)}")
+    else:
+        out += ["", "# No nav_msgs/Odometry topic: the robot is taken as standing (no [odometry] table)."]
+    if mounts:
+        out += [
+            "",
+            "[mounts]",
+            "# NO TF connects the laser to the base frame: the laser is ASSUMED at the base origin, facing forward.",
+            "# Measure the mount and edit it: [x, y, yaw] of the laser frame in base_frame (m, m, rad).",
+        ]
+        for frame, (x, y, yaw) in mounts.items():
+            out.append(f"{_q(frame)} = [{x}, {y}, {yaw}]")
+    model = [
+        "[detectors.model]",
+        f"# Field of view (rad, laser frame, rounded outwards): beams from {math.degrees(li.fov_min_rad):.2f} to "
+        f"{math.degrees(li.fov_max_rad):.2f} deg ({li.beams} beams).",
+        f"fov_min = {max(math.floor(li.fov_min_rad * 1e5) / 1e5, -math.pi)!r}",
+        f"fov_max = {min(math.ceil(li.fov_max_rad * 1e5) / 1e5, math.pi)!r}",
+    ]
+    if math.isfinite(li.range_max_m) and li.range_max_m > 0:
+        model += ["# The scan's range_max (m).", f"max_range = {round(li.range_max_m, 3)!r}"]
+    else:
+        model += [f"# range_max = {li.range_max_m} is not a usable range: no max_range (unbounded)."]
+    for name, kind, what in (
+        ("laser-legs", "leg", "leg detector (segments paired into people)"),
+        ("laser-boosted", "boosted", "boosted segment classifier (pfpeople/models/boosted_legs.yml)"),
+    ):
+        out += [
+            "",
+            "[[detectors]]",
+            f"# Built-in {what} on the driving scan.",
+            f"name = {_q(name)}",
+            f"kind = {_q(kind)}",
+            f"topic = {_q(driver)}",
+            *model,
+        ]
+    if report.warnings:
+        out += ["", "# Warnings from inspect:"] + [f"#   {w}" for w in report.warnings]
+    return "\n".join(out) + "\n"
+
+
+def inspect_path(path: str | Path | Sequence[str | Path], *, sample: int = 200) -> BagReport:
+    """Open a bag path (see :class:`BagSource`) and inspect it."""
+    with BagSource(path) as bag:
+        return inspect_bag(bag, sample=sample, name=str(path) if isinstance(path, str | Path) else None)

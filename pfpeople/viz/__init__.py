@@ -1,0 +1,9 @@
+"""Pictures of runs: animation frames and summary pages (matplotlib, Agg canvas; no pyplot state).
+
+See :mod:`pfpeople.viz.run_view` for what is drawn and :mod:`pfpeople.viz.video` for the encoding.
+"""
+
+from pfpeople.viz.run_view import RunFrameRenderer, ViewOptions, read_tracks, render_summary, robot_path
+from pfpeople.viz.video import write_animation
+
+__all__ = ["RunFrameRenderer", "ViewOptions", "read_tracks", "render_summary", "robot_path", "write_animation"]

@@ -1,0 +1,96 @@
+"""Encode rendered run frames: MP4 (H.264 through imageio-ffmpeg's ffmpeg) and GIF (imageio's pillow plugin).
+
+MP4 frames are streamed to ffmpeg one at a time (memory does not grow with the run). A GIF is written for
+small runs: its frames are kept in memory at half resolution until the end, so at most :data:`GIF_MAX_FRAMES`
+frames are stored; longer selections keep every k-th frame (logged).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import imageio.v3 as iio
+import imageio_ffmpeg
+import numpy as np
+from numpy.typing import NDArray
+from tqdm import tqdm
+
+from pfpeople.viz.run_view import RunFrameRenderer
+
+__all__ = ["GIF_MAX_FRAMES", "write_animation"]
+
+log = logging.getLogger(__name__)
+
+#: Largest number of frames stored in a GIF (longer selections are subsampled).
+GIF_MAX_FRAMES = 300
+
+
+def write_animation(
+    renderer: RunFrameRenderer,
+    frames: Sequence[int],
+    *,
+    mp4: str | Path | None = None,
+    gif: str | Path | None = None,
+    progress: bool = True,
+) -> dict[str, int]:
+    """Render ``frames`` (run frame indices) and write them to ``mp4`` and/or ``gif``.
+
+    Parameters
+    ----------
+    renderer : RunFrameRenderer
+        Draws each frame; its ``options`` give the size and frame rate.
+    frames : sequence of int
+        Run frames to draw, in order.
+    mp4, gif : path, optional
+        Output files (at least one).
+    progress : bool
+        Show a tqdm progress bar.
+
+    Returns
+    -------
+    dict
+        ``{"mp4_frames": n, "gif_frames": m}`` (frames written to each file; 0 for a file not written).
+    """
+    if mp4 is None and gif is None:
+        raise ValueError("write_animation needs an mp4 or a gif output path")
+    frames = list(frames)
+    if not frames:
+        raise ValueError("write_animation: no frames selected")
+    opts = renderer.options
+    writer = None
+    if mp4 is not None:
+        Path(mp4).parent.mkdir(parents=True, exist_ok=True)
+        writer = imageio_ffmpeg.write_frames(
+            str(mp4),
+            (opts.width_px, opts.height_px),
+            fps=opts.fps,
+            codec="libx264",
+            pix_fmt_out="yuv420p",
+            macro_block_size=1,
+            quality=7,
+        )
+        writer.send(None)
+    stride = max(1, math.ceil(len(frames) / GIF_MAX_FRAMES)) if gif is not None else 1
+    if gif is not None and stride > 1:
+        log.info("GIF %s: %d frames selected, keeping every %d-th", gif, len(frames), stride)
+    gif_frames: list[NDArray[np.uint8]] = []
+    n_mp4 = 0
+    try:
+        for pos, k in enumerate(tqdm(frames, desc="view", unit="frame", disable=not progress)):
+            image = renderer.render(k)
+            if writer is not None:
+                writer.send(image)
+                n_mp4 += 1
+            if gif is not None and pos % stride == 0:
+                gif_frames.append(image[::2, ::2].copy())
+    finally:
+        if writer is not None:
+            writer.close()
+    if gif is not None:
+        Path(gif).parent.mkdir(parents=True, exist_ok=True)
+        duration_ms = 1000.0 * stride / opts.fps
+        iio.imwrite(gif, np.stack(gif_frames), plugin="pillow", duration=duration_ms, loop=0)
+    return {"mp4_frames": n_mp4, "gif_frames": len(gif_frames)}
