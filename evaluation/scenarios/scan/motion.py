@@ -13,10 +13,11 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evaluation.scenarios.robot import integrate_path, step_pose
+from evaluation.scenarios.robot import step_pose
 from evaluation.scenarios.scan.scene import OdometryNoise, RobotRoute
+from gridbridge.ego_motion import velocity_displacement
 
-__all__ = ["drive_route", "interpolate_poses", "odometry_from_controls"]
+__all__ = ["drive_route", "integrate_controls", "interpolate_poses", "odometry_from_controls"]
 
 
 def _wrap(a: float) -> float:
@@ -109,8 +110,22 @@ def odometry_from_controls(
     sd_w = np.sqrt(noise.alpha3 * v**2 + noise.alpha4 * w**2)
     v_o = v * (1.0 + e_v) + sd_v * rng.standard_normal(v.shape)
     w_o = w * (1.0 + e_w) + sd_w * rng.standard_normal(w.shape)
-    poses = integrate_path(v_o, w_o, dt, start=start)
-    return poses, v_o, w_o
+    return integrate_controls(v_o, w_o, dt, start=start), v_o, w_o
+
+
+def integrate_controls(v: ArrayLike, omega: ArrayLike, dt: float, *, start: ArrayLike) -> NDArray[np.float64]:
+    """Vectorised :func:`evaluation.scenarios.robot.integrate_path`: pose ``k`` is pose ``k - 1`` moved along
+    the exact arc of ``(v[k], omega[k])`` over ``dt`` (poses ``(T, 3)``, yaw unwrapped)."""
+    v = np.asarray(v, dtype=float).reshape(-1)
+    w = np.asarray(omega, dtype=float).reshape(-1)
+    x0, y0, th0 = (float(c) for c in np.asarray(start, dtype=float).reshape(3))
+    dx, dy, dth = velocity_displacement(v, w, dt)
+    yaw = th0 + np.cumsum(dth)
+    before = yaw - dth  # heading at the start of each step
+    c, s = np.cos(before), np.sin(before)
+    x = x0 + np.cumsum(c * dx - s * dy)
+    y = y0 + np.cumsum(s * dx + c * dy)
+    return np.column_stack((x, y, yaw))
 
 
 def interpolate_poses(times: ArrayLike, step_times: ArrayLike, poses: ArrayLike) -> NDArray[np.float64]:
