@@ -15,6 +15,7 @@ import pytest
 
 from evaluation.cli import main as eval_main
 from evaluation.gt_csv import read_gt_csv
+from evaluation.scenarios.robot import integrate_path
 from evaluation.scenarios.scan import (
     GaitParams,
     LaserConfig,
@@ -30,7 +31,6 @@ from evaluation.scenarios.scan import (
     simulate_scene,
     write_scene_bag,
 )
-from evaluation.scenarios.robot import integrate_path
 from evaluation.scenarios.scan.motion import integrate_controls, odometry_from_controls
 from evaluation.scenarios.scan.simulate import to_frame
 from pfpeople.bag.config import load_config
@@ -153,7 +153,7 @@ def test_gait_standing_legs_side_by_side_and_absent_rows() -> None:
         bad = centres.copy()
         bad[10] = np.nan
         leg_positions(t, bad, params=gait, hip_width=0.2)
-    with pytest.raises(ValueError, match="GaitParams.hip_width_min"):
+    with pytest.raises(ValueError, match=r"GaitParams\.hip_width_min"):
         GaitParams(hip_width_min=0.3, hip_width_max=0.2)
 
 
@@ -165,7 +165,9 @@ def test_vectorised_integration_equals_the_step_by_step_path() -> None:
     v, w = rng.uniform(0.0, 0.8, 200), rng.uniform(-1.0, 1.0, 200)
     w[::7] = 0.0  # straight steps too
     np.testing.assert_allclose(
-        integrate_controls(v, w, 0.02, start=(1.0, -2.0, 0.4)), integrate_path(v, w, 0.02, start=(1.0, -2.0, 0.4)), atol=1e-9
+        integrate_controls(v, w, 0.02, start=(1.0, -2.0, 0.4)),
+        integrate_path(v, w, 0.02, start=(1.0, -2.0, 0.4)),
+        atol=1e-9,
     )
 
 
@@ -192,7 +194,8 @@ def test_odometry_drift_statistics() -> None:
     # a systematic scale error makes the distance error grow with the distance driven
     scaled = OdometryNoise(alpha1=0.0, alpha2=0.0, alpha3=0.0, alpha4=0.0, scale_sd_v=0.05, scale_sd_w=0.0)
     errs = [
-        odometry_from_controls(np.full(n, v), np.zeros(n), dt, noise=scaled, start=(0, 0, 0), rng=rng)[0][-1, 0] - true_x
+        odometry_from_controls(np.full(n, v), np.zeros(n), dt, noise=scaled, start=(0, 0, 0), rng=rng)[0][-1, 0]
+        - true_x
         for _ in range(200)
     ]
     assert np.std(errs) == pytest.approx(0.05 * true_x, rel=0.3)
@@ -231,9 +234,9 @@ def test_builtin_scenes_and_config_errors(tmp_path: Path) -> None:
     bad.write_text('name = "x"\n[robot]\nspeed = 1.0\n')
     with pytest.raises(ValueError, match=r"unknown keys \['speed'\] in \[robot\]"):
         load_scene(bad)
-    with pytest.raises(ValueError, match="PeopleConfig.source"):
+    with pytest.raises(ValueError, match=r"PeopleConfig\.source"):
         PeopleConfig(source="zombies")
-    with pytest.raises(TypeError, match="LaserConfig.n_beams"):
+    with pytest.raises(TypeError, match=r"LaserConfig\.n_beams"):
         LaserConfig(n_beams=1.5)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="topics and frames must be unique"):
         SceneConfig(name="x", lasers=(LaserConfig(), LaserConfig(topic="/scan2")))

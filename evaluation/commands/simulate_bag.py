@@ -63,7 +63,11 @@ def run(args: argparse.Namespace) -> int:
         if stage not in bars:
             for bar in bars.values():
                 bar.close()
-            bars[stage] = tqdm(total=total if stage == "simulate" else None, desc=stage, unit=" scans" if stage == "simulate" else " msgs")
+            bars[stage] = tqdm(
+                total=total if stage == "simulate" else None,
+                desc=stage,
+                unit=" scans" if stage == "simulate" else " msgs",
+            )
         bars[stage].update(n)
 
     try:

@@ -110,10 +110,16 @@ class _Msgs:
         point = self.T["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0)
         return self.T["geometry_msgs/msg/Pose"](position=point, orientation=self.quat(yaw))
 
-    def transform(self, stamp_ns: int, parent: str, child: str, x: float, y: float, z: float, yaw: float, topic: str) -> Any:
+    def transform(
+        self, stamp_ns: int, parent: str, child: str, x: float, y: float, z: float, yaw: float, topic: str
+    ) -> Any:
         T = self.T
-        tr = T["geometry_msgs/msg/Transform"](translation=T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z), rotation=self.quat(yaw))
-        return T["geometry_msgs/msg/TransformStamped"](header=self.header(stamp_ns, parent, topic), child_frame_id=child, transform=tr)
+        tr = T["geometry_msgs/msg/Transform"](
+            translation=T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z), rotation=self.quat(yaw)
+        )
+        return T["geometry_msgs/msg/TransformStamped"](
+            header=self.header(stamp_ns, parent, topic), child_frame_id=child, transform=tr
+        )
 
 
 def write_gt_csv(sim: SceneSim, path: Path) -> None:
@@ -134,8 +140,8 @@ def run_config_text(cfg: SceneConfig) -> str:
     lines = [
         f"# pfpeople run configuration of the simulated scene {cfg.name!r} (evaluation.scenarios.scan).",
         f"# Laser {las.frame_id!r}: {las.n_beams} beams, {math.degrees(las.angle_max - las.angle_min):.0f} deg, "
-        f"{las.rate_hz:g} Hz, mounted at x={las.mount[0]:g} m, y={las.mount[1]:g} m, yaw={math.degrees(las.mount[2]):.1f} deg "
-        f"in {cfg.base_frame} (from /tf_static).",
+        f"{las.rate_hz:g} Hz, mounted at x={las.mount[0]:g} m, y={las.mount[1]:g} m, "
+        f"yaw={math.degrees(las.mount[2]):.1f} deg in {cfg.base_frame} (from /tf_static).",
         "",
         "[frames]",
         f'driver = "{las.topic}"',
@@ -167,7 +173,16 @@ def _messages(sim: SceneSim, m: _Msgs) -> list[tuple[int, str, str, Any]]:
     items: list[tuple[int, str, str, Any]] = []
     t0 = cfg.start_ns
     statics = [
-        m.transform(t0, cfg.base_frame, r.laser.frame_id, r.laser.mount[0], r.laser.mount[1], _MOUNT_Z, r.laser.mount[2], TF_STATIC_TOPIC)
+        m.transform(
+            t0,
+            cfg.base_frame,
+            r.laser.frame_id,
+            r.laser.mount[0],
+            r.laser.mount[1],
+            _MOUNT_Z,
+            r.laser.mount[2],
+            TF_STATIC_TOPIC,
+        )
         for r in sim.lasers
     ]
     items.append((t0, TF_STATIC_TOPIC, "tf2_msgs/msg/TFMessage", T["tf2_msgs/msg/TFMessage"](transforms=statics)))
@@ -180,13 +195,17 @@ def _messages(sim: SceneSim, m: _Msgs) -> list[tuple[int, str, str, Any]]:
             child_frame_id=cfg.base_frame,
             pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=m.pose(x, y, yaw), covariance=cov),
             twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                twist=T["geometry_msgs/msg/Twist"](linear=vec(x=float(vo), y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=float(wo))),
+                twist=T["geometry_msgs/msg/Twist"](
+                    linear=vec(x=float(vo), y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=float(wo))
+                ),
                 covariance=cov,
             ),
         )
         items.append((s + _DELAY_ODOM_NS, ODOM_TOPIC, "nav_msgs/msg/Odometry", odom))
         tf = m.transform(s, cfg.odom_frame, cfg.base_frame, float(x), float(y), 0.0, float(yaw), TF_TOPIC)
-        items.append((s + _DELAY_ODOM_NS, TF_TOPIC, "tf2_msgs/msg/TFMessage", T["tf2_msgs/msg/TFMessage"](transforms=[tf])))
+        items.append(
+            (s + _DELAY_ODOM_NS, TF_TOPIC, "tf2_msgs/msg/TFMessage", T["tf2_msgs/msg/TFMessage"](transforms=[tf]))
+        )
     empty = np.zeros(0, dtype=np.float32)
     for rec in sim.lasers:
         las = rec.laser
@@ -305,7 +324,9 @@ def write_scene_bag(
         raise ValueError(f"fmt must be 'ros1' or 'ros2', got {fmt!r}")
     if storage not in ("sqlite3", "mcap"):
         raise ValueError(f"storage must be 'sqlite3' or 'mcap', got {storage!r}")
-    sim = simulate_scene(scene, seed=seed, frames=frames, progress=(lambda n: progress("simulate", n)) if progress else None)
+    sim = simulate_scene(
+        scene, seed=seed, frames=frames, progress=(lambda n: progress("simulate", n)) if progress else None
+    )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     stem = name or sim.config.name

@@ -83,7 +83,9 @@ class GaitParams:
 
     def step_frequency(self, speed: ArrayLike) -> NDArray[np.float64]:
         """Step frequency ``f(s)`` (Hz) at ``speed`` (m/s)."""
-        return np.minimum(self.step_freq_base + self.step_freq_per_speed * np.asarray(speed, dtype=float), self.step_freq_max)
+        return np.minimum(
+            self.step_freq_base + self.step_freq_per_speed * np.asarray(speed, dtype=float), self.step_freq_max
+        )
 
     def draw_person(self, rng: np.random.Generator) -> tuple[float, float, float]:
         """One person's ``(leg radius (m), hip width (m), initial phase (rad))``."""

@@ -42,7 +42,9 @@ def _speed(pc: PeopleConfig, rng: np.random.Generator) -> float:
     return float(np.clip(pc.speed_mu, pc.speed_min, pc.speed_max))
 
 
-def _knots(points: NDArray[np.float64], speed: float, pauses: dict[int, float]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _knots(
+    points: NDArray[np.float64], speed: float, pauses: dict[int, float]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Knot times from 0 for walking the polyline ``points`` at ``speed``, pausing ``pauses[k]`` s at vertex k."""
     times, xy, t = [0.0], [points[0]], 0.0
     for k in range(1, len(points)):
@@ -133,17 +135,25 @@ def _walker_tracks(
             offsets = [0.5 * pc.pair_spacing * normal, -0.5 * pc.pair_spacing * normal]
         n_wander = int(rng.integers(pc.wander_min, pc.wander_max + 1))
         extra = [np.array([rng.uniform(*pc.region[:2]), rng.uniform(*pc.region[2:])]) for _ in range(n_wander)]
-        pauses = [float(rng.uniform(0.0, pc.stop_max)) for _ in range(n_wander)]
+        waits = [float(rng.uniform(0.0, pc.stop_max)) for _ in range(n_wander)]
+        c, s = math.cos(pose[2]), math.sin(pose[2])
         for off in offsets:
             cut = cut_to_region(Track(next_id, kt + t0, sensor_to_world(kxy + off, pose)), pc.region)
+            if cut is not None and extra:
+                off_world = np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]])
+                cut = _wander(cut, [e + off_world for e in extra], waits, speed, pc.region)
             if cut is not None:
-                tracks.append(_wander(cut, [e + off for e in extra], pauses, speed, pc.region) if extra else cut)
+                tracks.append(cut)
             next_id += 1
     return tracks
 
 
 def _wander(
-    track: Track, points: list[NDArray[np.float64]], pauses: list[float], speed: float, region: tuple[float, float, float, float]
+    track: Track,
+    points: list[NDArray[np.float64]],
+    pauses: list[float],
+    speed: float,
+    region: tuple[float, float, float, float],
 ) -> Track:
     """``track`` continued through ``points`` (pausing ``pauses[k]`` s at each) and out through the nearest
     border of ``region``."""

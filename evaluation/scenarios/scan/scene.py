@@ -123,7 +123,9 @@ class LaserConfig:
         if not isinstance(self.topic, str) or not self.topic.startswith("/"):
             raise ValueError(f"LaserConfig.topic must be a topic name starting with '/', got {self.topic!r}")
         if not isinstance(self.frame_id, str) or not self.frame_id or self.frame_id == "base_link":
-            raise ValueError(f"LaserConfig.frame_id must be a non-empty frame other than base_link, got {self.frame_id!r}")
+            raise ValueError(
+                f"LaserConfig.frame_id must be a non-empty frame other than base_link, got {self.frame_id!r}"
+            )
         if len(self.mount) != 3:
             raise ValueError(f"LaserConfig.mount must be [x, y, yaw], got {self.mount!r}")
         object.__setattr__(self, "mount", tuple(_finite(v, "LaserConfig.mount") for v in self.mount))
@@ -304,7 +306,12 @@ class PeopleConfig:
             check_positive(getattr(self, name), f"PeopleConfig.{name}")
         for name in ("speed_sigma", "lane_min", "stand_min", "stand_max", "stop_min", "stop_max", "t_offset_s"):
             check_positive(getattr(self, name), f"PeopleConfig.{name}", allow_zero=True)
-        for lo, hi in (("speed_min", "speed_max"), ("lane_min", "lane_max"), ("stand_min", "stand_max"), ("stop_min", "stop_max")):
+        for lo, hi in (
+            ("speed_min", "speed_max"),
+            ("lane_min", "lane_max"),
+            ("stand_min", "stand_max"),
+            ("stop_min", "stop_max"),
+        ):
             if getattr(self, lo) > getattr(self, hi):
                 raise ValueError(f"PeopleConfig.{lo} must not exceed {hi}")
         if len(self.offset) != 2:
@@ -440,7 +447,12 @@ class SceneConfig:
             c, s = math.cos(yaw), math.sin(yaw)
             corners = [
                 (cx + c * px - s * py, cy + s * px + c * py)
-                for px, py in ((length / 2, width / 2), (-length / 2, width / 2), (-length / 2, -width / 2), (length / 2, -width / 2))
+                for px, py in (
+                    (length / 2, width / 2),
+                    (-length / 2, width / 2),
+                    (-length / 2, -width / 2),
+                    (length / 2, -width / 2),
+                )
             ]
             for k in range(4):
                 (x0, y0), (x1, y1) = corners[k], corners[(k + 1) % 4]
@@ -472,7 +484,9 @@ def scene_from_mapping(data: Mapping[str, Any]) -> SceneConfig:
     gait = _build(GaitParams, people_t.pop("gait", {}), "people.gait")
     people = _build(PeopleConfig, {**people_t}, "people")
     people = replace(people, gait=gait)
-    return _build(SceneConfig, {**data, "robot": robot, "odometry": odometry, "lasers": lasers, "people": people}, "top level")
+    return _build(
+        SceneConfig, {**data, "robot": robot, "odometry": odometry, "lasers": lasers, "people": people}, "top level"
+    )
 
 
 def builtin_scan_scenes() -> list[str]:
@@ -500,4 +514,3 @@ def load_scene(scene: str | Path | SceneConfig) -> SceneConfig:
         return scene_from_mapping(data)
     except (ValueError, TypeError) as exc:
         raise type(exc)(f"scene file {str(path)!r}: {exc}") from None
-

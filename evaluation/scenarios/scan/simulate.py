@@ -140,7 +140,7 @@ class SceneSim:
 def _legs_at(legs: NDArray[np.float64], dt: float, t: float) -> NDArray[np.float64]:
     """Legs ``(P, 2, 2)`` at time ``t`` by linear interpolation of the step grid ``legs`` ``(M, P, 2, 2)``."""
     u = t / dt
-    i = min(int(math.floor(u)), legs.shape[0] - 2)
+    i = min(math.floor(u), legs.shape[0] - 2)
     a = u - i
     return (1.0 - a) * legs[i] + a * legs[i + 1]
 
@@ -182,7 +182,7 @@ def simulate_scene(
     duration = FIRST_SCAN_S + (n_frames - 1) / las0.rate_hz
     dt = 1.0 / cfg.odometry.rate_hz
     n_steps = math.ceil((duration + 0.2) / dt) + 2
-    step_times = np.arange(n_steps) * dt
+    step_times = np.arange(n_steps, dtype=np.float64) * dt
     robot, v, w = drive_route(cfg.robot, n_steps, dt, rng=r_robot)
     odom, v_o, w_o = odometry_from_controls(v, w, dt, noise=cfg.odometry, start=(0.0, 0.0, 0.0), rng=r_odom)
     tracks = scene_tracks(cfg.people, robot, dt, duration, rng=r_people)
@@ -195,7 +195,9 @@ def simulate_scene(
         radii[p] = radius
         d = tr.xy[-1] - tr.xy[0]
         heading0 = math.atan2(d[1], d[0]) if np.hypot(*d) > 1e-6 else float(r_gait.uniform(-math.pi, math.pi))
-        legs[:, p] = leg_positions(step_times, centres[:, p], params=cfg.people.gait, hip_width=width, phase0=phase, heading0=heading0)
+        legs[:, p] = leg_positions(
+            step_times, centres[:, p], params=cfg.people.gait, hip_width=width, phase0=phase, heading0=heading0
+        )
     static_c = cfg.static_circles()
     static_s = cfg.static_segments()
     n_static = len(static_c)
