@@ -5,6 +5,7 @@ Reference values are worked by hand in the comments; statistical checks state th
 
 from __future__ import annotations
 
+import argparse
 import csv
 import math
 from dataclasses import replace
@@ -13,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from evaluation.cli import main as eval_main
+from evaluation.commands import simulate_bag
 from evaluation.gt_csv import read_gt_csv
 from evaluation.scenarios.robot import integrate_path
 from evaluation.scenarios.scan import (
@@ -329,6 +330,26 @@ def test_bag_round_trip(tmp_path: Path, fmt: str, storage: str) -> None:
         write_scene_bag("wheelchair", tmp_path, frames=2, fmt=fmt, storage=storage)
 
 
+def test_two_lasers_each_with_its_topic_rate_and_mount(tmp_path: Path) -> None:
+    front = LaserConfig(mount=(0.3, 0.0, 0.0), rate_hz=10.0, n_beams=181)
+    rear = LaserConfig(topic="/scan_rear", frame_id="laser_rear", mount=(-0.3, 0.1, math.pi), rate_hz=25.0, n_beams=91)
+    cfg = SceneConfig(name="two", room=(6.0, 5.0), lasers=(front, rear), people=PeopleConfig(source="none"))
+    cfg = replace(cfg, robot=replace(cfg.robot, waypoints=((1.0, 2.5), (5.0, 2.5))))
+    out = write_scene_bag(cfg, tmp_path, frames=10, fmt="ros2")
+    with BagSource(out.bag) as src:
+        counts = src.message_counts
+        (static,) = [m.msg for m in src.messages(["/tf_static"])]
+        rear_scans = list(src.messages(["/scan_rear"]))
+    # 10 scans at 10 Hz span 0.9 s: the 25 Hz laser scans 0.9 * 25 + 1 = 23 times in that time
+    assert counts["/scan"] == 10 and counts["/scan_rear"] == 23 and counts["/ground_truth_people"] == 10
+    assert {t.child_frame_id: t.transform.translation.x for t in static.transforms} == {
+        "laser": 0.3,
+        "laser_rear": -0.3,
+    }
+    assert rear_scans[0].frame_id == "laser_rear" and rear_scans[1].stamp_ns - rear_scans[0].stamp_ns == 40_000_000
+    assert load_config(out.run_toml).driver == "/scan"
+
+
 def test_pipeline_leg_detector_finds_simulated_people(tmp_path: Path) -> None:
     """End to end: pfpeople's Pipeline with the written run config on 60 wheelchair scans (8 s, seed 0).
 
@@ -358,12 +379,20 @@ def test_pipeline_leg_detector_finds_simulated_people(tmp_path: Path) -> None:
 
 
 def test_simulate_bag_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    args = ["simulate-bag", "corridor", "--out", str(tmp_path), "--frames", "6", "--no-progress"]
-    assert eval_main([*args, "--format", "ros2", "--storage", "mcap"]) == 0
+    # the subcommand's own parser (evaluation.cli discovers the module; building every command's parser
+    # imports the whole evaluation package, which costs seconds)
+    parser = argparse.ArgumentParser()
+    simulate_bag.add_parser(parser.add_subparsers())
+    argv = ["simulate-bag", "corridor", "--out", str(tmp_path), "--frames", "6", "--no-progress", "--format", "ros2"]
+    args = parser.parse_args([*argv, "--storage", "mcap"])
+    assert args.func(args) == 0
     text = capsys.readouterr().out
     assert "6 scans of /scan" in text and "people per scan" in text
     assert (tmp_path / "corridor" / "metadata.yaml").is_file()
     assert (tmp_path / "corridor_gt.csv").is_file() and (tmp_path / "corridor.toml").is_file()
-    assert eval_main([*args, "--format", "ros2"]) == 2
-    assert "already exists" in capsys.readouterr().err
-    assert eval_main([*args, "--format", "ros2", "--overwrite", "--seed", "3"]) == 0
+    args = parser.parse_args(argv)
+    with pytest.raises(FileExistsError, match="already exists"):  # refused before simulating
+        args.func(args)
+    with pytest.raises(ValueError, match="--frames must be >= 1"):
+        args = parser.parse_args([*argv[:5], "0"])
+        args.func(args)

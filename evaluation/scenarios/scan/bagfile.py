@@ -33,7 +33,7 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from evaluation.scenarios.scan.scene import SceneConfig
+from evaluation.scenarios.scan.scene import SceneConfig, load_scene
 from evaluation.scenarios.scan.simulate import SceneSim, simulate_scene
 
 __all__ = ["GT_TOPIC", "ODOM_TOPIC", "SceneBag", "run_config_text", "write_gt_csv", "write_scene_bag", "write_sim_bag"]
@@ -324,23 +324,24 @@ def write_scene_bag(
         raise ValueError(f"fmt must be 'ros1' or 'ros2', got {fmt!r}")
     if storage not in ("sqlite3", "mcap"):
         raise ValueError(f"storage must be 'sqlite3' or 'mcap', got {storage!r}")
-    sim = simulate_scene(
-        scene, seed=seed, frames=frames, progress=(lambda n: progress("simulate", n)) if progress else None
-    )
+    cfg = load_scene(scene)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    stem = name or sim.config.name
+    stem = name or cfg.name
     bag = out / (f"{stem}.bag" if fmt == "ros1" else stem)
     gt_csv = out / f"{stem}_gt.csv"
     run_toml = out / f"{stem}.toml"
     for p in (bag, gt_csv, run_toml):
-        if p.exists():
-            if not overwrite:
-                raise FileExistsError(f"{str(p)!r} already exists (pass overwrite / --overwrite)")
-            if p.is_dir():
-                shutil.rmtree(p)
-            else:
-                p.unlink()
+        if p.exists() and not overwrite:
+            raise FileExistsError(f"{str(p)!r} already exists (pass overwrite / --overwrite)")
+    sim = simulate_scene(
+        cfg, seed=seed, frames=frames, progress=(lambda n: progress("simulate", n)) if progress else None
+    )
+    out.mkdir(parents=True, exist_ok=True)
+    for p in (bag, gt_csv, run_toml):
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
     write_sim_bag(sim, bag, fmt=fmt, storage=storage, progress=(lambda n: progress("write", n)) if progress else None)
     write_gt_csv(sim, gt_csv)
     run_toml.write_text(run_config_text(sim.config))
