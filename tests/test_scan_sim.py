@@ -22,6 +22,7 @@ from evaluation.scenarios.scan import (
     LaserConfig,
     OdometryNoise,
     PeopleConfig,
+    RobotRoute,
     SceneConfig,
     beam_angles,
     builtin_scan_scenes,
@@ -247,7 +248,8 @@ def test_scan_points_land_on_the_world_through_the_mount() -> None:
     """Without people every returned beam, mapped by the laser's true world pose (base pose composed with the
     yawed, offset mount), lies on a wall, table leg, chair leg, pole or box edge: within 5 sd of the noise."""
     cfg = load_scene("wheelchair")
-    cfg = replace(cfg, people=replace(cfg.people, source="none"))
+    # all beams at the stamp (no sweep), so one pose per scan maps them
+    cfg = replace(cfg, people=replace(cfg.people, source="none"), lasers=(replace(cfg.lasers[0], sweep=False),))
     sim = simulate_scene(cfg, frames=12, seed=2)
     rec = sim.lasers[0]
     las = rec.laser
@@ -348,6 +350,34 @@ def test_two_lasers_each_with_its_topic_rate_and_mount(tmp_path: Path) -> None:
     }
     assert rear_scans[0].frame_id == "laser_rear" and rear_scans[1].stamp_ns - rear_scans[0].stamp_ns == 40_000_000
     assert load_config(out.run_toml).driver == "/scan"
+
+
+def test_swept_scan_of_a_spinning_robot_is_distorted_as_predicted() -> None:
+    """The robot spins on the spot at |omega| = 0.5 rad/s before a pole 3 m away (world bearing 0). A 5 Hz 360 deg laser
+    sweeping from -pi takes the beam at bearing ``a`` ``(a + pi) / (2 pi 5)`` s after the stamp, when the
+    laser has turned ``omega * that`` further: the pole appears at ``a = -yaw(stamp) - omega (a + pi) / (10 pi)``
+    instead of ``-yaw(stamp)``; 16 blocks quantise the time to about 6 ms (0.003 rad)."""
+    las = LaserConfig(n_beams=1441, angle_min=-math.pi, angle_max=math.pi, rate_hz=5.0, noise_sd=0.0)
+    route = RobotRoute(waypoints=((0.0, 0.0), (-5.0, 0.0)), start=(0.0, 0.0, 0.0), omega_max=0.5, yaw_accel=100.0)
+    cfg = SceneConfig(
+        name="spin", poles=((3.0, 0.0, 0.1),), robot=route, lasers=(las,), people=PeopleConfig(source="none")
+    )
+    assert las.time_increment == 0.0
+    swept_las = replace(las, sweep=True)
+    assert swept_las.time_increment == pytest.approx(las.angle_increment / (10 * math.pi))
+    still = simulate_scene(cfg, frames=3).lasers[0]
+    swept = simulate_scene(replace(cfg, lasers=(swept_las,)), frames=3).lasers[0]
+    angles = beam_angles(-math.pi, math.pi, 1441)
+    omega = float(still.poses[2, 2] - still.poses[1, 2]) * 5.0  # the spin direction is the controller's choice
+    assert abs(omega) == pytest.approx(0.5, abs=1e-6)
+    for k in (1, 2):
+        yaw = float(still.poses[k, 2])
+        a_still = float(np.mean(angles[np.isfinite(still.ranges[k])]))
+        a_swept = float(np.mean(angles[np.isfinite(swept.ranges[k])]))
+        assert a_still == pytest.approx(-yaw, abs=0.005)
+        expect = -yaw - omega * (-yaw + math.pi) / (10 * math.pi)
+        assert a_swept == pytest.approx(expect, abs=0.006)
+        assert abs(a_swept - a_still) > 0.04  # the distortion is real, not rounding
 
 
 def test_pipeline_leg_detector_finds_simulated_people(tmp_path: Path) -> None:

@@ -3,8 +3,9 @@
 Topics (header stamps = the simulated times from ``SceneConfig.start_ns``; record times a few ms later, as a
 driver's bag would have them):
 
-- ``<laser.topic>`` (``/scan``) ``sensor_msgs/LaserScan``: frame_id = the laser frame, ``time_increment`` 0,
-  ``scan_time`` = 1 / rate; no-return beams per ``LaserConfig.no_return``, too-close beams ``-inf``;
+- ``<laser.topic>`` (``/scan``) ``sensor_msgs/LaserScan``: frame_id = the laser frame, stamp = the first beam's
+  time, ``time_increment`` the time between beams (0 without ``sweep``), ``scan_time`` = 1 / rate;
+  no-return beams per ``LaserConfig.no_return``, too-close beams ``-inf``;
 - ``/odom`` ``nav_msgs/Odometry``: frame ``odom``, child ``base_link``, the drifting odometry pose and the
   reported velocities, at the odometry rate;
 - ``/tf`` ``tf2_msgs/TFMessage``: ``odom -> base_link`` (the odometry pose) at the odometry rate;
@@ -216,7 +217,7 @@ def _messages(sim: SceneSim, m: _Msgs) -> list[tuple[int, str, str, Any]]:
                 angle_min=las.angle_min,
                 angle_max=las.angle_max,
                 angle_increment=las.angle_increment,
-                time_increment=0.0,
+                time_increment=las.time_increment,
                 scan_time=1.0 / las.rate_hz,
                 range_min=las.range_min,
                 range_max=las.range_max,

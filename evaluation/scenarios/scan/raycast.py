@@ -47,11 +47,12 @@ def beam_angles(angle_min: float, angle_max: float, n_beams: int) -> NDArray[np.
 
 
 def _window_pairs(
-    lo: NDArray[np.float64], hi: NDArray[np.float64], inc: float, n: int
+    lo: NDArray[np.float64], hi: NDArray[np.float64], inc: float, n: int, bounds: NDArray[np.int64]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """(beam, primitive) index pairs for beams ``i`` with ``lo_k <= i inc <= hi_k`` (angles from the first beam)."""
-    i0 = np.clip(np.ceil(lo / inc - 1e-9), 0, n).astype(np.int64)
-    i1 = np.clip(np.floor(hi / inc + 1e-9), -1, n - 1).astype(np.int64)
+    """(beam, primitive) index pairs for beams ``i`` with ``lo_k <= i inc <= hi_k`` (angles from the first beam)
+    and ``bounds[k, 0] <= i <= bounds[k, 1]``."""
+    i0 = np.maximum(np.clip(np.ceil(lo / inc - 1e-9), 0, n).astype(np.int64), bounds[:, 0])
+    i1 = np.minimum(np.clip(np.floor(hi / inc + 1e-9), -1, n - 1).astype(np.int64), bounds[:, 1])
     counts = np.maximum(i1 - i0 + 1, 0)
     total = int(counts.sum())
     prim = np.repeat(np.arange(lo.size, dtype=np.int64), counts)
@@ -61,12 +62,13 @@ def _window_pairs(
 
 
 def _candidates(
-    rel: NDArray[np.float64], half: NDArray[np.float64], inc: float, n: int
+    rel: NDArray[np.float64], half: NDArray[np.float64], inc: float, n: int, bounds: NDArray[np.int64]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Pairs for angular windows ``[rel - half, rel + half]`` (rel in [0, 2 pi) from the first beam), as is
     and shifted by -+2 pi (a window across the first beam's bearing)."""
     parts = [
-        _window_pairs(rel - half + shift, rel + half + shift, inc, n) for shift in (0.0, -2 * math.pi, 2 * math.pi)
+        _window_pairs(rel - half + shift, rel + half + shift, inc, n, bounds)
+        for shift in (0.0, -2 * math.pi, 2 * math.pi)
     ]
     return np.concatenate([b for b, _ in parts]), np.concatenate([p for _, p in parts])
 
@@ -76,6 +78,8 @@ def cast_rays(
     *,
     circles: ArrayLike = (),
     segments: ArrayLike = (),
+    circle_beams: ArrayLike | None = None,
+    segment_beams: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """First hit of every beam from the origin of the scan frame.
 
@@ -92,6 +96,9 @@ def cast_rays(
         ``(x, y, radius)`` (m, scan frame).
     segments : array_like, shape (S, 4)
         ``(x0, y0, x1, y1)`` (m, scan frame).
+    circle_beams, segment_beams : array_like, shape (C, 2) / (S, 2), optional
+        First and last beam index (inclusive) each primitive can be seen by (default all beams). A swept scan
+        casts each angular block against the scene at its own time in one call this way.
 
     Returns
     -------
@@ -111,6 +118,18 @@ def cast_rays(
     inc = (a[-1] - a[0]) / (n - 1) if n > 1 else 1.0
     even = n > 1 and inc > 0 and bool(np.allclose(np.diff(a), inc, rtol=0.0, atol=1e-9))
     cos_a, sin_a = np.cos(a), np.sin(a)
+    all_beams = np.array([0, n - 1], dtype=np.int64)
+
+    def _bounds(given: ArrayLike | None, k: int, name: str) -> NDArray[np.int64]:
+        if given is None:
+            return np.broadcast_to(all_beams, (k, 2))
+        b = np.asarray(given, dtype=np.int64).reshape(-1, 2)
+        if b.shape[0] != k:
+            raise ValueError(f"cast_rays: {name} must have one [first, last] row per primitive ({k}), got {b.shape[0]}")
+        return b
+
+    cb = _bounds(circle_beams, len(circ), "circle_beams")
+    sb = _bounds(segment_beams, len(seg), "segment_beams")
     two_pi = 2.0 * math.pi
     beams: list[NDArray[np.int64]] = []
     prims: list[NDArray[np.int64]] = []
@@ -123,9 +142,11 @@ def cast_rays(
             half = np.arcsin(np.clip(r / np.where(outside, d, 1.0), 0.0, 1.0)) + 0.5 * inc
             half = np.where(outside, half, -1.0)  # a laser inside a circle sees nothing of it
             rel = np.mod(np.arctan2(cy, cx) - a[0], two_pi)
-            bi, pi_ = _candidates(rel, half, inc, n)
+            bi, pi_ = _candidates(rel, half, inc, n, cb)
         else:
             bi, pi_ = np.repeat(np.arange(n), len(circ)), np.tile(np.arange(len(circ)), n)
+            inside = (bi >= cb[pi_, 0]) & (bi <= cb[pi_, 1])
+            bi, pi_ = bi[inside], pi_[inside]
         dx, dy = cos_a[bi], sin_a[bi]
         px, py, pr = cx[pi_], cy[pi_], r[pi_]
         b = dx * px + dy * py
@@ -143,9 +164,11 @@ def cast_rays(
             th1 = np.arctan2(seg[:, 3], seg[:, 2])
             diff = np.mod(th1 - th0 + math.pi, two_pi) - math.pi
             mid = np.mod(th0 + 0.5 * diff - a[0], two_pi)
-            bi, pi_ = _candidates(mid, 0.5 * np.abs(diff) + inc, inc, n)
+            bi, pi_ = _candidates(mid, 0.5 * np.abs(diff) + inc, inc, n, sb)
         else:
             bi, pi_ = np.repeat(np.arange(n), len(seg)), np.tile(np.arange(len(seg)), n)
+            inside = (bi >= sb[pi_, 0]) & (bi <= sb[pi_, 1])
+            bi, pi_ = bi[inside], pi_[inside]
         dx, dy = cos_a[bi], sin_a[bi]
         sx, sy = x0[pi_], y0[pi_]
         ex, ey = seg[pi_, 2] - sx, seg[pi_, 3] - sy

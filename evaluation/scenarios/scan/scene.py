@@ -104,6 +104,12 @@ class LaserConfig:
         Probability that a beam returns nothing.
     no_return : {"inf", "nan", "above_max"}
         Value of beams without a return (see :mod:`evaluation.scenarios.scan.raycast`).
+    sweep : bool
+        Beams are taken one after the other during a mirror revolution of ``1 / rate_hz`` s (beam ``i`` at
+        ``(angle_i - angle_min) / (2 pi rate_hz)`` s after the stamp; the message's ``time_increment`` says
+        so) instead of all at the stamp.
+    sweep_blocks : int
+        Angular blocks a swept scan is simulated in (each at its mean time).
     """
 
     topic: str = "/scan"
@@ -118,6 +124,8 @@ class LaserConfig:
     noise_sd: float = 0.01
     dropout: float = 0.0
     no_return: str = "inf"
+    sweep: bool = False
+    sweep_blocks: int = 16
 
     def __post_init__(self) -> None:
         if not isinstance(self.topic, str) or not self.topic.startswith("/"):
@@ -143,10 +151,23 @@ class LaserConfig:
             raise ValueError(f"LaserConfig.dropout must be in [0, 1), got {self.dropout!r}")
         if self.no_return not in NO_RETURN_KINDS:
             raise ValueError(f"LaserConfig.no_return must be one of {NO_RETURN_KINDS}, got {self.no_return!r}")
+        if not isinstance(self.sweep, bool):
+            raise TypeError(f"LaserConfig.sweep must be a boolean, got {self.sweep!r}")
+        if _int(self.sweep_blocks, "LaserConfig.sweep_blocks", minimum=1) > self.n_beams:
+            raise ValueError("LaserConfig.sweep_blocks must not exceed n_beams")
 
     @property
     def angle_increment(self) -> float:
         return (self.angle_max - self.angle_min) / (self.n_beams - 1)
+
+    @property
+    def time_increment(self) -> float:
+        """Time between two beams (s): ``angle_increment / (2 pi rate_hz)`` when swept, else 0."""
+        return self.angle_increment / (2.0 * math.pi * self.rate_hz) if self.sweep else 0.0
+
+    def beam_time_offsets(self) -> NDArray[np.float64]:
+        """Acquisition time of each beam after the stamp (s), shape (n_beams,)."""
+        return np.arange(self.n_beams, dtype=np.float64) * self.time_increment
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -1,9 +1,13 @@
 """Run a scan-level scene: robot, odometry, people with legs, and the lasers' scans with ground truth.
 
 Time line: the simulation steps at the odometry rate ``dt = 1 / odometry.rate_hz`` from t = 0; laser ``L``
-scans at ``t = 0.1 + k / rate_hz`` s (all beams of a scan at that instant: no motion within a scan). People's
-legs are computed on the step grid (:mod:`evaluation.scenarios.scan.gait`) and interpolated linearly to the
-scan times. The ground truth is for the first laser: every person whose centre is inside its field of view
+scans are stamped at ``t = 0.1 + k / rate_hz`` s (the stamp is the first beam's time, as ROS drivers stamp).
+Without ``sweep`` every beam of a scan is taken at the stamp; with ``sweep`` beam ``i`` is taken
+``(angle_i - angle_min) / (2 pi rate_hz)`` s later (one mirror revolution per scan period), simulated in
+``sweep_blocks`` angular blocks, each cast from the robot pose and the people at the block's mean time: a
+turning robot or a walking person is distorted in the scan as by a real laser. People's legs are computed on
+the step grid (:mod:`evaluation.scenarios.scan.gait`) and interpolated linearly to the scan (block) times.
+The ground truth is at the stamp, for the first laser: every person whose centre is inside its field of view
 (bearing in ``[angle_min, angle_max]``, range in ``[range_min, range_max]``, as
 :func:`gridbridge.measurement.in_field_of_view` tests) whether or not it is occluded; ``hit_beams`` counts
 the beams that returned from the person's legs (0 for an occluded person).
@@ -36,9 +40,10 @@ FIRST_SCAN_S = 0.1
 
 
 def to_frame(points: NDArray[np.float64], pose: NDArray[np.float64]) -> NDArray[np.float64]:
-    """World points ``(..., 2)`` expressed in the frame at world ``pose`` ``(x, y, yaw)``."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    dx, dy = points[..., 0] - pose[0], points[..., 1] - pose[1]
+    """World points ``(..., 2)`` expressed in the frame at world ``pose`` ``(..., 3)`` ``(x, y, yaw)``
+    (broadcast against the points' leading dimensions)."""
+    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+    dx, dy = points[..., 0] - pose[..., 0], points[..., 1] - pose[..., 1]
     return np.stack((c * dx + s * dy, -s * dx + c * dy), axis=-1)
 
 
@@ -137,6 +142,14 @@ class SceneSim:
         return int(self.lasers[0].times.size)
 
 
+def _legs_at_many(legs: NDArray[np.float64], dt: float, t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Legs ``(T, P, 2, 2)`` at times ``t`` ``(T,)`` by linear interpolation of the step grid ``legs``."""
+    u = np.asarray(t, dtype=float) / dt
+    i = np.minimum(np.floor(u).astype(np.int64), legs.shape[0] - 2)
+    a = (u - i)[:, None, None, None]
+    return (1.0 - a) * legs[i] + a * legs[i + 1]
+
+
 def _legs_at(legs: NDArray[np.float64], dt: float, t: float) -> NDArray[np.float64]:
     """Legs ``(P, 2, 2)`` at time ``t`` by linear interpolation of the step grid ``legs`` ``(M, P, 2, 2)``."""
     u = t / dt
@@ -214,16 +227,42 @@ def simulate_scene(
         angles = beam_angles(las.angle_min, las.angle_max, las.n_beams)
         fov = laser_field_of_view(las)
         ranges = np.empty((n_l, las.n_beams), dtype=np.float32)
+        blocks = np.array_split(np.arange(las.n_beams), las.sweep_blocks if las.sweep else 1)
+        offsets = las.beam_time_offsets()
+        block_dt = np.array([float(offsets[b].mean()) for b in blocks])  # s after the stamp
+        block_poses = _compose(
+            interpolate_poses((times[:, None] + block_dt[None, :]).ravel(), step_times, robot), las.mount
+        ).reshape(n_l, len(blocks), 3)
+        n_blocks = len(blocks)
+        block_beams = np.array([[b[0], b[-1]] for b in blocks], dtype=np.int64)  # (B, 2)
+        leg_r = np.repeat(radii, 2)
+        owner = np.concatenate((np.full(n_static, -1, dtype=np.int64), np.repeat(np.arange(n_people), 2)))
+        c_bounds = np.repeat(block_beams, n_static + 2 * n_people, axis=0)
+        s_bounds = np.repeat(block_beams, len(static_s), axis=0)
+        c_radius = np.tile(np.concatenate((static_c[:, 2], leg_r)), n_blocks)
+        c_owner = np.tile(owner, n_blocks)
         for k in range(n_l):
             t_start = time.perf_counter()
-            lg = _legs_at(legs, dt, float(times[k]))  # (P, 2, 2)
-            alive = np.flatnonzero(np.all(np.isfinite(lg), axis=(1, 2)))
-            circles = np.concatenate(
-                (static_c, np.column_stack((lg[alive].reshape(-1, 2), np.repeat(radii[alive], 2))))
+            # the scene when each block is swept: static circles and every leg (NaN for absent people)
+            lg_b = _legs_at_many(legs, dt, times[k] + block_dt)  # (B, P, 2, 2)
+            xy = np.concatenate(
+                (np.broadcast_to(static_c[:, :2], (n_blocks, n_static, 2)), lg_b.reshape(n_blocks, -1, 2)), axis=1
             )
-            local_c = np.column_stack((to_frame(circles[:, :2], poses[k]), circles[:, 2]))
-            local_s = np.column_stack((to_frame(static_s[:, :2], poses[k]), to_frame(static_s[:, 2:], poses[k])))
-            true_r, hit = cast_rays(angles, circles=local_c, segments=local_s)
+            pose = block_poses[k][:, None, :]  # (B, 1, 3)
+            local_c = to_frame(xy, pose).reshape(-1, 2)
+            ok = np.isfinite(local_c[:, 0])
+            seg_xy = np.broadcast_to(static_s.reshape(1, -1, 2, 2), (n_blocks, len(static_s), 2, 2))
+            local_s = to_frame(seg_xy, pose[:, :, None, :]).reshape(-1, 4)
+            true_r, hit = cast_rays(
+                angles,
+                circles=np.column_stack((local_c[ok], c_radius[ok])),
+                segments=local_s,
+                circle_beams=c_bounds[ok],
+                segment_beams=s_bounds,
+            )
+            n_circ = int(ok.sum())
+            owners = np.append(c_owner[ok], -1)  # index n_circ: no circle
+            person_of_beam = owners[np.where((hit >= 0) & (hit < n_circ), hit, n_circ)]
             meas = measure_ranges(
                 true_r,
                 range_min=las.range_min,
@@ -236,16 +275,16 @@ def simulate_scene(
             ranges[k] = meas
             if li == 0:
                 returned = np.isfinite(meas) & (meas >= las.range_min) & (meas <= las.range_max)
-                on_person = returned & (hit >= n_static) & (hit < n_static + 2 * alive.size)
-                beams = np.bincount((hit[on_person] - n_static) // 2, minlength=alive.size)
-                c_world = 0.5 * (lg[alive, 0] + lg[alive, 1])
-                c_local = to_frame(c_world, poses[k])
+                beams = np.bincount(person_of_beam[returned & (person_of_beam >= 0)], minlength=n_people)
+                lg = _legs_at(legs, dt, float(times[k]))  # the ground truth is at the stamp
+                alive = np.flatnonzero(np.all(np.isfinite(lg), axis=(1, 2)))
+                c_local = to_frame(0.5 * (lg[alive, 0] + lg[alive, 1]), poses[k])
                 inside = in_field_of_view(fov, c_local[:, 0], c_local[:, 1])
                 for j in np.flatnonzero(inside):
                     gt_scan.append(k)
                     gt_person.append(int(ids[alive[j]]))
                     gt_xy.append(c_local[j])
-                    gt_beams.append(int(beams[j]))
+                    gt_beams.append(int(beams[alive[j]]))
                 elapsed += time.perf_counter() - t_start
                 if progress is not None:
                     progress(1)
