@@ -1,0 +1,259 @@
+"""Vectorised 2-D laser ray casting over circles and line segments.
+
+A beam from the origin of the scan frame along the unit direction ``d = (cos a, sin a)`` hits
+
+- a circle of centre ``c`` and radius ``r`` at ``t = d.c - sqrt((d.c)^2 - (|c|^2 - r^2))`` when the
+  discriminant is non-negative and ``t > 0`` (the near intersection; a laser inside a circle sees nothing
+  of it);
+- a segment ``p0 + s e``, ``e = p1 - p0``, ``s in [0, 1]``: solving ``t d = p0 + s e`` with 2-D cross
+  products (``a x b = a_x b_y - a_y b_x``) gives ``t = (p0 x e) / (d x e)`` and ``s = (p0 x d) / (d x e)``
+  (beams parallel to the segment miss it).
+
+All (beam, primitive) pairs whose bearings can meet are evaluated at once as flat arrays (no Python loop
+over beams or primitives); the range of a beam is the smallest positive ``t``. Timing:
+``python -c "from evaluation.scenarios.scan.raycast import _benchmark; _benchmark()"`` (768 beams, 40
+circles, 30 segments: 1.2-2 ms on the shared 2-core machine, about 5 ms without the bearing windows).
+
+Reported ranges (REP-117 conventions, which most ROS 1/2 laser drivers follow): a beam without a return
+(nothing hit, a hit beyond ``range_max`` or a random dropout) reads ``no_return``: ``"inf"`` (+Inf,
+REP-117's "no return"), ``"nan"`` or ``"above_max"`` (``range_max + 1`` m, as older drivers that report
+"max range + something"); a measured range below ``range_min`` reads ``-inf`` (REP-117's "too close").
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["NO_RETURN_KINDS", "beam_angles", "cast_rays", "measure_ranges", "no_return_value"]
+
+NO_RETURN_KINDS = ("inf", "nan", "above_max")
+NoReturn = Literal["inf", "nan", "above_max"]
+
+
+def beam_angles(angle_min: float, angle_max: float, n_beams: int) -> NDArray[np.float64]:
+    """Bearings (rad, scan frame) of ``n_beams`` beams from ``angle_min`` to ``angle_max`` inclusive.
+
+    The angle increment of the scan is ``(angle_max - angle_min) / (n_beams - 1)``.
+    """
+    if isinstance(n_beams, bool) or not isinstance(n_beams, int | np.integer) or n_beams < 2:
+        raise ValueError(f"n_beams must be an integer >= 2, got {n_beams!r}")
+    if not (math.isfinite(angle_min) and math.isfinite(angle_max)) or angle_max <= angle_min:
+        raise ValueError(f"angle_max ({angle_max!r}) must exceed angle_min ({angle_min!r})")
+    return np.linspace(angle_min, angle_max, int(n_beams))
+
+
+def _window_pairs(
+    lo: NDArray[np.float64], hi: NDArray[np.float64], inc: float, n: int, bounds: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(beam, primitive) index pairs for beams ``i`` with ``lo_k <= i inc <= hi_k`` (angles from the first beam)
+    and ``bounds[k, 0] <= i <= bounds[k, 1]``."""
+    i0 = np.maximum(np.clip(np.ceil(lo / inc - 1e-9), 0, n).astype(np.int64), bounds[:, 0])
+    i1 = np.minimum(np.clip(np.floor(hi / inc + 1e-9), -1, n - 1).astype(np.int64), bounds[:, 1])
+    counts = np.maximum(i1 - i0 + 1, 0)
+    total = int(counts.sum())
+    prim = np.repeat(np.arange(lo.size, dtype=np.int64), counts)
+    first = np.repeat(np.cumsum(counts) - counts, counts)
+    beam = np.repeat(i0, counts) + (np.arange(total, dtype=np.int64) - first)
+    return beam, prim
+
+
+def _candidates(
+    rel: NDArray[np.float64], half: NDArray[np.float64], inc: float, n: int, bounds: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Pairs for angular windows ``[rel - half, rel + half]`` (rel in [0, 2 pi) from the first beam), as is
+    and shifted by -+2 pi (a window across the first beam's bearing)."""
+    parts = [
+        _window_pairs(rel - half + shift, rel + half + shift, inc, n, bounds)
+        for shift in (0.0, -2 * math.pi, 2 * math.pi)
+    ]
+    return np.concatenate([b for b, _ in parts]), np.concatenate([p for _, p in parts])
+
+
+def cast_rays(
+    angles: ArrayLike,
+    *,
+    circles: ArrayLike = (),
+    segments: ArrayLike = (),
+    circle_beams: ArrayLike | None = None,
+    segment_beams: ArrayLike | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """First hit of every beam from the origin of the scan frame.
+
+    Only the (beam, primitive) pairs whose bearings can meet are intersected: a circle at distance ``d``
+    spans the bearings ``theta_c +- asin(r / d)``, a segment the shorter arc between its end points' bearings.
+    With evenly spaced ``angles`` (as a laser's) these windows become beam index ranges; otherwise every pair
+    is tested. The result is the same either way.
+
+    Parameters
+    ----------
+    angles : array_like, shape (N,)
+        Beam bearings (rad, scan frame, counter-clockwise from x).
+    circles : array_like, shape (C, 3)
+        ``(x, y, radius)`` (m, scan frame).
+    segments : array_like, shape (S, 4)
+        ``(x0, y0, x1, y1)`` (m, scan frame).
+    circle_beams, segment_beams : array_like, shape (C, 2) / (S, 2), optional
+        First and last beam index (inclusive) each primitive can be seen by (default all beams). A swept scan
+        casts each angular block against the scene at its own time in one call this way.
+
+    Returns
+    -------
+    ranges : ndarray, shape (N,)
+        Distance (m) to the first hit; ``inf`` where the beam hits nothing.
+    hit : ndarray, shape (N,), int64
+        Index of the primitive hit: ``0 .. C-1`` the circles, ``C .. C+S-1`` the segments, ``-1`` none.
+    """
+    a = np.asarray(angles, dtype=float).reshape(-1)
+    circ = np.asarray(circles, dtype=float).reshape(-1, 3)
+    seg = np.asarray(segments, dtype=float).reshape(-1, 4)
+    n = a.size
+    best = np.full(n, np.inf)
+    hit = np.full(n, -1, dtype=np.int64)
+    if n == 0:
+        return best, hit
+    inc = (a[-1] - a[0]) / (n - 1) if n > 1 else 1.0
+    even = n > 1 and inc > 0 and bool(np.allclose(np.diff(a), inc, rtol=0.0, atol=1e-9))
+    cos_a, sin_a = np.cos(a), np.sin(a)
+    all_beams = np.array([0, n - 1], dtype=np.int64)
+
+    def _bounds(given: ArrayLike | None, k: int, name: str) -> NDArray[np.int64]:
+        if given is None:
+            return np.broadcast_to(all_beams, (k, 2))
+        b = np.asarray(given, dtype=np.int64).reshape(-1, 2)
+        if b.shape[0] != k:
+            raise ValueError(f"cast_rays: {name} must have one [first, last] row per primitive ({k}), got {b.shape[0]}")
+        return b
+
+    cb = _bounds(circle_beams, len(circ), "circle_beams")
+    sb = _bounds(segment_beams, len(seg), "segment_beams")
+    two_pi = 2.0 * math.pi
+    beams: list[NDArray[np.int64]] = []
+    prims: list[NDArray[np.int64]] = []
+    ts: list[NDArray[np.float64]] = []
+    if len(circ):
+        cx, cy, r = circ[:, 0], circ[:, 1], circ[:, 2]
+        if even:
+            d = np.hypot(cx, cy)
+            outside = d > r
+            half = np.arcsin(np.clip(r / np.where(outside, d, 1.0), 0.0, 1.0)) + 0.5 * inc
+            half = np.where(outside, half, -1.0)  # a laser inside a circle sees nothing of it
+            rel = np.mod(np.arctan2(cy, cx) - a[0], two_pi)
+            bi, pi_ = _candidates(rel, half, inc, n, cb)
+        else:
+            bi, pi_ = np.repeat(np.arange(n), len(circ)), np.tile(np.arange(len(circ)), n)
+            inside = (bi >= cb[pi_, 0]) & (bi <= cb[pi_, 1])
+            bi, pi_ = bi[inside], pi_[inside]
+        dx, dy = cos_a[bi], sin_a[bi]
+        px, py, pr = cx[pi_], cy[pi_], r[pi_]
+        b = dx * px + dy * py
+        disc = b * b - (px * px + py * py - pr * pr)
+        ok = disc >= 0.0
+        t = b - np.sqrt(np.where(ok, disc, 0.0))
+        keep = ok & (t > 0.0)
+        beams.append(bi[keep])
+        prims.append(pi_[keep])
+        ts.append(t[keep])
+    if len(seg):
+        x0, y0 = seg[:, 0], seg[:, 1]
+        if even:
+            th0 = np.arctan2(y0, x0)
+            th1 = np.arctan2(seg[:, 3], seg[:, 2])
+            diff = np.mod(th1 - th0 + math.pi, two_pi) - math.pi
+            mid = np.mod(th0 + 0.5 * diff - a[0], two_pi)
+            bi, pi_ = _candidates(mid, 0.5 * np.abs(diff) + inc, inc, n, sb)
+        else:
+            bi, pi_ = np.repeat(np.arange(n), len(seg)), np.tile(np.arange(len(seg)), n)
+            inside = (bi >= sb[pi_, 0]) & (bi <= sb[pi_, 1])
+            bi, pi_ = bi[inside], pi_[inside]
+        dx, dy = cos_a[bi], sin_a[bi]
+        sx, sy = x0[pi_], y0[pi_]
+        ex, ey = seg[pi_, 2] - sx, seg[pi_, 3] - sy
+        den = dx * ey - dy * ex  # d x e
+        ok = np.abs(den) > 1e-12
+        sden = np.where(ok, den, 1.0)
+        t = (sx * ey - sy * ex) / sden  # (p0 x e) / (d x e)
+        s = (sx * dy - sy * dx) / sden  # (p0 x d) / (d x e)
+        keep = ok & (t > 0.0) & (s >= 0.0) & (s <= 1.0)
+        beams.append(bi[keep])
+        prims.append(pi_[keep] + len(circ))
+        ts.append(t[keep])
+    if beams:
+        bi = np.concatenate(beams)
+        pi_ = np.concatenate(prims)
+        t = np.concatenate(ts)
+        np.minimum.at(best, bi, t)
+        win = t == best[bi]
+        hit[bi[win]] = pi_[win]
+    return best, hit
+
+
+def no_return_value(kind: str, range_max: float) -> float:
+    """The range a beam without a return reads (see the module docstring)."""
+    if kind == "inf":
+        return math.inf
+    if kind == "nan":
+        return math.nan
+    if kind == "above_max":
+        return float(range_max) + 1.0
+    raise ValueError(f"no_return must be one of {NO_RETURN_KINDS}, got {kind!r}")
+
+
+def measure_ranges(
+    true_ranges: ArrayLike,
+    *,
+    range_min: float,
+    range_max: float,
+    noise_sd: float,
+    dropout: float,
+    no_return: str = "inf",
+    rng: np.random.Generator,
+) -> NDArray[np.float64]:
+    """What the laser reports for the true ranges: Gaussian noise, dropouts and the out-of-range codes.
+
+    Parameters
+    ----------
+    true_ranges : array_like, shape (N,)
+        Exact first-hit distances (m); ``inf`` for no hit.
+    range_min, range_max : float
+        The laser's interval (m).
+    noise_sd : float
+        Standard deviation (m) of additive Gaussian range noise.
+    dropout : float
+        Probability that a beam returns nothing.
+    no_return : {"inf", "nan", "above_max"}
+        Value of a beam without a return.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Reported ranges (m).
+    """
+    r = np.asarray(true_ranges, dtype=float).reshape(-1)
+    miss = no_return_value(no_return, range_max)
+    noisy = r + rng.normal(0.0, noise_sd, size=r.size) if noise_sd > 0 else r.copy()
+    lost = ~np.isfinite(r) | (noisy > range_max)
+    if dropout > 0:
+        lost |= rng.random(r.size) < dropout
+    out = np.where(lost, miss, noisy)
+    return np.where(~lost & (noisy < range_min), -np.inf, out)
+
+
+def _benchmark() -> None:  # pragma: no cover - a timing command, not a test
+    import timeit
+
+    rng = np.random.default_rng(0)
+    a = beam_angles(-0.75 * math.pi, 0.75 * math.pi, 768)
+    circles = np.column_stack((rng.uniform(-8, 8, (40, 2)), rng.uniform(0.02, 0.08, 40)))
+    segments = rng.uniform(-8, 8, (30, 4))
+    n = 500
+    sec = timeit.timeit(lambda: cast_rays(a, circles=circles, segments=segments), number=n) / n
+    print(f"cast_rays: 768 beams, 40 circles, 30 segments: {1e3 * sec:.3f} ms per scan")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    _benchmark()
