@@ -68,7 +68,7 @@ from pfpeople.bag.reader import (
 )
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer, TfLookupError
-from pfpeople.output import RunWriter
+from pfpeople.output import RunWriter, deferred_signals, interrupt_signals
 from pfpeople.sensors import Pose2D
 
 __all__ = [
@@ -556,10 +556,38 @@ class Pipeline:
         """Run over ``bag``, writing ``out_dir`` (and ``bag_out``) incrementally.
 
         A run that stops part-way (a truncated or corrupt bag, :class:`~pfpeople.bag.reader.BagReadError`;
-        any other error; Ctrl-C) ends with ``status = "failed"`` and the error in ``run.json``, the frames
-        processed so far kept (and the result bag closed), and the exception re-raised.
+        any other error) ends with ``status = "failed"`` and the error in ``run.json``; one stopped by SIGINT
+        (Ctrl-C) or SIGTERM (:class:`~pfpeople.output.RunInterrupted`, a ``KeyboardInterrupt``) ends with
+        ``status = "interrupted"``. Either way the frames processed so far are kept (``frames`` in ``run.json``
+        is the number on disk), the result bag is closed (indexed), and the exception re-raised. Driver
+        messages that made no frame are counted in ``run.json`` ``skipped_frames`` by reason
+        (``clock_jump``: an outlier stamp; ``non_monotonic``: a stamp not after the previous one).
         Returns the summary and (with ``keep=True``) every :class:`FrameResult`.
         """
+        with interrupt_signals():
+            return self._run(
+                bag,
+                out_dir,
+                max_frames=max_frames,
+                progress=progress,
+                overwrite=overwrite,
+                metadata=metadata,
+                bag_out=bag_out,
+                keep=keep,
+            )
+
+    def _run(
+        self,
+        bag: BagSource,
+        out_dir: str | Path | None,
+        *,
+        max_frames: int | None,
+        progress: bool,
+        overwrite: bool,
+        metadata: Mapping[str, Any] | None,
+        bag_out: str | Path | None,
+        keep: bool,
+    ) -> tuple[RunSummary, list[FrameResult]]:
         _check_max_frames(max_frames)
         self.prepare(bag)
         names = [d.name for d in self.config.detectors]
@@ -613,17 +641,30 @@ class Pipeline:
                     kept.append(r)
                 if bar is not None:
                     bar.update(1)
-        except BaseException as exc:  # BaseException: an interrupted run (Ctrl-C) is recorded as failed too
+        except KeyboardInterrupt as exc:  # SIGINT or SIGTERM (RunInterrupted): recorded, no traceback needed
+            status, error = "interrupted", str(exc) or "interrupted by SIGINT"
+            self.summary.error = error
+            log.debug("run interrupted after %d frames: %s", self.summary.frames, error)
+            raise
+        except BaseException as exc:
             status, error = "failed", f"{type(exc).__name__}: {exc}"
             self.summary.error = error
             log.error("run stopped after %d frames: %s", self.summary.frames, error)
             raise
         finally:
-            results.close()  # ends the frame generator now, so the summary has its elapsed time and sync stats
-            if bar is not None:
-                bar.close()
-            if bag_writer is not None:
-                bag_writer.close()
-            if writer is not None:
-                writer.close(status=status, error=error, stats=self.summary.as_dict())
+            with deferred_signals():  # a second signal waits until every file is closed
+                try:
+                    results.close()  # ends the frame generator now, so the summary has its elapsed time and sync stats
+                    if bar is not None:
+                        bar.close()
+                    if bag_writer is not None:
+                        bag_writer.close()
+                finally:
+                    if writer is not None:
+                        skipped = {
+                            reason: n
+                            for reason in ("clock_jump", "non_monotonic")
+                            if (n := self.summary.sync.get(reason, {}).get(self.config.driver, 0))
+                        }
+                        writer.close(status=status, error=error, stats=self.summary.as_dict(), skipped_frames=skipped)
         return self.summary, kept

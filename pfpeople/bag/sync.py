@@ -23,6 +23,16 @@ with the bag's length.
 Non-monotonic stamps: a message whose stamp is earlier than the previous one of its topic (or equal, for the
 driver) cannot be placed in a stream; it is skipped, counted in :attr:`FrameAssembler.stats` and logged
 (a warning the first time per topic). Never an exception.
+
+Clock jumps: the offset ``stamp - bag_time`` of a topic (header stamp minus record time) is nearly constant
+in a recording. A message whose offset differs from its topic's current offset by more than
+``max_clock_jump_ns`` (default 5 s) has an outlier stamp (a clock glitch, a sensor stamping in another time
+base): it is skipped, counted in ``stats["clock_jump"]`` and logged, so one scan stamped an hour ahead does not
+make every later scan "non-monotonic". When ``resync_after`` consecutive messages of a topic agree on a new
+offset the clock itself jumped: the topic is resynchronised to the new offset (counted in
+``stats["resync"]``), the messages before were skipped. A driver clock that jumps backwards cannot be
+resynchronised (the frames would go back in time): its messages stay skipped and counted; run with
+``time_source = "bag"`` for such a recording.
 """
 
 from __future__ import annotations
@@ -34,9 +44,12 @@ from dataclasses import dataclass, field
 
 from .reader import BagMessage
 
-__all__ = ["POLICIES", "Frame", "FrameAssembler"]
+__all__ = ["DEFAULT_MAX_CLOCK_JUMP_NS", "POLICIES", "Frame", "FrameAssembler"]
 
 log = logging.getLogger(__name__)
+
+#: Largest change (ns) of a topic's ``stamp - bag_time`` offset accepted between consecutive messages.
+DEFAULT_MAX_CLOCK_JUMP_NS = 5_000_000_000
 
 POLICIES = ("nearest", "preceding", "interpolate")
 
@@ -92,6 +105,11 @@ class FrameAssembler:
         Frames allowed to wait for late messages.
     max_buffer : int
         Messages kept per secondary topic (oldest dropped and counted beyond it).
+    max_clock_jump_ns : int or None
+        A message whose ``stamp - bag_time`` offset moves by more than this (ns) from its topic's is an
+        outlier stamp (see the module docstring); None disables the check.
+    resync_after : int
+        Consecutive messages agreeing on a new offset after which the topic is resynchronised to it.
     """
 
     def __init__(
@@ -102,6 +120,8 @@ class FrameAssembler:
         tolerance_ns: int,
         max_pending: int = 20,
         max_buffer: int = 2000,
+        max_clock_jump_ns: int | None = DEFAULT_MAX_CLOCK_JUMP_NS,
+        resync_after: int = 3,
     ) -> None:
         if tolerance_ns < 0:
             raise ValueError(f"tolerance_ns must be non-negative, got {tolerance_ns}")
@@ -112,6 +132,14 @@ class FrameAssembler:
                 raise ValueError(f"sync policy of topic {topic!r} must be one of {POLICIES}, got {policy!r}")
         if driver in policies:
             raise ValueError(f"topic {driver!r} cannot be both the driver and a secondary topic")
+        if max_clock_jump_ns is not None and max_clock_jump_ns <= 0:
+            raise ValueError(f"max_clock_jump_ns must be positive or None, got {max_clock_jump_ns}")
+        if resync_after < 1:
+            raise ValueError(f"resync_after must be >= 1, got {resync_after}")
+        self.max_clock_jump_ns = max_clock_jump_ns
+        self.resync_after = resync_after
+        self._offset: dict[str, int] = {}
+        self._jump_offsets: dict[str, list[int]] = {}
         self.driver = driver
         self.tolerance_ns = int(tolerance_ns)
         self.max_pending = max_pending
@@ -121,12 +149,71 @@ class FrameAssembler:
         self._last_driver: int | None = None
         self._closed = False
         self._next_index = 0
-        #: Counters: frames, skipped non-monotonic messages per topic, forced frames, buffer overflows.
+        #: Counters: frames, skipped non-monotonic messages per topic, forced frames, buffer overflows,
+        #: messages skipped for an outlier stamp (clock jump) and resynchronisations per topic.
         self.stats: dict[str, dict[str, int]] = {
             "frames": {"emitted": 0, "forced": 0},
             "non_monotonic": {},
             "buffer_overflow": {},
+            "clock_jump": {},
+            "resync": {},
         }
+
+    @property
+    def skipped_driver_messages(self) -> dict[str, int]:
+        """Driver messages that made no frame, by reason (``"clock_jump"``, ``"non_monotonic"``)."""
+        out = {}
+        for reason in ("clock_jump", "non_monotonic"):
+            n = self.stats[reason].get(self.driver, 0)
+            if n:
+                out[reason] = n
+        return out
+
+    def _clock_jump(self, msg: BagMessage) -> bool:
+        """True when ``msg`` has an outlier stamp and must be skipped (see the module docstring)."""
+        if self.max_clock_jump_ns is None:
+            return False
+        topic = msg.topic
+        off = msg.stamp_ns - msg.bag_time_ns
+        ref = self._offset.get(topic)
+        if ref is None or abs(off - ref) <= self.max_clock_jump_ns:
+            self._offset[topic] = off
+            self._jump_offsets.pop(topic, None)
+            return False
+        cands = self._jump_offsets.setdefault(topic, [])
+        if cands and abs(off - cands[-1]) > self.max_clock_jump_ns:
+            cands.clear()
+        cands.append(off)
+        last = self._last_driver if topic == self.driver else None
+        backwards = last is not None and msg.stamp_ns <= last
+        if len(cands) >= self.resync_after and not backwards:
+            log.warning(
+                "topic %s: its clock jumped by %+.3f s relative to the bag's record time (%d messages agree): "
+                "resynchronised to the new clock",
+                topic,
+                (off - ref) * 1e-9,
+                len(cands),
+            )
+            self._offset[topic] = off
+            del self._jump_offsets[topic]
+            self.stats["resync"][topic] = self.stats["resync"].get(topic, 0) + 1
+            if topic != self.driver:
+                self._topics[topic].last_stamp = None
+            return False
+        counts = self.stats["clock_jump"]
+        if topic not in counts:
+            log.warning(
+                "topic %s: stamp %d ns is %+.3f s off its clock (stamp - bag time moved by more than %.3f s): "
+                "message skipped as an outlier stamp (counted; the topic is resynchronised if %d consecutive "
+                "messages agree on the new clock)",
+                topic,
+                msg.stamp_ns,
+                (off - ref) * 1e-9,
+                self.max_clock_jump_ns * 1e-9,
+                self.resync_after,
+            )
+        counts[topic] = counts.get(topic, 0) + 1
+        return True
 
     def _skip_non_monotonic(self, msg: BagMessage, last: int) -> None:
         counts = self.stats["non_monotonic"]
@@ -144,6 +231,10 @@ class FrameAssembler:
         """Add one message; returns the frames that became final (in order)."""
         if self._closed:
             raise RuntimeError("FrameAssembler.push after finish()")
+        if msg.topic != self.driver and msg.topic not in self._topics:
+            raise ValueError(f"FrameAssembler got a message of topic {msg.topic!r}, which it was not given")
+        if self._clock_jump(msg):
+            return []
         if msg.topic == self.driver:
             if self._last_driver is not None and msg.stamp_ns <= self._last_driver:
                 self._skip_non_monotonic(msg, self._last_driver)

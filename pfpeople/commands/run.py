@@ -4,11 +4,17 @@ Examples::
 
     pfpeople run person_following_outdoor_1.bag.zip --config person_following_outdoor_1 --out runs/pf1
     pfpeople run my.bag --driver /scan --odom /odom --filter particle --max-frames 500 --bag-out out.bag
+
+Exit codes: 0 done, 2 bad input (one line on stderr; the frames processed before a failure stay in ``--out``
+with ``status = "failed"``), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM (``status = "interrupted"``,
+the frames on disk kept, the result bag closed).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -16,7 +22,22 @@ from typing import Any
 
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
+from pfpeople.output import RunInterrupted, interrupt_signals
 from pfpeople.pipeline import Pipeline
+
+
+def check_bag_out(path: str | Path) -> Path:
+    """Check ``--bag-out`` before anything is written: its folder exists and it is not a directory."""
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"--bag-out {str(p)!r} is a directory; give a file name such as {str(p / 'results.bag')!r}")
+    parent = p.parent
+    if not parent.is_dir():
+        what = "is not a directory" if parent.exists() else "does not exist"
+        raise ValueError(f"--bag-out {str(p)!r}: its folder {str(parent)!r} {what}")
+    if not os.access(parent, os.W_OK):
+        raise ValueError(f"--bag-out {str(p)!r}: its folder {str(parent)!r} is not writable")
+    return p
 
 
 def config_from_args(args: argparse.Namespace) -> BagConfig:
@@ -49,10 +70,29 @@ def config_from_args(args: argparse.Namespace) -> BagConfig:
 
 
 def _run(args: argparse.Namespace) -> int:
+    with interrupt_signals():  # SIGTERM as well as SIGINT end the run through its finally blocks
+        try:
+            return _run_checked(args)
+        except KeyboardInterrupt as exc:  # one line, no traceback
+            signum = exc.signum if isinstance(exc, RunInterrupted) else int(signal.SIGINT)
+            out = getattr(args, "_out", None)
+            kept = ""
+            if out is not None and (out / "run.json").is_file():
+                kept = f"; the frames processed are kept in {out} (status 'interrupted')"
+            print(f"pfpeople run: interrupted by {signal.Signals(signum).name}{kept}", file=sys.stderr)
+            return 128 + signum
+
+
+def _run_checked(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
     out = Path(args.out) if args.out else Path(f"{Path(args.bag).name.split('.')[0]}_{cfg.filter.kind}_run")
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {str(out)!r} exists and is not a directory")
+    if args.bag_out is not None:
+        check_bag_out(args.bag_out)
     try:
         with BagSource(args.bag) as bag:
+            args._out = out
             summary, _ = Pipeline(cfg).run(
                 bag,
                 out,
@@ -62,7 +102,7 @@ def _run(args: argparse.Namespace) -> int:
                 metadata={"command": "pfpeople run"},
                 bag_out=args.bag_out,
             )
-    except (BagReadError, FileExistsError) as exc:  # not caught by the shared CLI plumbing: no traceback
+    except (BagReadError, FileExistsError, OSError) as exc:  # not caught by the shared CLI plumbing: no traceback
         print(f"pfpeople run: error: {exc}", file=sys.stderr)
         if (out / "run.json").is_file() and not isinstance(exc, FileExistsError):
             print(f"pfpeople run: the frames processed before the error are in {out}", file=sys.stderr)
@@ -73,9 +113,17 @@ def _run(args: argparse.Namespace) -> int:
     )
     for name, n in sorted(summary.no_data.items()):
         print(f"  detector {name}: no data in {n} frame(s)")
-    skipped = summary.sync.get("non_monotonic", {})
+    for name, n in sorted(summary.empty_scans.items()):
+        print(f"  detector {name}: {n} scan(s) without beams")
+    sync = summary.sync
+    skipped = sync.get("non_monotonic", {})
     if skipped:
         print(f"  skipped non-monotonic messages: {skipped}")
+    jumps = sync.get("clock_jump", {})
+    if jumps:
+        print(f"  skipped messages with an outlier stamp (clock jump): {jumps}")
+    if sync.get("resync"):
+        print(f"  topics resynchronised to a new clock: {sync['resync']}")
     return 0
 
 
