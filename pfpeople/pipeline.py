@@ -40,6 +40,7 @@ import itertools
 import logging
 import math
 import time
+import types
 import typing
 from collections.abc import Callable, Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -125,8 +126,83 @@ def _import_builtin(kind: str) -> type:
         ) from None
 
 
+def _type_name(hint: Any) -> str:
+    args = typing.get_args(hint)
+    if args:
+        return " or ".join(_type_name(a) for a in args)
+    if hint is type(None):
+        return "None"
+    if hint is float:
+        return "a number"
+    if hint is int:
+        return "an integer"
+    if hint is bool:
+        return "true/false"
+    if hint is str:
+        return "a string"
+    if isinstance(hint, type) and dataclasses.is_dataclass(hint):
+        return f"a table ({hint.__name__})"
+    return getattr(hint, "__name__", str(hint))
+
+
+def _matches(value: Any, hint: Any) -> bool:
+    """Whether a TOML value fits a constructor annotation (unknown annotations accept anything)."""
+    if hint is Any or hint is None:
+        return True
+    args = typing.get_args(hint)
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        return any(_matches(value, a) for a in args)
+    if origin is typing.Literal:
+        return value in args
+    if hint is type(None):
+        return value is None
+    if hint is bool:
+        return isinstance(value, bool)
+    if hint is float:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if hint is str:
+        return isinstance(value, str)
+    if hint is Path or (isinstance(hint, type) and issubclass(hint, Path)):
+        return isinstance(value, str | Path)
+    if isinstance(hint, type) and dataclasses.is_dataclass(hint):
+        return isinstance(value, Mapping | hint)
+    if isinstance(hint, type):
+        return isinstance(value, hint)
+    return True
+
+
+def _dataclass_from_table(cls: type, value: Mapping[str, Any], where: str) -> Any:
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    kwargs: dict[str, Any] = {}
+    for key, item in value.items():
+        if key not in names:
+            raise ValueError(f"{where}: {cls.__name__} has no field {key!r}; it has {sorted(names)}")
+        hint = hints.get(key)
+        if isinstance(item, Mapping):
+            options = typing.get_args(hint) or (hint,)
+            sub = [t for t in options if isinstance(t, type) and dataclasses.is_dataclass(t)]
+            if not sub:
+                raise ValueError(f"{where}.{key} does not take a table; expected {_type_name(hint)}")
+            item = _dataclass_from_table(sub[0], item, f"{where}.{key}")
+        elif not _matches(item, hint):
+            raise ValueError(f"{where}.{key} must be {_type_name(hint)}, got {item!r} ({type(item).__name__})")
+        kwargs[key] = item
+    try:
+        return cls(**kwargs)
+    except TypeError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
 def _kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
-    """Constructor keyword arguments from ``[detectors.params]``; tables become the annotated dataclass."""
+    """Constructor keyword arguments from ``[detectors.params]``; tables become the annotated dataclass.
+
+    Values are checked against the constructor's annotations: a wrong type raises ValueError naming
+    ``detectors.params.KEY`` and the expected type.
+    """
     sig = inspect.signature(cls)
     hints = typing.get_type_hints(cls.__init__)  # type: ignore[misc]
     kwargs: dict[str, Any] = {}
@@ -134,12 +210,16 @@ def _kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
         if key not in sig.parameters or key == "model":
             allowed = sorted(k for k in sig.parameters if k != "model")
             raise ValueError(f"{cls.__name__} has no constructor argument {key!r}; it takes {allowed}")
+        where = f"detectors.params.{key}"
+        hint = hints.get(key)
         if isinstance(value, Mapping):
-            options = typing.get_args(hints.get(key)) or (hints.get(key),)
+            options = typing.get_args(hint) or (hint,)
             candidates: list[Any] = [t for t in options if isinstance(t, type) and dataclasses.is_dataclass(t)]
             if not candidates:
-                raise ValueError(f"{cls.__name__}.{key} does not take a table")
-            value = candidates[0](**value)
+                raise ValueError(f"{cls.__name__}.{key} does not take a table ({where} must be {_type_name(hint)})")
+            value = _dataclass_from_table(candidates[0], value, where)
+        elif not _matches(value, hint):
+            raise ValueError(f"{where} must be {_type_name(hint)}, got {value!r} ({type(value).__name__})")
         kwargs[key] = value
     return kwargs
 
@@ -147,15 +227,19 @@ def _kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
 def build_detector(cfg: DetectorConfig, mount: Pose2D) -> Detector | None:
     """The built-in detector of ``cfg`` with its model overridden by ``cfg.model`` and mounted at ``mount``.
 
-    Returns None for ``kind="topic"`` (no detector object: positions come from the bag).
+    Returns None for ``kind="topic"`` (no detector object: positions come from the bag). Bad
+    ``[detectors.params]`` raise ValueError naming the detector and the parameter.
     """
     if cfg.kind == "topic":
         return None
     cls = _import_builtin(cfg.kind)
-    kwargs = _kwargs_from_table(cls, cfg.params)
-    if cfg.kind in _SELF_MOUNTED:
-        kwargs.setdefault("mounting", mount)
-    det: Detector = cls(**kwargs)  # built once: the boosted detector loads its model file here
+    try:
+        kwargs = _kwargs_from_table(cls, cfg.params)
+        if cfg.kind in _SELF_MOUNTED:
+            kwargs.setdefault("mounting", mount)
+        det: Detector = cls(**kwargs)  # built once: the boosted detector loads its model file here
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"detector {cfg.name!r} ({cfg.kind}): {exc}") from None
     det.model = _model_for(cfg, mount, det.model)
     return det
 
