@@ -78,8 +78,9 @@ def memory_budget_bytes() -> int:
 
 
 def kernel_reach_cells(resolution: float, *, v_max: float, dt: float) -> float:
-    """Radius (cells, float: may be astronomically large) of the people-motion neighbourhood."""
-    return math.ceil(v_max * dt / resolution) + 1 if v_max * dt / resolution < 1e15 else v_max * dt / resolution
+    """Radius (cells) of the people-motion neighbourhood, capped at 1e100 (a float: it may be astronomical)."""
+    reach = min(v_max * dt / resolution, 1e100)
+    return float(math.ceil(reach) + 1) if reach < 1e15 else reach
 
 
 def estimate_run_bytes(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0) -> int:

@@ -105,7 +105,8 @@ def _read_csv(path: Path, what: str) -> dict[int, list[tuple[float, float]]]:
             raise ValueError(f"{path}: header must contain {sorted(need)}, got {reader.fieldnames}")
         for line, row in enumerate(reader, start=2):
             try:
-                frame = int(float(row["frame"]))
+                text = str(row["frame"]).strip()
+                frame = int(text) if text.lstrip("+-").isdigit() else int(float(text))
                 x, y = float(row["x_m"]), float(row["y_m"])
             except (TypeError, ValueError) as exc:
                 raise ValueError(f"{path}:{line}: bad value ({exc})") from exc
