@@ -109,16 +109,17 @@ def test_one_scan_an_hour_ahead_is_skipped_not_the_rest_of_the_run(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
     def hook(k: int, stamp: int, ranges: np.ndarray) -> tuple[int, np.ndarray]:
-        return (stamp + 3600 * 10**9 if k == 5 else stamp), ranges
+        return (stamp + 3600 * 10**9 if k == 3 else stamp), ranges
 
     bag = tmp_path / "jump.bag"
-    write_bag(bag, scan_hook=hook)
+    write_bag(bag, n_scans=12, scan_hook=hook)
     with caplog.at_level(logging.WARNING), BagSource(bag) as src:
         summary, results = Pipeline(config()).run(src, tmp_path / "run", keep=True)
-    # Before: 14 of the 19 later scans were dropped as non-monotonic. Now only the outlier is skipped.
-    assert summary.frames == 19
+    # Before: every later scan was dropped as non-monotonic (exit 0, "complete"). Now only the outlier is.
+    assert summary.frames == 11
     assert summary.sync["clock_jump"] == {"/scan": 1} and summary.sync["non_monotonic"] == {}
-    assert [r.frame.driver.index for r in results] == [k for k in range(20) if k != 5]
+    assert [r.frame.driver.index for r in results] == [k for k in range(12) if k != 3]
+    assert summary.frames_without_odometry == 0 and all(len(r.detections[0]) == 2 for r in results)
     assert summary.filter_restarts == 0
     assert "outlier stamp" in caplog.text
     meta = load_run(tmp_path / "run").meta
@@ -127,15 +128,15 @@ def test_one_scan_an_hour_ahead_is_skipped_not_the_rest_of_the_run(
 
 def test_a_clock_that_jumps_for_good_is_resynchronised(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
     def hook(k: int, stamp: int, ranges: np.ndarray) -> tuple[int, np.ndarray]:
-        return (stamp + 3600 * 10**9 if k >= 10 else stamp), ranges
+        return (stamp + 3600 * 10**9 if k >= 4 else stamp), ranges
 
     bag = tmp_path / "resync.bag"
-    write_bag(bag, scan_hook=hook)
+    write_bag(bag, n_scans=10, scan_hook=hook, odometry=False)
     with caplog.at_level(logging.WARNING), BagSource(bag) as src:
         summary, results = Pipeline(config(odometry=False)).run(src, None, keep=True)
-    # scans 10 and 11 are outliers until scan 12 makes three messages agreeing on the new clock
+    # scans 4 and 5 are outliers until scan 6 makes three messages agreeing on the new clock
     assert summary.sync["clock_jump"] == {"/scan": 2} and summary.sync["resync"] == {"/scan": 1}
-    assert summary.frames == 18 and results[-1].frame.driver.index == 19
+    assert summary.frames == 8 and [r.frame.driver.index for r in results] == [0, 1, 2, 3, 6, 7, 8, 9]
     assert summary.filter_restarts == 1  # the hour-long gap restarts the filter
     assert "resynchronised to the new clock" in caplog.text
 
@@ -198,9 +199,9 @@ def test_all_nan_scan_is_warned_and_counted_as_no_data(tmp_path: Path, caplog: p
         return stamp, (np.full_like(ranges, np.nan) if k == 4 else ranges)
 
     bag = tmp_path / "nan.bag"
-    write_bag(bag, n_scans=8, scan_hook=hook)
+    write_bag(bag, n_scans=6, scan_hook=hook, odometry=False)
     with caplog.at_level(logging.WARNING), BagSource(bag) as src:
-        summary, results = Pipeline(config()).run(src, None, keep=True)
+        summary, results = Pipeline(config(odometry=False)).run(src, None, keep=True)
     assert summary.bad_messages == {"laser-legs": 1} and summary.no_data == {"laser-legs": 1}
     assert results[4].detections[0] is None  # no data (covers no cell), not "saw nobody"
     assert "all 361 ranges are NaN" in caplog.text and "'/scan'" in caplog.text
