@@ -161,7 +161,7 @@ class CalibrationResult:
         """
         if math.isnan(self.ppv) or math.isnan(self.fnr):
             raise ValueError(f"calibration of {self.name!r} has no detections or no people: cannot set PPV/FNR")
-        values = {}
+        values: dict[str, float] = {}
         for attr in ("ppv", "fnr"):
             v = float(getattr(self, attr))
             clamped = min(max(v, PROBABILITY_MARGIN), 1.0 - PROBABILITY_MARGIN)
@@ -174,7 +174,7 @@ class CalibrationResult:
                     clamped,
                 )
             values[attr] = clamped
-        return replace(model, **values)
+        return replace(model, ppv=values["ppv"], fnr=values["fnr"])
 
     def summary(self) -> str:
         c = self.counts

@@ -127,7 +127,7 @@ class DetectorModel:
             value = getattr(self, attr)
             if isinstance(value, bool) or not isinstance(value, numbers.Real):
                 raise TypeError(f"DetectorModel({self.name}).{attr} must be a number, got {value!r}")
-            check_probability(value, f"DetectorModel({self.name}).{attr}")
+            check_probability(float(value), f"DetectorModel({self.name}).{attr}")
             if value in (0.0, 1.0):
                 raise ValueError(
                     f"DetectorModel({self.name}).{attr} must be strictly between 0 and 1, got {value!r}: at 0 or 1 "

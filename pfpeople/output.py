@@ -419,7 +419,8 @@ class RunWriter:
         self._closed = True
         first: OSError | None = None
         with deferred_signals():
-            for fh in (self._grids, *self._files):
+            handles: list[IO[Any]] = [self._grids, *self._files]
+            for fh in handles:
                 try:
                     fh.close()
                 except OSError as exc:

@@ -63,11 +63,12 @@ def documents(draw: st.DrawFn) -> dict[str, Any]:
             doc[table] = {k: draw(_entry(k)) for k in chosen}
     if "frames" in doc and draw(st.booleans()):
         doc["frames"]["driver"] = "/scan"
-    dets = []
+    dets: list[dict[str, Any]] = []
     for _ in range(draw(st.integers(min_value=0, max_value=2))):
         chosen = draw(st.lists(st.sampled_from(_DET_KEYS), unique=True, max_size=len(_DET_KEYS)))
         dets.append({k: draw(_entry(k)) for k in chosen})
-    if dets or draw(st.booleans()):
+    keep_empty: bool = draw(st.booleans())
+    if dets or keep_empty:
         doc["detectors"] = dets
     if draw(st.booleans()):
         doc["mounts"] = draw(st.dictionaries(st.sampled_from(["laser", "cam"]), _value, max_size=2))
