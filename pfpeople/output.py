@@ -236,7 +236,9 @@ class RunWriter:
                 for name in RUN_FILES:
                     (self.path / name).unlink(missing_ok=True)
             else:
-                others = sorted(p.name for p in self.path.iterdir() if p.name != LOCK_NAME)
+                others = sorted(
+                    p.name for p in self.path.iterdir() if p.name != LOCK_NAME and not p.name.startswith(".run.json.")
+                )
                 if others:
                     listing = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
                     raise FileExistsError(

@@ -219,7 +219,7 @@ def _extract_zip(path: Path, cache_dir: Path | None) -> Path:
     """Extract a zipped bag once (checked, see the module docstring); returns the ``.bag`` file or ROS2 folder."""
     stat = path.stat()
     key = hashlib.sha1(f"{path.resolve()}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()[:12]
-    root = cache_dir or _cache_root() / "bags"
+    root = Path(cache_dir) if cache_dir is not None else _cache_root() / "bags"
     dest = root / f"{path.stem}-{key}"
     done = dest / ".complete"
     try:

@@ -24,15 +24,21 @@ Non-monotonic stamps: a message whose stamp is earlier than the previous one of 
 driver) cannot be placed in a stream; it is skipped, counted in :attr:`FrameAssembler.stats` and logged
 (a warning the first time per topic). Never an exception.
 
-Clock jumps: the offset ``stamp - bag_time`` of a topic (header stamp minus record time) is nearly constant
-in a recording. A message whose offset differs from its topic's current offset by more than
-``max_clock_jump_ns`` (default 5 s) has an outlier stamp (a clock glitch, a sensor stamping in another time
-base): it is skipped, counted in ``stats["clock_jump"]`` and logged, so one scan stamped an hour ahead does not
-make every later scan "non-monotonic". When ``resync_after`` consecutive messages of a topic agree on a new
-offset the clock itself jumped: the topic is resynchronised to the new offset (counted in
-``stats["resync"]``), the messages before were skipped. A driver clock that jumps backwards cannot be
-resynchronised (the frames would go back in time): its messages stay skipped and counted; run with
-``time_source = "bag"`` for such a recording.
+Clock jumps: the offset ``stamp - bag_time`` of a topic (header stamp minus record time) changes slowly in a
+recording. A message whose offset moves by more than ``max_clock_jump_ns`` (default 5 s) from its topic's
+current offset is held back (at most ``resync_after - 1`` messages, default 2) until the topic shows what it
+was:
+
+- the next message is back on the current clock: the held messages had **outlier stamps** (a clock glitch,
+  a stamp in another time base) and are skipped, counted in ``stats["clock_jump"]`` and logged. One scan
+  stamped an hour ahead no longer makes every later scan "non-monotonic";
+- ``resync_after`` consecutive messages agree on the new offset: the clock stepped (or the recording has a
+  gap in its stamps, as bags rewritten by a script do): the held messages and the topic follow the new clock,
+  nothing is lost, and the step is counted in ``stats["resync"]`` and logged.
+
+A driver clock that steps backwards cannot be followed (the frames would go back in time): its messages are
+then skipped as non-monotonic (counted); run with ``time_source = "bag"`` for such a recording. With
+``time_source = "bag"`` the offset is 0 and no message is held.
 """
 
 from __future__ import annotations
@@ -106,10 +112,10 @@ class FrameAssembler:
     max_buffer : int
         Messages kept per secondary topic (oldest dropped and counted beyond it).
     max_clock_jump_ns : int or None
-        A message whose ``stamp - bag_time`` offset moves by more than this (ns) from its topic's is an
-        outlier stamp (see the module docstring); None disables the check.
+        A message whose ``stamp - bag_time`` offset moves by more than this (ns) from its topic's is held
+        until the topic shows an outlier or a clock step (see the module docstring); None disables the check.
     resync_after : int
-        Consecutive messages agreeing on a new offset after which the topic is resynchronised to it.
+        Consecutive messages agreeing on a new offset after which the topic follows it.
     """
 
     def __init__(
@@ -139,7 +145,7 @@ class FrameAssembler:
         self.max_clock_jump_ns = max_clock_jump_ns
         self.resync_after = resync_after
         self._offset: dict[str, int] = {}
-        self._jump_offsets: dict[str, list[int]] = {}
+        self._held: dict[str, list[BagMessage]] = {}
         self.driver = driver
         self.tolerance_ns = int(tolerance_ns)
         self.max_pending = max_pending
@@ -169,52 +175,6 @@ class FrameAssembler:
                 out[reason] = n
         return out
 
-    def _clock_jump(self, msg: BagMessage) -> bool:
-        """True when ``msg`` has an outlier stamp and must be skipped (see the module docstring)."""
-        if self.max_clock_jump_ns is None:
-            return False
-        topic = msg.topic
-        off = msg.stamp_ns - msg.bag_time_ns
-        ref = self._offset.get(topic)
-        if ref is None or abs(off - ref) <= self.max_clock_jump_ns:
-            self._offset[topic] = off
-            self._jump_offsets.pop(topic, None)
-            return False
-        cands = self._jump_offsets.setdefault(topic, [])
-        if cands and abs(off - cands[-1]) > self.max_clock_jump_ns:
-            cands.clear()
-        cands.append(off)
-        last = self._last_driver if topic == self.driver else None
-        backwards = last is not None and msg.stamp_ns <= last
-        if len(cands) >= self.resync_after and not backwards:
-            log.warning(
-                "topic %s: its clock jumped by %+.3f s relative to the bag's record time (%d messages agree): "
-                "resynchronised to the new clock",
-                topic,
-                (off - ref) * 1e-9,
-                len(cands),
-            )
-            self._offset[topic] = off
-            del self._jump_offsets[topic]
-            self.stats["resync"][topic] = self.stats["resync"].get(topic, 0) + 1
-            if topic != self.driver:
-                self._topics[topic].last_stamp = None
-            return False
-        counts = self.stats["clock_jump"]
-        if topic not in counts:
-            log.warning(
-                "topic %s: stamp %d ns is %+.3f s off its clock (stamp - bag time moved by more than %.3f s): "
-                "message skipped as an outlier stamp (counted; the topic is resynchronised if %d consecutive "
-                "messages agree on the new clock)",
-                topic,
-                msg.stamp_ns,
-                (off - ref) * 1e-9,
-                self.max_clock_jump_ns * 1e-9,
-                self.resync_after,
-            )
-        counts[topic] = counts.get(topic, 0) + 1
-        return True
-
     def _skip_non_monotonic(self, msg: BagMessage, last: int) -> None:
         counts = self.stats["non_monotonic"]
         if msg.topic not in counts:
@@ -227,14 +187,71 @@ class FrameAssembler:
             )
         counts[msg.topic] = counts.get(msg.topic, 0) + 1
 
+    def _offset_of(self, msg: BagMessage) -> int:
+        return msg.stamp_ns - msg.bag_time_ns
+
+    def _drop_outliers(self, topic: str, held: list[BagMessage], ref: int) -> None:
+        if not held:
+            return
+        counts = self.stats["clock_jump"]
+        if topic not in counts:
+            log.warning(
+                "topic %s: stamp %d ns is %+.3f s off its clock (stamp - bag time moved by more than %.3f s "
+                "and the next message is back on the clock): skipped as an outlier stamp (such messages are "
+                "counted in the run's statistics)",
+                topic,
+                held[0].stamp_ns,
+                (self._offset_of(held[0]) - ref) * 1e-9,
+                (self.max_clock_jump_ns or 0) * 1e-9,
+            )
+        counts[topic] = counts.get(topic, 0) + len(held)
+        held.clear()
+
+    def _admit(self, msg: BagMessage) -> list[BagMessage]:
+        """The messages to process now: ``msg``, held messages released with it, or none (``msg`` held)."""
+        if self.max_clock_jump_ns is None:
+            return [msg]
+        topic, jump = msg.topic, self.max_clock_jump_ns
+        off = self._offset_of(msg)
+        ref = self._offset.get(topic)
+        held = self._held.setdefault(topic, [])
+        if ref is None or abs(off - ref) <= jump:  # on the current clock: what was held were outliers
+            if ref is not None:
+                self._drop_outliers(topic, held, ref)
+            self._offset[topic] = off
+            return [msg]
+        if held and abs(off - self._offset_of(held[-1])) > jump:  # not even on the held messages' clock
+            self._drop_outliers(topic, held, ref)
+        held.append(msg)
+        if len(held) < self.resync_after:
+            return []
+        counts = self.stats["resync"]
+        if topic not in counts:
+            log.warning(
+                "topic %s: its stamps stepped by %+.3f s relative to the bag's record time and %d messages "
+                "agree (a clock step or a gap in the stamps): following the new clock (counted)",
+                topic,
+                (off - ref) * 1e-9,
+                len(held),
+            )
+        counts[topic] = counts.get(topic, 0) + 1
+        self._offset[topic] = off
+        out = list(held)
+        held.clear()
+        return out
+
     def push(self, msg: BagMessage) -> list[Frame]:
         """Add one message; returns the frames that became final (in order)."""
         if self._closed:
             raise RuntimeError("FrameAssembler.push after finish()")
         if msg.topic != self.driver and msg.topic not in self._topics:
             raise ValueError(f"FrameAssembler got a message of topic {msg.topic!r}, which it was not given")
-        if self._clock_jump(msg):
-            return []
+        out: list[Frame] = []
+        for m in self._admit(msg):
+            out += self._push(m)
+        return out
+
+    def _push(self, msg: BagMessage) -> list[Frame]:
         if msg.topic == self.driver:
             if self._last_driver is not None and msg.stamp_ns <= self._last_driver:
                 self._skip_non_monotonic(msg, self._last_driver)
@@ -263,9 +280,14 @@ class FrameAssembler:
         return self._drain()
 
     def finish(self) -> list[Frame]:
-        """End of the stream: finalise every pending frame."""
+        """End of the stream: release held messages (nothing tells them outliers), finalise every pending frame."""
+        held = sorted((m for ms in self._held.values() for m in ms), key=lambda m: m.bag_time_ns)
+        self._held.clear()
+        out: list[Frame] = []
+        for m in held:
+            out += self._push(m)
         self._closed = True
-        return self._drain()
+        return out + self._drain()
 
     # -- internals ---------------------------------------------------------------------------------------
 
