@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from pfpeople.bag.config import BagConfig, config_from_mapping
 
 SETTINGS = settings(
-    max_examples=80, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow]
+    max_examples=60, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow]
 )
 
 _scalar = st.one_of(

@@ -23,7 +23,7 @@ from pfpeople.bag.sync import FrameAssembler
 from pfpeople.particle_filter import ParticleFilter
 
 SETTINGS = settings(
-    max_examples=25, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow]
+    max_examples=15, derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow]
 )
 SPEC = GridSpec(nx=10, ny=10, resolution=0.5, x0=0.0, y0=-2.5)
 MODELS = (

@@ -19,6 +19,7 @@ import pytest
 from rosbags.rosbag1 import Writer as Writer1
 from test_pipeline_bags import MOUNT, T0_NS, _Msgs, _typestore, config, write_bag
 
+from gridbridge.grid import GridSpec
 from gridbridge.limits import ResourceLimitError
 from gridbridge.params import DetectorModel
 from pfpeople.bag import reader
@@ -436,7 +437,8 @@ def test_rewritten_training_bags_with_gaps_in_their_stamps_lose_no_frame(shared_
     bag = shared_data / "leg_tracker" / "positive_1_extracted.bag"
     if not bag.is_file():
         pytest.skip(f"{bag.name} is absent")
-    cfg = BagConfig(driver="/training_scan", detectors=(DetectorConfig(name="l", kind="leg", topic="/training_scan"),))
+    det = DetectorConfig(name="l", kind="leg", topic="/training_scan")
+    cfg = BagConfig(driver="/training_scan", detectors=(det,), grid=GridSpec(nx=6, ny=6, resolution=0.5, y0=-1.5))
     with BagSource(bag) as src:
         summary, _ = Pipeline(cfg).run(src, None)
     # Stamps advance 0.133 s per scan, record times 1 ms, with three gaps of 7-10 s in the stamps (measured):
