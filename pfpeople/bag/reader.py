@@ -169,10 +169,10 @@ def _dir_size(path: Path) -> int:
     return total
 
 
-def evict_cache(root: Path, *, keep: Path | None = None, stem: str | None = None) -> list[Path]:
+def evict_cache(root: Path, *, keep: Path | None = None, source: Path | None = None) -> list[Path]:
     """Bound the zip extraction cache ``root``; returns the folders removed.
 
-    Removes older copies of the zip named ``stem`` (another key: the zip changed), extraction folders left
+    Removes older copies of the zip ``source`` (same zip path, another key: the zip changed), extraction folders left
     by a crash more than an hour ago, then the least recently used entries beyond :data:`MAX_CACHE_ENTRIES`
     or :data:`MAX_CACHE_BYTES` (``$PFPEOPLE_CACHE_MAX_BYTES``). ``keep`` is never removed.
     """
@@ -192,7 +192,8 @@ def evict_cache(root: Path, *, keep: Path | None = None, stem: str | None = None
                 continue
             if not done.exists():
                 continue
-            if stem is not None and d.name.rsplit("-", 1)[0] == stem:
+            origin = d / ".source"
+            if source is not None and origin.is_file() and origin.read_text() == str(source):
                 removed.append(d)
                 continue
             entries.append((done.stat().st_mtime, d))
@@ -232,6 +233,7 @@ def _extract_zip(path: Path, cache_dir: Path | None) -> Path:
                 tmp = Path(tempfile.mkdtemp(prefix=".extract-", dir=root))
                 try:
                     zf.extractall(tmp)
+                    (tmp / ".source").write_text(str(path.resolve()))
                     (tmp / ".complete").touch()
                     try:
                         tmp.rename(dest)
@@ -245,7 +247,7 @@ def _extract_zip(path: Path, cache_dir: Path | None) -> Path:
     except OSError as exc:
         raise BagReadError(f"cannot extract bag archive {str(path)!r} into {str(root)!r}: {exc}") from None
     done.touch()  # last use, for the cache's least-recently-used eviction
-    evict_cache(root, keep=dest, stem=path.stem)
+    evict_cache(root, keep=dest, source=path.resolve())
     return dest / member.rstrip("/") if member != "./" else dest
 
 
