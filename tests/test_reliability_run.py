@@ -135,7 +135,11 @@ def test_out_with_the_users_files_is_never_written(tmp_path: Path, capsys: pytes
 
 @pytest.mark.parametrize(
     ("bag_out", "match"),
-    [("missing/dir/out.bag", r"its folder '.*missing/dir' does not exist"), (".", r"is a directory")],
+    [
+        ("missing/dir/out.bag", r"its folder '.*missing/dir' does not exist"),
+        (".", r"is a directory"),
+        ("b.bag", r"'.*b\.bag' already exists"),
+    ],
 )
 def test_bad_bag_out_is_refused_before_the_run_directory_exists(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], bag_out: str, match: str

@@ -26,17 +26,20 @@ from pfpeople.output import RunInterrupted, interrupt_signals
 from pfpeople.pipeline import Pipeline
 
 
-def check_bag_out(path: str | Path) -> Path:
-    """Check ``--bag-out`` before anything is written: its folder exists and it is not a directory."""
+def check_bag_out(path: str | Path, *, overwrite: bool = False) -> Path:
+    """Check ``--bag-out`` before anything is written: its folder exists and is writable, the path is not a
+    plain directory, and it does not exist yet (unless ``overwrite``)."""
     p = Path(path)
-    if p.is_dir():
-        raise ValueError(f"--bag-out {str(p)!r} is a directory; give a file name such as {str(p / 'results.bag')!r}")
     parent = p.parent
     if not parent.is_dir():
         what = "is not a directory" if parent.exists() else "does not exist"
         raise ValueError(f"--bag-out {str(p)!r}: its folder {str(parent)!r} {what}")
     if not os.access(parent, os.W_OK):
         raise ValueError(f"--bag-out {str(p)!r}: its folder {str(parent)!r} is not writable")
+    if p.is_dir() and not (p / "metadata.yaml").is_file():
+        raise ValueError(f"--bag-out {str(p)!r} is a directory; give a file name such as {str(p / 'results.bag')!r}")
+    if p.exists() and not overwrite:
+        raise ValueError(f"--bag-out {str(p)!r} already exists; remove it or choose another name")
     return p
 
 
@@ -89,7 +92,7 @@ def _run_checked(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r} exists and is not a directory")
     if args.bag_out is not None:
-        check_bag_out(args.bag_out)
+        check_bag_out(args.bag_out, overwrite=args.overwrite)
     try:
         with BagSource(args.bag) as bag:
             args._out = out
