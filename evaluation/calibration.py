@@ -22,6 +22,7 @@ instead and shows the size of that bias.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -46,6 +47,13 @@ __all__ = [
     "oracle_calibration",
     "wilson_interval",
 ]
+
+log = logging.getLogger(__name__)
+
+#: A calibrated PPV / FNR of 0 or 1 is clamped this far inside (0, 1) by :meth:`CalibrationResult.to_model`.
+PROBABILITY_MARGIN = 0.01
+#: Largest frame number range :func:`calibrate_sparse` accepts (frames are indices 0, 1, ..., not stamps).
+MAX_CALIBRATION_FRAMES = 100_000_000
 
 DEFAULT_GATE_M = 0.5
 DEFAULT_GATE_SIGMAS = 3.0
@@ -145,10 +153,28 @@ class CalibrationResult:
         )
 
     def to_model(self, model: DetectorModel) -> DetectorModel:
-        """``model`` with this calibration's PPV and FNR (raises if either could not be measured)."""
+        """``model`` with this calibration's PPV and FNR (raises if either could not be measured).
+
+        A measured 0 or 1 (no miss or no false positive seen) is clamped into
+        ``[PROBABILITY_MARGIN, 1 - PROBABILITY_MARGIN]`` and logged: a DetectorModel at 0 or 1 would pin cells
+        at 0 or 1 for good (see :class:`gridbridge.params.DetectorModel`).
+        """
         if math.isnan(self.ppv) or math.isnan(self.fnr):
             raise ValueError(f"calibration of {self.name!r} has no detections or no people: cannot set PPV/FNR")
-        return replace(model, ppv=self.ppv, fnr=self.fnr)
+        values: dict[str, float] = {}
+        for attr in ("ppv", "fnr"):
+            v = float(getattr(self, attr))
+            clamped = min(max(v, PROBABILITY_MARGIN), 1.0 - PROBABILITY_MARGIN)
+            if clamped != v:
+                log.warning(
+                    "calibration of %s: measured %s = %.3g clamped to %.3g (at 0 or 1 a model pins cells for good)",
+                    self.name,
+                    attr.upper(),
+                    v,
+                    clamped,
+                )
+            values[attr] = clamped
+        return replace(model, ppv=values["ppv"], fnr=values["fnr"])
 
     def summary(self) -> str:
         c = self.counts
@@ -322,6 +348,52 @@ def calibrate_detector(
             raise ValueError(f"frame {t}: {exc}") from exc
     label = name if name is not None else (model.name if model is not None else "detector")
     return CalibrationResult.from_counts(label, total, confidence=confidence, metric=metric_, gate=gate_)
+
+
+def calibrate_sparse(
+    detections: Mapping[int, ArrayLike],
+    truth: Mapping[int, ArrayLike],
+    *,
+    n_frames: int | None = None,
+    max_frames: int = MAX_CALIBRATION_FRAMES,
+    **options: object,
+) -> CalibrationResult:
+    """:func:`calibrate_detector` over frames given by number; frames without rows are empty.
+
+    Only the frames that have rows are matched (no list up to the largest frame number is built), and the
+    frame range is checked first: a frame number above ``max_frames`` (typically a stamp written as a frame
+    number) raises ``ValueError`` naming it.
+
+    Parameters
+    ----------
+    detections, truth : mapping of int to array_like (M, 2)
+        Positions (m) per frame number (>= 0).
+    n_frames : int, optional
+        Number of frames of the sequence (default: largest frame number + 1).
+    max_frames : int
+        Largest accepted frame range.
+    **options
+        Passed to :func:`calibrate_detector` (``model``, ``gate``, ``metric``, ``region``, ...).
+    """
+    keys = sorted(set(detections) | set(truth))
+    if keys and keys[0] < 0:
+        raise ValueError(f"frame numbers must be >= 0, got {keys[0]}")
+    top = keys[-1] + 1 if keys else 0
+    n = top if n_frames is None else int(n_frames)
+    if n < top:
+        raise ValueError(f"n_frames={n} is below the largest frame number + 1 ({top})")
+    if n > max_frames:
+        raise ValueError(
+            f"frame numbers run up to {n - 1}, more than {max_frames} frames: frame numbers must be frame "
+            "indices (0, 1, ...), not stamps"
+        )
+    empty = np.zeros((0, 2))
+    dets = [detections.get(k, empty) for k in keys]
+    tru = [truth.get(k, empty) for k in keys]
+    res = calibrate_detector(dets, tru, **options)  # type: ignore[arg-type]
+    c = res.counts
+    counts = CalibrationCounts(n, c.n_detections, c.n_true_positives, c.n_people, c.n_detected_people)
+    return CalibrationResult.from_counts(res.name, counts, confidence=res.confidence, metric=res.metric, gate=res.gate)
 
 
 def calibrate_frames(

@@ -179,7 +179,7 @@ def replay(
     for k in range(len(log)):
         t0 = time.perf_counter()
         out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
-        found = classifier.classify(out.posterior, log.spec)
+        found = classifier.classify(out.posterior, log.spec, observed=np.asarray(out.covered).any(axis=0))
         pos, sc = found.positions, found.scores
         if post is not None:
             pos, sc = post(k, pos, sc)

@@ -77,7 +77,7 @@ def _from_blobs(result: ClassificationResult) -> People:
 class Classifier(Protocol):
     """What a classifier does: ``classify(belief (nx, ny), spec) -> People``."""
 
-    def classify(self, belief: ArrayLike, spec: GridSpec) -> People: ...
+    def classify(self, belief: ArrayLike, spec: GridSpec, *, observed: ArrayLike | None = None) -> People: ...
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -86,7 +86,8 @@ class BlobClassifier:
 
     params: BlobParams = field(default_factory=BlobParams)
 
-    def classify(self, belief: ArrayLike, spec: GridSpec) -> People:
+    def classify(self, belief: ArrayLike, spec: GridSpec, *, observed: ArrayLike | None = None) -> People:
+        """People in ``belief``; ``observed`` is ignored (the paper classifies the whole grid)."""
         return _from_blobs(classify_blobs(belief, spec=spec, params=self.params))
 
 
@@ -99,7 +100,8 @@ class ThresholdClassifier:
     def __post_init__(self) -> None:
         check_probability(self.threshold, "ThresholdClassifier.threshold")
 
-    def classify(self, belief: ArrayLike, spec: GridSpec) -> People:
+    def classify(self, belief: ArrayLike, spec: GridSpec, *, observed: ArrayLike | None = None) -> People:
+        """People in ``belief``; ``observed`` is ignored."""
         return _from_blobs(classify_threshold(belief, self.threshold, spec=spec))
 
 
@@ -157,11 +159,21 @@ def classify_peaks(
     values = grid[cand[:, 0], cand[:, 1]]
     order = np.lexsort((cand[:, 1], cand[:, 0], -values))
     cand, values = cand[order], values[order]
+    # Greedy non-maximum suppression on the grid: a kept peak blocks every cell centre within min_separation.
+    sep = min_separation / r
+    reach_s = math.ceil(sep - 1e-9)
+    si, sj = np.mgrid[-reach_s : reach_s + 1, -reach_s : reach_s + 1]
+    block = (si**2 + sj**2) < sep**2 - 1e-9
+    blocked = np.zeros(spec.shape, dtype=bool)
     kept: list[int] = []
-    sep2 = (min_separation / r) ** 2 - 1e-9
     for k in range(len(cand)):
-        if all(float(np.sum((cand[k] - cand[m]) ** 2)) >= sep2 for m in kept):
-            kept.append(k)
+        i, j = int(cand[k, 0]), int(cand[k, 1])
+        if blocked[i, j]:
+            continue
+        kept.append(k)
+        i0, i1 = max(i - reach_s, 0), min(i + reach_s + 1, spec.nx)
+        j0, j1 = max(j - reach_s, 0), min(j + reach_s + 1, spec.ny)
+        blocked[i0:i1, j0:j1] |= block[i0 - i + reach_s : i1 - i + reach_s, j0 - j + reach_s : j1 - j + reach_s]
     reach = math.floor(centroid_radius / r + 1e-9)
     di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
     disk = (di**2 + dj**2) * r * r <= centroid_radius**2 + 1e-12
@@ -192,18 +204,27 @@ def classify_peaks(
 
 @dataclass(frozen=True, kw_only=True)
 class PeakClassifier:
-    """:func:`classify_peaks` as a component (parameters as there)."""
+    """:func:`classify_peaks` as a component (parameters as there).
+
+    ``only_observed``: only cells some detector observes in the frame can be people (a person who walked out of
+    every field of view is still in the belief, for when they come back, but is not reported).
+    """
 
     threshold: float = 0.5
     min_separation: float = 0.6
     centroid_radius: float = 0.35
+    only_observed: bool = True
 
     def __post_init__(self) -> None:
         check_probability(self.threshold, "PeakClassifier.threshold")
         check_positive(self.min_separation, "PeakClassifier.min_separation")
         check_positive(self.centroid_radius, "PeakClassifier.centroid_radius", allow_zero=True)
 
-    def classify(self, belief: ArrayLike, spec: GridSpec) -> People:
+    def classify(self, belief: ArrayLike, spec: GridSpec, *, observed: ArrayLike | None = None) -> People:
+        """People at the peaks of ``belief``; with ``only_observed``, cells outside ``observed`` (bool
+        ``(nx, ny)``: the cells some detector covered this frame) are not people."""
+        if self.only_observed and observed is not None:
+            belief = np.where(np.asarray(observed, dtype=bool), spec.check_grid(belief, "belief"), 0.0)
         return classify_peaks(
             belief,
             spec,

@@ -190,11 +190,18 @@ class Appearance:
         """``b`` for a step of ``dt`` seconds."""
         return 1.0 - math.exp(-self.rate * check_positive(dt, "dt"))
 
-    def apply(self, prior: ArrayLike, dt: float) -> NDArray[np.float64]:
-        """The prior with appearances, same shape, values in [0, 1]."""
+    def apply(self, prior: ArrayLike, dt: float, *, where: ArrayLike | None = None) -> NDArray[np.float64]:
+        """The prior with appearances, same shape, values in [0, 1].
+
+        ``where`` (bool, the prior's shape) limits appearances to the cells some detector observes: a cell
+        nobody observes keeps its belief (otherwise appearances alone would drive it to 1).
+        """
         p = check_grid_array(prior, "prior", ndim=None)
         b = self.probability(dt)
-        return p + b * (1.0 - p)
+        out = p + b * (1.0 - p)
+        if where is not None:
+            out = np.where(np.asarray(where, dtype=bool), out, p)
+        return out
 
 
 @dataclass(frozen=True, kw_only=True)

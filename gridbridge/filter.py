@@ -32,7 +32,7 @@ from gridbridge.components import (
     PeoplePrediction,
     VelocityEgoMotion,
 )
-from gridbridge.measurement import Likelihood, bayes_update, likelihood_from_detections
+from gridbridge.measurement import Likelihood, bayes_update, fov_mask, likelihood_from_detections
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
 
 __all__ = ["FilterStep", "GridFilter", "as_odometry", "filter_models"]
@@ -174,6 +174,14 @@ class GridFilter:
         self.appearance = appearance
         self.bounds = bounds
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
+        self._observed: NDArray[np.bool_] | None = None
+
+    @property
+    def observed(self) -> NDArray[np.bool_]:
+        """Cells in some detector's field of view, ``(nx, ny)`` bool."""
+        if self._observed is None:
+            self._observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors])
+        return self._observed
 
     def reset(self, belief: ArrayLike | None = None) -> None:
         """Restart from ``belief`` (default: the initial belief everywhere)."""
@@ -197,7 +205,7 @@ class GridFilter:
         people = self.prediction.predict(self.belief, self.spec, dt)
         sensor = self.ego_motion.predict(people, self.spec, odo, dt)
         if self.appearance is not None:
-            sensor = self.appearance.apply(sensor, dt)
+            sensor = self.appearance.apply(sensor, dt, where=self.observed)
         return people, sensor
 
     def update(

@@ -20,6 +20,7 @@ both filters' shared likelihood code (:mod:`gridbridge.measurement`).
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -79,9 +80,12 @@ class DetectorModel:
     name : str
         Human-readable name, used in tables and figures.
     ppv : float
-        Precision: P(D_i | p) where the detector fires (Sect. 3.2).
+        Precision: P(D_i | p) where the detector fires (Sect. 3.2). In (0, 1): with ``ppv = 1`` a cell the
+        detector fires on becomes certain (P(D|np) = 0) and no later evidence can lower it; with ``ppv = 0``
+        it becomes 0 and can never rise again, in both filters.
     fnr : float
-        False-negative rate: P(D_i | p) where it does not fire.
+        False-negative rate: P(D_i | p) where it does not fire. In (0, 1) for the same reason: ``fnr = 0``
+        (a detector that never misses) sets every covered cell it does not fire on to 0 for good.
     fov_min, fov_max : float
         Bearing range of the field of view (rad, counter-clockwise from the detector's x axis).
     max_range : float
@@ -119,8 +123,17 @@ class DetectorModel:
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"DetectorModel.name must be a non-empty string, got {self.name!r}")
-        check_probability(self.ppv, f"DetectorModel({self.name}).ppv")
-        check_probability(self.fnr, f"DetectorModel({self.name}).fnr")
+        for attr in ("ppv", "fnr"):
+            value = getattr(self, attr)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise TypeError(f"DetectorModel({self.name}).{attr} must be a number, got {value!r}")
+            check_probability(float(value), f"DetectorModel({self.name}).{attr}")
+            if value in (0.0, 1.0):
+                raise ValueError(
+                    f"DetectorModel({self.name}).{attr} must be strictly between 0 and 1, got {value!r}: at 0 or 1 "
+                    "a cell's belief reaches 0 or 1 and no later evidence can move it (Bayes' rule multiplies by "
+                    "it), in both filters; use a small margin such as 0.01 / 0.99 for a near-perfect detector"
+                )
         check_finite(self.fov_min, f"DetectorModel({self.name}).fov_min")
         check_finite(self.fov_max, f"DetectorModel({self.name}).fov_max")
         if not self.fov_min < self.fov_max or self.fov_max - self.fov_min > 2 * math.pi + 1e-12:

@@ -19,33 +19,136 @@ time, see ``run.json`` ``config.frames.time_source``); ``bag_time_ns`` the drive
 ``frames.csv``, ``odometry`` is 1 when the step used odometry (0: the robot was taken as standing),
 ``forced`` is 1 when the frame was finalised before every topic caught up, and ``no_data`` lists (``;``)
 the detectors that had no data in the frame (they covered no cell). ``status`` in ``run.json`` is
-``"running"`` while a run writes, then ``"complete"`` or ``"failed"`` (with ``error``); the frames written
-before a failure stay valid.
+``"running"`` while a run writes, then ``"complete"``, ``"failed"`` (with ``error``) or ``"interrupted"``
+(SIGINT / SIGTERM, with ``error`` naming the signal); the frames written before stay valid and ``frames``
+is the number of frames on disk.
+
+Safety against a second process and damage:
+
+- A run directory is locked while it is written (``fcntl.flock`` on ``RUN_DIR/.lock``, released by the
+  operating system when the process dies): a second writer, also with ``overwrite``, is refused
+  (:class:`RunLockedError`). ``run.json`` is replaced atomically (a temporary file, fsync, ``os.replace``).
+- A directory that holds files but no ``run.json`` is never written into (they are the user's files).
+- Writing errors (a full disk, ``ENOSPC``) are re-raised naming the file; the frames before stay readable:
+  :func:`load_run` reads the frames that every file holds completely (a half-written last row is dropped).
+- :func:`interrupt_signals` turns SIGTERM into :class:`RunInterrupted` (as SIGINT is turned into
+  ``KeyboardInterrupt``) so a run's ``finally`` blocks close its files; :meth:`RunWriter.write_frame` defers
+  a signal arriving mid-frame until the frame is complete.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import errno
+import fcntl
 import json
 import math
+import os
+import signal
 import struct
+import tempfile
+import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
-from typing import Any, BinaryIO, TextIO
+from types import FrameType, TracebackType
+from typing import IO, Any, BinaryIO, TextIO
 
 import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.grid import GridSpec
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "RunData", "RunWriter", "load_run"]
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "RUN_FILES",
+    "RunData",
+    "RunInterrupted",
+    "RunLockedError",
+    "RunWriter",
+    "deferred_signals",
+    "interrupt_signals",
+    "load_run",
+]
 
 FORMAT = "pfpeople-run"
 FORMAT_VERSION = 1
 _HEADER_BYTES = 128
+LOCK_NAME = ".lock"
+#: The files a run directory holds (``--overwrite`` replaces exactly these).
+RUN_FILES = ("run.json", "grids.npy", "frames.csv", "people.csv", "detections.csv")
+
+
+class RunLockedError(FileExistsError):
+    """The run directory is being written by another process (its lock is held)."""
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by a signal (SIGINT or SIGTERM); ``signum`` is the signal, ``exit_code`` 128 + signum."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = int(signum)
+        super().__init__(f"interrupted by {signal.Signals(self.signum).name}")
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+class _SignalState:
+    depth = 0  # > 0 while a frame is being written: signals are deferred
+    pending: int | None = None
+
+
+_SIGNALS = _SignalState()
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    if _SIGNALS.depth > 0:
+        _SIGNALS.pending = signum
+        return
+    raise RunInterrupted(signum)
+
+
+@contextlib.contextmanager
+def interrupt_signals() -> Iterator[None]:
+    """Within the block, SIGINT and SIGTERM raise :class:`RunInterrupted` (deferred inside frame writes).
+
+    Does nothing outside the main thread (Python delivers signals to the main thread only).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def deferred_signals() -> Iterator[None]:
+    _SIGNALS.depth += 1
+    try:
+        yield
+    finally:
+        _SIGNALS.depth -= 1
+        if _SIGNALS.depth == 0 and _SIGNALS.pending is not None:
+            signum, _SIGNALS.pending = _SIGNALS.pending, None
+            raise RunInterrupted(signum)
+
+
+def _named_os_error(exc: OSError, path: Path) -> OSError:
+    """``exc`` re-raised naming ``path`` (e.g. "[Errno 28] No space left on device: 'run/grids.npy'")."""
+    if exc.filename:
+        return exc
+    code = exc.errno if exc.errno is not None else errno.EIO
+    return OSError(code, exc.strerror or os.strerror(code), str(path))
+
 
 FRAME_COLUMNS = (
     "frame",
@@ -122,9 +225,29 @@ class RunWriter:
         overwrite: bool = False,
     ) -> None:
         self.path = Path(out_dir)
-        if (self.path / "run.json").exists() and not overwrite:
-            raise FileExistsError(f"output directory {str(self.path)!r} already holds a run (use overwrite)")
+        if self.path.exists() and not self.path.is_dir():
+            raise FileExistsError(f"output path {str(self.path)!r} exists and is not a directory")
         self.path.mkdir(parents=True, exist_ok=True)
+        self._lock_fh: IO[str] | None = self._lock()
+        try:
+            if (self.path / "run.json").exists():
+                if not overwrite:
+                    raise FileExistsError(f"output directory {str(self.path)!r} already holds a run (use overwrite)")
+                for name in RUN_FILES:
+                    (self.path / name).unlink(missing_ok=True)
+            else:
+                others = sorted(
+                    p.name for p in self.path.iterdir() if p.name != LOCK_NAME and not p.name.startswith(".run.json.")
+                )
+                if others:
+                    listing = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
+                    raise FileExistsError(
+                        f"output directory {str(self.path)!r} is not empty and holds no run.json ({listing}): "
+                        "not writing into it; choose a new or empty directory"
+                    )
+        except BaseException:
+            self._unlock()
+            raise
         self.spec = spec
         self.detector_names = list(detector_names)
         self.n_frames = 0
@@ -134,19 +257,50 @@ class RunWriter:
             "version": FORMAT_VERSION,
             "status": "running",
             "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "pid": os.getpid(),
             "grid": {"nx": spec.nx, "ny": spec.ny, "resolution": spec.resolution, "x0": spec.x0, "y0": spec.y0},
             "detectors": self.detector_names,
             **dict(metadata or {}),
             "frames": 0,
         }
-        self._write_json()
-        self._grids: BinaryIO = (self.path / "grids.npy").open("wb")
-        self._grids.write(_npy_header(0, spec.nx, spec.ny))
         self._files: list[TextIO] = []
-        self._frames = self._csv("frames.csv", FRAME_COLUMNS)
-        self._people = self._csv("people.csv", PEOPLE_COLUMNS)
-        self._dets = self._csv("detections.csv", DETECTION_COLUMNS)
         self._closed = False
+        try:
+            self._write_json()
+            self._grids: BinaryIO = (self.path / "grids.npy").open("wb")
+            self._grids.write(_npy_header(0, spec.nx, spec.ny))
+            self._frames = self._csv("frames.csv", FRAME_COLUMNS)
+            self._people = self._csv("people.csv", PEOPLE_COLUMNS)
+            self._dets = self._csv("detections.csv", DETECTION_COLUMNS)
+        except OSError as exc:
+            self._unlock()
+            raise _named_os_error(exc, self.path) from exc
+
+    def _lock(self) -> IO[str]:
+        """Take the directory's lock (non-blocking); refuse when another process holds it."""
+        lock_path = self.path / LOCK_NAME
+        fh = lock_path.open("a+")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.seek(0)
+            holder = fh.read().strip() or "unknown"
+            fh.close()
+            raise RunLockedError(
+                f"output directory {str(self.path)!r} is being written by another process (pid {holder}); "
+                "wait for it to finish or choose another directory"
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"{os.getpid()}\n")
+        fh.flush()
+        return fh
+
+    def _unlock(self) -> None:
+        if self._lock_fh is not None:
+            fcntl.flock(self._lock_fh.fileno(), fcntl.LOCK_UN)
+            self._lock_fh.close()
+            self._lock_fh = None
 
     def _csv(self, name: str, columns: Sequence[str]) -> Any:
         fh = (self.path / name).open("w", newline="")
@@ -156,9 +310,19 @@ class RunWriter:
         return w
 
     def _write_json(self) -> None:
-        tmp = self.path / "run.json.tmp"
-        tmp.write_text(json.dumps(_json_safe(self._meta), indent=2, default=_json_default) + "\n")
-        tmp.replace(self.path / "run.json")
+        """Replace ``run.json`` atomically (temporary file in the directory, fsync, ``os.replace``)."""
+        text = json.dumps(_json_safe(self._meta), indent=2, default=_json_default) + "\n"
+        fd, tmp = tempfile.mkstemp(prefix=".run.json.", suffix=".tmp", dir=self.path)
+        try:
+            with os.fdopen(fd, "w") as fh:
+                fh.write(text)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, self.path / "run.json")
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise _named_os_error(exc, self.path / "run.json") from exc
 
     def __enter__(self) -> RunWriter:
         return self
@@ -168,6 +332,8 @@ class RunWriter:
     ) -> None:
         if exc is None:
             self.close(status="complete")
+        elif isinstance(exc, KeyboardInterrupt):
+            self.close(status="interrupted", error=str(exc) or "interrupted by SIGINT")
         else:
             self.close(status="failed", error=f"{type(exc).__name__}: {exc}")
 
@@ -199,34 +365,45 @@ class RunWriter:
         key = (frame, driver_index, stamp_ns, bag_time_ns)
         no_data = [n for n, d in zip(self.detector_names, detections, strict=True) if d is None]
         v, w = odometry if odometry is not None else (0.0, 0.0)
-        self._frames.writerow(
-            (
-                *key,
-                f"{dt_s:.9g}",
-                f"{v:.9g}",
-                f"{w:.9g}",
-                int(odometry is not None),
-                int(forced),
-                len(people),
-                ";".join(no_data),
-            )
-        )
-        for (x, y), size, p in zip(people, sizes, probs, strict=True):
-            self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
-        for name, det in zip(self.detector_names, detections, strict=True):
-            if det is None:
-                continue
-            for x, y in np.asarray(det, dtype=float).reshape(-1, 2):
-                self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}"))
-        self._grids.write(belief.astype("<f4").tobytes())
-        self.n_frames += 1
-        end = self._grids.tell()
-        self._grids.seek(0)
-        self._grids.write(_npy_header(self.n_frames, self.spec.nx, self.spec.ny))
-        self._grids.seek(end)
-        self._grids.flush()
-        for fh in self._files:
-            fh.flush()
+        with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
+            target = self.path / "frames.csv"
+            try:
+                self._frames.writerow(
+                    (
+                        *key,
+                        f"{dt_s:.9g}",
+                        f"{v:.9g}",
+                        f"{w:.9g}",
+                        int(odometry is not None),
+                        int(forced),
+                        len(people),
+                        ";".join(no_data),
+                    )
+                )
+                target = self.path / "people.csv"
+                for (x, y), size, p in zip(people, sizes, probs, strict=True):
+                    self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
+                target = self.path / "detections.csv"
+                for name, det in zip(self.detector_names, detections, strict=True):
+                    if det is None:
+                        continue
+                    for x, y in np.asarray(det, dtype=float).reshape(-1, 2):
+                        self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}"))
+                for fh in self._files:
+                    target = Path(fh.name)
+                    fh.flush()
+                target = self.path / "grids.npy"
+                self._grids.write(belief.astype("<f4").tobytes())
+                end = self._grids.tell()
+                self._grids.flush()
+                # the header counts the frame only once its grid (and every table row) is on disk
+                self._grids.seek(0)
+                self._grids.write(_npy_header(self.n_frames + 1, self.spec.nx, self.spec.ny))
+                self._grids.seek(end)
+                self._grids.flush()
+            except OSError as exc:
+                raise _named_os_error(exc, target) from exc
+            self.n_frames += 1
 
     def update(self, **items: Any) -> None:
         """Add or replace keys of ``run.json`` (written at once)."""
@@ -234,19 +411,35 @@ class RunWriter:
         self._write_json()
 
     def close(self, *, status: str = "complete", error: str | None = None, **items: Any) -> None:
-        """Close the files and record the final status (idempotent)."""
+        """Close the files and record the final status and the frames on disk (idempotent).
+
+        Closing goes on when a file cannot be flushed (a full disk): every file is closed, ``run.json`` is
+        written if possible, the lock released, and the first error is raised (naming its file).
+        """
         if self._closed:
             return
         self._closed = True
-        self._grids.close()
-        for fh in self._files:
-            fh.close()
-        elapsed = time.perf_counter() - self._t0
-        self._meta.update(items)
-        self._meta.update(status=status, frames=self.n_frames, elapsed_s=round(elapsed, 3))
-        if error is not None:
-            self._meta["error"] = error
-        self._write_json()
+        first: OSError | None = None
+        with deferred_signals():
+            handles: list[IO[Any]] = [self._grids, *self._files]
+            for fh in handles:
+                try:
+                    fh.close()
+                except OSError as exc:
+                    first = first or _named_os_error(exc, Path(str(fh.name)))
+            elapsed = time.perf_counter() - self._t0
+            self._meta.update(items)
+            self._meta.update(status=status, frames=self.n_frames, elapsed_s=round(elapsed, 3))
+            if error is not None:
+                self._meta["error"] = error
+            try:
+                self._write_json()
+            except OSError as exc:
+                first = first or exc
+            finally:
+                self._unlock()
+        if first is not None:
+            raise first
 
 
 @dataclass(frozen=True, eq=False)
@@ -276,35 +469,73 @@ _STR_COLS = {"detector", "no_data"}
 def _read_csv(path: Path, columns: Sequence[str]) -> dict[str, NDArray[Any]]:
     if not path.is_file():
         raise FileNotFoundError(f"run file {str(path)!r} is missing")
-    with path.open(newline="") as fh:
-        rows = list(csv.reader(fh))
+    try:
+        with path.open(newline="") as fh:
+            rows = list(csv.reader(fh))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"run file {str(path)!r} cannot be read: {exc}") from None
     if not rows or tuple(rows[0]) != tuple(columns):
         raise ValueError(f"run file {str(path)!r}: expected columns {list(columns)}, got {rows[:1]}")
     body = rows[1:]
+    if body and len(body[-1]) != len(columns):  # a row cut short by a crash or a full disk: not a frame
+        body = body[:-1]
     out: dict[str, NDArray[Any]] = {}
     for k, name in enumerate(columns):
-        vals = [r[k] for r in body]
-        if name in _STR_COLS:
-            out[name] = np.array(vals, dtype=object)
-        elif name in _INT_COLS:
-            out[name] = np.array(vals, dtype=np.int64).reshape(-1)
-        else:
-            out[name] = np.array(vals, dtype=float).reshape(-1)
+        try:
+            vals = [r[k] for r in body]
+            if name in _STR_COLS:
+                out[name] = np.array(vals, dtype=object)
+            elif name in _INT_COLS:
+                out[name] = np.array(vals, dtype=np.int64).reshape(-1)
+            else:
+                out[name] = np.array(vals, dtype=float).reshape(-1)
+        except (IndexError, ValueError) as exc:
+            raise ValueError(f"run file {str(path)!r}: bad value in column {name!r}: {exc}") from None
     return out
 
 
-def load_run(path: str | Path) -> RunData:
-    """Read a run directory (also one whose run failed part-way: the frames written are returned)."""
-    path = Path(path)
-    meta_path = path / "run.json"
-    if not meta_path.is_file():
-        raise FileNotFoundError(f"{str(path)!r} is not a run directory (no run.json)")
-    meta = json.loads(meta_path.read_text())
+def _read_meta(meta_path: Path) -> dict[str, Any]:
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{str(meta_path)!r} must hold a JSON object, got {type(meta).__name__}")
     if meta.get("format") != FORMAT:
         raise ValueError(f"{str(meta_path)!r} is not a {FORMAT} file (format={meta.get('format')!r})")
     if meta.get("version") != FORMAT_VERSION:
         raise ValueError(f"{str(meta_path)!r}: unsupported version {meta.get('version')!r}")
-    grids = np.load(path / "grids.npy", mmap_mode="r")
+    grid = meta.get("grid")
+    need = {"nx", "ny", "resolution", "x0", "y0"}
+    if not isinstance(grid, dict) or not need <= set(grid):
+        raise ValueError(f"{str(meta_path)!r}: key 'grid' must be an object with {sorted(need)}, got {grid!r}")
+    try:
+        GridSpec(**{k: grid[k] for k in need})
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{str(meta_path)!r}: bad 'grid': {exc}") from None
+    return meta
+
+
+def load_run(path: str | Path) -> RunData:
+    """Read a run directory (also one whose run failed part-way: the frames written are returned).
+
+    Every error names the file at fault (``run.json``, ``grids.npy`` or a table).
+    """
+    path = Path(path)
+    meta_path = path / "run.json"
+    if not meta_path.is_file():
+        raise FileNotFoundError(f"{str(path)!r} is not a run directory (no run.json)")
+    meta = _read_meta(meta_path)
+    grids_path = path / "grids.npy"
+    if not grids_path.is_file():
+        raise FileNotFoundError(f"run file {str(grids_path)!r} is missing")
+    try:
+        grids = np.load(grids_path, mmap_mode="r")
+    except (OSError, ValueError, EOFError) as exc:
+        raise ValueError(f"run file {str(grids_path)!r} cannot be read: {exc}") from None
+    shape = (meta["grid"]["nx"], meta["grid"]["ny"])
+    if grids.ndim != 3 or tuple(grids.shape[1:]) != shape:
+        raise ValueError(f"run file {str(grids_path)!r}: shape {grids.shape}, expected (N, {shape[0]}, {shape[1]})")
     frames = _read_csv(path / "frames.csv", FRAME_COLUMNS)
     n = min(len(grids), len(frames["frame"]))
     frames = {k: v[:n] for k, v in frames.items()}

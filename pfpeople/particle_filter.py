@@ -80,6 +80,7 @@ from gridbridge import (
 )
 from gridbridge._validate import check_choice, check_positive, check_probability
 from gridbridge.filter import filter_models
+from gridbridge.limits import check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
 from pfpeople.motion import (
     PersistentMotion,
@@ -176,6 +177,8 @@ class ParticleFilter:
     ) -> None:
         self.spec, self.detectors, self.motion, self.noise = filter_models(spec, detectors, motion, noise)
         self.n_particles = _check_count(n_particles, "n_particles")
+        check_grid_size(self.spec.nx, self.spec.ny, self.spec.resolution, v_max=self.motion.v_max, dt=self.motion.dt)
+        check_particles(self.n_particles, n_cells=self.spec.n_cells, n_detectors=len(self.detectors))
         if self.n_particles < self.spec.n_cells:
             raise ValueError(
                 f"n_particles must be at least the number of grid cells ({self.spec.n_cells}), got {n_particles}"

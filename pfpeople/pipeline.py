@@ -40,6 +40,7 @@ import itertools
 import logging
 import math
 import time
+import types
 import typing
 from collections.abc import Callable, Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -68,7 +69,7 @@ from pfpeople.bag.reader import (
 )
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer, TfLookupError
-from pfpeople.output import RunWriter
+from pfpeople.output import RunWriter, deferred_signals, interrupt_signals
 from pfpeople.sensors import Pose2D
 
 __all__ = [
@@ -125,8 +126,83 @@ def _import_builtin(kind: str) -> type:
         ) from None
 
 
+def _type_name(hint: Any) -> str:
+    args = typing.get_args(hint)
+    if args:
+        return " or ".join(_type_name(a) for a in args)
+    if hint is type(None):
+        return "None"
+    if hint is float:
+        return "a number"
+    if hint is int:
+        return "an integer"
+    if hint is bool:
+        return "true/false"
+    if hint is str:
+        return "a string"
+    if isinstance(hint, type) and dataclasses.is_dataclass(hint):
+        return f"a table ({hint.__name__})"
+    return getattr(hint, "__name__", str(hint))
+
+
+def _matches(value: Any, hint: Any) -> bool:
+    """Whether a TOML value fits a constructor annotation (unknown annotations accept anything)."""
+    if hint is Any or hint is None:
+        return True
+    args = typing.get_args(hint)
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        return any(_matches(value, a) for a in args)
+    if origin is typing.Literal:
+        return value in args
+    if hint is type(None):
+        return value is None
+    if hint is bool:
+        return isinstance(value, bool)
+    if hint is float:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if hint is str:
+        return isinstance(value, str)
+    if hint is Path or (isinstance(hint, type) and issubclass(hint, Path)):
+        return isinstance(value, str | Path)
+    if isinstance(hint, type) and dataclasses.is_dataclass(hint):
+        return isinstance(value, Mapping | hint)
+    if isinstance(hint, type):
+        return isinstance(value, hint)
+    return True
+
+
+def _dataclass_from_table(cls: type, value: Mapping[str, Any], where: str) -> Any:
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    kwargs: dict[str, Any] = {}
+    for key, item in value.items():
+        if key not in names:
+            raise ValueError(f"{where}: {cls.__name__} has no field {key!r}; it has {sorted(names)}")
+        hint = hints.get(key)
+        if isinstance(item, Mapping):
+            options = typing.get_args(hint) or (hint,)
+            sub = [t for t in options if isinstance(t, type) and dataclasses.is_dataclass(t)]
+            if not sub:
+                raise ValueError(f"{where}.{key} does not take a table; expected {_type_name(hint)}")
+            item = _dataclass_from_table(sub[0], item, f"{where}.{key}")
+        elif not _matches(item, hint):
+            raise ValueError(f"{where}.{key} must be {_type_name(hint)}, got {item!r} ({type(item).__name__})")
+        kwargs[key] = item
+    try:
+        return cls(**kwargs)
+    except TypeError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
 def _kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
-    """Constructor keyword arguments from ``[detectors.params]``; tables become the annotated dataclass."""
+    """Constructor keyword arguments from ``[detectors.params]``; tables become the annotated dataclass.
+
+    Values are checked against the constructor's annotations: a wrong type raises ValueError naming
+    ``detectors.params.KEY`` and the expected type.
+    """
     sig = inspect.signature(cls)
     hints = typing.get_type_hints(cls.__init__)  # type: ignore[misc]
     kwargs: dict[str, Any] = {}
@@ -134,12 +210,16 @@ def _kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
         if key not in sig.parameters or key == "model":
             allowed = sorted(k for k in sig.parameters if k != "model")
             raise ValueError(f"{cls.__name__} has no constructor argument {key!r}; it takes {allowed}")
+        where = f"detectors.params.{key}"
+        hint = hints.get(key)
         if isinstance(value, Mapping):
-            options = typing.get_args(hints.get(key)) or (hints.get(key),)
+            options = typing.get_args(hint) or (hint,)
             candidates: list[Any] = [t for t in options if isinstance(t, type) and dataclasses.is_dataclass(t)]
             if not candidates:
-                raise ValueError(f"{cls.__name__}.{key} does not take a table")
-            value = candidates[0](**value)
+                raise ValueError(f"{cls.__name__}.{key} does not take a table ({where} must be {_type_name(hint)})")
+            value = _dataclass_from_table(candidates[0], value, where)
+        elif not _matches(value, hint):
+            raise ValueError(f"{where} must be {_type_name(hint)}, got {value!r} ({type(value).__name__})")
         kwargs[key] = value
     return kwargs
 
@@ -147,15 +227,19 @@ def _kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
 def build_detector(cfg: DetectorConfig, mount: Pose2D) -> Detector | None:
     """The built-in detector of ``cfg`` with its model overridden by ``cfg.model`` and mounted at ``mount``.
 
-    Returns None for ``kind="topic"`` (no detector object: positions come from the bag).
+    Returns None for ``kind="topic"`` (no detector object: positions come from the bag). Bad
+    ``[detectors.params]`` raise ValueError naming the detector and the parameter.
     """
     if cfg.kind == "topic":
         return None
     cls = _import_builtin(cfg.kind)
-    kwargs = _kwargs_from_table(cls, cfg.params)
-    if cfg.kind in _SELF_MOUNTED:
-        kwargs.setdefault("mounting", mount)
-    det: Detector = cls(**kwargs)  # built once: the boosted detector loads its model file here
+    try:
+        kwargs = _kwargs_from_table(cls, cfg.params)
+        if cfg.kind in _SELF_MOUNTED:
+            kwargs.setdefault("mounting", mount)
+        det: Detector = cls(**kwargs)  # built once: the boosted detector loads its model file here
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"detector {cfg.name!r} ({cfg.kind}): {exc}") from None
     det.model = _model_for(cfg, mount, det.model)
     return det
 
@@ -557,12 +641,43 @@ class Pipeline:
         """Run over ``bag``, writing ``out_dir`` (and ``bag_out``) incrementally.
 
         A run that stops part-way (a truncated or corrupt bag, :class:`~pfpeople.bag.reader.BagReadError`;
-        any other error; Ctrl-C) ends with ``status = "failed"`` and the error in ``run.json``, the frames
-        processed so far kept (and the result bag closed), and the exception re-raised.
-        Returns the summary and (with ``keep=True``) every :class:`FrameResult`. ``bag_out`` is a ROS 1 ``.bag``
-        or a rosbag2 folder (``bag_format`` "ros1", "mcap" or "sqlite3"; default from the path, see
-        :mod:`pfpeople.bag.writer`), checked before anything runs; ``overwrite`` also replaces an existing one.
+        any other error) ends with ``status = "failed"`` and the error in ``run.json``; one stopped by SIGINT
+        (Ctrl-C) or SIGTERM (:class:`~pfpeople.output.RunInterrupted`, a ``KeyboardInterrupt``) ends with
+        ``status = "interrupted"``. Either way the frames processed so far are kept (``frames`` in ``run.json``
+        is the number on disk), the result bag is closed (indexed), and the exception re-raised. Driver
+        messages that made no frame are counted in ``run.json`` ``skipped_frames`` by reason
+        (``clock_jump``: an outlier stamp; ``non_monotonic``: a stamp not after the previous one).
+        Returns the summary and (with ``keep=True``) every :class:`FrameResult`.
+        ``bag_out`` is a ROS 1 ``.bag`` or a rosbag2 folder (``bag_format`` "ros1", "mcap" or "sqlite3"; default
+        from the path, see :mod:`pfpeople.bag.writer`), checked before anything runs; ``overwrite`` also replaces
+        an existing one.
         """
+        with interrupt_signals():
+            return self._run(
+                bag,
+                out_dir,
+                max_frames=max_frames,
+                progress=progress,
+                overwrite=overwrite,
+                metadata=metadata,
+                bag_out=bag_out,
+                keep=keep,
+                bag_format=bag_format,
+            )
+
+    def _run(
+        self,
+        bag: BagSource,
+        out_dir: str | Path | None,
+        *,
+        max_frames: int | None,
+        progress: bool,
+        overwrite: bool,
+        metadata: Mapping[str, Any] | None,
+        bag_out: str | Path | None,
+        keep: bool,
+        bag_format: str | None,
+    ) -> tuple[RunSummary, list[FrameResult]]:
         _check_max_frames(max_frames)
         if bag_out is not None:
             from pfpeople.bag.writer import check_bag_out
@@ -604,40 +719,54 @@ class Pipeline:
                 bar = tqdm(total=total if max_frames is None or total is None else min(total, max_frames), unit="frame")
             for r in results:
                 f = r.frame
-                if writer is not None:
-                    writer.write_frame(
-                        frame=f.index,
-                        driver_index=f.driver.index,
-                        stamp_ns=f.stamp_ns,
-                        bag_time_ns=f.bag_time_ns,
-                        dt_s=r.dt,
-                        odometry=None if r.odometry is None else (r.odometry.v, r.odometry.omega),
-                        forced=f.forced,
-                        belief=r.belief,
-                        people=r.people,
-                        people_size=r.people_size,
-                        people_probability=r.people_probability,
-                        detections=r.detections,
-                    )
-                if bag_writer is not None:
-                    bag_writer.write(
-                        f.bag_time_ns, f.stamp_ns, r.belief, r.people, r.detections, getattr(r, "tracks", None)
-                    )
+                with deferred_signals():  # a frame goes to every output or to none
+                    if writer is not None:
+                        writer.write_frame(
+                            frame=f.index,
+                            driver_index=f.driver.index,
+                            stamp_ns=f.stamp_ns,
+                            bag_time_ns=f.bag_time_ns,
+                            dt_s=r.dt,
+                            odometry=None if r.odometry is None else (r.odometry.v, r.odometry.omega),
+                            forced=f.forced,
+                            belief=r.belief,
+                            people=r.people,
+                            people_size=r.people_size,
+                            people_probability=r.people_probability,
+                            detections=r.detections,
+                        )
+                    if bag_writer is not None:
+                        bag_writer.write(
+                            f.bag_time_ns, f.stamp_ns, r.belief, r.people, r.detections, getattr(r, "tracks", None)
+                        )
                 if keep:
                     kept.append(r)
                 if bar is not None:
                     bar.update(1)
-        except BaseException as exc:  # BaseException: an interrupted run (Ctrl-C) is recorded as failed too
+        except KeyboardInterrupt as exc:  # SIGINT or SIGTERM (RunInterrupted): recorded, no traceback needed
+            status, error = "interrupted", str(exc) or "interrupted by SIGINT"
+            self.summary.error = error
+            log.debug("run interrupted after %d frames: %s", self.summary.frames, error)
+            raise
+        except BaseException as exc:
             status, error = "failed", f"{type(exc).__name__}: {exc}"
             self.summary.error = error
             log.error("run stopped after %d frames: %s", self.summary.frames, error)
             raise
         finally:
-            results.close()  # ends the frame generator now, so the summary has its elapsed time and sync stats
-            if bar is not None:
-                bar.close()
-            if bag_writer is not None:
-                bag_writer.close()
-            if writer is not None:
-                writer.close(status=status, error=error, stats=self.summary.as_dict())
+            with deferred_signals():  # a second signal waits until every file is closed
+                try:
+                    results.close()  # ends the frame generator now, so the summary has its elapsed time and sync stats
+                    if bar is not None:
+                        bar.close()
+                    if bag_writer is not None:
+                        bag_writer.close()
+                finally:
+                    if writer is not None:
+                        skipped = {
+                            reason: n
+                            for reason in ("clock_jump", "non_monotonic")
+                            if (n := self.summary.sync.get(reason, {}).get(self.config.driver, 0))
+                        }
+                        writer.close(status=status, error=error, stats=self.summary.as_dict(), skipped_frames=skipped)
         return self.summary, kept

@@ -11,7 +11,9 @@ Three sources:
 - ``--truth FILE --detections FILE --detector NAME``: CSV files with a header and columns
   ``frame, x_m, y_m`` (truth: ``frame, person_id, x_m, y_m``; extra columns are ignored), positions in the
   grid's sensor frame; frames run from 0 to the largest frame number in either file (frames without rows
-  are empty). The field of view comes from the named paper detector.
+  are empty; only frames with rows are held in memory, and a frame number above 100 million, e.g. a stamp
+  in the frame column, is refused naming the file and line). The field of view comes from the named paper
+  detector.
 """
 
 from __future__ import annotations
@@ -25,7 +27,14 @@ from typing import Any
 
 import numpy as np
 
-from evaluation.calibration import CalibrationResult, calibrate_detector, calibrate_frames, oracle_calibration
+from evaluation.calibration import (
+    MAX_CALIBRATION_FRAMES,
+    CalibrationResult,
+    calibrate_detector,
+    calibrate_frames,
+    calibrate_sparse,
+    oracle_calibration,
+)
 from evaluation.gt_csv import read_gt_csv
 from evaluation.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
@@ -96,12 +105,18 @@ def _read_csv(path: Path, what: str) -> dict[int, list[tuple[float, float]]]:
             raise ValueError(f"{path}: header must contain {sorted(need)}, got {reader.fieldnames}")
         for line, row in enumerate(reader, start=2):
             try:
-                frame = int(float(row["frame"]))
+                text = str(row["frame"]).strip()
+                frame = int(text) if text.lstrip("+-").isdigit() else int(float(text))
                 x, y = float(row["x_m"]), float(row["y_m"])
             except (TypeError, ValueError) as exc:
                 raise ValueError(f"{path}:{line}: bad value ({exc})") from exc
             if frame < 0 or not (math.isfinite(x) and math.isfinite(y)):
                 raise ValueError(f"{path}:{line}: frame must be >= 0 and positions finite")
+            if frame >= MAX_CALIBRATION_FRAMES:
+                raise ValueError(
+                    f"{path}:{line}: frame {frame} is beyond {MAX_CALIBRATION_FRAMES} frames: the frame column "
+                    "must hold frame indices (0, 1, ...), not stamps"
+                )
             rows.setdefault(frame, []).append((x, y))
     return rows
 
@@ -219,14 +234,11 @@ def run(args: argparse.Namespace) -> int:
         model = by_name[args.detector]
         truth = _read_csv(args.truth, "truth")
         dets = _read_csv(args.detections, "detections")
-        n = max([*truth, *dets], default=-1) + 1
-        if n == 0:
+        if not truth and not dets:
             raise ValueError("--truth and --detections hold no rows")
-        det_frames = [np.array(dets.get(k, []), dtype=float).reshape(-1, 2) for k in range(n)]
-        tru_frames = [np.array(truth.get(k, []), dtype=float).reshape(-1, 2) for k in range(n)]
-        result = calibrate_detector(
-            det_frames,
-            tru_frames,
+        result = calibrate_sparse(
+            {k: np.array(v, dtype=float).reshape(-1, 2) for k, v in dets.items()},
+            {k: np.array(v, dtype=float).reshape(-1, 2) for k, v in truth.items()},
             model=model,
             gate=named.get(model.name, default_gate),
             region=None if args.no_region else GridSpec(),

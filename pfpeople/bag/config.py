@@ -60,7 +60,8 @@ from pathlib import Path
 from typing import Any
 
 from gridbridge.grid import GridSpec
-from gridbridge.params import DetectorModel
+from gridbridge.limits import check_grid_size, check_memory, check_particles
+from gridbridge.params import DetectorModel, PeopleMotion
 
 __all__ = ["DETECTOR_KINDS", "BagConfig", "DetectorConfig", "FilterConfig", "config_from_mapping", "load_config"]
 
@@ -241,6 +242,18 @@ class BagConfig:
             raise ValueError("BagConfig.grid must be a GridSpec")
         if not isinstance(self.filter, FilterConfig):
             raise ValueError("BagConfig.filter must be a FilterConfig")
+        # resource limits before anything is allocated (gridbridge.limits): cells, prediction work, memory
+        g = self.grid
+        check_grid_size(g.nx, g.ny, g.resolution, v_max=PeopleMotion().v_max, dt=0.1, where="BagConfig.grid")
+        if self.filter.kind == "particle":
+            check_particles(
+                self.filter.n_particles,
+                n_cells=g.n_cells,
+                n_detectors=len(self.detectors),
+                where="BagConfig.filter.n_particles",
+            )
+        else:
+            check_memory(g.n_cells, n_detectors=len(self.detectors), where="BagConfig.grid")
 
     @property
     def sync_tolerance_ns(self) -> int:

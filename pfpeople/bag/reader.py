@@ -17,13 +17,35 @@ Conversions (all errors name the topic and the message type):
 - ``geometry_msgs/PoseArray``, ``Pose``, ``PoseStamped``, ``Point``, and any message with a ``pose``,
   ``poses``, ``position``, ``people`` or ``points`` field (e.g. ``leg_tracker/Person``) -> ``(M, 2)``
   positions (m) in the message's frame.
+
+Damaged input (every error names the file, member or topic):
+
+- A file that is not a ROS1 bag (no ``#ROSBAG V2.0`` magic), a folder without ``metadata.yaml``: refused
+  before ``rosbags`` reads it. A ROS1 bag that cannot be opened or read to its end (an interrupted
+  recording) gets the hint to repair it with ``rosbag reindex``.
+- Zips: more than one bag in the archive is refused (naming the members); members are checked for their
+  size before extraction (larger than :data:`MAX_ZIP_MEMBER_BYTES`, compressed more than
+  :data:`MAX_ZIP_RATIO` times beyond :data:`ZIP_RATIO_MIN_BYTES`, or more than the free space: a zip bomb);
+  extraction goes to a temporary folder renamed when complete. The cache keeps at most
+  :data:`MAX_CACHE_ENTRIES` extracted bags and :data:`MAX_CACHE_BYTES` bytes (least recently used evicted
+  first; older copies of the same zip are evicted at once).
+- A required sensor topic (LaserScan, Image) without messages is an error at :meth:`BagSource.require`.
+- LaserScans with ``range_min > range_max``, a NaN ``range_max``, or every range NaN (the sensor measured
+  nothing: REP 117 NaN is an erroneous measurement, unlike +inf "no return") and odometry with implausible
+  coordinates (beyond :data:`MAX_ODOMETRY_COORD_M`) raise ``ValueError`` naming the topic: the pipeline counts
+  such messages and treats the detector as having no data (not as "saw nobody").
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
+import math
 import os
+import shutil
+import tempfile
+import time
 import zipfile
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -64,32 +86,192 @@ class BagReadError(RuntimeError):
     """A bag could not be opened or read (corrupt, truncated, unknown format or type)."""
 
 
+#: Largest uncompressed zip member extracted (bytes); ``$PFPEOPLE_MAX_ZIP_BYTES`` overrides.
+MAX_ZIP_MEMBER_BYTES = 64 * 2**30
+#: Largest compression ratio accepted for a member larger than :data:`ZIP_RATIO_MIN_BYTES` (bags compress
+#: 2-20 times; a zip bomb hundreds or thousands of times).
+MAX_ZIP_RATIO = 200.0
+ZIP_RATIO_MIN_BYTES = 64 * 2**20
+#: Extracted bags kept in the cache, and their total size (bytes; ``$PFPEOPLE_CACHE_MAX_BYTES`` overrides).
+MAX_CACHE_ENTRIES = 8
+MAX_CACHE_BYTES = 100 * 2**30
+#: Odometry coordinates beyond this (m) are not a robot's pose.
+MAX_ODOMETRY_COORD_M = 1.0e7
+ROS1_MAGIC = b"#ROSBAG V2.0"
+REINDEX_HINT = (
+    "a ROS1 bag whose recording was interrupted can often be repaired with `rosbag reindex FILE` "
+    "(ROS1 tools; keeps a .orig.bag backup)"
+)
+
+
 def _cache_root() -> Path:
     env = os.environ.get("PFPEOPLE_CACHE")
     return Path(env) if env else Path.home() / ".cache" / "pfpeople"
 
 
+def _env_int(name: str, default: int) -> int:
+    value = os.environ.get(name)
+    if not value:
+        return default
+    try:
+        return int(float(value))
+    except ValueError:
+        raise ValueError(f"environment variable {name}={value!r} is not a number of bytes") from None
+
+
+def _bag_members(path: Path, names: list[str]) -> list[str]:
+    """The bags of a zip: ``.bag`` members and folders with a ``metadata.yaml``; refuse none or several."""
+    names = [n for n in names if not n.startswith("__MACOSX/")]
+    bags = [n for n in names if n.endswith(".bag")]
+    ros2 = sorted({n[: -len("metadata.yaml")] or "./" for n in names if n.rsplit("/", 1)[-1] == "metadata.yaml"})
+    found = sorted(bags) + ros2
+    if not found:
+        raise BagReadError(f"bag archive {str(path)!r} holds no .bag file and no ROS2 bag folder")
+    if len(found) > 1:
+        raise BagReadError(
+            f"bag archive {str(path)!r} holds {len(found)} bags ({', '.join(found)}); unzip it and give the bag to use"
+        )
+    return found
+
+
+def _check_zip_sizes(path: Path, infos: list[zipfile.ZipInfo], free: int) -> None:
+    """Refuse members too large or compressed like a zip bomb, or more than the free space, before extracting."""
+    limit = _env_int("PFPEOPLE_MAX_ZIP_BYTES", MAX_ZIP_MEMBER_BYTES)
+    total = 0
+    for info in infos:
+        size = info.file_size
+        total += size
+        if size > limit:
+            raise BagReadError(
+                f"bag archive {str(path)!r}: member {info.filename!r} is {size} bytes uncompressed, more than "
+                f"the limit of {limit} bytes (set PFPEOPLE_MAX_ZIP_BYTES to allow it)"
+            )
+        ratio = size / max(info.compress_size, 1)
+        if size > ZIP_RATIO_MIN_BYTES and ratio > MAX_ZIP_RATIO:
+            raise BagReadError(
+                f"bag archive {str(path)!r}: member {info.filename!r} is {size} bytes uncompressed from "
+                f"{info.compress_size} bytes (ratio {ratio:.0f}, more than {MAX_ZIP_RATIO:.0f}): refused as a "
+                "possible zip bomb; unzip it yourself if it is genuine"
+            )
+    if total > free:
+        raise BagReadError(
+            f"bag archive {str(path)!r} needs {total} bytes to extract; the cache has {free} bytes free "
+            "(set PFPEOPLE_CACHE to a larger disk)"
+        )
+
+
+def _dir_size(path: Path) -> int:
+    total = 0
+    for p in path.rglob("*"):
+        with contextlib.suppress(OSError):
+            if p.is_file() and not p.is_symlink():
+                total += p.stat().st_size
+    return total
+
+
+def evict_cache(root: Path, *, keep: Path | None = None, source: Path | None = None) -> list[Path]:
+    """Bound the zip extraction cache ``root``; returns the folders removed.
+
+    Removes older copies of the zip ``source`` (same zip path, another key: the zip changed), extraction folders left
+    by a crash more than an hour ago, then the least recently used entries beyond :data:`MAX_CACHE_ENTRIES`
+    or :data:`MAX_CACHE_BYTES` (``$PFPEOPLE_CACHE_MAX_BYTES``). ``keep`` is never removed.
+    """
+    if not root.is_dir():
+        return []
+    removed: list[Path] = []
+    entries: list[tuple[float, Path]] = []
+    now = time.time()
+    for d in root.iterdir():
+        if not d.is_dir() or d == keep:
+            continue
+        done = d / ".complete"
+        try:
+            if d.name.startswith(".extract-"):
+                if now - d.stat().st_mtime > 3600:
+                    removed.append(d)
+                continue
+            if not done.exists():
+                continue
+            origin = d / ".source"
+            if source is not None and origin.is_file() and origin.read_text() == str(source):
+                removed.append(d)
+                continue
+            entries.append((done.stat().st_mtime, d))
+        except OSError:
+            continue
+    entries.sort(reverse=True)  # most recently used first
+    max_bytes = _env_int("PFPEOPLE_CACHE_MAX_BYTES", MAX_CACHE_BYTES)
+    used = _dir_size(keep) if keep is not None and keep.is_dir() else 0
+    n = 1 if keep is not None else 0
+    for _, d in entries:
+        size = _dir_size(d)
+        if n + 1 > MAX_CACHE_ENTRIES or used + size > max_bytes:
+            removed.append(d)
+        else:
+            n += 1
+            used += size
+    for d in removed:
+        shutil.rmtree(d, ignore_errors=True)
+        log.info("bag cache: removed %s", d)
+    return removed
+
+
 def _extract_zip(path: Path, cache_dir: Path | None) -> Path:
-    """Extract a zipped bag once; returns the extracted ``.bag`` file or ROS2 folder."""
+    """Extract a zipped bag once (checked, see the module docstring); returns the ``.bag`` file or ROS2 folder."""
     stat = path.stat()
     key = hashlib.sha1(f"{path.resolve()}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()[:12]
-    dest = (cache_dir or _cache_root() / "bags") / f"{path.stem}-{key}"
+    root = Path(cache_dir) if cache_dir is not None else _cache_root() / "bags"
+    dest = root / f"{path.stem}-{key}"
     done = dest / ".complete"
-    if not done.exists():
-        try:
-            with zipfile.ZipFile(path) as zf:
-                dest.mkdir(parents=True, exist_ok=True)
-                zf.extractall(dest)
-        except zipfile.BadZipFile as exc:
-            raise BagReadError(f"bag archive {str(path)!r} is not a valid zip file: {exc}") from None
-        done.touch()
-    bags = sorted(p for p in dest.rglob("*.bag"))
-    if bags:
-        return bags[0]
-    metas = sorted(p.parent for p in dest.rglob("metadata.yaml"))
-    if metas:
-        return metas[0]
-    raise BagReadError(f"bag archive {str(path)!r} holds no .bag file and no ROS2 bag folder")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            (member,) = _bag_members(path, [i.filename for i in infos])
+            if not done.exists():
+                root.mkdir(parents=True, exist_ok=True)
+                _check_zip_sizes(path, infos, shutil.disk_usage(root).free)
+                tmp = Path(tempfile.mkdtemp(prefix=".extract-", dir=root))
+                try:
+                    zf.extractall(tmp)
+                    (tmp / ".source").write_text(str(path.resolve()))
+                    (tmp / ".complete").touch()
+                    try:
+                        tmp.rename(dest)
+                    except OSError:  # another process finished the same extraction first
+                        if not done.exists():
+                            raise
+                finally:
+                    shutil.rmtree(tmp, ignore_errors=True)
+    except zipfile.BadZipFile as exc:
+        raise BagReadError(f"bag archive {str(path)!r} is not a valid zip file: {exc}") from None
+    except OSError as exc:
+        raise BagReadError(f"cannot extract bag archive {str(path)!r} into {str(root)!r}: {exc}") from None
+    done.touch()  # last use, for the cache's least-recently-used eviction
+    evict_cache(root, keep=dest, source=path.resolve())
+    return dest / member.rstrip("/") if member != "./" else dest
+
+
+def _check_bag_path(p: Path) -> None:
+    """Refuse what is clearly not a bag before ``rosbags`` reads it (its errors there are cryptic)."""
+    if p.is_dir():
+        if not (p / "metadata.yaml").is_file():
+            inside = sorted(x.name for x in p.iterdir())[:6]
+            hint = ""
+            bags = sorted(x.name for x in p.glob("*.bag"))
+            if bags:
+                hint = f"; it holds ROS1 bag(s) {bags}: give the .bag file"
+            elif any(x.name.endswith((".db3", ".mcap")) for x in p.iterdir()):
+                hint = "; it holds ROS2 storage files but no metadata.yaml (`ros2 bag reindex FOLDER` recreates it)"
+            raise BagReadError(f"folder {str(p)!r} is not a ROS2 bag (no metadata.yaml; it holds {inside}){hint}")
+        return
+    if p.suffix == ".bag":
+        with p.open("rb") as fh:
+            head = fh.read(len(ROS1_MAGIC))
+        if head != ROS1_MAGIC:
+            raise BagReadError(
+                f"cannot open bag {str(p)!r}: not a ROS1 bag (it does not start with {ROS1_MAGIC.decode()!r}; "
+                f"{'the file is empty' if not head else 'first bytes ' + repr(head[:12])})"
+            )
 
 
 def open_bag_paths(path: str | Path | Sequence[str | Path], *, cache_dir: Path | None = None) -> list[Path]:
@@ -112,6 +294,7 @@ def open_bag_paths(path: str | Path | Sequence[str | Path], *, cache_dir: Path |
             raise FileNotFoundError(f"bag {str(p)!r} does not exist")
         if p.suffix == ".zip":
             p = _extract_zip(p, cache_dir)
+        _check_bag_path(p)
         out.append(p)
     return out
 
@@ -160,12 +343,14 @@ class BagSource:
     def __init__(self, path: str | Path | Sequence[str | Path], *, cache_dir: Path | None = None) -> None:
         self.paths = open_bag_paths(path, cache_dir=cache_dir)
         self.name = ", ".join(str(p) for p in self.paths)
-        store = Stores.ROS2_HUMBLE if any(p.suffix != ".bag" for p in self.paths) else Stores.ROS1_NOETIC
+        self._ros1 = all(p.suffix == ".bag" for p in self.paths)
+        store = Stores.ROS1_NOETIC if self._ros1 else Stores.ROS2_HUMBLE
         try:
             self._reader = AnyReader(self.paths, default_typestore=get_typestore(store))
             self._reader.open()
         except Exception as exc:  # rosbags raises several error types for damaged files
-            raise BagReadError(f"cannot open bag {self.name!r}: {type(exc).__name__}: {exc}") from None
+            hint = f"; {REINDEX_HINT}" if self._ros1 else ""
+            raise BagReadError(f"cannot open bag {self.name!r}: {type(exc).__name__}: {exc}{hint}") from None
 
     def __enter__(self) -> BagSource:
         return self
@@ -206,12 +391,20 @@ class BagSource:
         if missing:
             listing = ", ".join(f"{t} ({m})" for t, m in sorted(have.items())) or "none"
             raise ValueError(f"topic(s) {missing} not in bag {self.name!r}; the bag has: {listing}")
+        counts = self.message_counts
         for topic, allowed in (types or {}).items():
             if have[topic] not in allowed:
                 raise ValueError(
                     f"topic {topic!r} in bag {self.name!r} has message type {have[topic]!r}; "
                     f"expected one of {list(allowed)}"
                 )
+            if counts.get(topic, 0) == 0:
+                if have[topic] in (*LASER_TYPES, *IMAGE_TYPES):
+                    raise ValueError(
+                        f"topic {topic!r} ({have[topic]}) in bag {self.name!r} has no messages; "
+                        "choose a topic with data (see the message counts of `rosbag info` / `ros2 bag info`)"
+                    )
+                log.warning("topic %s in bag %s has no messages", topic, self.name)
 
     def messages(self, topics: Iterable[str]) -> Iterator[BagMessage]:
         """Deserialised messages of ``topics`` in bag-time order, one at a time.
@@ -234,8 +427,9 @@ class BagSource:
             except StopIteration:
                 return
             except Exception as exc:
+                hint = f"; {REINDEX_HINT}" if self._ros1 else ""
                 raise BagReadError(
-                    f"bag {self.name!r} is truncated or corrupt after {last}: {type(exc).__name__}: {exc}"
+                    f"bag {self.name!r} is truncated or corrupt after {last}: {type(exc).__name__}: {exc}{hint}"
                 ) from None
             conn, bag_time, raw = item
             try:
@@ -260,6 +454,18 @@ def laser_from_msg(msg: Any, *, stamp_ns: int, frame_id: str, topic: str = "") -
     """``sensor_msgs/LaserScan`` -> :class:`LaserScan` (invalid ranges kept and marked by ``valid``)."""
     try:
         ranges = np.asarray(msg.ranges, dtype=float)
+        rmin, rmax = float(msg.range_min), float(msg.range_max)
+    except AttributeError:
+        raise ValueError(f"topic {topic!r}: {type(msg).__name__} is not a sensor_msgs/LaserScan") from None
+    where = f"topic {topic!r}: LaserScan at stamp {stamp_ns} ns"
+    if math.isnan(rmin) or math.isnan(rmax) or rmin > rmax:
+        raise ValueError(
+            f"{where} has range_min={rmin!r} > range_max={rmax!r} or a NaN bound: every beam would be invalid "
+            "(fix the driver's range parameters)"
+        )
+    if ranges.size and np.isnan(ranges).all():
+        raise ValueError(f"{where}: all {ranges.size} ranges are NaN (the sensor measured nothing)")
+    try:
         return LaserScan(
             ranges=ranges,
             angle_min=float(msg.angle_min),
@@ -327,6 +533,11 @@ def odometry_pose_from_msg(msg: Any, *, topic: str = "") -> tuple[Pose2D, str]:
         raise ValueError(f"topic {topic!r}: {type(msg).__name__} is not a nav_msgs/Odometry") from None
     if not all(np.isfinite([pose.x, pose.y, pose.yaw])):
         raise ValueError(f"topic {topic!r}: odometry pose has NaN or infinite values")
+    if max(abs(pose.x), abs(pose.y)) > MAX_ODOMETRY_COORD_M:
+        raise ValueError(
+            f"topic {topic!r}: odometry position ({pose.x:.6g}, {pose.y:.6g}) m is beyond "
+            f"{MAX_ODOMETRY_COORD_M:.0e} m from the odom origin: not a robot pose"
+        )
     return pose, child
 
 

@@ -23,6 +23,22 @@ with the bag's length.
 Non-monotonic stamps: a message whose stamp is earlier than the previous one of its topic (or equal, for the
 driver) cannot be placed in a stream; it is skipped, counted in :attr:`FrameAssembler.stats` and logged
 (a warning the first time per topic). Never an exception.
+
+Clock jumps: the offset ``stamp - bag_time`` of a topic (header stamp minus record time) changes slowly in a
+recording. A message whose offset moves by more than ``max_clock_jump_ns`` (default 5 s) from its topic's
+current offset is held back (at most ``resync_after - 1`` messages, default 2) until the topic shows what it
+was:
+
+- the next message is back on the current clock: the held messages had **outlier stamps** (a clock glitch,
+  a stamp in another time base) and are skipped, counted in ``stats["clock_jump"]`` and logged. One scan
+  stamped an hour ahead no longer makes every later scan "non-monotonic";
+- ``resync_after`` consecutive messages agree on the new offset: the clock stepped (or the recording has a
+  gap in its stamps, as bags rewritten by a script do): the held messages and the topic follow the new clock,
+  nothing is lost, and the step is counted in ``stats["resync"]`` and logged.
+
+A driver clock that steps backwards cannot be followed (the frames would go back in time): its messages are
+then skipped as non-monotonic (counted); run with ``time_source = "bag"`` for such a recording. With
+``time_source = "bag"`` the offset is 0 and no message is held.
 """
 
 from __future__ import annotations
@@ -34,9 +50,12 @@ from dataclasses import dataclass, field
 
 from .reader import BagMessage
 
-__all__ = ["POLICIES", "Frame", "FrameAssembler"]
+__all__ = ["DEFAULT_MAX_CLOCK_JUMP_NS", "POLICIES", "Frame", "FrameAssembler"]
 
 log = logging.getLogger(__name__)
+
+#: Largest change (ns) of a topic's ``stamp - bag_time`` offset accepted between consecutive messages.
+DEFAULT_MAX_CLOCK_JUMP_NS = 5_000_000_000
 
 POLICIES = ("nearest", "preceding", "interpolate")
 
@@ -92,6 +111,11 @@ class FrameAssembler:
         Frames allowed to wait for late messages.
     max_buffer : int
         Messages kept per secondary topic (oldest dropped and counted beyond it).
+    max_clock_jump_ns : int or None
+        A message whose ``stamp - bag_time`` offset moves by more than this (ns) from its topic's is held
+        until the topic shows an outlier or a clock step (see the module docstring); None disables the check.
+    resync_after : int
+        Consecutive messages agreeing on a new offset after which the topic follows it.
     """
 
     def __init__(
@@ -102,6 +126,8 @@ class FrameAssembler:
         tolerance_ns: int,
         max_pending: int = 20,
         max_buffer: int = 2000,
+        max_clock_jump_ns: int | None = DEFAULT_MAX_CLOCK_JUMP_NS,
+        resync_after: int = 3,
     ) -> None:
         if tolerance_ns < 0:
             raise ValueError(f"tolerance_ns must be non-negative, got {tolerance_ns}")
@@ -112,6 +138,14 @@ class FrameAssembler:
                 raise ValueError(f"sync policy of topic {topic!r} must be one of {POLICIES}, got {policy!r}")
         if driver in policies:
             raise ValueError(f"topic {driver!r} cannot be both the driver and a secondary topic")
+        if max_clock_jump_ns is not None and max_clock_jump_ns <= 0:
+            raise ValueError(f"max_clock_jump_ns must be positive or None, got {max_clock_jump_ns}")
+        if resync_after < 1:
+            raise ValueError(f"resync_after must be >= 1, got {resync_after}")
+        self.max_clock_jump_ns = max_clock_jump_ns
+        self.resync_after = resync_after
+        self._offset: dict[str, int] = {}
+        self._held: dict[str, list[BagMessage]] = {}
         self.driver = driver
         self.tolerance_ns = int(tolerance_ns)
         self.max_pending = max_pending
@@ -121,12 +155,25 @@ class FrameAssembler:
         self._last_driver: int | None = None
         self._closed = False
         self._next_index = 0
-        #: Counters: frames, skipped non-monotonic messages per topic, forced frames, buffer overflows.
+        #: Counters: frames, skipped non-monotonic messages per topic, forced frames, buffer overflows,
+        #: messages skipped for an outlier stamp (clock jump) and resynchronisations per topic.
         self.stats: dict[str, dict[str, int]] = {
             "frames": {"emitted": 0, "forced": 0},
             "non_monotonic": {},
             "buffer_overflow": {},
+            "clock_jump": {},
+            "resync": {},
         }
+
+    @property
+    def skipped_driver_messages(self) -> dict[str, int]:
+        """Driver messages that made no frame, by reason (``"clock_jump"``, ``"non_monotonic"``)."""
+        out = {}
+        for reason in ("clock_jump", "non_monotonic"):
+            n = self.stats[reason].get(self.driver, 0)
+            if n:
+                out[reason] = n
+        return out
 
     def _skip_non_monotonic(self, msg: BagMessage, last: int) -> None:
         counts = self.stats["non_monotonic"]
@@ -140,10 +187,71 @@ class FrameAssembler:
             )
         counts[msg.topic] = counts.get(msg.topic, 0) + 1
 
+    def _offset_of(self, msg: BagMessage) -> int:
+        return msg.stamp_ns - msg.bag_time_ns
+
+    def _drop_outliers(self, topic: str, held: list[BagMessage], ref: int) -> None:
+        if not held:
+            return
+        counts = self.stats["clock_jump"]
+        if topic not in counts:
+            log.warning(
+                "topic %s: stamp %d ns is %+.3f s off its clock (stamp - bag time moved by more than %.3f s "
+                "and the next message is back on the clock): skipped as an outlier stamp (such messages are "
+                "counted in the run's statistics)",
+                topic,
+                held[0].stamp_ns,
+                (self._offset_of(held[0]) - ref) * 1e-9,
+                (self.max_clock_jump_ns or 0) * 1e-9,
+            )
+        counts[topic] = counts.get(topic, 0) + len(held)
+        held.clear()
+
+    def _admit(self, msg: BagMessage) -> list[BagMessage]:
+        """The messages to process now: ``msg``, held messages released with it, or none (``msg`` held)."""
+        if self.max_clock_jump_ns is None:
+            return [msg]
+        topic, jump = msg.topic, self.max_clock_jump_ns
+        off = self._offset_of(msg)
+        ref = self._offset.get(topic)
+        held = self._held.setdefault(topic, [])
+        if ref is None or abs(off - ref) <= jump:  # on the current clock: what was held were outliers
+            if ref is not None:
+                self._drop_outliers(topic, held, ref)
+            self._offset[topic] = off
+            return [msg]
+        if held and abs(off - self._offset_of(held[-1])) > jump:  # not even on the held messages' clock
+            self._drop_outliers(topic, held, ref)
+        held.append(msg)
+        if len(held) < self.resync_after:
+            return []
+        counts = self.stats["resync"]
+        if topic not in counts:
+            log.warning(
+                "topic %s: its stamps stepped by %+.3f s relative to the bag's record time and %d messages "
+                "agree (a clock step or a gap in the stamps): following the new clock (counted)",
+                topic,
+                (off - ref) * 1e-9,
+                len(held),
+            )
+        counts[topic] = counts.get(topic, 0) + 1
+        self._offset[topic] = off
+        out = list(held)
+        held.clear()
+        return out
+
     def push(self, msg: BagMessage) -> list[Frame]:
         """Add one message; returns the frames that became final (in order)."""
         if self._closed:
             raise RuntimeError("FrameAssembler.push after finish()")
+        if msg.topic != self.driver and msg.topic not in self._topics:
+            raise ValueError(f"FrameAssembler got a message of topic {msg.topic!r}, which it was not given")
+        out: list[Frame] = []
+        for m in self._admit(msg):
+            out += self._push(m)
+        return out
+
+    def _push(self, msg: BagMessage) -> list[Frame]:
         if msg.topic == self.driver:
             if self._last_driver is not None and msg.stamp_ns <= self._last_driver:
                 self._skip_non_monotonic(msg, self._last_driver)
@@ -172,9 +280,14 @@ class FrameAssembler:
         return self._drain()
 
     def finish(self) -> list[Frame]:
-        """End of the stream: finalise every pending frame."""
+        """End of the stream: release held messages (nothing tells them outliers), finalise every pending frame."""
+        held = sorted((m for ms in self._held.values() for m in ms), key=lambda m: m.bag_time_ns)
+        self._held.clear()
+        out: list[Frame] = []
+        for m in held:
+            out += self._push(m)
         self._closed = True
-        return self._drain()
+        return out + self._drain()
 
     # -- internals ---------------------------------------------------------------------------------------
 

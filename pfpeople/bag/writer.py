@@ -31,6 +31,7 @@ Topics (header frame: the grid frame; header stamps: the frame stamps; record ti
 from __future__ import annotations
 
 import math
+import os
 import re
 import shutil
 from collections.abc import Sequence
@@ -131,6 +132,8 @@ def check_bag_out(path: str | Path, bag_format: str | None = None, *, overwrite:
     parent = p.absolute().parent
     if not parent.is_dir():
         raise FileNotFoundError(f"bag output {str(p)!r}: parent folder {str(parent)!r} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise PermissionError(f"bag output {str(p)!r}: parent folder {str(parent)!r} is not writable")
     if p.exists() or p.is_symlink():
         if not overwrite:
             raise FileExistsError(f"bag output {str(p)!r} already exists (use --overwrite to replace it)")

@@ -6,11 +6,16 @@ Examples::
     pfpeople run my.bag --driver /scan --odom /odom --filter particle --max-frames 500 --bag-out out.bag
     pfpeople run my.bag --config my.toml --bag-out results_ros2              # rosbag2 folder, MCAP storage
     pfpeople run my.bag --config my.toml --bag-out results_db --bag-format sqlite3
+
+Exit codes: 0 done, 2 bad input (one line on stderr; the frames processed before a failure stay in ``--out``
+with ``status = "failed"``), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM (``status = "interrupted"``,
+the frames on disk kept, the result bag closed).
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -19,6 +24,7 @@ from typing import Any
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.bag.writer import BAG_FORMATS, check_bag_out
+from pfpeople.output import RunInterrupted, interrupt_signals
 from pfpeople.pipeline import Pipeline
 
 
@@ -52,14 +58,31 @@ def config_from_args(args: argparse.Namespace) -> BagConfig:
 
 
 def _run(args: argparse.Namespace) -> int:
+    with interrupt_signals():  # SIGTERM as well as SIGINT end the run through its finally blocks
+        try:
+            return _run_checked(args)
+        except KeyboardInterrupt as exc:  # one line, no traceback
+            signum = exc.signum if isinstance(exc, RunInterrupted) else int(signal.SIGINT)
+            out = getattr(args, "_out", None)
+            kept = ""
+            if out is not None and (out / "run.json").is_file():
+                kept = f"; the frames processed are kept in {out} (status 'interrupted')"
+            print(f"pfpeople run: interrupted by {signal.Signals(signum).name}{kept}", file=sys.stderr)
+            return 128 + signum
+
+
+def _run_checked(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
     if args.bag_out is not None:  # a bad --bag-out fails now, not after the run
         check_bag_out(args.bag_out, args.bag_format, overwrite=args.overwrite)
     elif args.bag_format is not None:
         raise ValueError("--bag-format needs --bag-out")
     out = Path(args.out) if args.out else Path(f"{Path(args.bag).name.split('.')[0]}_{cfg.filter.kind}_run")
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {str(out)!r} exists and is not a directory")
     try:
         with BagSource(args.bag) as bag:
+            args._out = out
             summary, _ = Pipeline(cfg).run(
                 bag,
                 out,
@@ -70,7 +93,7 @@ def _run(args: argparse.Namespace) -> int:
                 bag_out=args.bag_out,
                 bag_format=args.bag_format,
             )
-    except (BagReadError, FileExistsError) as exc:  # not caught by the shared CLI plumbing: no traceback
+    except (BagReadError, FileExistsError, OSError) as exc:  # not caught by the shared CLI plumbing: no traceback
         print(f"pfpeople run: error: {exc}", file=sys.stderr)
         if (out / "run.json").is_file() and not isinstance(exc, FileExistsError):
             print(f"pfpeople run: the frames processed before the error are in {out}", file=sys.stderr)
@@ -81,9 +104,17 @@ def _run(args: argparse.Namespace) -> int:
     )
     for name, n in sorted(summary.no_data.items()):
         print(f"  detector {name}: no data in {n} frame(s)")
-    skipped = summary.sync.get("non_monotonic", {})
+    for name, n in sorted(summary.empty_scans.items()):
+        print(f"  detector {name}: {n} scan(s) without beams")
+    sync = summary.sync
+    skipped = sync.get("non_monotonic", {})
     if skipped:
         print(f"  skipped non-monotonic messages: {skipped}")
+    jumps = sync.get("clock_jump", {})
+    if jumps:
+        print(f"  skipped messages with an outlier stamp (clock jump): {jumps}")
+    if sync.get("resync"):
+        print(f"  topics resynchronised to a new clock: {sync['resync']}")
     return 0
 
 

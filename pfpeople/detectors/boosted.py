@@ -14,8 +14,10 @@ loads by default through ``importlib.resources``.
 from __future__ import annotations
 
 import json
+import re
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -36,6 +38,36 @@ def default_model_path() -> Path:
     """Path of the shipped model file ``pfpeople/models/boosted_legs.yml``."""
     ref = resources.files("pfpeople.models").joinpath(f"{DEFAULT_MODEL_NAME}.yml")
     return Path(str(ref))
+
+
+def _load_boost(path: Path) -> Any:
+    """Load an OpenCV Boost model; any failure is a ValueError naming the file."""
+    expect = f"a trained OpenCV Boost model (.yml/.xml from `pfpeople train-detector`) on {len(FEATURE_NAMES)} features"
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(4096)
+    except OSError as exc:
+        raise ValueError(f"boosted model file {str(path)!r} cannot be read: {exc}") from None
+    if not head.lstrip().startswith((b"%YAML", b"<?xml", b"{")):
+        raise ValueError(f"boosted model file {str(path)!r} is not {expect} (it starts with {head[:16]!r})")
+    # OpenCV can crash (not raise) on a storage file without a model: check its structure first
+    found = re.search(rb"var_count\W*\s*(\d+)", head)
+    if b"opencv_ml_boost" not in head or found is None:
+        raise ValueError(f"boosted model file {str(path)!r} is not {expect} (no opencv_ml_boost / var_count)")
+    if int(found.group(1)) != len(FEATURE_NAMES):
+        raise ValueError(
+            f"boosted model file {str(path)!r} has var_count {int(found.group(1))}; this version computes "
+            f"{len(FEATURE_NAMES)} features ({', '.join(FEATURE_NAMES)})"
+        )
+    try:
+        boost = cv2.ml.Boost.load(str(path))
+        ok = boost is not None and boost.isTrained() and boost.getVarCount() == len(FEATURE_NAMES)
+    except cv2.error as exc:
+        msg = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"boosted model file {str(path)!r} is not {expect}: OpenCV says {msg}") from None
+    if not ok:
+        raise ValueError(f"boosted model file {str(path)!r} is not {expect}")
+    return boost
 
 
 class BoostedSegmentDetector:
@@ -64,9 +96,13 @@ class BoostedSegmentDetector:
         pairing: PairingParams | None = None,
         model: DetectorModel | None = None,
     ) -> None:
+        if model_path is not None and not isinstance(model_path, str | Path):
+            raise TypeError(f"model_path must be a path, got {model_path!r} ({type(model_path).__name__})")
         path = Path(model_path) if model_path is not None else default_model_path()
         if not path.is_file():
             raise FileNotFoundError(f"boosted model file not found: {path}")
+        if isinstance(threshold, bool) or not isinstance(threshold, int | float | np.floating | np.integer):
+            raise TypeError(f"threshold must be a number, got {threshold!r} ({type(threshold).__name__})")
         if not np.isfinite(threshold):
             raise ValueError(f"threshold must be finite, got {threshold!r}")
         self.model_path = path
@@ -77,16 +113,19 @@ class BoostedSegmentDetector:
         self.sidecar: dict[str, object] = {}
         side = path.with_suffix(".json")
         if side.is_file():
-            self.sidecar = json.loads(side.read_text())
+            try:
+                self.sidecar = json.loads(side.read_text())
+            except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+                raise ValueError(f"boosted model sidecar {str(side)!r} is not valid JSON: {exc}") from None
+            if not isinstance(self.sidecar, dict):
+                raise ValueError(f"boosted model sidecar {str(side)!r} must hold a JSON object")
             feats = self.sidecar.get("features")
             if feats is not None and tuple(feats) != FEATURE_NAMES:  # type: ignore[arg-type]
                 raise ValueError(f"{side}: features {feats} differ from this version's {list(FEATURE_NAMES)}")
             seg = self.sidecar.get("segmentation")
             if isinstance(seg, dict):
                 self.segmentation = SegmentationParams(**seg)
-        self._boost = cv2.ml.Boost.load(str(path))
-        if self._boost is None or not self._boost.isTrained() or self._boost.getVarCount() != len(FEATURE_NAMES):
-            raise ValueError(f"{path} is not a trained Boost model on {len(FEATURE_NAMES)} features")
+        self._boost = _load_boost(path)
 
     def segment_scores(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centroids ``(S, 2)`` (m, scan frame) and boosted scores ``(S,)`` of every segment of ``scan``."""

@@ -9,6 +9,12 @@ Euclidean distance between two consecutive valid points exceeds ``jump_distance`
 segmentation of Arras et al. 2007); segments with fewer than ``min_points`` points are discarded (and counted in
 :attr:`Segments.n_dropped_small`). An empty scan, or one without valid beams, gives zero segments.
 
+Beam order: the points are always taken in increasing bearing (counter-clockwise). A scan with a negative
+``angle_increment`` (a laser mounted upside down or turning clockwise) is walked from its last beam to its
+first, so the signed features (``mean_curvature``, ``mean_angle_diff``, ``iav``) mean the same for every laser
+and such a scan gives the same segments and features as the same points scanned counter-clockwise; the point
+positions are unchanged and ``Segments.beams`` still index the scan as given.
+
 Features (Arras, Mozos & Burgard 2007; Spinello & Siegwart 2008)
 -----------------------------------------------------------------
 For a segment with points ``p_1 .. p_n`` (scan frame, m), centroid ``c`` and coordinate-wise median ``m``:
@@ -176,6 +182,8 @@ def segment_scan(scan: LaserScan, *, params: SegmentationParams | None = None) -
     with np.errstate(invalid="ignore"):
         valid &= scan.ranges <= p.max_range
     beams = np.flatnonzero(valid)
+    if scan.angle_increment < 0:  # walk the beams counter-clockwise (see the module docstring)
+        beams = beams[::-1]
     n_invalid = int(scan.ranges.size - beams.size)
     if beams.size == 0:
         return Segments(

@@ -1,0 +1,151 @@
+"""Resource limits of a run, checked before anything large is allocated.
+
+A grid or particle count far beyond what a robot needs (a stamp typed as a cell count, ``resolution = 1e-300``,
+``n_particles = 1e9``) must fail at once with a message naming the setting, not after minutes of swapping or
+with a raw ``_ArrayMemoryError``. The checks here are estimates with generous margins:
+
+- grid cells: ``nx * ny <= MAX_GRID_CELLS`` (4 million, e.g. 2000 x 2000);
+- prediction work: the people-motion kernel reaches ``v_max dt / resolution`` cells, and the grid filter's
+  prediction costs ``n_cells * (2 R + 1)^2`` operations per frame (eqs. 8-9 sum over the neighbourhood); more
+  than ``MAX_STEP_OPERATIONS`` (1e9, about a second per frame) is refused;
+- particles: ``n_particles <= MAX_PARTICLES``;
+- memory: :func:`estimate_run_bytes` (``BYTES_PER_CELL`` per cell and detector, ``BYTES_PER_PARTICLE`` per
+  particle) must fit in :func:`memory_budget_bytes`: half the physical memory, or
+  ``$PFPEOPLE_MAX_MEMORY_BYTES``.
+
+Every check raises :class:`ResourceLimitError` (a ``ValueError``) naming the setting, the estimate and the limit.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+__all__ = [
+    "BYTES_PER_CELL",
+    "BYTES_PER_PARTICLE",
+    "MAX_GRID_CELLS",
+    "MAX_PARTICLES",
+    "MAX_STEP_OPERATIONS",
+    "ResourceLimitError",
+    "check_grid_size",
+    "check_particles",
+    "check_run",
+    "estimate_run_bytes",
+    "kernel_reach_cells",
+    "memory_budget_bytes",
+]
+
+#: Largest number of grid cells.
+MAX_GRID_CELLS = 4_000_000
+#: Largest estimated number of operations of one prediction step (cells x kernel cells).
+MAX_STEP_OPERATIONS = 1.0e9
+#: Largest number of particles.
+MAX_PARTICLES = 200_000_000
+#: Bytes per grid cell and per detector (float64 belief, priors, likelihood maps, warps, outputs; measured
+#: peaks of a GridFilter step are below half of this).
+BYTES_PER_CELL = 256
+#: Bytes per particle (five float64 arrays, and copies during prediction and resampling).
+BYTES_PER_PARTICLE = 200
+
+
+class ResourceLimitError(ValueError):
+    """A requested run would exceed a resource limit (see the module docstring)."""
+
+
+def _human(nbytes: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if abs(nbytes) < 1024 or unit == "PiB":
+            return f"{nbytes:.3g} {unit}"
+        nbytes /= 1024
+    return f"{nbytes:.3g} PiB"  # pragma: no cover
+
+
+def memory_budget_bytes() -> int:
+    """Memory a run may use (bytes): ``$PFPEOPLE_MAX_MEMORY_BYTES`` or half the physical memory (8 GiB if
+    unknown)."""
+    env = os.environ.get("PFPEOPLE_MAX_MEMORY_BYTES")
+    if env:
+        try:
+            return int(float(env))
+        except ValueError:
+            raise ValueError(f"PFPEOPLE_MAX_MEMORY_BYTES={env!r} is not a number of bytes") from None
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        total = 16 * 2**30
+    return int(total // 2)
+
+
+def kernel_reach_cells(resolution: float, *, v_max: float, dt: float) -> float:
+    """Radius (cells) of the people-motion neighbourhood, capped at 1e100 (a float: it may be astronomical)."""
+    reach = min(v_max * dt / resolution, 1e100)
+    return float(math.ceil(reach) + 1) if reach < 1e15 else reach
+
+
+def estimate_run_bytes(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0) -> int:
+    """Estimated peak memory (bytes) of a filter over ``n_cells`` cells with ``n_detectors`` and particles."""
+    return int(BYTES_PER_CELL * n_cells * (2 + max(n_detectors, 1)) + BYTES_PER_PARTICLE * n_particles)
+
+
+def check_grid_size(
+    nx: int, ny: int, resolution: float, *, v_max: float | None = None, dt: float = 0.1, where: str = "grid"
+) -> None:
+    """Refuse a grid with too many cells or (given ``v_max``) a prediction step too expensive."""
+    n_cells = int(nx) * int(ny)
+    if n_cells > MAX_GRID_CELLS:
+        raise ResourceLimitError(
+            f"{where}: {nx} x {ny} = {n_cells} cells is more than the limit of {MAX_GRID_CELLS} cells; "
+            "use fewer, larger cells"
+        )
+    if v_max is not None:
+        reach = kernel_reach_cells(resolution, v_max=v_max, dt=dt)
+        ops = n_cells * (2.0 * reach + 1.0) ** 2
+        if ops > MAX_STEP_OPERATIONS:
+            raise ResourceLimitError(
+                f"{where}: resolution {resolution!r} m with people walking up to {v_max:.3g} m/s in {dt:g} s "
+                f"gives a motion neighbourhood of {reach:.3g} cells radius: about {ops:.3g} operations per frame "
+                f"over {n_cells} cells (limit {MAX_STEP_OPERATIONS:.0e}); use a coarser resolution "
+                "(the paper uses 0.3 m)"
+            )
+
+
+def check_particles(n_particles: int, *, n_cells: int, n_detectors: int = 1, where: str = "n_particles") -> None:
+    """Refuse a particle count beyond :data:`MAX_PARTICLES` or the memory budget."""
+    if n_particles > MAX_PARTICLES:
+        raise ResourceLimitError(
+            f"{where} = {n_particles} is more than the limit of {MAX_PARTICLES} particles "
+            f"(about 5 per cell, {5 * n_cells} here, is usually enough)"
+        )
+    check_memory(n_cells, n_detectors=n_detectors, n_particles=n_particles, where=where)
+
+
+def check_memory(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0, where: str = "run") -> None:
+    """Refuse a run whose estimated memory (:func:`estimate_run_bytes`) exceeds :func:`memory_budget_bytes`."""
+    need = estimate_run_bytes(n_cells, n_detectors=n_detectors, n_particles=n_particles)
+    budget = memory_budget_bytes()
+    if need > budget:
+        raise ResourceLimitError(
+            f"{where}: the requested run needs about {_human(need)} ({n_cells} cells, {n_detectors} detector(s), "
+            f"{n_particles} particles), more than the budget of {_human(budget)} (half the physical memory, or "
+            "PFPEOPLE_MAX_MEMORY_BYTES)"
+        )
+
+
+def check_run(
+    nx: int,
+    ny: int,
+    resolution: float,
+    *,
+    n_detectors: int = 1,
+    n_particles: int = 0,
+    v_max: float | None = None,
+    dt: float = 0.1,
+    where: str = "run",
+) -> None:
+    """All checks of a run: grid cells, prediction work (with ``v_max``), particles and memory."""
+    check_grid_size(nx, ny, resolution, v_max=v_max, dt=dt, where=f"{where} grid")
+    if n_particles:
+        check_particles(n_particles, n_cells=nx * ny, n_detectors=n_detectors, where=f"{where} n_particles")
+    else:
+        check_memory(nx * ny, n_detectors=n_detectors, where=where)

@@ -1,0 +1,20 @@
+"""The soak benchmark's machinery on a few steps (the benchmark itself is ``python -m evaluation.bench_soak``)."""
+
+from __future__ import annotations
+
+import pytest
+
+from evaluation.bench_soak import soak, soak_modes
+from gridbridge import GridFilter, GridSpec
+
+SMALL = GridSpec(nx=8, ny=8, resolution=0.5, x0=0.0, y0=-2.0)
+
+
+def test_soak_modes_run_and_report_bounded_beliefs() -> None:
+    assert {"grid-paper", "grid-linear", "particle", "particle-persistent"} <= set(soak_modes())
+    r = soak("small", lambda rng: GridFilter(SMALL, form="paper"), 20, seed=3)
+    assert r.steps == 20 and r.bad_steps == 0
+    assert 0.0 <= r.mass_min <= r.mass_max <= SMALL.n_cells
+    assert r.rss_start_mib > 0 and r.peak_end_mib >= r.peak_start_mib > 0
+    with pytest.raises(ValueError, match="steps must be at least 10"):
+        soak("small", lambda rng: GridFilter(SMALL), 5)
