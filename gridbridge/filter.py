@@ -21,8 +21,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge._validate import check_choice, check_positive, check_probability
-from gridbridge.ego_motion import Odometry
-from gridbridge.grid import GridSpec
 from gridbridge.components import (
     Appearance,
     BeliefBounds,
@@ -32,7 +30,10 @@ from gridbridge.components import (
     PeoplePrediction,
     VelocityEgoMotion,
 )
-from gridbridge.measurement import Likelihood, bayes_update, fov_mask, likelihood_from_detections
+from gridbridge.ego_motion import Odometry
+from gridbridge.grid import GridSpec
+from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood
+from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
 
 __all__ = ["FilterStep", "GridFilter", "as_odometry", "filter_models"]
@@ -133,6 +134,8 @@ class GridFilter:
         Birth probability applied to the prior of the update (not in the paper).
     bounds : BeliefBounds, optional
         Clamp of the posterior (not in the paper).
+    likelihood : DetectionLikelihood, optional
+        Detections -> per-cell likelihood (default :class:`~gridbridge.likelihoods.DeMorganLikelihood`, eqs. 13-14).
     """
 
     def __init__(
@@ -149,6 +152,7 @@ class GridFilter:
         ego_motion: EgoMotionModel | None = None,
         appearance: Appearance | None = None,
         bounds: BeliefBounds | None = None,
+        likelihood: DetectionLikelihood | None = None,
     ) -> None:
         self.spec, self.detectors, self.motion, self.noise = filter_models(spec, detectors, motion, noise)
         check_choice(form, "form", ("paper", "linear"))
@@ -173,6 +177,11 @@ class GridFilter:
         self.ego_motion = ego_motion
         self.appearance = appearance
         self.bounds = bounds
+        if likelihood is None:
+            likelihood = DeMorganLikelihood()
+        if not isinstance(likelihood, DetectionLikelihood):
+            raise TypeError(f"likelihood must be a DetectionLikelihood component, got {type(likelihood).__name__}")
+        self.likelihood = likelihood
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
         self._observed: NDArray[np.bool_] | None = None
 
@@ -216,7 +225,7 @@ class GridFilter:
         Returns ``(likelihood, posterior)``; on bad input nothing changes.
         """
         prior_ = self.spec.check_grid(prior, "prior")
-        lik = likelihood_from_detections(self.spec, self.detectors, detections)
+        lik = self.likelihood(self.spec, self.detectors, list(detections))
         posterior = bayes_update(prior_, lik.likelihood)
         if self.bounds is not None:
             posterior = self.bounds.apply(posterior)

@@ -1,0 +1,106 @@
+"""Detection likelihoods as components: the paper's De Morgan fusion and a calibrated independent fusion.
+
+Both map one frame's detections to a per-cell ``L`` used by eq. 12 as ``odds' = odds * L / (1 - L)``, and both
+take each detector's PPV and FNR (Table 1, or measured by ``pfpeople-eval calibrate``) and its field of view and
+position uncertainty (:class:`gridbridge.params.DetectorModel`).
+
+:class:`DeMorganLikelihood` is eqs. 13-14 (:func:`gridbridge.measurement.likelihood_from_detections`).
+
+:class:`IndependentLikelihood` treats detectors as conditionally independent given the cell's state (the
+inverse-sensor-model fusion of occupancy grids: log-odds add). Per detector i covering cell c:
+
+* fired (firing weight ``q`` in [0, 1]):   ``LR_i = q * LR_fire_i + (1 - q) * LR_miss_i``
+* ``LR_fire_i = PPV_i / (1 - PPV_i) * (1 - pi) / pi``   and   ``LR_miss_i = FNR_i``
+
+where ``pi`` is the base rate of people per cell (``base_rate``). For a detector with Gaussian position
+uncertainty (the camera) ``q`` is the detection's probability mass in the cell, ``r^2 N(d; 0, S)`` (at most 1),
+rather than the peak-1 weight of :func:`gridbridge.measurement.detection_map`: one detection is evidence for one
+person somewhere in its ellipse, not for every cell of it. The first factor is calibration: a
+detector's PPV is the probability that a detection is a person at the base rate of people, so one detection
+in a cell whose prior is ``pi`` gives exactly ``P(person) = PPV``. ``LR_miss`` is ``P(no detection | person) /
+P(no detection | no person) = FNR / (1 - false alarms per cell)``, with false alarms per cell negligible. The
+fused ``L = LR / (1 + LR)``, ``LR = prod_i LR_i``; a cell no detector covers gets ``L = 0.5``.
+
+Compared with eq. 13, a detector that does not fire counts against a person (eq. 13 counts its FNR in favour),
+two detectors that agree multiply their evidence, and a detector with PPV 0.5 adds none on its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from gridbridge._validate import check_probability
+from gridbridge.grid import GridSpec
+from gridbridge.measurement import Likelihood, detection_map, fov_mask, likelihood_from_detections
+from gridbridge.params import DetectorModel
+
+__all__ = ["DeMorganLikelihood", "DetectionLikelihood", "IndependentLikelihood"]
+
+
+@runtime_checkable
+class DetectionLikelihood(Protocol):
+    """Detections of D detectors -> :class:`gridbridge.measurement.Likelihood` (per-detector maps and ``L``)."""
+
+    def __call__(
+        self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
+    ) -> Likelihood: ...
+
+
+@dataclass(frozen=True, kw_only=True)
+class DeMorganLikelihood:
+    """The paper's fusion, eqs. 13-14 (see :mod:`gridbridge.measurement`)."""
+
+    def __call__(
+        self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
+    ) -> Likelihood:
+        return likelihood_from_detections(spec, detectors, detections)
+
+
+@dataclass(frozen=True, kw_only=True)
+class IndependentLikelihood:
+    """Calibrated independent fusion (see the module docstring).
+
+    Parameters
+    ----------
+    base_rate : float
+        ``pi``: the probability that a cell holds a person, at which the detectors' PPV was measured
+        (0 < pi < 1). Set it equal to the filter's appearance prior so that one detection of a cell at the prior
+        gives ``P = PPV``.
+    """
+
+    base_rate: float = 0.01
+
+    def __post_init__(self) -> None:
+        check_probability(self.base_rate, "IndependentLikelihood.base_rate", open_low=True, open_high=True)
+
+    def __call__(
+        self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
+    ) -> Likelihood:
+        if len(detections) != len(detectors):
+            raise ValueError(
+                f"detections must have one entry per detector ({len(detectors)}), got {len(detections)}"
+            )
+        d = len(detectors)
+        fired = np.zeros((d, *spec.shape))
+        covered = np.zeros((d, *spec.shape), dtype=bool)
+        per_det = np.full((d, *spec.shape), 0.5)
+        log_lr = np.zeros(spec.shape)
+        prior_odds = self.base_rate / (1.0 - self.base_rate)
+        for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
+            if det is None:
+                continue
+            q = detection_map(spec, model, det)
+            if model.uncertainty == "gaussian":  # the detection's probability mass per cell, not a peak of 1
+                q = q * min(1.0, spec.resolution**2 / (2.0 * np.pi * model.sigma_lateral * model.sigma_range))
+            cov = fov_mask(spec, model) | (q > 0.0)
+            lr_fire = model.ppv / (1.0 - model.ppv) / prior_odds
+            lr = q * lr_fire + (1.0 - q) * model.fnr
+            fired[i], covered[i] = q, cov
+            per_det[i] = np.where(cov, lr / (1.0 + lr), 0.5)
+            log_lr += np.where(cov, np.log(lr), 0.0)
+        fused = 1.0 / (1.0 + np.exp(-log_lr))
+        return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
