@@ -26,11 +26,11 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-from numpy.typing import NDArray  # noqa: E402
+import numpy as np
+from numpy.typing import NDArray
 
-from pfpeople.mot import MultiPersonTracker  # noqa: E402
-from pfpeople.sensors import Pose2D  # noqa: E402
+from pfpeople.mot import MultiPersonTracker
+from pfpeople.sensors import Pose2D
 
 DT = 0.1
 OMEGA = 0.1

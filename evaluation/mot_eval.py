@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -38,6 +38,7 @@ from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.grid import GridSpec
+from gridbridge.params import DetectorModel
 from pfpeople.mot import MultiPersonTracker, TrackerConfig
 from pfpeople.output import RunData
 from pfpeople.sensors import Pose2D
@@ -45,6 +46,7 @@ from pfpeople.sensors import Pose2D
 __all__ = [
     "Classifier",
     "MotRow",
+    "detector_config",
     "evaluate_run",
     "evaluate_scenario",
     "format_rows",
@@ -246,11 +248,25 @@ def evaluate_scenario(
     if detectors:
         for i, m in enumerate(models):
             det = [fr.outputs[i].positions.reshape(-1, 2) for fr in frames]
-            score(f"{m.name} (raw)", run_tracker(det, dts, egos=egos, config=config))
+            score(f"{m.name} (raw)", run_tracker(det, dts, egos=egos, config=detector_config(config, m)))
     if merged:
         det = [merge_detections(fr.detections) for fr in frames]
         score("all detectors merged (raw)", run_tracker(det, dts, egos=egos, config=config))
     return rows
+
+
+def detector_config(config: TrackerConfig, model: DetectorModel) -> TrackerConfig:
+    """The tracker configuration for one detector's raw detections: a detector whose model has a Gaussian
+    position uncertainty (the camera) gets that uncertainty as measurement noise (RMS of its lateral and
+    range standard deviations) and a metric gate of at least three of them; others keep ``config``."""
+    if model.uncertainty != "gaussian":
+        return config
+    sigma = math.sqrt(0.5 * (model.sigma_lateral**2 + model.sigma_range**2))
+    return replace(
+        config,
+        measurement_sigma=max(config.measurement_sigma, sigma),
+        gate_distance=max(config.gate_distance, 3.0 * sigma),
+    )
 
 
 def _run_egos(run: RunData) -> tuple[list[float], list[Pose2D | None]]:
@@ -266,7 +282,9 @@ def _run_egos(run: RunData) -> tuple[list[float], list[Pose2D | None]]:
     return dts, egos
 
 
-def _gt_frames(run: RunData, gt: GroundTruth, frame: str, tolerance_ns: int) -> list[tuple[NDArray[np.int64], Positions]]:
+def _gt_frames(
+    run: RunData, gt: GroundTruth, frame: str, tolerance_ns: int
+) -> list[tuple[NDArray[np.int64], Positions]]:
     fr = run.frames
     rows_frame, _ = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
     xy = gt_to_grid(run, gt, frame)
@@ -294,6 +312,8 @@ def evaluate_run(
     follow_id: int | None = None,
     tolerance_ns: int = 50_000_000,
     sources: Sequence[str] | None = None,
+    classify: Classifier | None = peak_classifier,
+    classifier_name: str = "peaks",
 ) -> list[MotRow]:
     """CLEAR-MOT of the tracker on a run's filter output and on each detector's detections.
 
@@ -310,7 +330,12 @@ def evaluate_run(
     follow_id : int, optional
         Person for the followed-person figure (``extra["followed"]``); default: the GT id with the most rows.
     sources : sequence of str, optional
-        Subset of ``"filter"`` and the run's detector names (default all, plus ``"all detectors merged"``).
+        Subset of the sources (default all): ``"filter"`` (the run's ``people.csv``), ``"grid + NAME"`` (the
+        stored belief grids classified by ``classify``), each detector name and ``"all detectors merged"``.
+    classify : callable or None
+        Classifier of the stored belief grids (``grids.npy``); None: no such row.
+    classifier_name : str
+        Its label.
 
     Returns
     -------
@@ -329,6 +354,15 @@ def evaluate_run(
     prob = np.clip(np.nan_to_num(ppl["mean_probability"].astype(float), nan=1.0), 0.0, 1.0)
     fsc = [g[:, 0].copy() for g in group_by_frame(ppl["frame"], np.column_stack((prob, prob)), n)]
     inputs["filter"] = (fpos, fsc)
+    if classify is not None:
+        spec = run.spec
+        cpos: list[Positions] = []
+        csc: list[NDArray[np.float64]] = []
+        for k in range(n):
+            p, s = classify(np.asarray(run.grids[k], dtype=float), spec)
+            cpos.append(np.asarray(p, dtype=float).reshape(-1, 2))
+            csc.append(np.clip(np.asarray(s, dtype=float).reshape(-1), 0.0, 1.0))
+        inputs[f"grid + {classifier_name}"] = (cpos, csc)
     det = run.detections
     per_det: list[list[Positions]] = []
     for name in run.meta["detectors"]:
@@ -341,6 +375,8 @@ def evaluate_run(
     if sources is not None:
         wanted = set(sources)
         inputs = {k: v for k, v in inputs.items() if k in wanted or k.removesuffix(" (raw)") in wanted}
+        if not inputs:
+            raise ValueError(f"sources {sorted(wanted)} name none of the run's sources")
     if follow_id is None and len(gt):
         ids, counts = np.unique(gt.person_id, return_counts=True)
         follow_id = int(ids[np.argmax(counts)])
@@ -359,7 +395,7 @@ def evaluate_run(
                 "matched_fraction": fs.recall,
                 "id_switches": fs.id_switches,
             }
-        rows.append(MotRow(seq, source if source.endswith(")") else f"{source} (people.csv)", scores, extra))
+        rows.append(MotRow(seq, f"{source} (people.csv)" if source == "filter" else source, scores, extra))
     return rows
 
 

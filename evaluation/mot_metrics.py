@@ -43,7 +43,9 @@ class MotScores:
     """CLEAR-MOT scores of one sequence (see the module docstring).
 
     ``motp`` is a mean distance in metres (NaN without matches); ``mota``, ``recall`` and ``precision`` are
-    NaN when undefined (no ground truth, no hypotheses).
+    NaN when undefined (no ground truth, no hypotheses). ``num_gt`` counts ground-truth objects over all
+    frames, ``num_gt_ids`` distinct people; ``num_matches`` counts every correspondence, switches included
+    (motmetrics' ``num_matches`` plus ``num_switches``), so ``num_gt = num_matches + num_misses``.
     """
 
     mota: float
@@ -208,7 +210,7 @@ def clear_mot(
         num_gt=i("num_objects"),
         num_false_positives=i("num_false_positives"),
         num_misses=i("num_misses"),
-        num_matches=i("num_matches"),
+        num_matches=i("num_matches") + i("num_switches"),
         num_gt_ids=i("num_unique_objects"),
     )
 
@@ -216,7 +218,8 @@ def clear_mot(
 def scores_from_events(acc: Any) -> dict[str, float]:
     """MOTA, MOTP and the counts recomputed from an accumulator's event table (a check on motmetrics' metrics).
 
-    Counts: MATCH and SWITCH events are matches (a SWITCH is a match with a new id); MISS and FP as named.
+    Counts: MATCH and SWITCH events are matches (a SWITCH is a match with a new id); MISS and FP as named;
+    TRANSFER / ASCEND / MIGRATE rows are extra annotations of SWITCH events and are not counted.
     """
     ev = acc.mot_events
     types = ev["Type"].to_numpy(dtype=str)

@@ -76,8 +76,9 @@ def test_two_people_crossing_keep_ids() -> None:
     start_ids = None
     for k in range(60):
         t = k * DT
-        a = np.array([2.0 + 1.2 * (t - 3.0) / math.sqrt(2), 1.2 * (t - 3.0) / math.sqrt(2)]) + [2.0, 0.0]
-        b = np.array([2.0 + 1.2 * (t - 3.0) / math.sqrt(2), -1.2 * (t - 3.0) / math.sqrt(2)]) + [2.0, 0.0]
+        u = 1.2 * (t - 3.0) / math.sqrt(2)  # both pass (4, 0) at t = 3 s
+        a = np.array([4.0 + u, u])
+        b = np.array([4.0 + u, -u])
         people = np.array([a, b])
         out = tracker.update(people + rng.normal(0, 0.05, (2, 2)), DT)
         if k == 10:
@@ -124,7 +125,7 @@ def test_hidden_person_coasts_and_keeps_id(hidden: int) -> None:
 def test_coasting_ends_after_max_coast() -> None:
     cfg = TrackerConfig(max_coast_s=0.5)
     tracker = MultiPersonTracker(cfg)
-    for k in range(5):
+    for _ in range(5):
         tracker.update(np.array([[2.0, 0.0]]), DT)
     for _ in range(5):  # 0.5 s: still there
         assert len(tracker.update(np.zeros((0, 2)), DT)) == 1

@@ -147,7 +147,9 @@ class TrackerConfig:
             "score_tau",
         ):
             object.__setattr__(self, name, _finite_positive(getattr(self, name), name))
-        object.__setattr__(self, "region_margin", _finite_positive(self.region_margin, "region_margin", allow_zero=True))
+        object.__setattr__(
+            self, "region_margin", _finite_positive(self.region_margin, "region_margin", allow_zero=True)
+        )
         for name, lo_open, hi_open in (
             ("delete_score", False, True),
             ("hit_gain", True, False),
