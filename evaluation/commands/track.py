@@ -16,11 +16,13 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 from evaluation.ab import FilterSpec, particles_label
 from evaluation.gt_csv import read_gt_csv
 from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
+from pfpeople.mot import TrackerConfig
 from pfpeople.output import load_run
 
 __all__ = ["add_parser", "register", "run"]
@@ -52,6 +54,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--max-range", type=float, help="range limit (m)")
     p.add_argument("--follow-id", type=int, help="followed person's GT id (default: the most annotated)")
     p.add_argument("--gate", type=float, default=0.75, help="CLEAR-MOT matching distance (m), default 0.75")
+    p.add_argument("--max-coast", type=float, help="tracker: longest coasting before deletion (s; default 5)")
+    p.add_argument(
+        "--report-coast", type=float, help="tracker: longest coasting still reported (s; default 1; <0: always)"
+    )
     p.add_argument("--json", type=Path, help="also write the rows to this JSON file")
     p.set_defaults(func=run)
 
@@ -66,17 +72,30 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--run needs --gt GT.csv")
     if args.frames < 1:
         raise ValueError(f"--frames must be positive, got {args.frames}")
+    tracker_opts: dict[str, Any] = {}
+    if args.max_coast is not None:
+        tracker_opts["max_coast_s"] = args.max_coast
+    if args.report_coast is not None:
+        tracker_opts["report_coast_s"] = None if args.report_coast < 0 else args.report_coast
     rows: list[MotRow] = []
     filters = [] if args.no_grid else [FilterSpec(name="grid (paper)", form="paper")]
     filters += [FilterSpec(name=particles_label(n), kind="particle", n_particles=n) for n in args.particles]
     for name in args.scenario or []:
-        scenario = Scenario.from_name(name, seed=args.seed) if args.seed is not None else Scenario.from_name(name)
-        rows += evaluate_scenario(scenario, filters=filters, gate=args.gate, seed=args.pf_seed, n_frames=args.frames)
+        overrides: dict[str, Any] = {"n_frames": args.frames}
+        if args.seed is not None:
+            overrides["seed"] = args.seed
+        scenario = Scenario.from_name(name, **overrides)
+        config = TrackerConfig(region=scenario.spec.extent, **tracker_opts)
+        rows += evaluate_scenario(
+            scenario, filters=filters, config=config, gate=args.gate, seed=args.pf_seed, n_frames=args.frames
+        )
     if args.run is not None:
         sector = tuple(math.radians(a) for a in args.sector) if args.sector else None
+        run_data = load_run(args.run)
         rows += evaluate_run(
-            load_run(args.run),
+            run_data,
             read_gt_csv(args.gt),
+            config=TrackerConfig(region=run_data.spec.extent, **tracker_opts),
             frame=args.frame,
             gate=args.gate,
             sector=sector,  # type: ignore[arg-type]
