@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -380,7 +381,8 @@ def evaluate_run(
     if follow_id is None and len(gt):
         ids, counts = np.unique(gt.person_id, return_counts=True)
         follow_id = int(ids[np.argmax(counts)])
-    seq = str(run.meta.get("config_name") or run.path.name)
+    bags = run.meta.get("provenance", {}).get("bag") or []
+    seq = Path(str(bags[0])).name.removesuffix(".zip").removesuffix(".bag") if bags else run.path.name
     rows: list[MotRow] = []
     for source, (pos, sc) in inputs.items():
         hyp = run_tracker(pos, dts, scores=sc, egos=egos, config=config)

@@ -62,7 +62,7 @@ def test_evaluate_scenario_detectors_only() -> None:
 
 
 def _write_run(path: Path, people: list[np.ndarray], dets: list[np.ndarray], dt: float = 0.1) -> None:
-    with RunWriter(path, spec=SPEC, detector_names=["legs"], metadata={"config_name": "synthetic"}) as w:
+    with RunWriter(path, spec=SPEC, detector_names=["legs"], metadata={"provenance": {"bag": ["/x/synth.bag"]}}) as w:
         for k, (p, d) in enumerate(zip(people, dets, strict=True)):
             w.write_frame(
                 frame=k,
@@ -104,5 +104,5 @@ def test_evaluate_run_followed_person(tmp_path: Path) -> None:
     # the static clutter point is confirmed (seen every frame): false positives in the GT's view
     assert d.scores.num_false_positives > 40 and d.scores.id_switches == 0
     assert d.extra["followed"]["matched_fraction"] > 0.9
-    assert "followed person 7" in format_rows(rows)
+    assert "followed person 7" in format_rows(rows) and rows[0].sequence == "synth"
     assert math.isfinite(d.scores.motp)
