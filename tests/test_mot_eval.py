@@ -106,3 +106,16 @@ def test_evaluate_run_followed_person(tmp_path: Path) -> None:
     assert d.extra["followed"]["matched_fraction"] > 0.9
     assert "followed person 7" in format_rows(rows) and rows[0].sequence == "synth"
     assert math.isfinite(d.scores.motp)
+
+
+def test_track_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from evaluation.cli import main
+
+    out_json = tmp_path / "rows.json"
+    argv = ["track", "--scenario", "default", "--frames", "15", "--particles", "--no-grid", "--json", str(out_json)]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "MOTA" in text and "all detectors merged (raw)" in text
+    assert '"mota"' in out_json.read_text()
+    assert main(["track"]) == 2
+    assert "give --scenario" in capsys.readouterr().err

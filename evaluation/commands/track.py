@@ -32,7 +32,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "track",
         help="multi-person tracking (CLEAR-MOT): tracker on fused filter output vs tracking-by-detection",
-        description=__doc__.split("\n\n")[1] if __doc__ else None,
+        description="Run the multi-person tracker on each filter's classified posterior and on each detector's raw "
+        "detections (and all merged) of a scenario, and/or on a 'pfpeople run' directory against a GT CSV with "
+        "person ids; print CLEAR-MOT scores (MOTA, MOTP, IDSW, Frag, MT, ML, recall, precision) per source.",
     )
     p.add_argument(
         "--scenario",
