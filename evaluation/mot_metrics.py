@@ -15,12 +15,13 @@ ground-truth trajectory goes from matched to unmatched and back.
 Optional region (``sector`` as ``(bearing_min, bearing_max)`` rad, bearing ``atan2(y, x)``; ``max_range`` m):
 ground truth and hypotheses outside are dropped before matching, so neither counts.
 
-Compatibility with numpy 2 / pandas 3: motmetrics 1.4.0's ``distances.norm2squared_matrix`` and
-``iou_matrix`` are not used (the distances are computed here); ``MOTAccumulator.update`` and
-``metrics.create().compute`` are what is used, and they run without warnings under numpy 2.4 / pandas 3.1
-(checked in ``tests/test_mot_metrics.py`` with warnings as errors). The scores are additionally recomputed
-from the accumulator's event table (:func:`scores_from_events`) as a cross-check independent of motmetrics'
-metric code.
+Compatibility with numpy 2 / pandas 3 (motmetrics 1.4.0 under numpy 2.4 / pandas 3.1): ``distances.iou_matrix``
+fails (it calls ``np.asfarray``, removed in numpy 2) and ``distances.norm2squared_matrix`` gives squared
+distances (MOTP would be in m^2); neither is used, the Euclidean distances are computed here
+(:func:`distance_matrix`). ``MOTAccumulator.update`` and ``metrics.create().compute`` are what is used, and they
+run without warnings (checked in ``tests/test_mot_metrics.py`` with warnings as errors). The scores are also
+recomputed from the accumulator's event table (:func:`scores_from_events`) as a check independent of
+motmetrics' metric code.
 """
 
 from __future__ import annotations
