@@ -1,0 +1,426 @@
+"""Multi-person tracking evaluation: the tracker on fused filter output vs tracking-by-detection, CLEAR-MOT.
+
+Two harnesses, one tracker (:class:`pfpeople.mot.MultiPersonTracker`) and one scorer
+(:func:`evaluation.mot_metrics.clear_mot`):
+
+- **Scenario** (:func:`evaluate_scenario`): the detection-level simulator (:mod:`evaluation.scenarios`), with
+  true person ids per frame. Sources: each filter (:class:`evaluation.ab.FilterSpec`: the grid filter, the
+  particle filter) followed by a classifier ``classify(belief, spec) -> (positions (K, 2), scores (K,))``
+  (default :func:`peak_classifier`), and the baseline: the tracker fed with each detector's raw detections and
+  with all detectors' detections merged (:func:`merge_detections`). Ego-motion for the tracker: the reported
+  (noisy) odometry of the frame, ``velocity_displacement(v, omega, dt)``, as the filters get. Ground truth and
+  hypotheses are restricted to the grid (the grid cannot show people outside it).
+- **Run directory** (:func:`evaluate_run`): a ``pfpeople run`` output (``people.csv``: the filter's people;
+  ``detections.csv``: each detector) against a GT CSV with person ids (:mod:`evaluation.gt_csv`), with the
+  followed-person figure: the fraction of the annotated frames of one person where a confirmed track lies
+  within ``gate`` of it (CLEAR-MOT matching, so a matched track is one-to-one), and the identity switches on
+  that person. Ego-motion: ``frames.csv`` (``v_mps``, ``omega_radps``, ``dt_s``; frames without odometry
+  count as standing).
+
+The tracker's hypotheses in a frame are its confirmed tracks after the update (coasting ones included).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from evaluation.ab import FilterSpec
+from evaluation.gt_csv import GroundTruth
+from evaluation.mot_metrics import MotScores, clear_mot
+from evaluation.run_truth import group_by_frame, gt_to_grid
+from evaluation.scenarios.scenario import Frame, Scenario
+from gridbridge.ego_motion import velocity_displacement
+from gridbridge.grid import GridSpec
+from gridbridge.params import DetectorModel
+from pfpeople.mot import MultiPersonTracker, TrackerConfig
+from pfpeople.output import RunData
+from pfpeople.sensors import Pose2D
+
+__all__ = [
+    "Classifier",
+    "MotRow",
+    "detector_config",
+    "evaluate_run",
+    "evaluate_scenario",
+    "format_rows",
+    "merge_detections",
+    "peak_classifier",
+    "run_tracker",
+]
+
+Positions = NDArray[np.float64]
+Classifier = Callable[[NDArray[np.float64], GridSpec], tuple[Positions, NDArray[np.float64]]]
+HypFrames = list[tuple[NDArray[np.int64], Positions]]
+
+
+def peak_classifier(
+    belief: NDArray[np.float64], spec: GridSpec, *, threshold: float = 0.5, nms_radius: float = 0.6
+) -> tuple[Positions, NDArray[np.float64]]:
+    """People from a belief grid: local maxima above ``threshold``, non-maximum suppression, sub-cell centroid.
+
+    A stand-in for the recommended classifier. A cell is a peak when its belief is above ``threshold`` and is
+    the maximum of its 3 x 3 neighbourhood; peaks are taken in decreasing belief and a peak within
+    ``nms_radius`` (m) of a kept one is dropped. The position is the belief-weighted centroid of the cells
+    above ``threshold`` in the peak's 3 x 3 neighbourhood (grid frame, m); the score is the peak belief.
+
+    Parameters
+    ----------
+    belief : ndarray, shape (nx, ny)
+        Probability of a person per cell.
+    spec : GridSpec
+    threshold : float
+        Cells at or below it are never people.
+    nms_radius : float
+        Suppression radius (m).
+
+    Returns
+    -------
+    positions : ndarray, shape (K, 2)
+    scores : ndarray, shape (K,)
+    """
+    b = spec.check_grid(belief, "belief")
+    peaks = (b > threshold) & (b >= ndimage.maximum_filter(b, size=3, mode="constant", cval=0.0))
+    ii, jj = np.nonzero(peaks)
+    if ii.size == 0:
+        return np.zeros((0, 2)), np.zeros(0)
+    order = np.argsort(-b[ii, jj], kind="stable")
+    ii, jj = ii[order], jj[order]
+    w = np.where(b > threshold, b, 0.0)
+    wp = np.pad(w, 1)
+    cx, cy = spec.cell_centres()
+    off = (np.arange(3) - 1) * spec.resolution
+    win = np.stack([wp[i : i + 3, j : j + 3] for i, j in zip(ii, jj, strict=True)])  # (K, 3, 3), padding has 0
+    tot = win.sum(axis=(1, 2))
+    pos = np.column_stack(
+        (
+            cx[ii, jj] + np.einsum("kab,a->k", win, off) / tot,
+            cy[ii, jj] + np.einsum("kab,b->k", win, off) / tot,
+        )
+    )
+    keep: list[int] = []
+    r2 = nms_radius**2
+    for n in range(ii.size):
+        if all((pos[n, 0] - pos[k, 0]) ** 2 + (pos[n, 1] - pos[k, 1]) ** 2 > r2 for k in keep):
+            keep.append(n)
+    return pos[keep], b[ii[keep], jj[keep]].astype(float)
+
+
+def merge_detections(detections: Sequence[Positions], *, radius: float = 0.4) -> Positions:
+    """All detectors' detections as one set: greedy clustering within ``radius`` (m), cluster means.
+
+    Detections are taken in the given order (detector by detector); each joins the first cluster whose mean is
+    within ``radius``, else starts one. The usual way a tracking-by-detection tracker merges detectors.
+    """
+    pts = [np.asarray(d, dtype=float).reshape(-1, 2) for d in detections]
+    allp = np.concatenate(pts) if pts else np.zeros((0, 2))
+    sums: list[NDArray[np.float64]] = []
+    counts: list[int] = []
+    for p in allp:
+        best, best_d = -1, radius
+        for c, (s, n) in enumerate(zip(sums, counts, strict=True)):
+            d = float(np.hypot(*(s / n - p)))
+            if d <= best_d:
+                best, best_d = c, d
+        if best < 0:
+            sums.append(p.copy())
+            counts.append(1)
+        else:
+            sums[best] += p
+            counts[best] += 1
+    if not sums:
+        return np.zeros((0, 2))
+    return np.array([s / n for s, n in zip(sums, counts, strict=True)])
+
+
+def run_tracker(
+    positions: Sequence[Positions],
+    dts: Sequence[float],
+    *,
+    scores: Sequence[NDArray[np.float64] | None] | None = None,
+    egos: Sequence[Pose2D | None] | None = None,
+    config: TrackerConfig | None = None,
+) -> HypFrames:
+    """Run a fresh tracker over a sequence; per frame the confirmed tracks' ``(ids, positions)``."""
+    tracker = MultiPersonTracker(config)
+    out: HypFrames = []
+    for k, z in enumerate(positions):
+        tr = tracker.update(
+            z,
+            dts[k],
+            scores=None if scores is None else scores[k],
+            ego=None if egos is None else egos[k],
+        )
+        ids = np.array([t.id for t in tr], dtype=np.int64)
+        pos = np.array([[t.x, t.y] for t in tr], dtype=float).reshape(-1, 2)
+        out.append((ids, pos))
+    return out
+
+
+@dataclass
+class MotRow:
+    """One row of the tracking table: a sequence, a source, its scores."""
+
+    sequence: str
+    source: str
+    scores: MotScores
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _in_grid(spec: GridSpec, ids: NDArray[np.int64], pos: Positions) -> tuple[NDArray[np.int64], Positions]:
+    keep = spec.contains(pos[:, 0], pos[:, 1]) if len(pos) else np.zeros(0, dtype=bool)
+    return ids[keep], pos[keep]
+
+
+def _ego(frame: Frame, dt: float) -> Pose2D:
+    odo = frame.odometry(noisy=True)
+    dx, dy, dth = velocity_displacement(odo.v, odo.omega, dt)
+    return Pose2D(x=float(dx), y=float(dy), yaw=float(dth))
+
+
+def evaluate_scenario(
+    scenario: Scenario,
+    *,
+    filters: Sequence[FilterSpec] = (),
+    classify: Classifier = peak_classifier,
+    classifier_name: str = "peaks",
+    detectors: bool = True,
+    merged: bool = True,
+    config: TrackerConfig | None = None,
+    gate: float = 0.75,
+    seed: int = 0,
+    n_frames: int | None = None,
+) -> list[MotRow]:
+    """CLEAR-MOT of the tracker on each source over a scenario (see the module docstring).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    filters : sequence of FilterSpec
+        Filters whose posterior is classified and tracked (``FilterSpec.build``; particle filters seeded with
+        ``seed``).
+    classify : callable
+        ``classify(belief, spec) -> (positions (K, 2), scores (K,))``.
+    classifier_name : str
+        Label of the classifier in the source column.
+    detectors, merged : bool
+        Add the tracking-by-detection rows: each detector alone, all detectors merged.
+    config : TrackerConfig, optional
+        Tracker parameters; default ``TrackerConfig(region=grid extent)``.
+    gate : float
+        Matching distance (m).
+    n_frames : int, optional
+        Only the first ``n_frames`` frames.
+    """
+    spec = scenario.spec
+    if config is None:
+        config = TrackerConfig(region=spec.extent)
+    n = len(scenario) if n_frames is None else min(n_frames, len(scenario))
+    frames = list(scenario.frames(0, n))
+    dt = scenario.dt
+    dts = [dt] * n
+    egos = [_ego(fr, dt) for fr in frames]
+    gt = [_in_grid(spec, fr.person_ids, fr.people) for fr in frames]
+    name = scenario.config.name
+    rows: list[MotRow] = []
+
+    def score(source: str, hyp: HypFrames, **extra: Any) -> None:
+        hyp = [_in_grid(spec, i, p) for i, p in hyp]
+        rows.append(MotRow(name, source, clear_mot(gt, hyp, gate=gate), dict(extra)))
+
+    models = scenario.config.detector_models
+    for fs in filters:
+        filt = fs.build(spec, models, seed)
+        pos: list[Positions] = []
+        sc: list[NDArray[np.float64]] = []
+        for fr in frames:
+            out = filt.step(fr.detections, fr.odometry(noisy=True), dt)
+            p, s = classify(out.posterior, spec)
+            pos.append(np.asarray(p, dtype=float).reshape(-1, 2))
+            sc.append(np.clip(np.asarray(s, dtype=float).reshape(-1), 0.0, 1.0))
+        score(f"{fs.name} + {classifier_name}", run_tracker(pos, dts, scores=sc, egos=egos, config=config))
+    if detectors:
+        for i, m in enumerate(models):
+            det = [fr.outputs[i].positions.reshape(-1, 2) for fr in frames]
+            score(f"{m.name} (raw)", run_tracker(det, dts, egos=egos, config=detector_config(config, m)))
+    if merged:
+        det = [merge_detections(fr.detections) for fr in frames]
+        score("all detectors merged (raw)", run_tracker(det, dts, egos=egos, config=config))
+    return rows
+
+
+def detector_config(config: TrackerConfig, model: DetectorModel) -> TrackerConfig:
+    """The tracker configuration for one detector's raw detections: a detector whose model has a Gaussian
+    position uncertainty (the camera) gets that uncertainty as measurement noise (RMS of its lateral and
+    range standard deviations) and a metric gate of at least three of them; others keep ``config``."""
+    if model.uncertainty != "gaussian":
+        return config
+    sigma = math.sqrt(0.5 * (model.sigma_lateral**2 + model.sigma_range**2))
+    return replace(
+        config,
+        measurement_sigma=max(config.measurement_sigma, sigma),
+        gate_distance=max(config.gate_distance, 3.0 * sigma),
+    )
+
+
+def _run_egos(run: RunData) -> tuple[list[float], list[Pose2D | None]]:
+    fr = run.frames
+    dts = [float(v) for v in fr["dt_s"]]
+    egos: list[Pose2D | None] = []
+    for k in range(run.n_frames):
+        if int(fr["odometry"][k]) == 0:
+            egos.append(None)
+            continue
+        dx, dy, dth = velocity_displacement(float(fr["v_mps"][k]), float(fr["omega_radps"][k]), dts[k])
+        egos.append(Pose2D(x=float(dx), y=float(dy), yaw=float(dth)))
+    return dts, egos
+
+
+def _gt_frames(
+    run: RunData, gt: GroundTruth, frame: str, tolerance_ns: int
+) -> list[tuple[NDArray[np.int64], Positions]]:
+    fr = run.frames
+    rows_frame, _ = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    xy = gt_to_grid(run, gt, frame)
+    out: list[list[tuple[int, float, float]]] = [[] for _ in range(run.n_frames)]
+    for f, pid, p in zip(rows_frame, gt.person_id, xy, strict=True):
+        if 0 <= f < run.n_frames:
+            out[int(f)].append((int(pid), float(p[0]), float(p[1])))
+    res = []
+    for rows in out:
+        # one row per person and frame: a later GT row of the same person in the same frame replaces the earlier
+        d = {pid: (x, y) for pid, x, y in rows}
+        res.append((np.array(list(d), dtype=np.int64), np.array(list(d.values()), dtype=float).reshape(-1, 2)))
+    return res
+
+
+def evaluate_run(
+    run: RunData,
+    gt: GroundTruth,
+    *,
+    frame: str = "laser",
+    config: TrackerConfig | None = None,
+    gate: float = 0.75,
+    sector: tuple[float, float] | None = None,
+    max_range: float | None = None,
+    follow_id: int | None = None,
+    tolerance_ns: int = 50_000_000,
+    sources: Sequence[str] | None = None,
+    classify: Classifier | None = peak_classifier,
+    classifier_name: str = "peaks",
+) -> list[MotRow]:
+    """CLEAR-MOT of the tracker on a run's filter output and on each detector's detections.
+
+    Parameters
+    ----------
+    run : RunData
+        ``pfpeople.output.load_run(...)``.
+    gt : GroundTruth
+        With person ids.
+    frame : str
+        Frame of the GT positions (as ``pfpeople-eval score --frame``).
+    sector : (float, float), optional
+        Bearing interval (rad) of what counts; ``max_range`` likewise (m).
+    follow_id : int, optional
+        Person for the followed-person figure (``extra["followed"]``); default: the GT id with the most rows.
+    sources : sequence of str, optional
+        Subset of the sources (default all): ``"filter"`` (the run's ``people.csv``), ``"grid + NAME"`` (the
+        stored belief grids classified by ``classify``), each detector name and ``"all detectors merged"``.
+    classify : callable or None
+        Classifier of the stored belief grids (``grids.npy``); None: no such row.
+    classifier_name : str
+        Its label.
+
+    Returns
+    -------
+    list of MotRow
+        ``extra["followed"]`` holds ``{"id", "annotated_frames", "matched_fraction", "id_switches"}``.
+    """
+    truth = _gt_frames(run, gt, frame, tolerance_ns)
+    dts, egos = _run_egos(run)
+    n = run.n_frames
+    if config is None:
+        config = TrackerConfig(region=run.spec.extent)
+    ppl = run.people
+    inputs: dict[str, tuple[list[Positions], list[NDArray[np.float64]] | None]] = {}
+    fpos = group_by_frame(ppl["frame"], np.column_stack((ppl["x_m"], ppl["y_m"])), n)
+    # confidence of each person: its blob's mean probability (NaN when not recorded: counts as 1)
+    prob = np.clip(np.nan_to_num(ppl["mean_probability"].astype(float), nan=1.0), 0.0, 1.0)
+    fsc = [g[:, 0].copy() for g in group_by_frame(ppl["frame"], np.column_stack((prob, prob)), n)]
+    inputs["filter"] = (fpos, fsc)
+    if classify is not None:
+        spec = run.spec
+        cpos: list[Positions] = []
+        csc: list[NDArray[np.float64]] = []
+        for k in range(n):
+            p, s = classify(np.asarray(run.grids[k], dtype=float), spec)
+            cpos.append(np.asarray(p, dtype=float).reshape(-1, 2))
+            csc.append(np.clip(np.asarray(s, dtype=float).reshape(-1), 0.0, 1.0))
+        inputs[f"grid + {classifier_name}"] = (cpos, csc)
+    det = run.detections
+    per_det: list[list[Positions]] = []
+    for name in run.meta["detectors"]:
+        sel = det["detector"] == name
+        d = group_by_frame(det["frame"][sel], np.column_stack((det["x_m"][sel], det["y_m"][sel])), n)
+        inputs[f"{name} (raw)"] = (d, None)
+        per_det.append(d)
+    if len(per_det) > 1:
+        inputs["all detectors merged (raw)"] = ([merge_detections([d[k] for d in per_det]) for k in range(n)], None)
+    if sources is not None:
+        wanted = set(sources)
+        inputs = {k: v for k, v in inputs.items() if k in wanted or k.removesuffix(" (raw)") in wanted}
+        if not inputs:
+            raise ValueError(f"sources {sorted(wanted)} name none of the run's sources")
+    if follow_id is None and len(gt):
+        ids, counts = np.unique(gt.person_id, return_counts=True)
+        follow_id = int(ids[np.argmax(counts)])
+    bags = run.meta.get("provenance", {}).get("bag") or []
+    seq = Path(str(bags[0])).name.removesuffix(".zip").removesuffix(".bag") if bags else run.path.name
+    rows: list[MotRow] = []
+    for source, (pos, sc) in inputs.items():
+        hyp = run_tracker(pos, dts, scores=sc, egos=egos, config=config)
+        scores = clear_mot(truth, hyp, gate=gate, sector=sector, max_range=max_range)
+        extra: dict[str, Any] = {}
+        if follow_id is not None:
+            one = [(i[i == follow_id], p[i == follow_id]) for i, p in truth]
+            fs = clear_mot(one, hyp, gate=gate, sector=sector, max_range=max_range)
+            extra["followed"] = {
+                "id": follow_id,
+                "annotated_frames": fs.num_gt,
+                "matched_fraction": fs.recall,
+                "id_switches": fs.id_switches,
+            }
+        rows.append(MotRow(seq, f"{source} (people.csv)" if source == "filter" else source, scores, extra))
+    return rows
+
+
+def _f(v: float, digits: int = 3) -> str:
+    return "nan" if isinstance(v, float) and math.isnan(v) else f"{v:.{digits}f}"
+
+
+def format_rows(rows: Sequence[MotRow]) -> str:
+    """The tracking table: sequence, source, MOTA, MOTP (m), IDSW, Frag, MT, ML, recall, precision."""
+    head = f"{'sequence':<26}{'source':<36}{'MOTA':>7}{'MOTP':>7}{'IDSW':>6}{'Frag':>6}{'MT':>5}{'ML':>5}"
+    head += f"{'recall':>8}{'prec':>7}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        s = r.scores
+        lines.append(
+            f"{r.sequence[:25]:<26}{r.source[:35]:<36}{_f(s.mota):>7}{_f(s.motp):>7}{s.id_switches:>6}"
+            f"{s.fragmentations:>6}{s.mostly_tracked:>5}{s.mostly_lost:>5}{_f(s.recall):>8}{_f(s.precision):>7}"
+        )
+    for r in rows:
+        fol = r.extra.get("followed")
+        if fol:
+            lines.append(
+                f"followed person {fol['id']} on {r.source}: matched in {_f(fol['matched_fraction'])} of "
+                f"{fol['annotated_frames']} annotated frames, {fol['id_switches']} id switches"
+            )
+    return "\n".join(lines)
