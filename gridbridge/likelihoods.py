@@ -81,9 +81,7 @@ class IndependentLikelihood:
         self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
     ) -> Likelihood:
         if len(detections) != len(detectors):
-            raise ValueError(
-                f"detections must have one entry per detector ({len(detectors)}), got {len(detections)}"
-            )
+            raise ValueError(f"detections must have one entry per detector ({len(detectors)}), got {len(detections)}")
         d = len(detectors)
         fired = np.zeros((d, *spec.shape))
         covered = np.zeros((d, *spec.shape), dtype=bool)

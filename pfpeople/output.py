@@ -272,6 +272,7 @@ class RunWriter:
             self._frames = self._csv("frames.csv", FRAME_COLUMNS)
             self._people = self._csv("people.csv", PEOPLE_COLUMNS)
             self._dets = self._csv("detections.csv", DETECTION_COLUMNS)
+            self._tracks: Any = None
         except OSError as exc:
             self._unlock()
             raise _named_os_error(exc, self.path) from exc
@@ -352,8 +353,13 @@ class RunWriter:
         people_size: Sequence[int] = (),
         people_probability: Sequence[float] = (),
         detections: Sequence[NDArray[np.float64] | None],
+        tracks: Sequence[Sequence[Any]] | None = None,
     ) -> None:
-        """Append one frame to every file and flush (see the module docstring for the columns)."""
+        """Append one frame to every file and flush (see the module docstring for the columns).
+
+        ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.mot.TRACK_COLUMNS`), written when given (the file is
+        created at the first frame that has them, with its header).
+        """
         if self._closed:
             raise RuntimeError("RunWriter is closed")
         belief = self.spec.check_grid(belief, "belief")
@@ -389,6 +395,14 @@ class RunWriter:
                         continue
                     for x, y in np.asarray(det, dtype=float).reshape(-1, 2):
                         self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}"))
+                if tracks is not None:
+                    target = self.path / "tracks.csv"
+                    if self._tracks is None:
+                        from pfpeople.mot import TRACK_COLUMNS
+
+                        self._tracks = self._csv("tracks.csv", TRACK_COLUMNS)
+                    for row in tracks:
+                        self._tracks.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in row])
                 for fh in self._files:
                     target = Path(fh.name)
                     fh.flush()

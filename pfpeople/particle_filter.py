@@ -73,13 +73,15 @@ from gridbridge import (
     as_odometry,
     bayes_update,
     ego_motion_sigma_points,
-    likelihood_from_detections,
+    fov_mask,
     people_motion_kernel,
     predict_people,
     warp_belief,
 )
 from gridbridge._validate import check_choice, check_positive, check_probability
+from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.filter import filter_models
+from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood
 from gridbridge.limits import check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
 from pfpeople.motion import (
@@ -154,6 +156,13 @@ class ParticleFilter:
         Particles born in an empty cell whose posterior has mass.
     ego_pool : int
         Largest number of distinct ego-motion draws per step (see the module docstring).
+    likelihood : DetectionLikelihood, optional
+        Detections -> per-cell likelihood (default: the paper's De Morgan fusion, shared with the grid filter).
+    appearance : Appearance, optional
+        Birth probability added to the prior of the update in observed cells (particles scaled up, or born in
+        empty cells).
+    bounds : BeliefBounds, optional
+        Clamp of the posterior.
     """
 
     def __init__(
@@ -174,6 +183,9 @@ class ParticleFilter:
         outside: float = 0.5,
         n_birth: int = 2,
         ego_pool: int = 4096,
+        likelihood: DetectionLikelihood | None = None,
+        appearance: Appearance | None = None,
+        bounds: BeliefBounds | None = None,
     ) -> None:
         self.spec, self.detectors, self.motion, self.noise = filter_models(spec, detectors, motion, noise)
         self.n_particles = _check_count(n_particles, "n_particles")
@@ -199,6 +211,18 @@ class ParticleFilter:
         self.outside = check_probability(outside, "outside")
         self.n_birth = _check_count(n_birth, "n_birth")
         self.ego_pool = _check_count(ego_pool, "ego_pool")
+        if likelihood is None:
+            likelihood = DeMorganLikelihood()
+        if not isinstance(likelihood, DetectionLikelihood):
+            raise TypeError(f"likelihood must be a DetectionLikelihood component, got {type(likelihood).__name__}")
+        if appearance is not None and not isinstance(appearance, Appearance):
+            raise TypeError(f"appearance must be an Appearance or None, got {type(appearance).__name__}")
+        if bounds is not None and not isinstance(bounds, BeliefBounds):
+            raise TypeError(f"bounds must be a BeliefBounds or None, got {type(bounds).__name__}")
+        self.likelihood = likelihood
+        self.appearance = appearance
+        self.bounds = bounds
+        self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
         self._inflow_cache: dict[float, NDArray[np.float64]] = {}
         self.state = ParticleState.empty()
         self.belief: NDArray[np.float64] = np.zeros(self.spec.shape)
@@ -279,7 +303,7 @@ class ParticleFilter:
         """
         dt = check_positive(dt, "dt")
         odo = as_odometry(odometry)
-        lik = likelihood_from_detections(self.spec, self.detectors, detections)
+        lik = self.likelihood(self.spec, self.detectors, list(detections))
         spec, rng, n_cells, n_target = self.spec, self.rng, self.spec.n_cells, self.n_particles
         # The filter never writes into particle arrays in place, so a shallow copy protects self.state.
         st = self.state.shallow_copy()
@@ -331,7 +355,12 @@ class ParticleFilter:
         empty = counts == 0
         if empty.any():
             sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w).ravel()[empty]
-        posterior = bayes_update(np.clip(sensor_prior, 0.0, 1.0), lik.likelihood.ravel())
+        prior = np.clip(sensor_prior, 0.0, 1.0)
+        if self.appearance is not None:  # appearances scale the particles of a cell up (births where empty)
+            prior = self.appearance.apply(prior, dt, where=self.observed)
+        posterior = bayes_update(prior, lik.likelihood.ravel())
+        if self.bounds is not None:
+            posterior = self.bounds.apply(posterior)
         held = sensor_prior > 0.0
         factor = np.divide(posterior, sensor_prior, out=np.zeros(n_cells), where=held & ~empty)
         st.w = st.w * factor[cells]

@@ -50,12 +50,10 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.classify import classify_blobs
 from gridbridge.ego_motion import Odometry
-from gridbridge.filter import GridFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
-from pfpeople.bag.config import BagConfig, DetectorConfig, FilterConfig
+from pfpeople.bag.config import BagConfig, DetectorConfig, FilterConfig, check_run_limits
 from pfpeople.bag.reader import (
     IMAGE_TYPES,
     LASER_TYPES,
@@ -69,6 +67,8 @@ from pfpeople.bag.reader import (
 )
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer, TfLookupError
+from pfpeople.filters import build_classifier, grid_for_scan
+from pfpeople.mot import track_rows
 from pfpeople.output import RunWriter, deferred_signals, interrupt_signals
 from pfpeople.sensors import Pose2D
 
@@ -256,24 +256,36 @@ def _model_for(cfg: DetectorConfig, mount: Pose2D, base: DetectorModel | None) -
 
 
 def make_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[DetectorModel]) -> StepFilter:
-    """The run's filter: ``GridFilter`` or (imported lazily) ``pfpeople.ParticleFilter``."""
-    if config.kind == "grid":
-        return GridFilter(spec, detectors=detectors, form=config.form, initial=config.initial)  # type: ignore[arg-type]
-    pf_cls = getattr(importlib.import_module("pfpeople"), "ParticleFilter", None)
-    if pf_cls is None:  # not exported (yet): the module that defines it
-        try:
-            pf_cls = importlib.import_module("pfpeople.particle_filter").ParticleFilter
-        except (ImportError, AttributeError) as exc:
-            raise ValueError(
-                f"--filter particle needs pfpeople.ParticleFilter, which is not available ({exc}); use --filter grid"
-            ) from None
-    return pf_cls(
-        spec,
-        detectors=detectors,
-        n_particles=config.n_particles,
-        rng=np.random.default_rng(config.seed),
-        initial=config.initial,
-    )
+    """The run's filter (:func:`pfpeople.filters.build_filter`)."""
+    from pfpeople.filters import build_filter
+
+    return build_filter(config, spec, detectors)  # type: ignore[no-any-return]
+
+
+def _scan_bearings(msg: Any) -> tuple[float, float]:
+    """``(lowest, highest)`` bearing of a LaserScan message (rad), whatever the sign of its increment."""
+    a0, a1 = float(msg.angle_min), float(msg.angle_max)
+    lo, hi = min(a0, a1), max(a0, a1)
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi - lo <= 0:
+        raise ValueError(f"LaserScan angles angle_min={a0!r}, angle_max={a1!r} give no field of view")
+    return lo, min(hi, lo + 2 * math.pi)
+
+
+def _with_scan_fov(d: DetectorConfig, msg: Any) -> DetectorConfig:
+    """``d`` with the field of view and range of its LaserScan where its ``[detectors.model]`` leaves them out."""
+    try:
+        lo, hi = _scan_bearings(msg)
+    except ValueError:
+        return d  # the reader reports such scans; the model keeps its own field of view
+    model = dict(d.model)
+    model.setdefault("fov_min", lo)
+    model.setdefault("fov_max", hi)
+    rmax = float(msg.range_max)
+    if "max_range" not in model and math.isfinite(rmax) and rmax > 0:
+        model["max_range"] = rmax
+    if model.get("min_range", 0.0) >= model.get("max_range", math.inf):
+        model.pop("min_range", None)
+    return replace(d, model=model)
 
 
 def _check_max_frames(max_frames: int | None) -> None:
@@ -321,6 +333,7 @@ class FrameResult:
     people_size: list[int] = field(default_factory=list)
     people_probability: list[float] = field(default_factory=list)
     step: Any = None
+    tracks: list[Any] | None = None
 
 
 @dataclass
@@ -380,6 +393,9 @@ class Pipeline:
         self.models: list[DetectorModel] = []
         self.mounts: list[Pose2D] = []
         self.filter: StepFilter | None = None
+        self.spec: GridSpec = config.grid if config.grid is not None else GridSpec()
+        self.classifier: Any = None
+        self.tracker: Any = None
         self._detectors: list[Detector | None] = []
         self._warned: set[str] = set()
 
@@ -431,6 +447,8 @@ class Pipeline:
         self.models, self.mounts, self._detectors = [], [], []
         self.frame_mounts: dict[str, Pose2D] = {self.grid_frame: Pose2D()}
         for d in c.detectors:
+            if d.kind in ("leg", "boosted") and d.topic in first:
+                d = _with_scan_fov(d, first[d.topic].msg)
             src = d.frame or ids.get(d.topic, "") or self.grid_frame
             try:
                 mount = tf.lookup(self.grid_frame, src)
@@ -452,9 +470,39 @@ class Pipeline:
                 self._base_to_grid = tf.lookup(c.base_frame, self.grid_frame)
             except TfLookupError as exc:
                 raise ValueError(f"odometry needs the grid frame's mount on the base frame: {exc}") from None
+        self.spec = c.grid if c.grid is not None else self._default_grid(tf, first, ids)
+        if c.grid is None:
+            check_run_limits(self.spec, c.filter, len(c.detectors))
+            log.info("grid from the driving laser's field of view: %s", self.spec)
         factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
-        self.filter = factory(c.grid, self.models)
+        self.filter = factory(self.spec, self.models)
+        self.classifier = build_classifier(c.classifier, c.filter.mode)
+        self.tracker = None
+        if c.tracking.enabled:
+            from pfpeople.mot import MultiPersonTracker, TrackerConfig
+
+            try:
+                self.tracker = MultiPersonTracker(TrackerConfig(**dict(c.tracking.params)))
+            except TypeError as exc:
+                raise ValueError(f"[tracking.params]: {exc}") from None
         return tf
+
+    def _default_grid(self, tf: TfBuffer, first: Mapping[str, BagMessage], ids: Mapping[str, str]) -> GridSpec:
+        """The grid covering the driving laser's field of view (:func:`pfpeople.filters.grid_for_scan`), or the first
+        laser detector's when the driver is not a LaserScan, or the paper's grid when the run has no laser."""
+        c = self.config
+        lasers = [c.driver, *(d.topic for d in c.detectors if d.kind in ("leg", "boosted"))]
+        topic = next((t for t in lasers if t in first and first[t].msgtype in LASER_TYPES), None)
+        if topic is None:
+            log.info("no [grid] and no LaserScan to size it: the paper's 30 x 30 grid of 0.3 m")
+            return GridSpec()
+        m = first[topic]
+        try:
+            mount = tf.lookup(self.grid_frame, ids.get(topic, "") or self.grid_frame)
+        except TfLookupError as exc:
+            raise ValueError(f"grid from the laser {topic!r}: {exc}") from None
+        lo, hi = _scan_bearings(m.msg)
+        return grid_for_scan(lo, hi, float(m.msg.range_max), mount=mount)
 
     # -- running ---------------------------------------------------------------------------------------------
 
@@ -573,7 +621,9 @@ class Pipeline:
             assert self.filter is not None
             s = self.summary
             dt = FIRST_DT_S if prev_stamp is None else (frame.stamp_ns - prev_stamp) * 1e-9
+            restarted = False
             if dt > MAX_GAP_S:
+                restarted = True
                 s.filter_restarts += 1
                 log.warning("gap of %.3f s before frame %d: restarting the filter", dt, frame.index)
                 self.filter.reset()
@@ -594,8 +644,15 @@ class Pipeline:
             dets = [self._detect(k, d, frame) for k, d in enumerate(c.detectors)]
             step = self.filter.step(dets, odo, dt)
             belief = np.asarray(step.posterior, dtype=float)
-            cls = classify_blobs(belief, spec=c.grid)
-            people = cls.positions.reshape(-1, 2)
+            found = self.classifier.classify(belief, self.spec, observed=np.asarray(step.covered).any(axis=0))
+            people = found.positions.reshape(-1, 2)
+            tracks = None
+            if self.tracker is not None:
+                ego = None if (pose is None or prev_pose is None) else prev_pose.inverse().compose(pose)
+                if restarted:
+                    self.tracker.reset()
+                self.tracker.update(people, dt, scores=found.scores, ego=ego)
+                tracks = self.tracker.confirmed()
             prev_stamp = frame.stamp_ns
             if pose is not None:  # a frame without odometry keeps the last pose: its motion is not lost
                 prev_pose = pose
@@ -607,9 +664,10 @@ class Pipeline:
                 detections=dets,
                 belief=belief,
                 people=people,
-                people_size=[b.size for b in cls.people],
-                people_probability=[b.mean_probability for b in cls.people],
+                people_size=[int(v) for v in found.sizes],
+                people_probability=[float(v) for v in found.scores],
                 step=step,
+                tracks=tracks,
             )
 
         def synced() -> Iterator[Frame]:
@@ -694,7 +752,7 @@ class Pipeline:
                 "detector_models": [dataclasses.asdict(m) for m in self.models],
                 "provenance": {"bag": [str(p) for p in bag.paths], "bag_topics": bag.topics, **dict(metadata or {})},
             }
-            writer = RunWriter(out_dir, spec=self.config.grid, detector_names=names, metadata=meta, overwrite=overwrite)
+            writer = RunWriter(out_dir, spec=self.spec, detector_names=names, metadata=meta, overwrite=overwrite)
         results = self.frames(bag, max_frames=max_frames)
         bag_writer = None
         bar = None
@@ -706,7 +764,7 @@ class Pipeline:
 
                 bag_writer = ResultBagWriter(
                     bag_out,
-                    spec=self.config.grid,
+                    spec=self.spec,
                     frame_id=self.grid_frame,
                     detector_names=names,
                     bag_format=bag_format,
@@ -734,6 +792,7 @@ class Pipeline:
                             people_size=r.people_size,
                             people_probability=r.people_probability,
                             detections=r.detections,
+                            tracks=None if r.tracks is None else track_rows(f.index, f.stamp_ns, r.tracks),
                         )
                     if bag_writer is not None:
                         bag_writer.write(

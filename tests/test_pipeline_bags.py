@@ -272,7 +272,7 @@ def _nearest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.min(np.linalg.norm(a[:, None, :] - b[None, :, :], axis=-1), axis=0)
 
 
-def _check_round_trip(results: list[Any], truth: Truth) -> None:
+def _check_round_trip(results: list[Any], truth: Truth, spec: GridSpec) -> None:
     assert len(results) == len(truth.stamps_ns)
     for r, stamp, xy in zip(results, truth.stamps_ns, truth.people_laser, strict=True):
         assert r.frame.stamp_ns == stamp
@@ -293,7 +293,6 @@ def _check_round_trip(results: list[Any], truth: Truth) -> None:
     # Filter: high belief at the people's cells (mean over frames and people > 0.9); the classified people
     # are all within 0.3 m (one cell) of a true person, and both people are found in >= 75 % of the frames
     # (the blob rule rejects a blob that smeared over a cell boundary now and then).
-    spec = GridSpec()
     at_people = [r.belief[spec.to_cell(x, y)] for r, xy in zip(results, truth.people_laser, strict=True) for x, y in xy]
     assert np.mean(at_people) > 0.9
     both = 0
@@ -308,14 +307,15 @@ def test_ros1_round_trip_recovers_positions_and_motion(tmp_path: Path) -> None:
     truth = write_bag(bag)
     with BagSource(bag) as src:
         assert src.topics["/people"] == "test_msgs/msg/Person"
-        summary, results = Pipeline(config()).run(src, tmp_path / "run", keep=True)
-    _check_round_trip(results, truth)
+        pipe = Pipeline(config())
+        summary, results = pipe.run(src, tmp_path / "run", keep=True)
+    _check_round_trip(results, truth, pipe.spec)
     assert summary.frames == 20 and summary.frames_without_odometry == 0
     # The laser's lateral velocity in its own frame is not representable by (v, omega): reported.
     lateral = max(abs(odometry_between(laser_pose(0.1 * k), laser_pose(0.1 * k + 0.1), 0.1)[1]) for k in range(19))
     assert summary.max_lateral_m == pytest.approx(lateral, rel=1e-3)
     run = load_run(tmp_path / "run")
-    assert run.meta["status"] == "complete" and run.grids.shape == (20, 30, 30)
+    assert run.meta["status"] == "complete" and run.grids.shape == (20, *pipe.spec.shape)
     assert run.meta["frames_in_grid"]["laser"] == [0.0, 0.0, 0.0]
     np.testing.assert_allclose(run.grids[-1], results[-1].belief, atol=1e-6)  # float32 storage
     assert list(run.frames["driver_index"]) == list(range(20))
@@ -329,7 +329,7 @@ def test_ros2_round_trip_with_custom_type_in_metadata(tmp_path: Path, storage: s
     with BagSource(bag) as src:
         assert src.topics["/people"] == "test_msgs/msg/PersonArray"
         _, results = pipe.run(src, None, keep=True)
-    _check_round_trip(results, truth)
+    _check_round_trip(results, truth, pipe.spec)
     # The custom detector's frame (base_link) was composed with the inverse of the laser's TF mount.
     assert results[0].frame.inputs["/people"][0].frame_id == "base_link"
     inv = MOUNT.inverse()
@@ -558,8 +558,9 @@ def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
         grid: Any = r.deserialize(next(r.messages(connections=[conn]))[2], conn.msgtype)
     assert counts["/pfpeople/belief"] == 20 and counts["/pfpeople/people"] == 20
     belief0 = load_run(out).grids[0]
-    assert (grid.info.width, grid.info.height) == (30, 30)
-    assert grid.data[5 * 30 + 7] == round(float(belief0[7, 5]) * 100)  # data[j * nx + i] = belief[i, j]
+    nx, ny = belief0.shape
+    assert (grid.info.width, grid.info.height) == (nx, ny)
+    assert grid.data[5 * nx + 7] == round(float(belief0[7, 5]) * 100)  # data[j * nx + i] = belief[i, j]
     gt = tmp_path / "gt.csv"
     with gt.open("w", newline="") as fh:
         w = csv.writer(fh)
@@ -578,8 +579,9 @@ def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
     # A sector from -90 to -20 deg keeps only the person at -39 .. -62 deg (the other is at -2 .. -14 deg).
     left = score_run(load_run(out), read_gt_csv(gt), frame="laser", sector=(-90.0, -20.0))
     assert left["scores"]["laser-legs"]["tp"] + left["scores"]["laser-legs"]["fn"] == 20
-    # Calibration from the run: its detector model has an unbounded range, stored as "inf" in run.json.
-    assert load_run(out).meta["detector_models"][0]["max_range"] == "inf"
+    # The detector's field of view and range come from its LaserScan when the config leaves them out.
+    model0 = load_run(out).meta["detector_models"][0]
+    assert model0["max_range"] == 10.0 and model0["fov_min"] == pytest.approx(-np.pi / 2, abs=1e-6)
     cal = tmp_path / "cal.json"
     assert eval_main(["calibrate", "--run", str(out), "--gt", str(gt), "--frame", "laser", "--json", str(cal)]) == 0
     assert json.loads(cal.read_text())["matched"]["laser-legs"]["fnr"] == pytest.approx(0.0)

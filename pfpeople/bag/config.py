@@ -20,8 +20,8 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [mounts]                    # static 2-D mounts used when the bag has no TF for a frame:
     laser = [0.1, 0.0, 0.0]     #   child frame = [x, y, yaw] in base_frame (m, m, rad)
 
-    [grid]                      # gridbridge.GridSpec fields
-    nx = 30
+    [grid]                      # gridbridge.GridSpec fields; leave the table out to cover the driving
+    nx = 30                     #   laser's field of view out to min(range_max, 10 m) at 0.3 m cells
     ny = 30
     resolution = 0.3
     x0 = 0.0
@@ -29,10 +29,18 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
 
     [filter]
     kind = "grid"               # "grid" (gridbridge.GridFilter) or "particle" (pfpeople.ParticleFilter)
-    form = "paper"              # GridFilter form
-    initial = 0.5
-    n_particles = 5000           # at least ~5 per cell (see pfpeople.particle_filter)
-    seed = 0
+    mode = "recommended"        # "recommended" (the product's default) or "paper" (Batista & Pereira as written)
+    # form, initial, n_particles, seed, motion_model, base_rate, appearance_rate, belief_max, laser_footprint:
+    # see FilterConfig (unset = the mode's default)
+
+    [classifier]
+    kind = "peaks"              # "peaks" (recommended mode's default), "blobs" (paper's), "threshold"
+    threshold = 0.5
+    min_separation = 0.6        # m
+
+    [tracking]
+    enabled = true              # tracks.csv and tracks in the result bag
+    [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [[detectors]]
     name = "laser-legs"
@@ -42,9 +50,9 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     frame = ""                  # frame of its output when the message has no header ("" = the message's)
     assign = "nearest"          # "nearest": the message closest to the frame stamp (within the tolerance);
                                 #   "preceding": all messages from this frame's stamp to the next frame's
-    [detectors.model]           # DetectorModel fields overriding the detector's own (radians, metres)
-    ppv = 0.95
-    fnr = 0.30
+    [detectors.model]           # DetectorModel fields overriding the detector's own (radians, metres);
+    ppv = 0.95                  #   a laser detector's fov_min, fov_max, min_range and max_range default to
+    fnr = 0.30                  #   its LaserScan's angle_min, angle_max, range_min and range_max
     [detectors.params]          # keyword arguments of the built-in detector's constructor
 
 Angles are radians, lengths metres, times seconds (REP-103 frames).
@@ -63,7 +71,18 @@ from gridbridge.grid import GridSpec
 from gridbridge.limits import check_grid_size, check_memory, check_particles
 from gridbridge.params import DetectorModel, PeopleMotion
 
-__all__ = ["DETECTOR_KINDS", "BagConfig", "DetectorConfig", "FilterConfig", "config_from_mapping", "load_config"]
+__all__ = [
+    "DETECTOR_KINDS",
+    "MODES",
+    "BagConfig",
+    "ClassifierConfig",
+    "DetectorConfig",
+    "FilterConfig",
+    "TrackingConfig",
+    "check_run_limits",
+    "config_from_mapping",
+    "load_config",
+]
 
 #: Detector kinds: the built-in detectors and detections read from a topic.
 DETECTOR_KINDS = ("leg", "boosted", "hog", "topic")
@@ -132,40 +151,146 @@ class DetectorConfig:
             raise ValueError(f"DetectorConfig({self.name}).params must be a table")
 
 
+MODES = ("recommended", "paper")
+
+
 @dataclass(frozen=True, kw_only=True)
 class FilterConfig:
-    """Which filter a run uses and its options.
+    """Which filter a run uses and its options (one specification, built by :func:`pfpeople.filters.build_filter`).
 
     Parameters
     ----------
     kind : {"grid", "particle"}
-        ``gridbridge.GridFilter`` (the paper's reference) or ``pfpeople.ParticleFilter``.
-    form : str
-        The GridFilter's people-motion form (``"paper"`` or ``"linear"``).
-    initial : float
-        Initial belief of every cell.
-    n_particles : int
-        Number of particles (particle filter only); at least the number of cells, ~5 per cell advised.
+        ``gridbridge.GridFilter`` or ``pfpeople.ParticleFilter``.
+    mode : {"recommended", "paper"}
+        ``"recommended"`` (default): the product's configuration, chosen on the benchmark across every scene
+        (README "Recommended mode"): linear people prediction, appearance probability, bounded belief,
+        calibrated independent fusion of the detectors (:class:`gridbridge.likelihoods.IndependentLikelihood`),
+        laser detections with the person's footprint. ``"paper"``: Batista & Pereira (2015) as written (De Morgan
+        fusion, beliefs unbounded, initial 0.5, border belief 0.5).
+    form : {"paper", "linear"} or None
+        People-motion prediction; None: ``"linear"`` in the recommended mode, ``"paper"`` in the paper mode.
+    initial : float or None
+        Initial belief of every cell; None: the base rate (recommended) or 0.5 (paper).
+    n_particles : int or None
+        Particle count (particle filter only); None: 5 per cell, at least 5000.
     seed : int
         Seed of the particle filter's ``numpy.random.Generator``.
+    motion_model : {"paper", "persistent"}
+        Particle people-motion sampler.
+    base_rate : float
+        Recommended mode: prior probability of a person per cell (appearance floor, calibration of the PPV).
+    appearance_rate : float
+        Recommended mode: rate (1/s) at which an observed cell gets someone new
+        (:class:`gridbridge.components.Appearance`).
+    belief_max : float
+        Recommended mode: upper bound of the belief (bounded log-odds).
+    laser_footprint : float
+        Recommended mode: a point (laser) detection fires every cell whose centre is within this distance (m).
     """
 
     kind: str = "grid"
-    form: str = "paper"
-    initial: float = 0.5
-    n_particles: int = 5000
+    mode: str = "recommended"
+    form: str | None = None
+    initial: float | None = None
+    n_particles: int | None = None
     seed: int = 0
+    motion_model: str = "paper"
+    base_rate: float = 0.02
+    appearance_rate: float = 0.05
+    belief_max: float = 0.99
+    laser_footprint: float = 0.3
 
     def __post_init__(self) -> None:
         if self.kind not in ("grid", "particle"):
             raise ValueError(f"FilterConfig.kind must be 'grid' or 'particle', got {self.kind!r}")
-        _check_str(self.form, "FilterConfig.form")
-        if not (isinstance(self.initial, int | float) and 0.0 <= self.initial <= 1.0):
+        if self.mode not in MODES:
+            raise ValueError(f"FilterConfig.mode must be one of {MODES}, got {self.mode!r}")
+        if self.form is not None and self.form not in ("paper", "linear"):
+            raise ValueError(f"FilterConfig.form must be 'paper' or 'linear', got {self.form!r}")
+        if self.initial is not None and not (
+            isinstance(self.initial, int | float) and not isinstance(self.initial, bool) and 0.0 <= self.initial <= 1.0
+        ):
             raise ValueError(f"FilterConfig.initial must be a probability in [0, 1], got {self.initial!r}")
-        if isinstance(self.n_particles, bool) or not isinstance(self.n_particles, int) or self.n_particles < 1:
-            raise ValueError(f"FilterConfig.n_particles must be a positive integer, got {self.n_particles!r}")
+        n = self.n_particles
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise ValueError(f"FilterConfig.n_particles must be a positive integer, got {n!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int):
             raise ValueError(f"FilterConfig.seed must be an integer, got {self.seed!r}")
+        if self.motion_model not in ("paper", "persistent"):
+            raise ValueError(f"FilterConfig.motion_model must be 'paper' or 'persistent', got {self.motion_model!r}")
+        for name, lo, hi in (("base_rate", 0.0, 1.0), ("belief_max", 0.0, 1.0)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not lo < v < hi:
+                raise ValueError(f"FilterConfig.{name} must be a number in ({lo}, {hi}), got {v!r}")
+        for name in ("appearance_rate", "laser_footprint"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"FilterConfig.{name} must be a finite non-negative number, got {v!r}")
+        if self.mode == "recommended" and not self.base_rate < self.belief_max:
+            raise ValueError("FilterConfig: base_rate must be below belief_max")
+
+    def particles_for(self, n_cells: int) -> int:
+        """The particle count for a grid of ``n_cells`` cells (``n_particles`` or 5 per cell, >= 5000)."""
+        return self.n_particles if self.n_particles is not None else max(5000, 5 * n_cells)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ClassifierConfig:
+    """How the belief becomes people (``[classifier]``).
+
+    Parameters
+    ----------
+    kind : {"peaks", "blobs", "threshold"} or None
+        Peaks with non-maximum suppression (:class:`gridbridge.classifiers.PeakClassifier`), the paper's blobs,
+        or connected cells above a threshold; None: peaks in the recommended mode, blobs in the paper mode.
+    threshold : float
+        Peak / cell threshold (peaks, threshold).
+    min_separation : float
+        Peaks: two people are at least this far apart (m).
+    """
+
+    kind: str | None = None
+    threshold: float = 0.5
+    min_separation: float = 0.6
+
+    def __post_init__(self) -> None:
+        if self.kind is not None and self.kind not in ("peaks", "blobs", "threshold"):
+            raise ValueError(f"ClassifierConfig.kind must be 'peaks', 'blobs' or 'threshold', got {self.kind!r}")
+        if (
+            isinstance(self.threshold, bool)
+            or not isinstance(self.threshold, int | float)
+            or not 0 <= self.threshold <= 1
+        ):
+            raise ValueError(f"ClassifierConfig.threshold must be a probability, got {self.threshold!r}")
+        if (
+            isinstance(self.min_separation, bool)
+            or not isinstance(self.min_separation, int | float)
+            or not self.min_separation > 0
+        ):
+            raise ValueError(f"ClassifierConfig.min_separation must be positive (m), got {self.min_separation!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackingConfig:
+    """Multi-person tracking of the classified people (``[tracking]``): ``tracks.csv`` and result-bag tracks.
+
+    Parameters
+    ----------
+    enabled : bool
+        Track (default True).
+    params : mapping
+        :class:`pfpeople.mot.TrackerConfig` fields overriding its defaults.
+    """
+
+    enabled: bool = True
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.enabled, bool):
+            raise ValueError(f"TrackingConfig.enabled must be true or false, got {self.enabled!r}")
+        if not isinstance(self.params, Mapping):
+            raise ValueError("TrackingConfig.params must be a table")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -194,10 +319,15 @@ class BagConfig:
         TF topics read when present.
     mounts : mapping of str to (x, y, yaw)
         Static mounts of frames in ``base_frame`` used when TF does not give them.
-    grid : GridSpec
-        The local grid in the grid frame.
+    grid : GridSpec or None
+        The local grid in the grid frame; None: the bounding box of the driving laser's field of view out to
+        ``min(range_max, 10 m)`` at 0.3 m cells (see :func:`pfpeople.filters.grid_for_scan`).
     filter : FilterConfig
         The filter.
+    classifier : ClassifierConfig
+        Belief -> people.
+    tracking : TrackingConfig
+        People -> tracks.
     """
 
     driver: str
@@ -210,8 +340,10 @@ class BagConfig:
     odometry: str = ""
     tf_topics: tuple[str, ...] = ("/tf_static", "/tf")
     mounts: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
-    grid: GridSpec = field(default_factory=GridSpec)
+    grid: GridSpec | None = None
     filter: FilterConfig = field(default_factory=FilterConfig)
+    classifier: ClassifierConfig = field(default_factory=ClassifierConfig)
+    tracking: TrackingConfig = field(default_factory=TrackingConfig)
 
     def __post_init__(self) -> None:
         _check_str(self.driver, "BagConfig.driver")
@@ -238,22 +370,16 @@ class BagConfig:
         for frame, mount in self.mounts.items():
             if len(mount) != 3 or not all(math.isfinite(float(v)) for v in mount):
                 raise ValueError(f"BagConfig.mounts[{frame!r}] must be three finite numbers [x, y, yaw]")
-        if not isinstance(self.grid, GridSpec):
-            raise ValueError("BagConfig.grid must be a GridSpec")
+        if self.grid is not None and not isinstance(self.grid, GridSpec):
+            raise ValueError("BagConfig.grid must be a GridSpec or None (from the driving laser)")
         if not isinstance(self.filter, FilterConfig):
             raise ValueError("BagConfig.filter must be a FilterConfig")
-        # resource limits before anything is allocated (gridbridge.limits): cells, prediction work, memory
-        g = self.grid
-        check_grid_size(g.nx, g.ny, g.resolution, v_max=PeopleMotion().v_max, dt=0.1, where="BagConfig.grid")
-        if self.filter.kind == "particle":
-            check_particles(
-                self.filter.n_particles,
-                n_cells=g.n_cells,
-                n_detectors=len(self.detectors),
-                where="BagConfig.filter.n_particles",
-            )
-        else:
-            check_memory(g.n_cells, n_detectors=len(self.detectors), where="BagConfig.grid")
+        if not isinstance(self.classifier, ClassifierConfig):
+            raise ValueError("BagConfig.classifier must be a ClassifierConfig")
+        if not isinstance(self.tracking, TrackingConfig):
+            raise ValueError("BagConfig.tracking must be a TrackingConfig")
+        if self.grid is not None:
+            check_run_limits(self.grid, self.filter, len(self.detectors))
 
     @property
     def sync_tolerance_ns(self) -> int:
@@ -261,7 +387,7 @@ class BagConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON/TOML-able mapping that :func:`config_from_mapping` turns back into this config."""
-        return {
+        out: dict[str, Any] = {
             "frames": {
                 "driver": self.driver,
                 "grid_frame": self.grid_frame,
@@ -273,8 +399,9 @@ class BagConfig:
             "odometry": {"topic": self.odometry},
             "tf": {"topics": list(self.tf_topics)},
             "mounts": {k: list(v) for k, v in self.mounts.items()},
-            "grid": {f.name: getattr(self.grid, f.name) for f in fields(GridSpec)},
             "filter": {f.name: getattr(self.filter, f.name) for f in fields(FilterConfig)},
+            "classifier": {f.name: getattr(self.classifier, f.name) for f in fields(ClassifierConfig)},
+            "tracking": {"enabled": self.tracking.enabled, "params": dict(self.tracking.params)},
             "detectors": [
                 {
                     "name": d.name,
@@ -288,6 +415,26 @@ class BagConfig:
                 for d in self.detectors
             ],
         }
+        if self.grid is not None:
+            out["grid"] = {f.name: getattr(self.grid, f.name) for f in fields(GridSpec)}
+        # TOML has no null: unset options are left out (they mean "the mode's default")
+        out["filter"] = {k: v for k, v in out["filter"].items() if v is not None}
+        out["classifier"] = {k: v for k, v in out["classifier"].items() if v is not None}
+        return out
+
+
+def check_run_limits(g: GridSpec, filt: FilterConfig, n_detectors: int) -> None:
+    """Resource limits before anything is allocated (:mod:`gridbridge.limits`): cells, prediction work, memory."""
+    check_grid_size(g.nx, g.ny, g.resolution, v_max=PeopleMotion().v_max, dt=0.1, where="BagConfig.grid")
+    if filt.kind == "particle":
+        check_particles(
+            filt.particles_for(g.n_cells),
+            n_cells=g.n_cells,
+            n_detectors=n_detectors,
+            where="BagConfig.filter.n_particles",
+        )
+    else:
+        check_memory(g.n_cells, n_detectors=n_detectors, where="BagConfig.grid")
 
 
 def _table(data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
@@ -305,7 +452,11 @@ def _only(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
 
 def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
-    _only(data, {"frames", "odometry", "tf", "mounts", "grid", "filter", "detectors"}, "top level")
+    _only(
+        data,
+        {"frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "detectors"},
+        "top level",
+    )
     frames = _table(data, "frames")
     _only(
         frames,
@@ -325,6 +476,10 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     _only(grid, {f.name for f in fields(GridSpec)}, "grid")
     filt = _table(data, "filter")
     _only(filt, {f.name for f in fields(FilterConfig)}, "filter")
+    classifier = _table(data, "classifier")
+    _only(classifier, {f.name for f in fields(ClassifierConfig)}, "classifier")
+    tracking = _table(data, "tracking")
+    _only(tracking, {"enabled", "params"}, "tracking")
     dets = data.get("detectors", [])
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")
@@ -341,8 +496,10 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
         odometry=odometry.get("topic", ""),
         tf_topics=tuple(tf_topics),
         mounts=mounts,  # type: ignore[arg-type]
-        grid=GridSpec(**grid),
+        grid=GridSpec(**grid) if grid else None,
         filter=FilterConfig(**filt),
+        classifier=ClassifierConfig(**classifier),
+        tracking=TrackingConfig(**tracking),
     )
 
 

@@ -1,0 +1,142 @@
+"""Building a run's filter, classifier and tracker from its configuration: the one place they are assembled.
+
+:func:`build_filter` turns a :class:`pfpeople.bag.config.FilterConfig` into a filter composed of components
+(:mod:`gridbridge.components`, :mod:`gridbridge.likelihoods`), :func:`build_classifier` a
+:class:`~pfpeople.bag.config.ClassifierConfig` into a :class:`gridbridge.classifiers.Classifier`, and
+:func:`grid_for_scan` gives the default grid of a laser: the bounding box of its field of view.
+
+Recommended mode (the product's default, chosen on ``pfpeople-eval benchmark`` across every scene; README
+"Recommended mode"): linear people prediction (integrated kernel), appearance probability in observed cells,
+beliefs bounded to ``[1e-4, belief_max]``, initial and border belief at the base rate, the calibrated
+independent fusion of the detectors (:class:`gridbridge.likelihoods.IndependentLikelihood`) and laser detections
+that fire the cells of the person's footprint (``laser_footprint``). Paper mode: Batista & Pereira as written.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from gridbridge.classifiers import BlobClassifier, Classifier, PeakClassifier, ThresholdClassifier
+from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction, VelocityEgoMotion
+from gridbridge.filter import GridFilter
+from gridbridge.grid import GridSpec
+from gridbridge.likelihoods import IndependentLikelihood
+from gridbridge.params import DetectorModel, PeopleMotion
+from pfpeople.bag.config import ClassifierConfig, FilterConfig
+from pfpeople.sensors import Pose2D
+
+__all__ = ["BELIEF_MIN", "DEFAULT_GRID_RANGE_M", "build_classifier", "build_filter", "grid_for_scan"]
+
+#: Lower bound of the belief in the recommended mode.
+BELIEF_MIN = 1e-4
+#: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
+DEFAULT_GRID_RANGE_M = 10.0
+
+
+def grid_for_scan(
+    angle_min: float,
+    angle_max: float,
+    range_max: float,
+    *,
+    mount: Pose2D | None = None,
+    resolution: float = 0.3,
+    reach: float = DEFAULT_GRID_RANGE_M,
+) -> GridSpec:
+    """The grid covering a laser's field of view out to ``min(range_max, reach)``, in the grid frame.
+
+    Parameters
+    ----------
+    angle_min, angle_max : float
+        The scan's bearing range (rad, laser frame).
+    range_max : float
+        The scan's largest range (m); non-finite or non-positive values use ``reach``.
+    mount : Pose2D, optional
+        The laser's pose in the grid frame (identity when the grid is the laser's frame).
+    resolution : float
+        Cell side (m).
+
+    Returns
+    -------
+    GridSpec
+        Axis-aligned bounding box of the sector (and the laser itself), snapped outwards to whole cells.
+    """
+    if not (math.isfinite(angle_min) and math.isfinite(angle_max) and angle_min < angle_max):
+        raise ValueError(f"laser angles must be finite with angle_min < angle_max, got {angle_min}, {angle_max}")
+    r = min(range_max, reach) if math.isfinite(range_max) and range_max > 0 else reach
+    span = min(angle_max - angle_min, 2 * math.pi)
+    a = angle_min + np.linspace(0.0, span, 721)
+    pts = np.vstack(([0.0, 0.0], np.column_stack((r * np.cos(a), r * np.sin(a)))))
+    if mount is not None:
+        pts = mount.apply(pts)
+    x0 = math.floor(pts[:, 0].min() / resolution - 1e-9) * resolution
+    y0 = math.floor(pts[:, 1].min() / resolution - 1e-9) * resolution
+    nx = math.ceil(pts[:, 0].max() / resolution + 1e-9) - round(x0 / resolution)
+    ny = math.ceil(pts[:, 1].max() / resolution + 1e-9) - round(y0 / resolution)
+    return GridSpec(nx=max(nx, 1), ny=max(ny, 1), resolution=resolution, x0=x0, y0=y0)
+
+
+def recommended_models(config: FilterConfig, models: Sequence[DetectorModel]) -> tuple[DetectorModel, ...]:
+    """The detector models of the recommended mode: laser (point) detections fire the person's footprint."""
+    if config.mode != "recommended":
+        return tuple(models)
+    return tuple(
+        replace(m, footprint_radius=max(m.footprint_radius, config.laser_footprint)) if m.uncertainty == "point" else m
+        for m in models
+    )
+
+
+def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[DetectorModel]) -> Any:
+    """The filter of ``config`` on ``spec`` for ``detectors`` (a :class:`gridbridge.GridFilter` or a
+    :class:`pfpeople.ParticleFilter`; both follow the same ``step``/``reset``/``belief`` interface)."""
+    if not isinstance(config, FilterConfig):
+        raise TypeError(f"config must be a FilterConfig, got {type(config).__name__}")
+    models = recommended_models(config, detectors)
+    kwargs: dict[str, Any]
+    if config.kind == "particle" and config.form == "paper":
+        raise ValueError("the particle filter samples the linear (integrated-kernel) prediction: form must be 'linear'")
+    if config.mode == "paper":
+        form = config.form or ("paper" if config.kind == "grid" else "linear")
+        initial = 0.5 if config.initial is None else config.initial
+        kwargs = {"initial": initial}
+        pred = (PaperPrediction if form == "paper" else LinearPrediction)(motion=PeopleMotion(), outside=0.5)
+        ego = VelocityEgoMotion(outside=0.5)
+    else:
+        form = config.form or "linear"
+        base = config.base_rate
+        initial = base if config.initial is None else config.initial
+        pred = (PaperPrediction if form == "paper" else LinearPrediction)(motion=PeopleMotion(), outside=base)
+        ego = VelocityEgoMotion(outside=base)
+        kwargs = {
+            "initial": initial,
+            "outside": base,
+            "appearance": Appearance(rate=config.appearance_rate),
+            "bounds": BeliefBounds(low=BELIEF_MIN, high=config.belief_max),
+            "likelihood": IndependentLikelihood(base_rate=base),
+        }
+    if config.kind == "grid":
+        return GridFilter(spec, detectors=models, prediction=pred, ego_motion=ego, **kwargs)
+    from pfpeople.particle_filter import ParticleFilter
+
+    return ParticleFilter(
+        spec,
+        detectors=models,
+        n_particles=config.particles_for(spec.n_cells),
+        rng=np.random.default_rng(config.seed),
+        motion_model=config.motion_model,  # type: ignore[arg-type]
+        **kwargs,
+    )
+
+
+def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Classifier:
+    """The classifier of ``config`` (its kind defaults by ``mode``: peaks, or the paper's blobs)."""
+    kind = config.kind or ("blobs" if mode == "paper" else "peaks")
+    if kind == "blobs":
+        return BlobClassifier()
+    if kind == "threshold":
+        return ThresholdClassifier(threshold=config.threshold)
+    return PeakClassifier(threshold=config.threshold, min_separation=config.min_separation)
