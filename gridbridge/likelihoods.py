@@ -70,12 +70,18 @@ class IndependentLikelihood:
         ``pi``: the probability that a cell holds a person, at which the detectors' PPV was measured
         (0 < pi < 1). Set it equal to the filter's appearance prior so that one detection of a cell at the prior
         gives ``P = PPV``.
+    miss_weight : float
+        ``alpha`` in (0, 1]: a miss counts as ``FNR ** alpha``. Misses of one person are correlated over frames
+        (an occlusion or a pose the detector cannot see lasts), so the frames are not independent evidence;
+        ``alpha < 1`` discounts them (1: independent frames).
     """
 
     base_rate: float = 0.01
+    miss_weight: float = 1.0
 
     def __post_init__(self) -> None:
         check_probability(self.base_rate, "IndependentLikelihood.base_rate", open_low=True, open_high=True)
+        check_probability(self.miss_weight, "IndependentLikelihood.miss_weight", open_low=True)
 
     def __call__(
         self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
@@ -96,7 +102,7 @@ class IndependentLikelihood:
                 q = q * min(1.0, spec.resolution**2 / (2.0 * np.pi * model.sigma_lateral * model.sigma_range))
             cov = fov_mask(spec, model) | (q > 0.0)
             lr_fire = model.ppv / (1.0 - model.ppv) / prior_odds
-            lr = q * lr_fire + (1.0 - q) * model.fnr
+            lr = q * lr_fire + (1.0 - q) * model.fnr**self.miss_weight
             fired[i], covered[i] = q, cov
             per_det[i] = np.where(cov, lr / (1.0 + lr), 0.5)
             log_lr += np.where(cov, np.log(lr), 0.0)

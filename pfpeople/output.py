@@ -10,7 +10,8 @@ Format (``format = "pfpeople-run"``, ``version = 1``)::
       frames.csv      frame, driver_index, stamp_ns, bag_time_ns, dt_s, v_mps, omega_radps, odometry,
                       forced, n_people, no_data
       people.csv      frame, driver_index, stamp_ns, bag_time_ns, x_m, y_m, size_cells, mean_probability
-      detections.csv  frame, driver_index, stamp_ns, bag_time_ns, detector, x_m, y_m
+      detections.csv  frame, driver_index, stamp_ns, bag_time_ns, detector, x_m, y_m, static
+      tracks.csv      frame, stamp_ns, id, x, y, vx, vy, cov_xx, cov_xy, cov_yy, score   (when tracking is on)
 
 Positions are metres in the grid frame (REP-103; the grid frame is named in ``run.json``). ``frame`` counts
 the frames of the run (0, 1, ...); ``driver_index`` is the index of the driving message on its topic (the
@@ -18,7 +19,10 @@ the frames of the run (0, 1, ...); ``driver_index`` is the index of the driving 
 time, see ``run.json`` ``config.frames.time_source``); ``bag_time_ns`` the driver's record time. In
 ``frames.csv``, ``odometry`` is 1 when the step used odometry (0: the robot was taken as standing),
 ``forced`` is 1 when the frame was finalised before every topic caught up, and ``no_data`` lists (``;``)
-the detectors that had no data in the frame (they covered no cell). ``status`` in ``run.json`` is
+the detectors that had no data in the frame (they covered no cell). In ``detections.csv`` every detection of
+every detector is listed (each detector alone); ``static`` is 1 for those the static-clutter map suppressed
+(:mod:`pfpeople.clutter`): the filter did not see them (runs written before this column read as 0).
+``tracks.csv`` holds the confirmed tracks of :mod:`pfpeople.mot` (m, m/s, m^2, grid frame). ``status`` in ``run.json`` is
 ``"running"`` while a run writes, then ``"complete"``, ``"failed"`` (with ``error``) or ``"interrupted"``
 (SIGINT / SIGTERM, with ``error`` naming the signal); the frames written before stay valid and ``frames``
 is the number of frames on disk.
@@ -164,7 +168,9 @@ FRAME_COLUMNS = (
     "no_data",
 )
 PEOPLE_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "x_m", "y_m", "size_cells", "mean_probability")
-DETECTION_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "detector", "x_m", "y_m")
+DETECTION_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "detector", "x_m", "y_m", "static")
+#: The columns of run directories written before the ``static`` column (read with ``static = 0``).
+_DETECTION_COLUMNS_V1 = DETECTION_COLUMNS[:-1]
 
 
 def _npy_header(n: int, nx: int, ny: int) -> bytes:
@@ -354,9 +360,11 @@ class RunWriter:
         people_probability: Sequence[float] = (),
         detections: Sequence[NDArray[np.float64] | None],
         tracks: Sequence[Sequence[Any]] | None = None,
+        static: Sequence[NDArray[np.bool_] | None] | None = None,
     ) -> None:
         """Append one frame to every file and flush (see the module docstring for the columns).
 
+        ``static``: per detector, which of its detections the static-clutter map suppressed (column ``static``).
         ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.mot.TRACK_COLUMNS`), written when given (the file is
         created at the first frame that has them, with its header).
         """
@@ -390,11 +398,13 @@ class RunWriter:
                 for (x, y), size, p in zip(people, sizes, probs, strict=True):
                     self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
                 target = self.path / "detections.csv"
-                for name, det in zip(self.detector_names, detections, strict=True):
+                for i, (name, det) in enumerate(zip(self.detector_names, detections, strict=True)):
                     if det is None:
                         continue
-                    for x, y in np.asarray(det, dtype=float).reshape(-1, 2):
-                        self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}"))
+                    pts = np.asarray(det, dtype=float).reshape(-1, 2)
+                    flags = static[i] if static is not None and static[i] is not None else np.zeros(len(pts), bool)
+                    for (x, y), st in zip(pts, flags, strict=True):
+                        self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}", int(st)))
                 if tracks is not None:
                     target = self.path / "tracks.csv"
                     if self._tracks is None:
@@ -476,7 +486,17 @@ class RunData:
         return int(self.grids.shape[0])
 
 
-_INT_COLS = {"frame", "driver_index", "stamp_ns", "bag_time_ns", "odometry", "forced", "n_people", "size_cells"}
+_INT_COLS = {
+    "frame",
+    "driver_index",
+    "stamp_ns",
+    "bag_time_ns",
+    "odometry",
+    "forced",
+    "n_people",
+    "size_cells",
+    "static",
+}
 _STR_COLS = {"detector", "no_data"}
 
 
@@ -554,7 +574,11 @@ def load_run(path: str | Path) -> RunData:
     n = min(len(grids), len(frames["frame"]))
     frames = {k: v[:n] for k, v in frames.items()}
     people = _read_csv(path / "people.csv", PEOPLE_COLUMNS)
-    dets = _read_csv(path / "detections.csv", DETECTION_COLUMNS)
+    try:
+        dets = _read_csv(path / "detections.csv", DETECTION_COLUMNS)
+    except ValueError:  # a run written before the static column
+        dets = _read_csv(path / "detections.csv", _DETECTION_COLUMNS_V1)
+        dets["static"] = np.zeros(len(dets["frame"]), dtype=np.int64)
     keep_p = people["frame"] < n
     keep_d = dets["frame"] < n
     return RunData(

@@ -334,6 +334,7 @@ class FrameResult:
     people_probability: list[float] = field(default_factory=list)
     step: Any = None
     tracks: list[Any] | None = None
+    static: list[NDArray[np.bool_] | None] | None = None
 
 
 @dataclass
@@ -348,6 +349,8 @@ class RunSummary:
     frames_without_odometry: int = 0
     filter_restarts: int = 0
     max_lateral_m: float = 0.0
+    suppressed: dict[str, int] = field(default_factory=dict)
+    laser_odometry_frames: int = 0
     sync: dict[str, dict[str, int]] = field(default_factory=dict)
     error: str | None = None
 
@@ -396,6 +399,10 @@ class Pipeline:
         self.spec: GridSpec = config.grid if config.grid is not None else GridSpec()
         self.classifier: Any = None
         self.tracker: Any = None
+        self._suppressors: dict[str, Any] = {}
+        self._frame_scans: dict[str, Any] = {}
+        self._frame_raw: dict[int, NDArray[np.float64]] = {}
+        self._last_people = np.zeros((0, 2))
         self._detectors: list[Detector | None] = []
         self._warned: set[str] = set()
 
@@ -477,6 +484,18 @@ class Pipeline:
         factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
         self.filter = factory(self.spec, self.models)
         self.classifier = build_classifier(c.classifier, c.filter.mode)
+        self._suppressors = {}
+        self._last_people = np.zeros((0, 2))
+        if c.clutter.on(c.filter.mode):
+            from pfpeople.clutter import ClutterConfig, ClutterSuppressor
+
+            try:
+                ccfg = ClutterConfig(**dict(c.clutter.params))
+            except TypeError as exc:
+                raise ValueError(f"[clutter.params]: {exc}") from None
+            for d in c.detectors:
+                if d.kind in ("leg", "boosted") and d.topic not in self._suppressors:
+                    self._suppressors[d.topic] = ClutterSuppressor(ccfg)
         self.tracker = None
         if c.tracking.enabled:
             from pfpeople.mot import MultiPersonTracker, TrackerConfig
@@ -547,6 +566,7 @@ class Pipeline:
                     )
                 else:
                     data = laser_from_msg(m.msg, stamp_ns=m.stamp_ns, frame_id=m.frame_id, topic=m.topic)
+                    self._frame_scans[d.topic] = data
                     if data.ranges.size == 0:
                         self._count(s.empty_scans, d.name)
                         self._count(s.no_data, d.name)
@@ -569,8 +589,56 @@ class Pipeline:
             )
             return None
         if not len(pts):
-            return np.zeros((0, 2))
+            pts = np.zeros((0, 2))
+        self._frame_raw[k] = pts
+        if not len(pts):
+            return pts
         return pts if d.kind in _SELF_MOUNTED else self.mounts[k].apply(pts)
+
+    def _suppress(
+        self,
+        dets: list[NDArray[np.float64] | None],
+        ego_grid: Pose2D | None,
+        dt: float,
+        stamp_ns: int,
+    ) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None], Pose2D | None]:
+        """Static-clutter suppression of the laser detections (one :class:`pfpeople.clutter.ClutterSuppressor`
+        per laser topic, in the laser's frame); returns the detections the filter sees, the static flags per
+        detector, and the driving laser's scan-matched ego-motion in the grid frame (None when unknown)."""
+        c = self.config
+        kept: list[NDArray[np.float64] | None] = list(dets)
+        static: list[NDArray[np.bool_] | None] = [None] * len(dets)
+        driver_ego: Pose2D | None = None
+        for topic, sup in self._suppressors.items():
+            scan = self._frame_scans.get(topic)
+            idx = [k for k, d in enumerate(c.detectors) if d.topic == topic and dets[k] is not None]
+            if scan is None or not idx:
+                continue
+            mount = self.mounts[idx[0]]  # the laser's pose in the grid frame
+            ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
+            exclude = self._last_people
+            if len(exclude):
+                if ego_grid is not None:
+                    exclude = ego_grid.inverse().apply(exclude)
+                exclude = mount.inverse().apply(exclude)
+            st = sup.step(
+                scan.points(),
+                [self._frame_raw[k] for k in idx],
+                ego=ego,
+                exclude=exclude,
+                stamp_ns=stamp_ns,
+                dt=dt,
+            )
+            for k, keep in zip(idx, st.keep, strict=True):
+                static[k] = ~keep
+                d = dets[k]
+                kept[k] = d[keep] if d is not None and len(d) else d
+                self.summary.suppressed[c.detectors[k].name] = self.summary.suppressed.get(
+                    c.detectors[k].name, 0
+                ) + int(np.count_nonzero(~keep))
+            if topic == c.driver and st.ego_ok and ego is None:
+                driver_ego = mount.compose(st.ego).compose(mount.inverse())
+        return kept, static, driver_ego
 
     def _odometry_pose(self, frame: Frame) -> Pose2D | None:
         c = self.config
@@ -627,6 +695,8 @@ class Pipeline:
                 s.filter_restarts += 1
                 log.warning("gap of %.3f s before frame %d: restarting the filter", dt, frame.index)
                 self.filter.reset()
+                for sup in self._suppressors.values():
+                    sup.map.forget()
                 dt, prev_pose = FIRST_DT_S, None
             pose = self._odometry_pose(frame)
             odo: Odometry | None = None
@@ -641,7 +711,16 @@ class Pipeline:
                 elif prev_pose is not None:
                     odo, lateral = odometry_between(prev_pose, pose, dt)
                     s.max_lateral_m = max(s.max_lateral_m, abs(lateral))
-            dets = [self._detect(k, d, frame) for k, d in enumerate(c.detectors)]
+            self._frame_scans, self._frame_raw = {}, {}
+            raw = [self._detect(k, d, frame) for k, d in enumerate(c.detectors)]
+            dets, static = raw, [None] * len(raw)
+            if self._suppressors:
+                ego_grid = None if (pose is None or prev_pose is None) else prev_pose.inverse().compose(pose)
+                dets, static, laser_ego = self._suppress(raw, ego_grid, dt, frame.stamp_ns)
+                if not c.odometry and c.clutter.laser_odometry and laser_ego is not None and prev_stamp is not None:
+                    odo, lateral = odometry_between(Pose2D(), laser_ego, dt)
+                    s.laser_odometry_frames += 1
+                    s.max_lateral_m = max(s.max_lateral_m, abs(lateral))
             step = self.filter.step(dets, odo, dt)
             belief = np.asarray(step.posterior, dtype=float)
             found = self.classifier.classify(belief, self.spec, observed=np.asarray(step.covered).any(axis=0))
@@ -653,6 +732,7 @@ class Pipeline:
                     self.tracker.reset()
                 self.tracker.update(people, dt, scores=found.scores, ego=ego)
                 tracks = self.tracker.confirmed()
+            self._last_people = np.array([[t.x, t.y] for t in tracks]).reshape(-1, 2) if tracks else people
             prev_stamp = frame.stamp_ns
             if pose is not None:  # a frame without odometry keeps the last pose: its motion is not lost
                 prev_pose = pose
@@ -661,7 +741,8 @@ class Pipeline:
                 frame=frame,
                 dt=dt,
                 odometry=odo,
-                detections=dets,
+                detections=raw,
+                static=static,
                 belief=belief,
                 people=people,
                 people_size=[int(v) for v in found.sizes],
@@ -793,6 +874,7 @@ class Pipeline:
                             people_probability=r.people_probability,
                             detections=r.detections,
                             tracks=None if r.tracks is None else track_rows(f.index, f.stamp_ns, r.tracks),
+                            static=r.static,
                         )
                     if bag_writer is not None:
                         bag_writer.write(

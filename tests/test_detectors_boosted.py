@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from gridbridge.params import PAPER_DETECTORS
+from gridbridge.params import CALIBRATED_LASER_DETECTORS
 from pfpeople.cli import main as pfpeople_main
 from pfpeople.detectors.boosted import BoostedSegmentDetector, default_model_path
 from pfpeople.detectors.segments import FEATURE_NAMES
@@ -40,7 +40,7 @@ def test_shipped_model_loads_with_sidecar() -> None:
     # held-out segment metrics recorded at training time (positive_4 + last 30 % of negative_2)
     assert 0.4 < test["recall"] <= 1.0
     assert 0.1 < test["precision"] <= 1.0
-    assert det.model == PAPER_DETECTORS[1]
+    assert det.model == CALIBRATED_LASER_DETECTORS[1]
 
 
 def test_empty_and_invalid_scans_give_nothing() -> None:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gridbridge.params import PAPER_DETECTORS
+from gridbridge.params import CALIBRATED_LASER_DETECTORS
 from pfpeople.detectors.legs import LegDetector, LegDetectorParams, PairingParams, pair_legs, people_from_legs
 from pfpeople.detectors.synthetic import render_scan
 from pfpeople.sensors import LaserScan
@@ -101,7 +101,7 @@ def test_people_from_legs_together_segment() -> None:
 
 
 def test_model_and_params_validation() -> None:
-    assert LegDetector().model == PAPER_DETECTORS[0]
+    assert LegDetector().model == CALIBRATED_LASER_DETECTORS[0]
     assert LegDetector().model.fov_max - LegDetector().model.fov_min == pytest.approx(math.pi)
     with pytest.raises(ValueError, match="min_width"):
         LegDetectorParams(min_width=0.5, max_width=0.4)

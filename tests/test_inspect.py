@@ -17,7 +17,6 @@ import pytest
 from rosbags.rosbag1 import Writer as Writer1
 from test_pipeline_bags import MOUNT, T0_NS, _Msgs, _typestore, write_bag
 
-from gridbridge.grid import GridSpec
 from pfpeople.bag.config import FilterConfig, load_config
 from pfpeople.bag.inspect import format_report, inspect_bag, inspect_path, starter_config
 from pfpeople.bag.reader import BagSource
@@ -63,7 +62,7 @@ def test_synthetic_bag_report_and_config_that_runs(tmp_path: Path, ros2: bool, s
     model = dict(cfg.detectors[0].model)
     assert model == pytest.approx({"fov_min": -math.pi / 2, "fov_max": math.pi / 2, "max_range": 10}, abs=1e-5)
     assert model["fov_min"] <= -math.pi / 2 + 1e-7 and model["fov_max"] >= math.pi / 2 - 1e-7  # outwards
-    assert cfg.grid == GridSpec() and cfg.filter == FilterConfig() and dict(cfg.mounts) == {}
+    assert cfg.grid is None and cfg.filter == FilterConfig() and dict(cfg.mounts) == {}
     with BagSource(bag) as src:
         summary, results = Pipeline(cfg).run(src, None, max_frames=4, keep=True)
     assert summary.frames == 4 and all(r.detections[0] is not None for r in results)

@@ -8,7 +8,7 @@ track poses and headings, marker ids, texts and arrow lengths, the static TF; th
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +35,7 @@ from pfpeople.bag.writer import (
     check_bag_out,
     detection_topic,
 )
-from pfpeople.pipeline import FrameResult, Pipeline
+from pfpeople.pipeline import Pipeline
 
 SPEC = GridSpec()
 T0 = 1_700_000_000_000_000_000
@@ -229,12 +229,7 @@ def test_run_command_checks_bag_out_before_running(tmp_path: Path, capsys: pytes
     assert "taken.bag' already exists" in capsys.readouterr().err and not out.exists()
     assert main([*args, "--bag-out", str(tmp_path / "res"), "--bag-format", "sqlite3"]) == 0
     msgs, _ = _read(tmp_path / "res")
-    assert len(msgs[TOPIC_BELIEF]) == 3 and TOPIC_TRACKS not in msgs  # this pipeline has no tracks
-
-
-@dataclass(frozen=True, kw_only=True, eq=False)
-class _Tracked(FrameResult):
-    tracks: NDArray[np.float64]
+    assert len(msgs[TOPIC_BELIEF]) == 3 and len(msgs[TOPIC_TRACKS]) == 3  # tracking is on by default
 
 
 def test_pipeline_passes_tracks_to_the_bag(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -244,7 +239,7 @@ def test_pipeline_passes_tracks_to_the_bag(tmp_path: Path, monkeypatch: pytest.M
     def frames(self: Pipeline, src: BagSource, *, max_frames: int | None = None) -> Any:
         for r in plain(self, src, max_frames=max_frames):
             k = r.frame.index
-            yield _Tracked(**{f.name: getattr(r, f.name) for f in fields(r)}, tracks=np.array([[k, 1.0, k, 0.5, 0]]))
+            yield replace(r, tracks=np.array([[k, 1.0, k, 0.5, 0]]))
 
     monkeypatch.setattr(Pipeline, "frames", frames)
     with BagSource(bag) as src:

@@ -42,6 +42,11 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     enabled = true              # tracks.csv and tracks in the result bag
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
+    [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
+    enabled = true              # default: on in the recommended mode, off in the paper mode
+    laser_odometry = true       # no odometry topic: move the grid by scan matching the driving laser
+    [clutter.params]            # pfpeople.clutter.ClutterConfig fields
+
     [[detectors]]
     name = "laser-legs"
     kind = "leg"                # "leg" | "boosted" | "hog" (built-in detectors) | "topic" (detections in the bag)
@@ -76,6 +81,7 @@ __all__ = [
     "MODES",
     "BagConfig",
     "ClassifierConfig",
+    "ClutterSuppression",
     "DetectorConfig",
     "FilterConfig",
     "TrackingConfig",
@@ -272,6 +278,38 @@ class ClassifierConfig:
 
 
 @dataclass(frozen=True, kw_only=True)
+class ClutterSuppression:
+    """Static-clutter suppression and laser odometry (``[clutter]``, :mod:`pfpeople.clutter`).
+
+    Parameters
+    ----------
+    enabled : bool or None
+        Drop laser detections on places that have been occupied for a long time (chair and table legs, posts);
+        None: on in the recommended mode, off in the paper mode.
+    laser_odometry : bool
+        Without an odometry topic, move the grid with the driving laser's scan matching (when it succeeds).
+    params : mapping
+        :class:`pfpeople.clutter.ClutterConfig` fields overriding its defaults.
+    """
+
+    enabled: bool | None = None
+    laser_odometry: bool = True
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.enabled is not None and not isinstance(self.enabled, bool):
+            raise ValueError(f"[clutter] enabled must be true or false, got {self.enabled!r}")
+        if not isinstance(self.laser_odometry, bool):
+            raise ValueError(f"[clutter] laser_odometry must be true or false, got {self.laser_odometry!r}")
+        if not isinstance(self.params, Mapping):
+            raise ValueError("[clutter] params must be a table")
+
+    def on(self, mode: str) -> bool:
+        """Whether suppression runs in ``mode``."""
+        return self.enabled if self.enabled is not None else mode == "recommended"
+
+
+@dataclass(frozen=True, kw_only=True)
 class TrackingConfig:
     """Multi-person tracking of the classified people (``[tracking]``): ``tracks.csv`` and result-bag tracks.
 
@@ -328,6 +366,8 @@ class BagConfig:
         Belief -> people.
     tracking : TrackingConfig
         People -> tracks.
+    clutter : ClutterSuppression
+        Static-clutter suppression of laser detections, laser odometry.
     """
 
     driver: str
@@ -344,6 +384,7 @@ class BagConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
     classifier: ClassifierConfig = field(default_factory=ClassifierConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)
+    clutter: ClutterSuppression = field(default_factory=ClutterSuppression)
 
     def __post_init__(self) -> None:
         _check_str(self.driver, "BagConfig.driver")
@@ -378,6 +419,8 @@ class BagConfig:
             raise ValueError("BagConfig.classifier must be a ClassifierConfig")
         if not isinstance(self.tracking, TrackingConfig):
             raise ValueError("BagConfig.tracking must be a TrackingConfig")
+        if not isinstance(self.clutter, ClutterSuppression):
+            raise ValueError("BagConfig.clutter must be a ClutterSuppression")
         if self.grid is not None:
             check_run_limits(self.grid, self.filter, len(self.detectors))
 
@@ -402,6 +445,15 @@ class BagConfig:
             "filter": {f.name: getattr(self.filter, f.name) for f in fields(FilterConfig)},
             "classifier": {f.name: getattr(self.classifier, f.name) for f in fields(ClassifierConfig)},
             "tracking": {"enabled": self.tracking.enabled, "params": dict(self.tracking.params)},
+            "clutter": {
+                k: v
+                for k, v in {
+                    "enabled": self.clutter.enabled,
+                    "laser_odometry": self.clutter.laser_odometry,
+                    "params": dict(self.clutter.params),
+                }.items()
+                if v is not None
+            },
             "detectors": [
                 {
                     "name": d.name,
@@ -480,6 +532,8 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     _only(classifier, {f.name for f in fields(ClassifierConfig)}, "classifier")
     tracking = _table(data, "tracking")
     _only(tracking, {"enabled", "params"}, "tracking")
+    clutter = _table(data, "clutter")
+    _only(clutter, {"enabled", "laser_odometry", "params"}, "clutter")
     dets = data.get("detectors", [])
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")
@@ -500,6 +554,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
         filter=FilterConfig(**filt),
         classifier=ClassifierConfig(**classifier),
         tracking=TrackingConfig(**tracking),
+        clutter=ClutterSuppression(**clutter),
     )
 
 

@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from pfpeople.detectors.legs import PairingParams, people_from_legs
 from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams
 from pfpeople.detectors.training import boost_scores, scan_features
@@ -84,8 +84,8 @@ class BoostedSegmentDetector:
     pairing : PairingParams, optional
         How legs become people (shared with :class:`~pfpeople.detectors.legs.LegDetector`).
     model : DetectorModel, optional
-        PPV / FNR and field of view for the grid; default the paper's Table 1 detector 2 (PPV 0.50, FNR 0.40,
-        180 deg).
+        PPV / FNR and field of view for the grid; default PPV 0.90, FNR 0.65 as measured on the labelled data
+        (:data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`), 180 deg.
     """
 
     def __init__(
@@ -108,7 +108,7 @@ class BoostedSegmentDetector:
         self.model_path = path
         self.threshold = float(threshold)
         self.pairing = pairing if pairing is not None else PairingParams()
-        self.model = model if model is not None else PAPER_DETECTORS[1]
+        self.model = model if model is not None else CALIBRATED_LASER_DETECTORS[1]
         self.segmentation = SegmentationParams()
         self.sidecar: dict[str, object] = {}
         side = path.with_suffix(".json")

@@ -1,0 +1,285 @@
+"""The people-detection benchmark: every scene, each detector alone, the paper's modes and the recommended mode.
+
+Scenes (each skipped with a reason when its data is absent):
+
+* ``eth``, ``hotel``, ``zara01``: real ETH/UCY crowd motion around a virtual robot, detections simulated
+  (detection-level scenarios of :mod:`evaluation.scenarios`);
+* ``scan:wheelchair``, ``scan:corridor``, ``scan:crowd``: scan-level scenes (:mod:`evaluation.scenarios.scan`)
+  written as ROS 1 bags and run through ``pfpeople run``'s pipeline (raw scans -> built-in detectors -> filter);
+* ``person_following_outdoor_1`` (real, the followed person annotated: recall only) and ``negative_2`` (real,
+  nobody there: false people per scan; each of its three lasers alone) from ``../shared/data/leg_tracker``.
+
+For bags the pipeline runs once, as a user runs it (the README's configuration: the recommended mode); its
+``people.csv`` gives the row ``recommended (pipeline)`` and its detections are replayed (:mod:`evaluation.replay`)
+through every other mode, so every row of a scene sees the very same detections. Scores: recall, precision,
+false people per scan (FP / frames) and FPCPF (false-positive cells per frame, where the truth is complete), all
+with the one-to-one matching of ``pfpeople-eval score`` (gate 0.5 m); ms per frame is the filter and classifier
+(replay) or the whole pipeline including detectors (``pipeline`` rows).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evaluation.metrics import DetectionAccumulator
+from evaluation.replay import ReplayLog, log_from_run, log_from_scenario
+from gridbridge.classifiers import BlobClassifier, Classifier, ThresholdClassifier
+from gridbridge.grid import GridSpec
+from gridbridge.params import DetectorModel
+from pfpeople.bag.config import BagConfig, ClassifierConfig, DetectorConfig, FilterConfig
+from pfpeople.filters import build_classifier, build_filter
+
+__all__ = ["MODES", "SCENES", "BenchRow", "Mode", "format_rows", "run_benchmark"]
+
+REPLAY_SCENES = ("eth", "hotel", "zara01")
+SCAN_SCENES = ("wheelchair", "corridor", "crowd")
+SCENES = (*REPLAY_SCENES, *(f"scan:{s}" for s in SCAN_SCENES), "person_following_outdoor_1", "negative_2")
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One filter + classifier row of the table."""
+
+    name: str
+    filter: FilterConfig
+    classifier: Classifier
+
+    def build(self, spec: GridSpec, models: Sequence[DetectorModel]) -> Any:
+        return build_filter(self.filter, spec, models)
+
+
+RECOMMENDED = FilterConfig()
+MODES: tuple[Mode, ...] = (
+    Mode("paper grid + blobs", FilterConfig(mode="paper"), BlobClassifier()),
+    Mode("paper grid + threshold", FilterConfig(mode="paper"), ThresholdClassifier(threshold=0.5)),
+    Mode("recommended grid", RECOMMENDED, build_classifier(ClassifierConfig())),
+    Mode("recommended particles", FilterConfig(kind="particle"), build_classifier(ClassifierConfig())),
+)
+
+
+@dataclass
+class BenchRow:
+    """One line of the table."""
+
+    scene: str
+    source: str
+    frames: int
+    recall: float = math.nan
+    precision: float = math.nan
+    fp_per_frame: float = math.nan
+    fpcpf: float = math.nan
+    ms_per_frame: float = math.nan
+    note: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _occupancy(spec: GridSpec, centres: tuple[NDArray[np.float64], NDArray[np.float64]], people: NDArray[np.float64]):
+    gx, gy = centres
+    occ = np.zeros(spec.shape, dtype=bool)
+    for x, y in people:
+        occ |= np.hypot(gx - x, gy - y) <= 0.3
+    return occ
+
+
+def _score(
+    log: ReplayLog, people: Sequence[NDArray[np.float64]], masks: Sequence[NDArray[np.bool_]] | None, *, gate: float
+) -> dict[str, float]:
+    acc = DetectionAccumulator(gate=gate)
+    complete = not (log.recall_only or log.nobody)
+    centres = log.spec.cell_centres()
+    for k in range(len(log)):
+        if masks is not None and complete:
+            acc.add(people[k], log.truth[k], classified=masks[k], occupancy=_occupancy(log.spec, centres, log.truth[k]))
+        else:
+            acc.add(people[k], log.truth[k])
+    s = acc.summary()
+    out = {
+        "recall": s["recall"] if not log.nobody else math.nan,
+        "precision": s["precision"] if complete else math.nan,
+        "fp_per_frame": acc.fp / max(acc.frames, 1) if not log.recall_only else math.nan,
+        "fpcpf": s.get("fpcpf", math.nan) if (complete and masks is not None) else math.nan,
+    }
+    if log.nobody:
+        out["fpcpf"] = float(np.mean([m.sum() for m in masks])) if masks is not None else math.nan
+    return out
+
+
+def detector_rows(log: ReplayLog, *, gate: float = 0.5) -> list[BenchRow]:
+    """Each detector alone: its detections inside the grid against the truth."""
+    rows = []
+    spec = log.spec
+    for i, model in enumerate(log.models):
+        dets = []
+        for k in range(len(log)):
+            d = log.detections[k][i]
+            d = np.zeros((0, 2)) if d is None else d
+            dets.append(d[spec.contains(d[:, 0], d[:, 1])] if len(d) else d)
+        rows.append(BenchRow(log.name, f"detector {model.name}", len(log), **_score(log, dets, None, gate=gate)))
+    return rows
+
+
+def mode_row(log: ReplayLog, mode: Mode, *, gate: float = 0.5) -> BenchRow:
+    """One mode replayed over the log's detections."""
+    filt = mode.build(log.spec, log.models)
+    people, masks, times = [], [], []
+    for k in range(len(log)):
+        t0 = time.perf_counter()
+        out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
+        found = mode.classifier.classify(out.posterior, log.spec, observed=np.asarray(out.covered).any(axis=0))
+        times.append(time.perf_counter() - t0)
+        people.append(found.positions)
+        masks.append(found.mask)
+    row = BenchRow(log.name, mode.name, len(log), **_score(log, people, masks, gate=gate))
+    row.ms_per_frame = 1e3 * float(np.median(times)) if times else math.nan
+    return row
+
+
+def _pipeline_log(
+    bag: Path,
+    config: BagConfig,
+    out: Path,
+    *,
+    gt: Path | None = None,
+    nobody: bool = False,
+    recall_only: bool = False,
+    name: str,
+    max_frames: int | None = None,
+) -> tuple[ReplayLog, BenchRow]:
+    """Run the pipeline on a bag (as ``pfpeople run`` does) and read it back as a log plus its own row."""
+    from pfpeople.bag.reader import BagSource
+    from pfpeople.output import load_run
+    from pfpeople.pipeline import Pipeline
+
+    with BagSource(bag) as src:
+        summary, _ = Pipeline(config).run(src, out, max_frames=max_frames)
+    log = log_from_run(out, gt=gt, frame="laser", nobody=nobody, recall_only=recall_only, name=name)
+    run = load_run(out)
+    n = run.n_frames
+    people = [np.zeros((0, 2)) for _ in range(n)]
+    per: dict[int, list[tuple[float, float]]] = {}
+    for f, x, y in zip(run.people["frame"], run.people["x_m"], run.people["y_m"], strict=True):
+        per.setdefault(int(f), []).append((float(x), float(y)))
+    for f, pts in per.items():
+        people[f] = np.asarray(pts, dtype=float)
+    masks = [
+        build_classifier(config.classifier, config.filter.mode).classify(np.asarray(g), log.spec).mask
+        for g in run.grids
+    ]
+    row = BenchRow(name, "recommended (pipeline)", n, **_score(log, people, masks, gate=0.5))
+    row.ms_per_frame = 1e3 * summary.elapsed_s / max(summary.frames, 1)
+    row.note = f"{summary.fps:.0f} fps incl. detectors"
+    return log, row
+
+
+def _laser_config(topic: str, **changes: Any) -> BagConfig:
+    dets = (
+        DetectorConfig(name="laser-legs", kind="leg", topic=topic),
+        DetectorConfig(name="laser-boosted", kind="boosted", topic=topic),
+    )
+    return replace(BagConfig(driver=topic, detectors=dets), **changes)
+
+
+def scene_logs(
+    scene: str, *, data: Path, work: Path, frames: int | None = None
+) -> tuple[list[ReplayLog], list[BenchRow], str]:
+    """The logs of one scene, the rows of its pipeline runs, and a skip reason ("" when it ran)."""
+    leg = data / "leg_tracker"
+    if scene in REPLAY_SCENES:
+        from evaluation.scenarios.eth_ucy import DataNotFoundError
+        from evaluation.scenarios.scenario import Scenario
+
+        try:
+            sc = Scenario.from_name(scene, n_frames=frames)
+            return [log_from_scenario(sc)], [], ""
+        except (DataNotFoundError, FileNotFoundError) as exc:
+            return [], [], f"no data ({exc})"
+    if scene.startswith("scan:"):
+        from evaluation.scenarios.scan import write_scene_bag
+        from pfpeople.bag.config import load_config
+
+        name = scene.split(":", 1)[1]
+        sb = write_scene_bag(name, work / name, frames=frames)
+        log, row = _pipeline_log(sb.bag, load_config(sb.run_toml), work / f"{name}_run", gt=sb.gt_csv, name=scene)
+        return [log], [row], ""
+    if scene == "person_following_outdoor_1":
+        bag, gt = leg / "person_following_outdoor_1.bag.zip", leg / "person_following_outdoor_1_gt.csv"
+        if not bag.is_file():
+            return [], [], f"{bag} is absent"
+        from pfpeople.bag.config import builtin_config_path, load_config
+
+        cfg = load_config(builtin_config_path("person_following_outdoor_1"))
+        log, row = _pipeline_log(bag, cfg, work / "pf1_run", gt=gt, recall_only=True, name=scene, max_frames=frames)
+        return [log], [row], ""
+    if scene == "negative_2":
+        bag = leg / "negative_2.bag"
+        if not bag.is_file():
+            return [], [], f"{bag} is absent"
+        logs, rows = [], []
+        for topic in ("/left_scan", "/rear_scan", "/right_scan"):
+            nm = f"negative_2{topic.replace('/', ':').replace('_scan', '')}"
+            out = work / nm.replace(":", "_")
+            log, row = _pipeline_log(bag, _laser_config(topic), out, nobody=True, name=nm, max_frames=frames)
+            logs.append(log)
+            rows.append(row)
+        return logs, rows, ""
+    raise ValueError(f"unknown scene {scene!r}; scenes: {', '.join(SCENES)}")
+
+
+def run_benchmark(
+    scenes: Iterable[str] = SCENES,
+    *,
+    data: Path,
+    modes: Sequence[Mode] = MODES,
+    frames: int | None = None,
+    work: Path | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[BenchRow]:
+    """Every scene x (each detector, each mode, the pipeline's own run). See the module docstring."""
+    rows: list[BenchRow] = []
+    with tempfile.TemporaryDirectory(prefix="pfpeople-bench-") as tmp:
+        base = Path(work) if work is not None else Path(tmp)
+        for scene in scenes:
+            if progress:
+                progress(scene)
+            logs, pipe_rows, skip = scene_logs(scene, data=data, work=base, frames=frames)
+            if skip:
+                rows.append(BenchRow(scene, "skipped", 0, note=skip))
+                continue
+            for log, prow in zip(logs, pipe_rows or [None] * len(logs), strict=True):
+                rows.extend(detector_rows(log))
+                for mode in modes:
+                    rows.append(mode_row(log, mode))
+                if prow is not None:
+                    rows.append(prow)
+    return rows
+
+
+def _f(v: float, nd: int = 2) -> str:
+    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{nd}f}"
+
+
+def format_rows(rows: Sequence[BenchRow]) -> str:
+    """The table: scene, source, frames, recall, precision, false people per scan, FPCPF, ms per frame."""
+    head = (
+        f"{'scene':<24}{'source':<28}{'frames':>7}{'recall':>8}{'prec.':>7}{'FP/scan':>9}{'FPCPF':>7}{'ms/fr':>8}  note"
+    )
+    lines = [head, "-" * len(head)]
+    last = None
+    for r in rows:
+        if last is not None and r.scene != last:
+            lines.append("")
+        last = r.scene
+        lines.append(
+            f"{r.scene:<24}{r.source:<28}{r.frames:>7}{_f(r.recall):>8}{_f(r.precision):>7}{_f(r.fp_per_frame, 3):>9}"
+            f"{_f(r.fpcpf):>7}{_f(r.ms_per_frame):>8}  {r.note}"
+        )
+    return "\n".join(lines)

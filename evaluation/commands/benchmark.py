@@ -1,0 +1,61 @@
+"""``pfpeople-eval benchmark``: every built-in scene and the real bags, each detector alone, the paper's modes and
+the recommended mode, in one table (see :mod:`evaluation.benchmark`).
+
+Examples::
+
+    pfpeople-eval benchmark                                  # everything (several minutes on 2 cores)
+    pfpeople-eval benchmark --scenes eth scan:wheelchair --frames 200 --json bench.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import asdict
+from pathlib import Path
+
+from evaluation.benchmark import SCENES, format_rows, run_benchmark
+from evaluation.scenarios.eth_ucy import default_data_root
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "benchmark",
+        help="people-detection benchmark over every scene: detectors, paper modes, recommended mode",
+        description="Run every built-in scene (ETH/UCY replays, scan-level scenes written as bags) and the real bags "
+        "in the data folder; print recall, precision, false people per scan, FPCPF and ms per frame per source.",
+    )
+    p.add_argument(
+        "--scenes",
+        nargs="+",
+        default=list(SCENES),
+        choices=SCENES,
+        metavar="SCENE",
+        help=f"scenes to run (default: all of {', '.join(SCENES)})",
+    )
+    p.add_argument("--data", type=Path, default=None, help="data folder (default ../shared/data or $PFPEOPLE_DATA)")
+    p.add_argument("--frames", type=int, default=None, help="frames per scene (default: each scene's own length)")
+    p.add_argument("--work", type=Path, default=None, help="keep the written bags and runs in this folder")
+    p.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON file")
+    p.add_argument("--no-progress", action="store_true", help="no progress lines")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.frames is not None and args.frames < 1:
+        raise ValueError(f"--frames must be a positive integer, got {args.frames}")
+    data = args.data if args.data is not None else default_data_root()
+    scenes = list(args.scenes)
+
+    def progress(scene: str) -> None:
+        if not args.no_progress:
+            print(f"[{scenes.index(scene) + 1}/{len(scenes)}] {scene} ...", file=sys.stderr, flush=True)
+
+    if args.work is not None:
+        args.work.mkdir(parents=True, exist_ok=True)
+    rows = run_benchmark(scenes, data=data, frames=args.frames, work=args.work, progress=progress)
+    print(format_rows(rows))
+    if args.json is not None:
+        args.json.write_text(json.dumps([asdict(r) for r in rows], indent=2, default=str) + "\n")
+    return 0
