@@ -1,0 +1,265 @@
+"""Benchmark of static-clutter suppression (:mod:`pfpeople.clutter`) with laser odometry (:mod:`pfpeople.scanmatch`).
+
+For every laser sequence, each run alone in its own sensor frame, the built-in laser detectors
+(``LegDetector``, ``BoostedSegmentDetector``) are run raw and after the static map: a detection is dropped
+when ``StaticClutterMap.is_static`` is true at it. Per scan, in this order::
+
+    step = odometry.update(points)                     # ScanOdometry; points = scan.points() (NaN = invalid)
+    if not step.ok and k > 0: cmap.forget()          # ego unknown (identity fallback): restart the map
+    cmap.update(points, ego=step.ego, exclude=step.ego.inverse().apply(E), stamp_ns=scan.stamp_ns)
+    kept = detections[~cmap.is_static(detections)]   # per detector
+    E = moving.update(all raw detections of both detectors, ego=step.ego)   # MovingPeople
+
+``E`` (``--exclude``): ``moving`` (default) = the tracks of :class:`pfpeople.clutter.MovingPeople` over the raw
+detections of both detectors that have moved ``--moving-distance`` (0.3 m) from where they started (a "people
+seen moving" set; a chair leg that stays put never enters it); ``kept`` = the detections kept in the previous
+scan (both detectors); ``none``. The time of the map column includes the tracker.
+
+Figures (the data are the leg_tracker recordings, see ``../shared/data/MANIFEST.md``):
+
+* ``negative_2.bag``: nobody there, every person is false: false people per scan, per laser.
+* ``person_following_outdoor_1``: recall of the followed person (GT CSV, a detection within 0.5 m).
+* ``positive_*_extracted.bag``: recall of labelled people: the labelled legs are paired (0.1-0.6 m,
+  closest first); a person is recalled when a detection is within 0.5 m of a pair's midpoint or of an
+  unpaired labelled leg.
+* ms per scan of the scan matcher and of the map (update + query).
+
+Run (about a minute)::
+
+    python -m evaluation.bench_clutter [--data ../shared/data] [--exclude moving] [--static-time 2.0]
+
+Wall-clock figures depend on the machine; tests never assert them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from pfpeople.bag.reader import BagSource, laser_from_msg
+from pfpeople.clutter import ClutterConfig, MovingPeople, StaticClutterMap
+from pfpeople.detectors import BoostedSegmentDetector, LegDetector, pair_legs
+from pfpeople.detectors._bags import load_labelled_scans
+from pfpeople.scanmatch import ScanOdometry
+from pfpeople.sensors import LaserScan
+
+NEGATIVE = "leg_tracker/negative_2.bag"
+NEGATIVE_TOPICS = ("/left_scan", "/rear_scan", "/right_scan")
+FOLLOW = "leg_tracker/person_following_outdoor_1.bag.zip"
+FOLLOW_TOPIC = "/scan_base2"
+FOLLOW_GT = "leg_tracker/person_following_outdoor_1_gt.csv"
+POSITIVE = tuple(f"leg_tracker/positive_{k}_extracted.bag" for k in (1, 2, 3, 4, 6, 7))
+MATCH = 0.5  # m
+DETECTORS = ("leg", "boosted")
+
+
+@dataclass
+class Sequence_:
+    """One laser sequence with its detections and ground truth people per scan (None: no GT)."""
+
+    name: str
+    scans: list[LaserScan]
+    detections: dict[str, list[NDArray[np.float64]]]
+    truth: list[NDArray[np.float64]] | None = None
+    kind: str = "negative"
+
+
+@dataclass
+class Outcome:
+    raw: dict[str, tuple[int, int]] = field(default_factory=dict)  # detector -> (hits or FPs, total)
+    kept: dict[str, tuple[int, int]] = field(default_factory=dict)
+    odo_ms: float = 0.0
+    map_ms: float = 0.0
+    odo_ok: float = 0.0
+
+
+def _scans(path: Path, topic: str) -> list[LaserScan]:
+    with BagSource(path) as bag:
+        return [laser_from_msg(m.msg, stamp_ns=m.stamp_ns, frame_id=m.frame_id, topic=topic) for m in bag.messages([topic])]
+
+
+def _detect(scans: list[LaserScan]) -> dict[str, list[NDArray[np.float64]]]:
+    leg, boosted = LegDetector(), BoostedSegmentDetector()
+    return {"leg": [leg.detect(s) for s in scans], "boosted": [boosted.detect(s) for s in scans]}
+
+
+def labelled_people(legs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Labelled people of a positive scan: midpoints of leg pairs (0.1-0.6 m, closest first) and unpaired legs."""
+    legs = np.asarray(legs, dtype=float).reshape(-1, 2)
+    pairs, paired = pair_legs(legs, min_separation=0.1, max_separation=0.6)
+    mids = 0.5 * (legs[pairs[:, 0]] + legs[pairs[:, 1]])
+    return np.concatenate((mids, legs[~paired]))
+
+
+def load(data: Path, *, progress: bool = True) -> list[Sequence_]:
+    seqs: list[Sequence_] = []
+
+    def say(msg: str) -> None:
+        if progress:
+            print(msg, file=sys.stderr, flush=True)
+
+    for topic in NEGATIVE_TOPICS:
+        say(f"loading negative_2 {topic}")
+        scans = _scans(data / NEGATIVE, topic)
+        seqs.append(Sequence_(f"negative_2{topic}", scans, _detect(scans)))
+    say("loading person_following_outdoor_1")
+    scans = _scans(data / FOLLOW, FOLLOW_TOPIC)
+    truth: list[list[tuple[float, float]]] = [[] for _ in scans]
+    with open(data / FOLLOW_GT, newline="") as f:
+        for row in csv.DictReader(f):
+            k = int(row["scan_index"])
+            if 0 <= k < len(scans):
+                truth[k].append((float(row["x_laser_m"]), float(row["y_laser_m"])))
+    seqs.append(
+        Sequence_(
+            "person_following_1",
+            scans,
+            _detect(scans),
+            [np.array(t, dtype=float).reshape(-1, 2) for t in truth],
+            "positive",
+        )
+    )
+    for name in POSITIVE:
+        say(f"loading {name}")
+        items = load_labelled_scans(data / name)
+        scans = [it.scan for it in items]
+        seqs.append(
+            Sequence_(
+                Path(name).stem.replace("_extracted", ""),
+                scans,
+                _detect(scans),
+                [labelled_people(it.legs) for it in items],
+                "positive",
+            )
+        )
+    return seqs
+
+
+def _count(det: NDArray[np.float64], truth: NDArray[np.float64] | None) -> tuple[int, int]:
+    """(false people, 1) on a negative scan; (recalled, labelled) on a positive one."""
+    if truth is None:
+        return int(det.shape[0]), 1
+    if not truth.shape[0]:
+        return 0, 0
+    if not det.shape[0]:
+        return 0, int(truth.shape[0])
+    d, _ = cKDTree(det).query(truth, k=1)
+    return int((d <= MATCH).sum()), int(truth.shape[0])
+
+
+def run(seq: Sequence_, config: ClutterConfig, *, exclude: str = "moving", moving_distance: float = 0.3) -> Outcome:
+    """Odometry, map and both detectors over one sequence (see the module docstring for the exact calls)."""
+    odo, cmap = ScanOdometry(), StaticClutterMap(config)
+    tracks = MovingPeople(min_distance=moving_distance)
+    out = Outcome()
+    acc_raw = {d: [0, 0] for d in DETECTORS}
+    acc_kept = {d: [0, 0] for d in DETECTORS}
+    prev = np.zeros((0, 2))  # the exclude set of the previous scan, in its frame
+    t_odo = t_map = 0.0
+    n_ok = 0
+    for k, scan in enumerate(seq.scans):
+        pts = scan.points()
+        t0 = time.perf_counter()
+        step = odo.update(pts)
+        t1 = time.perf_counter()
+        n_ok += step.ok
+        if k and not step.ok:
+            cmap.forget()  # ego-motion unknown: the map no longer lines up with the world
+        excl = step.ego.inverse().apply(prev) if prev.shape[0] else prev
+        cmap.update(pts, ego=step.ego, exclude=excl, stamp_ns=scan.stamp_ns)
+        kept_all = []
+        for d in DETECTORS:
+            det = seq.detections[d][k]
+            kept = det[~cmap.is_static(det)] if det.shape[0] else det
+            kept_all.append(kept)
+            truth = None if seq.truth is None else seq.truth[k]
+            for acc, arr in ((acc_raw, det), (acc_kept, kept)):
+                a, b = _count(arr, truth)
+                acc[d][0] += a
+                acc[d][1] += b
+        t2 = time.perf_counter()
+        if exclude == "kept":
+            prev = np.concatenate(kept_all)
+        elif exclude == "moving":
+            prev = tracks.update(np.concatenate([seq.detections[d][k] for d in DETECTORS]), ego=step.ego)
+        t3 = time.perf_counter()
+        t_odo += t1 - t0
+        t_map += (t2 - t1) + (t3 - t2)
+    n = max(len(seq.scans), 1)
+    out.raw = {d: (v[0], v[1]) for d, v in acc_raw.items()}
+    out.kept = {d: (v[0], v[1]) for d, v in acc_kept.items()}
+    out.odo_ms, out.map_ms, out.odo_ok = 1e3 * t_odo / n, 1e3 * t_map / n, n_ok / n
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m evaluation.bench_clutter", description=__doc__.split("\n")[0])
+    ap.add_argument("--data", default="../shared/data", help="the shared data folder")
+    ap.add_argument("--exclude", default="moving", choices=("none", "kept", "moving"))
+    ap.add_argument("--moving-distance", type=float, default=0.3, help="m a track must move to be excluded")
+    ap.add_argument("--static-time", type=float, default=None, help="override ClutterConfig.static_time (s)")
+    ap.add_argument("--static-threshold", type=float, default=None)
+    ap.add_argument("--free-rate", type=float, default=None)
+    ap.add_argument("--query-radius", type=float, default=None)
+    ap.add_argument("--max-scans", type=int, default=None, help="use only the first N scans of each sequence")
+    args = ap.parse_args(argv)
+    data = Path(args.data)
+    if not (data / NEGATIVE).is_file():
+        print(f"{data / NEGATIVE} is absent; nothing to benchmark", file=sys.stderr)
+        return 2
+    cfg = ClutterConfig()
+    for name in ("static_time", "static_threshold", "free_rate", "query_radius"):
+        v = getattr(args, name)
+        if v is not None:
+            cfg = replace(cfg, **{name: v})
+    seqs = load(data)
+    if args.max_scans:
+        for s in seqs:
+            s.scans = s.scans[: args.max_scans]
+            s.detections = {d: v[: args.max_scans] for d, v in s.detections.items()}
+            s.truth = None if s.truth is None else s.truth[: args.max_scans]
+    print(f"ClutterConfig: {cfg}")
+    print(f"exclude = {args.exclude}" + (f" (moved >= {args.moving_distance} m)" if args.exclude == "moving" else ""))
+    print()
+    head = f"{'sequence':<24}{'scans':>6}{'measure':>18}"
+    for d in DETECTORS:
+        head += f"{d + ' raw':>13}{d + ' map':>13}"
+    head += f"{'odo ok':>8}{'odo ms':>8}{'map ms':>8}"
+    print(head)
+    totals: dict[str, dict[str, list[int]]] = {
+        kind: {f"{d}/{w}": [0, 0] for d in DETECTORS for w in ("raw", "kept")} for kind in ("negative", "positive")
+    }
+    for seq in seqs:
+        print(f"running {seq.name}", file=sys.stderr, flush=True)
+        o = run(seq, cfg, exclude=args.exclude, moving_distance=args.moving_distance)
+        measure = "false people/scan" if seq.kind == "negative" else "recall"
+        line = f"{seq.name:<24}{len(seq.scans):>6}{measure:>18}"
+        for d in DETECTORS:
+            for w, res in (("raw", o.raw[d]), ("kept", o.kept[d])):
+                a, b = res
+                line += f"{a / max(b, 1):>13.3f}"
+                totals[seq.kind][f"{d}/{w}"][0] += a
+                totals[seq.kind][f"{d}/{w}"][1] += b
+        line += f"{o.odo_ok:>8.2f}{o.odo_ms:>8.2f}{o.map_ms:>8.2f}"
+        print(line, flush=True)
+    for kind, measure in (("negative", "false people/scan"), ("positive", "recall (pooled)")):
+        line = f"{'ALL ' + kind:<24}{'':>6}{measure:>18}"
+        for d in DETECTORS:
+            for w in ("raw", "kept"):
+                a, b = totals[kind][f"{d}/{w}"]
+                line += f"{a / max(b, 1):>13.3f}"
+        print(line)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
