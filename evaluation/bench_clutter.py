@@ -84,7 +84,9 @@ class Outcome:
 
 def _scans(path: Path, topic: str) -> list[LaserScan]:
     with BagSource(path) as bag:
-        return [laser_from_msg(m.msg, stamp_ns=m.stamp_ns, frame_id=m.frame_id, topic=topic) for m in bag.messages([topic])]
+        return [
+            laser_from_msg(m.msg, stamp_ns=m.stamp_ns, frame_id=m.frame_id, topic=topic) for m in bag.messages([topic])
+        ]
 
 
 def _detect(scans: list[LaserScan]) -> dict[str, list[NDArray[np.float64]]]:

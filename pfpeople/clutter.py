@@ -20,23 +20,36 @@ Update (per scan, ``dt`` seconds since the previous one, clipped to ``max_dt``)
 -----------------------------------------------------------------------------
 Every cell holds ``s`` (s), a bounded log-odds of occupancy in units of "seconds of evidence":
 
+First every cell relaxes towards the unknown value ``s0`` (``unknown_evidence``):
+``s <- s0 + (s - s0) exp(-dt / forget_time)`` (what is no longer observed fades). Then:
+
 * **hit** (a scan end point falls in the cell and is not near an excluded person): ``s <- min(s + dt, s_max)``;
-* **free** (a beam passes through the cell at least ``free_margin`` before its end point, or an end point
-  near an excluded person falls in it, as leg_tracker marks human returns as free):
-  ``s <- max(s - free_rate dt, s_min)``;
-* **unobserved** (occluded, out of range or out of view): ``s <- s exp(-dt / forget_time)`` (fades to unknown).
+* **free** (every ``free_stride``-th beam is traced, in steps of one cell, up to ``free_margin`` before its end
+  point; or an end point near an excluded person falls in the cell, as leg_tracker marks human returns as
+  free): ``s <- max(s - free_rate dt, s_min)``, except in cells within ``protect_cells`` of a hit cell of the
+  same scan (beams passing beside a thin post, or a post misregistered by a cell, do not erase it).
 
 With a per-scan log-odds increment proportional to ``dt``, the evidence is a rate, so the same time constants
-hold at 7.5 Hz and 40 Hz. Cells start (and cells entering the window are set) at ``s = 0`` (unknown). A place
-seen free and then occupied needs ``static_time`` seconds of hits (plus the free evidence it has to make up)
-before it counts as static, so a person walking in is not suppressed; a person standing still is kept out of
-the map by passing them in ``exclude``.
+hold at 7.5 Hz and 40 Hz. Cells start (and cells entering the window are set) at ``s0``. ``s0 > 0`` is a
+prior for places never seen: something first seen where nothing was ever seen free (a chair coming into view
+as the robot turns) needs only ``static_threshold * static_time - s0`` seconds to count as static, while a
+person walking into space that was seen free has to make up the free evidence too (down to ``s_min``).
+Free evidence weighs less than hits (``free_rate < 1``): with a few centimetres of odometry error a static
+post is often carved free by beams passing its cell, and a walking person's cells are hit only briefly. A
+person standing still is kept out of the map by passing them in ``exclude``.
+
+When the ego-motion of a scan is unknown (the scan matcher failed and there is no wheel odometry), call
+:meth:`StaticClutterMap.forget` before the update: a map that moved with the robot would call anything
+that keeps its place relative to the robot static (a followed person).
 
 Query
 -----
 ``static_score(p)`` for positions ``p`` (M, 2) in the current sensor frame: the cells within ``query_radius``
 of ``p`` that were hit by the latest scan (the returns a detection there is made of) are looked up, and the
-score is ``mean(clip(s / static_time, 0, 1))`` over them (0 when there are none). ``is_static`` is
+score is ``mean(clip(s_max3 / static_time, 0, 1))`` over them, with ``s_max3`` the largest ``s`` within
+``query_cells`` cells of the return's cell (tolerance to a cell of odometry error); 0 when there are no such
+returns and within ``exclude_radius`` of the latest ``exclude`` positions (a confirmed person is never
+static, whatever the place held before). ``is_static`` is
 ``score >= static_threshold``. Taking the returns of the current scan (not every cell near ``p``) keeps a
 person next to a wall from inheriting the wall's score through empty cells; the mean (not the maximum) keeps
 one static return (a wall point at the edge of the radius) from vetoing a person.
@@ -107,9 +120,18 @@ class ClutterConfig:
         Bounds of the evidence (s): ``s_min <= 0`` (how much free evidence a cell can store, negative),
         ``s_max >= static_time`` (how long a static cell stays static once unobserved or seen free).
     forget_time : float
-        Time constant (s) with which unobserved cells return to unknown (``s = 0``).
+        Time constant (s) with which cells return to unknown (``unknown_evidence``).
     free_margin : float
         Free space is traced up to this distance before each end point (m).
+    free_stride : int
+        Free space is traced along every ``free_stride``-th beam (the cells are larger than the beam gap
+        within a few metres).
+    protect_cells : int
+        Cells within this many cells (Chebyshev) of a hit cell of the same scan are not marked free.
+    unknown_evidence : float
+        ``s0``: the evidence (s) of a never-observed cell, and the value cells relax to.
+    query_cells : int
+        A return's evidence is the largest within this many cells of its cell.
     exclude_radius : float
         Scan points within this distance of an excluded (person) position are not added (marked free).
     query_radius : float
@@ -157,6 +179,14 @@ class ClutterConfig:
             _check_number(getattr(self, name), f"ClutterConfig.{name}")
         for name in ("recentre_distance", "free_margin", "exclude_radius", "free_rate", "unknown_evidence"):
             _check_number(getattr(self, name), f"ClutterConfig.{name}", allow_zero=True)
+        for name, low in (("free_stride", 1), ("protect_cells", 0), ("query_cells", 0)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"ClutterConfig.{name} must be an int, got {type(v).__name__}")
+            if v < low or v > 5:
+                raise ValueError(f"ClutterConfig.{name} must be in [{low}, 5], got {v!r}")
+        if self.unknown_evidence > self.s_max:
+            raise ValueError("ClutterConfig.unknown_evidence must be <= s_max")
         if isinstance(self.s_min, bool) or not isinstance(self.s_min, (int, float)):
             raise TypeError(f"ClutterConfig.s_min must be a number, got {type(self.s_min).__name__}")
         if not (math.isfinite(self.s_min) and self.s_min <= 0.0):
@@ -174,11 +204,17 @@ class ClutterConfig:
 class StaticClutterMap:
     """Local map of how long each place has been occupied by non-person laser returns.
 
-    See the module docstring for the maths and frames. Typical use, once per scan::
+    See the module docstring for the maths and frames. Typical use, once per scan ``k`` (all in the laser's
+    frame)::
 
-        step = odometry.update(points)                      # or the ego from wheel odometry / TF
-        clutter.update(points, ego=step.ego, exclude=people_prev, stamp_ns=scan.stamp_ns)
-        keep = ~clutter.is_static(detections)               # detections in the same sensor frame
+        points = scan.points()                     # all beams; NaN rows (invalid) are ignored
+        step = odometry.update(points)             # ScanOdometry, or the ego from wheel odometry / TF
+        if k > 0 and not step.ok:
+            clutter.forget()                       # ego unknown
+        ex = step.ego.inverse().apply(moving_prev)  # last scan's moving people, moved into this frame
+        clutter.update(points, ego=step.ego, exclude=ex, stamp_ns=scan.stamp_ns)
+        keep = ~clutter.is_static(detections)      # detections in the same sensor frame
+        moving_prev = moving.update(all_detections, ego=step.ego)  # MovingPeople
 
     Parameters
     ----------
@@ -190,7 +226,7 @@ class StaticClutterMap:
             raise TypeError(f"config must be a ClutterConfig, got {type(config).__name__}")
         self.config = config or ClutterConfig()
         c = self.config
-        self.n = int(math.ceil(2.0 * c.half_extent / c.resolution))
+        self.n = math.ceil(2.0 * c.half_extent / c.resolution)
         self.reset()
         # free-space sample offsets along a beam (m), spaced below one cell
         step = c.resolution

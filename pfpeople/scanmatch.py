@@ -212,9 +212,7 @@ def _reference(points: NDArray[np.float64], config: ScanMatchConfig) -> _Referen
     return _Reference(pts, normals, tree)
 
 
-def _match(
-    ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: ScanMatchConfig
-) -> MatchResult:
+def _match(ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: ScanMatchConfig) -> MatchResult:
     src = _stride(cur, config.max_points)
     if ref.points.shape[0] < 3 or src.shape[0] < 3:
         return MatchResult(pose=init, rmse=math.inf, inlier_fraction=0.0, converged=False, degenerate=True)
@@ -224,7 +222,7 @@ def _match(
     converged = False
     min_eig = 0.0
     it = 0
-    for it in range(1, config.max_iterations + 1):  # noqa: B007 - iterations reported
+    for it in range(1, config.max_iterations + 1):
         gate = config.max_correspondence * ratio ** min(1.0, (it - 1) / n_half)
         c, s = math.cos(th), math.sin(th)
         q = np.column_stack((x + c * src[:, 0] - s * src[:, 1], y + s * src[:, 0] + c * src[:, 1]))

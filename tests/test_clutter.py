@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from pfpeople.clutter import ClutterConfig, StaticClutterMap
+from pfpeople.clutter import ClutterConfig, MovingPeople, StaticClutterMap
 from pfpeople.sensors import Pose2D
 
 DT = 0.1
@@ -161,7 +161,48 @@ def test_evidence_bounds_and_forgetting() -> None:
     j = np.floor((POST_FACE - m2.origin) / cfg.resolution).astype(int)
     s = m2.evidence[j[0], j[1]]
     first = cfg.unknown_evidence + cfg.default_dt
-    assert s == pytest.approx(cfg.unknown_evidence + (first - cfg.unknown_evidence) * math.exp(-cfg.max_dt / cfg.forget_time) + cfg.max_dt)
+    assert s == pytest.approx(
+        cfg.unknown_evidence + (first - cfg.unknown_evidence) * math.exp(-cfg.max_dt / cfg.forget_time) + cfg.max_dt
+    )
+
+
+def test_forget_returns_every_cell_to_unknown() -> None:
+    m = StaticClutterMap(CFG)
+    for _ in range(FRAMES_TO_STATIC):
+        m.update(ray_cast(Pose2D(), post()), dt=DT)
+    assert m.is_static(POST[None, :]).tolist() == [True]
+    m.forget()
+    assert np.all(m.evidence == CFG.unknown_evidence)
+    m.update(ray_cast(Pose2D(), post()), dt=DT)
+    assert m.is_static(POST[None, :]).tolist() == [False]
+
+
+def test_moving_people_marks_walkers_not_posts() -> None:
+    """A walker (0.12 m per scan) is moving after 0.3 m; a post seen from a robot driving past (known ego)
+    never is; a walker unseen for more than max_missed scans is dropped."""
+    mp = MovingPeople(gate=0.5, min_distance=0.3, max_missed=3)
+    robot = [Pose2D(x=0.05 * k, y=0.0, yaw=0.01 * k) for k in range(12)]
+    post_world = np.array([3.0, 1.0])
+    out = []
+    for k, pose in enumerate(robot):
+        ego = robot[k - 1].inverse().compose(pose) if k else None
+        walker_world = np.array([2.0 + 0.12 * k, -1.0])
+        det = pose.inverse().apply(np.vstack((post_world, walker_world)))
+        out.append(mp.update(det, ego=ego))
+        # the returned positions are in the current sensor frame
+    assert [o.shape[0] for o in out[:3]] == [0, 0, 0]
+    assert all(o.shape[0] == 1 for o in out[3:])
+    last_walker = robot[-1].inverse().apply(np.array([[2.0 + 0.12 * 11, -1.0]]))
+    assert np.allclose(out[-1], last_walker)
+    for _ in range(3):
+        assert mp.update(np.zeros((0, 2))).shape == (1, 2)  # held while missed <= max_missed
+    assert mp.update(np.zeros((0, 2))).shape == (0, 2)
+    with pytest.raises(ValueError, match="gate"):
+        MovingPeople(gate=0.0)
+    with pytest.raises(TypeError, match="max_missed"):
+        MovingPeople(max_missed=1.5)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="detections"):
+        mp.update(np.zeros((2, 3)))
 
 
 def test_bad_input_errors() -> None:
@@ -186,6 +227,10 @@ def test_bad_input_errors() -> None:
         ClutterConfig(half_extent=5.0, max_range=10.0)
     with pytest.raises(ValueError, match="static_threshold"):
         ClutterConfig(static_threshold=1.5)
+    with pytest.raises(TypeError, match="free_stride"):
+        ClutterConfig(free_stride=2.0)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="protect_cells"):
+        ClutterConfig(protect_cells=-1)
     with pytest.raises(TypeError, match="config"):
         StaticClutterMap(config={})  # type: ignore[arg-type]
     # NaN rows of points (invalid beams) are ignored, not an error
