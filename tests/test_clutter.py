@@ -19,7 +19,6 @@ from pfpeople.clutter import ClutterConfig, MovingPeople, StaticClutterMap
 from pfpeople.sensors import Pose2D
 
 DT = 0.1
-BOUND = 0.3  # placeholder
 CFG = ClutterConfig()
 POST = np.array([3.0, -1.0])
 POST_FACE = POST * (1.0 - 0.05 / np.hypot(*POST))  # the post's return nearest the sensor
@@ -240,7 +239,9 @@ def test_bad_input_errors() -> None:
 
 @pytest.mark.realdata
 def test_negative_2_false_people_after_the_map(shared_data: Path) -> None:
-    """150 scans of negative_2 /left_scan (nobody there): false people per scan of the leg detector."""
+    """150 scans of negative_2 /left_scan (nobody there): false people per scan of the leg detector, with the
+    recipe of ``evaluation.bench_clutter`` (ScanOdometry, forget on a failed match, MovingPeople exclusion).
+    Measured 0.773 raw -> 0.060 after the map; the bound leaves a margin of 0.1."""
     from pfpeople.bag.reader import BagSource, laser_from_msg
     from pfpeople.detectors import LegDetector
     from pfpeople.scanmatch import ScanOdometry
@@ -248,19 +249,24 @@ def test_negative_2_false_people_after_the_map(shared_data: Path) -> None:
     bag = shared_data / "leg_tracker" / "negative_2.bag"
     if not bag.is_file():
         pytest.skip(f"{bag} is absent")
-    det, odo, m = LegDetector(), ScanOdometry(), StaticClutterMap()
+    det, odo, m, moving = LegDetector(), ScanOdometry(), StaticClutterMap(), MovingPeople()
     raw = kept = n = 0
+    prev = np.zeros((0, 2))
     with BagSource(bag) as src:
         for msg in src.messages(["/left_scan"]):
             if n == 150:
                 break
             scan = laser_from_msg(msg.msg, stamp_ns=msg.stamp_ns, frame_id=msg.frame_id, topic=msg.topic)
             pts = scan.points()
-            m.update(pts, ego=odo.update(pts).ego, stamp_ns=scan.stamp_ns)
+            step = odo.update(pts)
+            if n and not step.ok:
+                m.forget()
+            m.update(pts, ego=step.ego, exclude=step.ego.inverse().apply(prev), stamp_ns=scan.stamp_ns)
             people = det.detect(scan)
             raw += people.shape[0]
             kept += int((~m.is_static(people)).sum()) if people.shape[0] else 0
+            prev = moving.update(people, ego=step.ego)
             n += 1
     print(f"negative_2 /left_scan, 150 scans: {raw / n:.3f} -> {kept / n:.3f} false people per scan")
-    assert raw / n >= 0.6  # the detector does fire on the clutter (measured RAW)
-    assert kept / n <= BOUND
+    assert raw / n >= 0.6  # the detector does fire on the clutter
+    assert kept / n <= 0.16
