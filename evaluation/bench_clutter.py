@@ -1,19 +1,20 @@
 """Benchmark of static-clutter suppression (:mod:`pfpeople.clutter`) with laser odometry (:mod:`pfpeople.scanmatch`).
 
 For every laser sequence, each run alone in its own sensor frame, the built-in laser detectors
-(``LegDetector``, ``BoostedSegmentDetector``) are run raw and after the static map: a detection is dropped
-when ``StaticClutterMap.is_static`` is true at it. Per scan, in this order::
+(``LegDetector``, ``BoostedSegmentDetector``) are run raw and after the static map, through
+:class:`pfpeople.clutter.ClutterSuppressor` (one per sequence; no wheel odometry, so the ego-motion comes from
+its :class:`pfpeople.scanmatch.ScanOdometry`). Per scan ``k``, exactly what it does::
 
-    step = odometry.update(points)                     # ScanOdometry; points = scan.points() (NaN = invalid)
-    if not step.ok and k > 0: cmap.forget()          # ego unknown (identity fallback): restart the map
-    cmap.update(points, ego=step.ego, exclude=step.ego.inverse().apply(E), stamp_ns=scan.stamp_ns)
-    kept = detections[~cmap.is_static(detections)]   # per detector
-    E = moving.update(all raw detections of both detectors, ego=step.ego)   # MovingPeople
+    step = odometry.update(points)                     # points = scan.points() (all beams, NaN = invalid)
+    if k > 0 and not step.ok: map.forget()             # ego unknown (identity fallback): restart the map
+    map.update(points, ego=step.ego, exclude=step.ego.inverse().apply(E), stamp_ns=scan.stamp_ns)
+    kept = detections[~map.is_static(detections)]      # per detector
+    E = moving.update(raw detections of both detectors, ego=step.ego)   # MovingPeople
 
 ``E`` (``--exclude``): ``moving`` (default) = the tracks of :class:`pfpeople.clutter.MovingPeople` over the raw
 detections of both detectors that have moved ``--moving-distance`` (0.3 m) from where they started (a "people
-seen moving" set; a chair leg that stays put never enters it); ``kept`` = the detections kept in the previous
-scan (both detectors); ``none``. The time of the map column includes the tracker.
+seen moving" set; a chair leg that stays put never enters it); ``none``: nothing is excluded. The time of the
+map column includes the tracks.
 
 Figures (the data are the leg_tracker recordings, see ``../shared/data/MANIFEST.md``):
 
@@ -68,7 +69,6 @@ from __future__ import annotations
 import argparse
 import csv
 import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -78,10 +78,9 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from pfpeople.bag.reader import BagSource, laser_from_msg
-from pfpeople.clutter import ClutterConfig, MovingPeople, StaticClutterMap
+from pfpeople.clutter import ClutterConfig, ClutterSuppressor, MovingPeople
 from pfpeople.detectors import BoostedSegmentDetector, LegDetector, pair_legs
 from pfpeople.detectors._bags import load_labelled_scans
-from pfpeople.scanmatch import ScanOdometry
 from pfpeople.sensors import LaserScan
 
 NEGATIVE = "leg_tracker/negative_2.bag"
@@ -191,54 +190,35 @@ def _count(det: NDArray[np.float64], truth: NDArray[np.float64] | None) -> tuple
 
 
 def run(seq: Sequence_, config: ClutterConfig, *, exclude: str = "moving", moving_distance: float = 0.3) -> Outcome:
-    """Odometry, map and both detectors over one sequence (see the module docstring for the exact calls)."""
-    odo, cmap = ScanOdometry(), StaticClutterMap(config)
-    tracks = MovingPeople(min_distance=moving_distance)
+    """The map over one sequence with :class:`ClutterSuppressor` (the recipe in the module docstring)."""
+    never = 1e9  # with exclude="none" no track ever counts as moving
+    sup = ClutterSuppressor(config, moving=MovingPeople(min_distance=moving_distance if exclude == "moving" else never))
     out = Outcome()
     acc_raw = {d: [0, 0] for d in DETECTORS}
     acc_kept = {d: [0, 0] for d in DETECTORS}
-    prev = np.zeros((0, 2))  # the exclude set of the previous scan, in its frame
-    t_odo = t_map = 0.0
     n_ok = 0
     for k, scan in enumerate(seq.scans):
-        pts = scan.points()
-        t0 = time.perf_counter()
-        step = odo.update(pts)
-        t1 = time.perf_counter()
-        n_ok += step.ok
-        if k and not step.ok:
-            cmap.forget()  # ego-motion unknown: the map no longer lines up with the world
-        excl = step.ego.inverse().apply(prev) if prev.shape[0] else prev
-        cmap.update(pts, ego=step.ego, exclude=excl, stamp_ns=scan.stamp_ns)
-        kept_all = []
-        for d in DETECTORS:
-            det = seq.detections[d][k]
-            kept = det[~cmap.is_static(det)] if det.shape[0] else det
-            kept_all.append(kept)
-            truth = None if seq.truth is None else seq.truth[k]
-            for acc, arr in ((acc_raw, det), (acc_kept, kept)):
+        dets = [seq.detections[d][k] for d in DETECTORS]
+        st = sup.step(scan.points(), dets, stamp_ns=scan.stamp_ns)
+        n_ok += st.ego_ok and k > 0
+        truth = None if seq.truth is None else seq.truth[k]
+        for d, det, keep in zip(DETECTORS, dets, st.keep, strict=True):
+            for acc, arr in ((acc_raw, det), (acc_kept, det[keep])):
                 a, b = _count(arr, truth)
                 acc[d][0] += a
                 acc[d][1] += b
-        t2 = time.perf_counter()
-        if exclude == "kept":
-            prev = np.concatenate(kept_all)
-        elif exclude == "moving":
-            prev = tracks.update(np.concatenate([seq.detections[d][k] for d in DETECTORS]), ego=step.ego)
-        t3 = time.perf_counter()
-        t_odo += t1 - t0
-        t_map += (t2 - t1) + (t3 - t2)
     n = max(len(seq.scans), 1)
     out.raw = {d: (v[0], v[1]) for d, v in acc_raw.items()}
     out.kept = {d: (v[0], v[1]) for d, v in acc_kept.items()}
-    out.odo_ms, out.map_ms, out.odo_ok = 1e3 * t_odo / n, 1e3 * t_map / n, n_ok / n
+    out.odo_ms, out.map_ms = 1e3 * sup.odometry_s / n, 1e3 * sup.map_s / n
+    out.odo_ok = n_ok / max(n - 1, 1)
     return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m evaluation.bench_clutter", description=__doc__.split("\n")[0])
     ap.add_argument("--data", default="../shared/data", help="the shared data folder")
-    ap.add_argument("--exclude", default="moving", choices=("none", "kept", "moving"))
+    ap.add_argument("--exclude", default="moving", choices=("none", "moving"))
     ap.add_argument("--moving-distance", type=float, default=0.3, help="m a track must move to be excluded")
     ap.add_argument("--static-time", type=float, default=None, help="override ClutterConfig.static_time (s)")
     ap.add_argument("--static-threshold", type=float, default=None)

@@ -61,15 +61,18 @@ The defaults were chosen with ``python -m evaluation.bench_clutter`` across ``ne
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from pfpeople.scanmatch import ScanOdometry
 from pfpeople.sensors import Pose2D
 
-__all__ = ["ClutterConfig", "MovingPeople", "StaticClutterMap"]
+__all__ = ["ClutterConfig", "ClutterSuppressor", "MovingPeople", "StaticClutterMap", "SuppressionStep"]
 
 
 def _check_number(value: object, name: str, *, allow_zero: bool = False) -> float:
@@ -524,3 +527,117 @@ class MovingPeople:
         self._missed, self._moving = self._missed[alive], self._moving[alive]
         sel = self._pos[self._moving]
         return self.pose.inverse().apply(sel) if sel.shape[0] else np.zeros((0, 2))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class SuppressionStep:
+    """What :meth:`ClutterSuppressor.step` did for one scan.
+
+    Attributes
+    ----------
+    keep : list of ndarray of bool
+        For each detection array passed, True for the detections that are not static clutter.
+    ego : Pose2D
+        The ego-motion used (given, or from the scan matcher; identity when the matcher failed).
+    ego_ok : bool
+        False when the ego-motion was unknown (the map was forgotten before the update).
+    excluded : ndarray, shape (K, 2)
+        The moving people excluded from this update (current sensor frame).
+    """
+
+    keep: list[NDArray[np.bool_]]
+    ego: Pose2D
+    ego_ok: bool
+    excluded: NDArray[np.float64]
+
+
+class ClutterSuppressor:
+    """The recipe of ``evaluation.bench_clutter`` in one object: one per laser, one :meth:`step` per scan.
+
+    Per scan (all in the laser's frame)::
+
+        ego  = the given ego, else ScanOdometry.update(points).ego   (identity + forget() when the match fails)
+        map.update(points, ego=ego, exclude=<moving people of the previous scan moved by ego>)
+        keep = ~map.is_static(detections)                             (for each detection array)
+        moving people <- MovingPeople.update(all detections, raw, of every array, ego=ego)
+
+    Parameters
+    ----------
+    config : ClutterConfig, optional
+        The map's parameters.
+    odometry : ScanOdometry, optional
+        The scan matcher used when :meth:`step` gets no ``ego`` (a default one when omitted).
+    moving : MovingPeople, optional
+        The "people seen moving" set (a default one when omitted).
+    """
+
+    def __init__(
+        self,
+        config: ClutterConfig | None = None,
+        *,
+        odometry: ScanOdometry | None = None,
+        moving: MovingPeople | None = None,
+    ) -> None:
+        if odometry is not None and not isinstance(odometry, ScanOdometry):
+            raise TypeError(f"odometry must be a ScanOdometry, got {type(odometry).__name__}")
+        if moving is not None and not isinstance(moving, MovingPeople):
+            raise TypeError(f"moving must be a MovingPeople, got {type(moving).__name__}")
+        self.map = StaticClutterMap(config)
+        self.odometry = odometry or ScanOdometry()
+        self.moving = moving or MovingPeople()
+        self._prev_moving = np.zeros((0, 2))
+        self.scans = 0
+        self.odometry_s = 0.0
+        """Wall-clock seconds spent in the scan matcher (all scans)."""
+        self.map_s = 0.0
+        """Wall-clock seconds spent in the map and the moving-people tracks (all scans)."""
+
+    def step(
+        self,
+        points: ArrayLike,
+        detections: Sequence[ArrayLike],
+        *,
+        ego: Pose2D | None = None,
+        stamp_ns: int | None = None,
+        dt: float | None = None,
+    ) -> SuppressionStep:
+        """Add one scan and say which detections are not static clutter.
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 2)
+            All scan end points in the laser frame (m), e.g. ``LaserScan.points()`` (NaN rows are ignored).
+        detections : sequence of array_like, shape (M_i, 2)
+            The person detections of this scan in the same laser frame (m), one array per detector.
+        ego : Pose2D, optional
+            The laser frame now in the laser frame of the previous scan (from wheel odometry / TF); when
+            omitted it comes from the scan matcher.
+        stamp_ns, dt : optional
+            The scan's time, see :meth:`StaticClutterMap.update`.
+
+        Returns
+        -------
+        SuppressionStep
+        """
+        if ego is not None and not isinstance(ego, Pose2D):
+            raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
+        dets = [_positions(d, f"detections[{i}]") for i, d in enumerate(detections)]
+        t0 = time.perf_counter()
+        ok = True
+        if ego is None:
+            st = self.odometry.update(points)
+            ego, ok = st.ego, st.ok or self.scans == 0
+        t1 = time.perf_counter()
+        if not ok:
+            self.map.forget()
+        prev = self._prev_moving
+        excluded = ego.inverse().apply(prev) if prev.shape[0] else prev
+        self.map.update(points, ego=ego, exclude=excluded, stamp_ns=stamp_ns, dt=dt)
+        keep = [~self.map.is_static(d) if d.shape[0] else np.zeros(0, dtype=bool) for d in dets]
+        everyone = np.concatenate(dets) if dets else np.zeros((0, 2))
+        self._prev_moving = self.moving.update(everyone, ego=ego)
+        t2 = time.perf_counter()
+        self.scans += 1
+        self.odometry_s += t1 - t0
+        self.map_s += t2 - t1
+        return SuppressionStep(keep=keep, ego=ego, ego_ok=ok, excluded=excluded)
