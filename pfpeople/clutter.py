@@ -598,6 +598,7 @@ class ClutterSuppressor:
         detections: Sequence[ArrayLike],
         *,
         ego: Pose2D | None = None,
+        exclude: ArrayLike | None = None,
         stamp_ns: int | None = None,
         dt: float | None = None,
     ) -> SuppressionStep:
@@ -612,6 +613,9 @@ class ClutterSuppressor:
         ego : Pose2D, optional
             The laser frame now in the laser frame of the previous scan (from wheel odometry / TF); when
             omitted it comes from the scan matcher.
+        exclude : array_like, shape (K, 2), optional
+            More people to keep out of the map, in this scan's laser frame (e.g. the confirmed people of a
+            tracker or of the filter's output, moved into this frame), besides the moving tracks.
         stamp_ns, dt : optional
             The scan's time, see :meth:`StaticClutterMap.update`.
 
@@ -622,6 +626,7 @@ class ClutterSuppressor:
         if ego is not None and not isinstance(ego, Pose2D):
             raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
         dets = [_positions(d, f"detections[{i}]") for i, d in enumerate(detections)]
+        extra = _positions(exclude if exclude is not None else np.zeros((0, 2)), "exclude")
         t0 = time.perf_counter()
         ok = True
         if ego is None:
@@ -631,7 +636,7 @@ class ClutterSuppressor:
         if not ok:
             self.map.forget()
         prev = self._prev_moving
-        excluded = ego.inverse().apply(prev) if prev.shape[0] else prev
+        excluded = np.concatenate((ego.inverse().apply(prev) if prev.shape[0] else prev, extra))
         self.map.update(points, ego=ego, exclude=excluded, stamp_ns=stamp_ns, dt=dt)
         keep = [~self.map.is_static(d) if d.shape[0] else np.zeros(0, dtype=bool) for d in dets]
         everyone = np.concatenate(dets) if dets else np.zeros((0, 2))

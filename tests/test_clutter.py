@@ -225,6 +225,10 @@ def test_suppressor_drops_a_post_keeps_a_walker_and_uses_the_given_ego() -> None
         sup.step(np.zeros((3, 2)), [], ego=(0.0, 0.0, 0.0))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match=r"detections\[0\]"):
         sup.step(np.zeros((3, 2)), [np.zeros((2, 3))])
+    # an extra exclusion (a confirmed person standing on the post) keeps the detection there
+    st = sup.step(ray_cast(robot[-1], post()), [dets[:1]], ego=Pose2D(), exclude=dets[:1], dt=DT)
+    assert st.keep[0].tolist() == [True]
+    assert np.hypot(*(st.excluded - dets[0]).T).min() < 1e-9  # with the walker's moving track
 
 
 def test_bad_input_errors() -> None:
