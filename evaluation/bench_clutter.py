@@ -33,16 +33,16 @@ Measured with the defaults (``ClutterConfig()``, ``ScanOdometry()``, ``--exclude
 shared 2-core machine::
 
     sequence               scans  measure     leg raw     leg map boosted raw boosted map  odo ok  odo ms  map ms
-    negative_2/left_scan     435  FP/scan       0.943       0.131       0.303       0.044    1.00    3.32    1.37
-    negative_2/rear_scan     435  FP/scan       1.085       0.234       0.283       0.064    1.00    3.44    1.41
-    negative_2/right_scan    434  FP/scan       0.853       0.230       0.385       0.115    1.00    4.02    1.81
-    person_following_1      7170   recall       0.459       0.459       0.478       0.478    0.17    4.00    1.36
-    positive_1               197   recall       0.577       0.577       0.822       0.779    0.99    2.99    2.47
-    positive_2                83   recall       0.301       0.289       0.096       0.096    0.99    2.92    1.79
-    positive_3               175   recall       0.355       0.351       0.339       0.331    0.99    3.43    1.98
-    positive_4               295   recall       0.363       0.315       0.275       0.247    1.00    3.42    2.01
-    positive_6               187   recall       0.529       0.529       0.310       0.310    0.99    3.22    2.32
-    positive_7               267   recall       0.360       0.341       0.307       0.303    1.00    3.33    2.21
+    negative_2/left_scan     435  FP/scan       0.943       0.131       0.303       0.044    1.00    7.66    3.14
+    negative_2/rear_scan     435  FP/scan       1.085       0.234       0.283       0.064    1.00    7.05    2.51
+    negative_2/right_scan    434  FP/scan       0.853       0.230       0.385       0.115    1.00    3.79    1.64
+    person_following_1      7170   recall       0.459       0.459       0.478       0.478    0.17    5.33    1.47
+    positive_1               197   recall       0.577       0.577       0.822       0.779    1.00    1.87    1.27
+    positive_2                83   recall       0.301       0.289       0.096       0.096    1.00    2.47    1.63
+    positive_3               175   recall       0.355       0.351       0.339       0.331    1.00    2.94    1.42
+    positive_4               295   recall       0.363       0.315       0.275       0.247    1.00    2.89    1.46
+    positive_6               187   recall       0.529       0.529       0.310       0.310    1.00    2.75    1.75
+    positive_7               267   recall       0.360       0.341       0.307       0.303    1.00    3.16    1.85
     ALL negative                  FP/scan       0.960       0.199       0.324       0.074
     ALL positive                   recall       0.452       0.449       0.461       0.458
     ALL positive_* bags            recall       0.416       0.399       0.376       0.360
