@@ -18,9 +18,8 @@ frame** (the frame of the points of the latest update).
 
 Update (per scan, ``dt`` seconds since the previous one, clipped to ``max_dt``)
 -----------------------------------------------------------------------------
-Every cell holds ``s`` (s), a bounded log-odds of occupancy in units of "seconds of evidence":
-
-First every cell relaxes towards the unknown value ``s0`` (``unknown_evidence``):
+Every cell holds ``s`` (s), a bounded log-odds of occupancy in units of "seconds of evidence". First every
+cell relaxes towards the unknown value ``s0`` (``unknown_evidence``):
 ``s <- s0 + (s - s0) exp(-dt / forget_time)`` (what is no longer observed fades). Then:
 
 * **hit** (a scan end point falls in the cell and is not near an excluded person): ``s <- min(s + dt, s_max)``;
@@ -49,13 +48,20 @@ of ``p`` that were hit by the latest scan (the returns a detection there is made
 score is ``mean(clip(s_max3 / static_time, 0, 1))`` over them, with ``s_max3`` the largest ``s`` within
 ``query_cells`` cells of the return's cell (tolerance to a cell of odometry error); 0 when there are no such
 returns and within ``exclude_radius`` of the latest ``exclude`` positions (a confirmed person is never
-static, whatever the place held before). ``is_static`` is
-``score >= static_threshold``. Taking the returns of the current scan (not every cell near ``p``) keeps a
-person next to a wall from inheriting the wall's score through empty cells; the mean (not the maximum) keeps
-one static return (a wall point at the edge of the radius) from vetoing a person.
+static, whatever the place held before). ``is_static`` is ``score >= static_threshold``. Taking the
+returns of the current scan (not every cell near ``p``) keeps a person next to a wall from inheriting the
+wall's score through empty cells; the mean (not the maximum) keeps one static return (a wall point at the
+edge of the radius) from vetoing a person.
+
+Use
+---
+:class:`ClutterSuppressor` runs the whole recipe per scan (scan odometry or a given ego, forgetting on an
+unknown ego, exclusion of :class:`MovingPeople` tracks, the static test of every detection).
 
 The defaults were chosen with ``python -m evaluation.bench_clutter`` across ``negative_2`` (three lasers),
-``person_following_outdoor_1`` and the six labelled positive bags together (see that module for the table).
+``person_following_outdoor_1`` and the six labelled positive bags together (see that module for the table):
+false people per scan on ``negative_2`` 0.960 -> 0.199 (leg detector) and 0.324 -> 0.074 (boosted); recall
+of the labelled people of the positive bags 0.416 -> 0.399 and 0.376 -> 0.360; person_following unchanged.
 """
 
 from __future__ import annotations
