@@ -268,7 +268,7 @@ def test_bad_input_errors() -> None:
 def test_negative_2_false_people_after_the_map(shared_data: Path) -> None:
     """150 scans of negative_2 /left_scan (nobody there): false people per scan of the leg detector through a
     ClutterSuppressor (the recipe of ``evaluation.bench_clutter``).
-    Measured 0.773 raw -> 0.060 after the map; the bound leaves a margin of 0.1."""
+    Measured 0.773 raw -> 0.040 after the map; the bound leaves a margin of 0.1."""
     from pfpeople.bag.reader import BagSource, laser_from_msg
     from pfpeople.detectors import LegDetector
 
@@ -289,4 +289,4 @@ def test_negative_2_false_people_after_the_map(shared_data: Path) -> None:
             n += 1
     print(f"negative_2 /left_scan, 150 scans: {raw / n:.3f} -> {kept / n:.3f} false people per scan")
     assert raw / n >= 0.6  # the detector does fire on the clutter
-    assert kept / n <= 0.16
+    assert kept / n <= 0.14
