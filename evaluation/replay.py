@@ -94,7 +94,7 @@ def log_from_scenario(scenario: Any, *, noisy_odometry: bool = True, name: str |
         detections=[[np.asarray(d, dtype=float).reshape(-1, 2) for d in fr.detections] for fr in frames],
         truth=truth,
         truth_ids=ids,
-        stamps_s=np.arange(len(frames)) * float(scenario.dt),
+        stamps_s=np.arange(len(frames), dtype=np.float64) * float(scenario.dt),
     )
 
 
@@ -148,7 +148,7 @@ def log_from_run(
         truth=truth,
         recall_only=recall_only,
         nobody=nobody,
-        stamps_s=(fr["stamp_ns"] - fr["stamp_ns"][0]) * 1e-9 if n else None,
+        stamps_s=np.asarray((fr["stamp_ns"] - fr["stamp_ns"][0]) * 1e-9, dtype=np.float64) if n else None,
     )
 
 

@@ -59,8 +59,11 @@ __all__ = [
 class PeoplePrediction(Protocol):
     """People-motion prediction of a belief grid (eqs. 5-9 or a variant)."""
 
-    motion: PeopleMotion
-    outside: float
+    @property
+    def motion(self) -> PeopleMotion: ...
+
+    @property
+    def outside(self) -> float: ...
 
     def kernel(self, spec: GridSpec, dt: float) -> NDArray[np.float64]: ...
 

@@ -14,6 +14,7 @@ that fire the cells of the person's footprint (``laser_footprint``). Paper mode:
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import replace
@@ -29,6 +30,8 @@ from gridbridge.likelihoods import IndependentLikelihood
 from gridbridge.params import DetectorModel, PeopleMotion
 from pfpeople.bag.config import ClassifierConfig, FilterConfig
 from pfpeople.sensors import Pose2D
+
+log = logging.getLogger(__name__)
 
 __all__ = ["BELIEF_MIN", "DEFAULT_GRID_RANGE_M", "build_classifier", "build_filter", "grid_for_scan"]
 
@@ -73,11 +76,18 @@ def grid_for_scan(
     pts = np.vstack(([0.0, 0.0], np.column_stack((r * np.cos(a), r * np.sin(a)))))
     if mount is not None:
         pts = mount.apply(pts)
-    x0 = math.floor(pts[:, 0].min() / resolution - 1e-9) * resolution
-    y0 = math.floor(pts[:, 1].min() / resolution - 1e-9) * resolution
-    nx = math.ceil(pts[:, 0].max() / resolution + 1e-9) - round(x0 / resolution)
-    ny = math.ceil(pts[:, 1].max() / resolution + 1e-9) - round(y0 / resolution)
-    return GridSpec(nx=max(nx, 1), ny=max(ny, 1), resolution=resolution, x0=x0, y0=y0)
+    # whole cells outwards; 1e-6 cells of slack so that round-off (cos 90 deg = 6e-17) adds no cell
+    i0 = math.floor(pts[:, 0].min() / resolution + 1e-6)
+    j0 = math.floor(pts[:, 1].min() / resolution + 1e-6)
+    i1 = math.ceil(pts[:, 0].max() / resolution - 1e-6)
+    j1 = math.ceil(pts[:, 1].max() / resolution - 1e-6)
+    return GridSpec(
+        nx=max(i1 - i0, 1),
+        ny=max(j1 - j0, 1),
+        resolution=resolution,
+        x0=round(i0 * resolution, 9),
+        y0=round(j0 * resolution, 9),
+    )
 
 
 def recommended_models(config: FilterConfig, models: Sequence[DetectorModel]) -> tuple[DetectorModel, ...]:
@@ -100,6 +110,13 @@ def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detec
     if config.kind == "particle" and config.form == "paper":
         raise ValueError("the particle filter samples the linear (integrated-kernel) prediction: form must be 'linear'")
     if config.mode == "paper":
+        high = [m.name for m in models if m.fnr >= 0.5]
+        if high:
+            log.warning(
+                "paper mode with detectors %s of FNR >= 0.5: in the paper's update (P(D|np) = 1 - P(D|p)) a "
+                "non-detection then raises the belief; give them the paper's values or use the recommended mode",
+                high,
+            )
         form = config.form or ("paper" if config.kind == "grid" else "linear")
         initial = 0.5 if config.initial is None else config.initial
         kwargs = {"initial": initial}

@@ -22,10 +22,10 @@ time, see ``run.json`` ``config.frames.time_source``); ``bag_time_ns`` the drive
 the detectors that had no data in the frame (they covered no cell). In ``detections.csv`` every detection of
 every detector is listed (each detector alone); ``static`` is 1 for those the static-clutter map suppressed
 (:mod:`pfpeople.clutter`): the filter did not see them (runs written before this column read as 0).
-``tracks.csv`` holds the confirmed tracks of :mod:`pfpeople.mot` (m, m/s, m^2, grid frame). ``status`` in
-``run.json`` is ``"running"`` while a run writes, then ``"complete"``, ``"failed"`` (with ``error``) or ``"interrupted"``
-(SIGINT / SIGTERM, with ``error`` naming the signal); the frames written before stay valid and ``frames``
-is the number of frames on disk.
+``tracks.csv`` holds the confirmed tracks of :mod:`pfpeople.mot` (m, m/s, m^2, grid frame).
+``status`` in ``run.json`` is ``"running"`` while a run writes, then ``"complete"``, ``"failed"`` (with
+``error``) or ``"interrupted"`` (SIGINT / SIGTERM, with ``error`` naming the signal); the frames written before
+stay valid and ``frames`` is the number of frames on disk.
 
 Safety against a second process and damage:
 
@@ -402,7 +402,8 @@ class RunWriter:
                     if det is None:
                         continue
                     pts = np.asarray(det, dtype=float).reshape(-1, 2)
-                    flags = static[i] if static is not None and static[i] is not None else np.zeros(len(pts), bool)
+                    given = static[i] if static is not None else None
+                    flags = np.zeros(len(pts), dtype=bool) if given is None else np.asarray(given, dtype=bool)
                     for (x, y), st in zip(pts, flags, strict=True):
                         self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}", int(st)))
                 if tracks is not None:

@@ -259,7 +259,7 @@ def make_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detect
     """The run's filter (:func:`pfpeople.filters.build_filter`)."""
     from pfpeople.filters import build_filter
 
-    return build_filter(config, spec, detectors)  # type: ignore[no-any-return]
+    return build_filter(config, spec, detectors)
 
 
 def _scan_bearings(msg: Any) -> tuple[float, float]:
@@ -713,7 +713,8 @@ class Pipeline:
                     s.max_lateral_m = max(s.max_lateral_m, abs(lateral))
             self._frame_scans, self._frame_raw = {}, {}
             raw = [self._detect(k, d, frame) for k, d in enumerate(c.detectors)]
-            dets, static = raw, [None] * len(raw)
+            dets = raw
+            static: list[NDArray[np.bool_] | None] = [None] * len(raw)
             if self._suppressors:
                 ego_grid = None if (pose is None or prev_pose is None) else prev_pose.inverse().compose(pose)
                 dets, static, laser_ego = self._suppress(raw, ego_grid, dt, frame.stamp_ns)
