@@ -11,7 +11,8 @@ Scenes (each skipped with a reason when its data is absent):
 
 For bags the pipeline runs once, as a user runs it (the README's configuration: the recommended mode); its
 ``people.csv`` gives the row ``recommended (pipeline)`` and its detections are replayed (:mod:`evaluation.replay`)
-through every other mode, so every row of a scene sees the very same detections. Scores: recall, precision,
+through every other mode, so every row of a scene sees the very same detections (the recommended mode the ones
+its static-clutter map kept, as in the run; the detectors alone and the paper's modes all of them). Scores: recall, precision,
 false people per scan (FP / frames) and FPCPF (false-positive cells per frame, where the truth is complete), all
 with the one-to-one matching of ``pfpeople-eval score`` (gate 0.5 m); ms per frame is the filter and classifier
 (replay) or the whole pipeline including detectors (``pipeline`` rows).
@@ -142,8 +143,15 @@ def detector_rows(log: ReplayLog, *, gate: float = 0.5) -> list[BenchRow]:
     return rows
 
 
+#: For logs of pipeline runs: the log of the detections its filter saw (static clutter suppressed), by id.
+_SEEN: dict[int, ReplayLog] = {}
+
+
 def mode_row(log: ReplayLog, mode: Mode, *, gate: float = 0.5) -> BenchRow:
-    """One mode replayed over the log's detections."""
+    """One mode replayed over the log's detections (for a pipeline run, the recommended mode gets the detections
+    its static-clutter map kept, as in the run; the paper's mode, which has no such map, gets every detection)."""
+    if mode.filter.mode == "recommended":
+        log = _SEEN.get(id(log), log)
     filt = mode.build(log.spec, log.models)
     people, masks, times = [], [], []
     for k in range(len(log)):
@@ -177,6 +185,8 @@ def _pipeline_log(
     with BagSource(bag) as src:
         summary, _ = Pipeline(config).run(src, out, max_frames=max_frames)
     log = log_from_run(out, gt=gt, frame="laser", nobody=nobody, recall_only=recall_only, name=name)
+    seen = log_from_run(out, gt=gt, frame="laser", nobody=nobody, recall_only=recall_only, name=name, suppressed=True)
+    _SEEN[id(log)] = seen
     run = load_run(out)
     n = run.n_frames
     people = [np.zeros((0, 2)) for _ in range(n)]

@@ -106,8 +106,13 @@ def log_from_run(
     nobody: bool = False,
     recall_only: bool = False,
     name: str | None = None,
+    suppressed: bool = False,
 ) -> ReplayLog:
-    """A log of a ``pfpeople run`` directory, with the truth of a GT CSV (or ``nobody``)."""
+    """A log of a ``pfpeople run`` directory, with the truth of a GT CSV (or ``nobody``).
+
+    ``suppressed``: leave out the detections the run's static-clutter map suppressed (``static`` = 1), i.e. the
+    detections its filter saw; by default every detection (each detector alone).
+    """
     from evaluation.gt_csv import read_gt_csv
     from evaluation.run_truth import truth_and_sources
     from pfpeople.output import load_run
@@ -124,7 +129,9 @@ def log_from_run(
     no_data = [set(str(s).split(";")) if str(s) else set() for s in fr["no_data"]]
     det = run.detections
     per_name: dict[str, list[list[tuple[float, float]]]] = {nm: [[] for _ in range(n)] for nm in names}
-    for f, nm, x, y in zip(det["frame"], det["detector"], det["x_m"], det["y_m"], strict=True):
+    for f, nm, x, y, st in zip(det["frame"], det["detector"], det["x_m"], det["y_m"], det["static"], strict=True):
+        if suppressed and int(st):
+            continue
         per_name[str(nm)][int(f)].append((float(x), float(y)))
     detections: list[list[NDArray[np.float64] | None]] = []
     for k in range(n):

@@ -33,10 +33,12 @@ from pfpeople.sensors import Pose2D
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BELIEF_MIN", "DEFAULT_GRID_RANGE_M", "build_classifier", "build_filter", "grid_for_scan"]
+__all__ = ["BELIEF_MIN", "DEFAULT_GRID_RANGE_M", "PEAK_THRESHOLD", "build_classifier", "build_filter", "grid_for_scan"]
 
 #: Lower bound of the belief in the recommended mode.
 BELIEF_MIN = 1e-4
+#: Default peak threshold of the recommended classifier (see ClassifierConfig).
+PEAK_THRESHOLD = 0.7
 #: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
 DEFAULT_GRID_RANGE_M = 10.0
 
@@ -155,5 +157,6 @@ def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Cla
     if kind == "blobs":
         return BlobClassifier()
     if kind == "threshold":
-        return ThresholdClassifier(threshold=config.threshold)
-    return PeakClassifier(threshold=config.threshold, min_separation=config.min_separation)
+        return ThresholdClassifier(threshold=0.5 if config.threshold is None else config.threshold)
+    thr = PEAK_THRESHOLD if config.threshold is None else config.threshold
+    return PeakClassifier(threshold=thr, min_separation=config.min_separation)
