@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from evaluation.metrics import DetectionAccumulator, tracking_summary
 from evaluation.scenarios.scenario import Frame, Scenario
 from gridbridge import GridFilter, GridSpec, rasterise
-from gridbridge.classify import BlobParams, ClassificationResult, classify_blobs, classify_threshold
+from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.filter import FilterStep
 from gridbridge.params import DetectorModel
@@ -74,6 +74,9 @@ class FilterSpec:
         Particle count (particle only).
     motion_model : {"paper", "persistent"}
         Particle people-motion model (particle only).
+    mode : {"paper", "recommended"}
+        ``"recommended"``: the product's filter (:func:`pfpeople.filters.build_filter`, ``form`` ignored) and its
+        peak classifier instead of the paper's blobs in the first row.
     """
 
     name: str
@@ -81,6 +84,7 @@ class FilterSpec:
     form: Literal["paper", "linear"] = "paper"
     n_particles: int = 10_000
     motion_model: Literal["paper", "persistent"] = "paper"
+    mode: Literal["paper", "recommended"] = "paper"
 
     def __post_init__(self) -> None:
         if self.kind not in ("grid", "particle"):
@@ -92,9 +96,17 @@ class FilterSpec:
             raise ValueError(f"FilterSpec.n_particles must be a positive integer, got {n!r}")
         if self.motion_model not in ("paper", "persistent"):
             raise ValueError(f"FilterSpec.motion_model must be 'paper' or 'persistent', got {self.motion_model!r}")
+        if self.mode not in ("paper", "recommended"):
+            raise ValueError(f"FilterSpec.mode must be 'paper' or 'recommended', got {self.mode!r}")
 
     def build(self, spec: GridSpec, detectors: Sequence[DetectorModel], seed: int) -> StepFilter:
         """A fresh filter for ``spec`` and ``detectors``; particle filters draw from ``default_rng(seed)``."""
+        if self.mode == "recommended":
+            from pfpeople.bag.config import FilterConfig
+            from pfpeople.filters import build_filter
+
+            cfg = FilterConfig(kind=self.kind, n_particles=self.n_particles, seed=seed, motion_model=self.motion_model)
+            return build_filter(cfg, spec, detectors)  # type: ignore[no-any-return]
         if self.kind == "grid":
             return GridFilter(spec, detectors=detectors, form=self.form)
         from pfpeople.particle_filter import ParticleFilter
@@ -118,11 +130,14 @@ def particles_label(n: int) -> str:
     return f"particles {short if float(short) == n else n}"
 
 
-def default_filters(particle_counts: Iterable[int] = (5_000, 50_000)) -> list[FilterSpec]:
-    """Grid filter (paper and linear form) and the particle filter at each count."""
+def default_filters(particle_counts: Iterable[int] = (5_000, 50_000), *, recommended: bool = True) -> list[FilterSpec]:
+    """Grid filter (paper and linear form), the particle filter at each count, and (``recommended``) the product's
+    recommended grid filter."""
     out = [FilterSpec(name="grid (paper)", form="paper"), FilterSpec(name="grid (linear)", form="linear")]
     for n in particle_counts:
         out.append(FilterSpec(name=particles_label(n), kind="particle", n_particles=n))
+    if recommended:
+        out.append(FilterSpec(name="recommended grid", mode="recommended"))
     return out
 
 
@@ -136,6 +151,7 @@ class FilterRun:
     ms_per_iteration: float
     tracking: dict[str, Any]
     snapshots: dict[int, FilterStep] = field(default_factory=dict)
+    classifier: str = "blobs"
 
 
 @dataclass
@@ -198,7 +214,10 @@ def run_filter(
         t0 = time.perf_counter()
         out = filt.step(fr.detections, fr.odometry(noisy=noisy_odometry), dt)
         times.append(time.perf_counter() - t0)
-        cls = classify_blobs(out.posterior, spec=spec, params=blob_params)
+        if fs.mode == "recommended":
+            cls = _peaks_result(out, spec)
+        else:
+            cls = classify_blobs(out.posterior, spec=spec, params=blob_params)
         _, truth = _people_in_grid(fr, spec)
         acc.add(cls.positions, truth, classified=cls.mask, occupancy=fr.truth_grid, belief=out.posterior)
         thr = classify_threshold(out.posterior, threshold, spec=spec)
@@ -214,7 +233,45 @@ def run_filter(
         ms_per_iteration=1e3 * float(np.median(times)) if times else math.nan,
         tracking=tracking,
         snapshots=snapshots,
+        classifier="peaks" if fs.mode == "recommended" else "blobs",
     )
+
+
+def _peaks_result(out: FilterStep, spec: GridSpec) -> ClassificationResult:
+    """The recommended classifier's people as a :class:`ClassificationResult` (one selected blob per person)."""
+    from pfpeople.bag.config import ClassifierConfig
+    from pfpeople.filters import build_classifier
+
+    found = build_classifier(ClassifierConfig()).classify(
+        out.posterior, spec, observed=np.asarray(out.covered).any(axis=0)
+    )
+    labels = np.zeros(spec.shape, dtype=np.intp)
+    blobs = []
+    gx, gy = spec.cell_centres()
+    for k, (pos, score) in enumerate(zip(found.positions, found.scores, strict=True), start=1):
+        i, j = spec.to_cell(pos[0], pos[1])
+        ci, cj = (float(np.asarray(c)) for c in spec.to_fractional(pos[0], pos[1]))
+        near = found.mask & (np.hypot(gx - pos[0], gy - pos[1]) <= 0.45) & (labels == 0)
+        near[int(i), int(j)] = True
+        cells = np.argwhere(near).astype(np.intp)
+        labels[near] = k
+        blobs.append(
+            Blob(
+                label=k,
+                cells=cells,
+                mean_probability=float(score),
+                max_probability=float(score),
+                min_probability=float(score),
+                centroid_cells=np.array([ci - 0.5, cj - 0.5]),
+                centroid=np.asarray(pos, dtype=float),
+                mean_cell=cells.mean(axis=0).astype(float),
+                height=int(np.ptp(cells[:, 0]) + 1),
+                width=int(np.ptp(cells[:, 1]) + 1),
+                border_cells=0,
+                selected=True,
+            )
+        )
+    return ClassificationResult(blobs=blobs, labels=labels, spec=spec)
 
 
 def evaluate_tracking(
@@ -437,7 +494,7 @@ def format_table(result: ABResult) -> str:
         s, t = r.scores, r.threshold_scores
         tracked = r.tracking.get("tracked_fraction") if r.tracking else None
         lines.append(
-            f"{r.name + ' + blobs':30} {f(s['recall']):>7} {f(s['precision']):>9} {f(s['fpcpf']):>6} "
+            f"{r.name + ' + ' + r.classifier:30} {f(s['recall']):>7} {f(s['precision']):>9} {f(s['fpcpf']):>6} "
             f"{f(s['brier'], 4):>7} {f(s['log_loss'], 3):>8} {f(s['auc'], 3):>6} {f(r.ms_per_iteration, 3):>8} "
             f"{f(tracked):>8}"
         )

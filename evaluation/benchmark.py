@@ -12,10 +12,10 @@ Scenes (each skipped with a reason when its data is absent):
 For bags the pipeline runs once, as a user runs it (the README's configuration: the recommended mode); its
 ``people.csv`` gives the row ``recommended (pipeline)`` and its detections are replayed (:mod:`evaluation.replay`)
 through every other mode, so every row of a scene sees the very same detections (the recommended mode the ones
-its static-clutter map kept, as in the run; the detectors alone and the paper's modes all of them). Scores: recall, precision,
-false people per scan (FP / frames) and FPCPF (false-positive cells per frame, where the truth is complete), all
-with the one-to-one matching of ``pfpeople-eval score`` (gate 0.5 m); ms per frame is the filter and classifier
-(replay) or the whole pipeline including detectors (``pipeline`` rows).
+its static-clutter map kept, as in the run; the detectors alone and the paper's modes all of them). Scores:
+recall, precision, false people per scan (FP / frames) and FPCPF (false-positive cells per frame, where the
+truth is complete), all with the one-to-one matching of ``pfpeople-eval score`` (gate 0.5 m); ms per frame is
+the filter and classifier (replay) or the whole pipeline including detectors (``pipeline`` rows).
 """
 
 from __future__ import annotations

@@ -264,12 +264,9 @@ class ClassifierConfig:
     def __post_init__(self) -> None:
         if self.kind is not None and self.kind not in ("peaks", "blobs", "threshold"):
             raise ValueError(f"ClassifierConfig.kind must be 'peaks', 'blobs' or 'threshold', got {self.kind!r}")
-        if (
-            isinstance(self.threshold, bool)
-            or not isinstance(self.threshold, int | float)
-            or not 0 <= self.threshold <= 1
-        ):
-            raise ValueError(f"ClassifierConfig.threshold must be a probability, got {self.threshold!r}")
+        thr = self.threshold
+        if thr is not None and (isinstance(thr, bool) or not isinstance(thr, int | float) or not 0 <= thr <= 1):
+            raise ValueError(f"ClassifierConfig.threshold must be a probability, got {thr!r}")
         if (
             isinstance(self.min_separation, bool)
             or not isinstance(self.min_separation, int | float)
