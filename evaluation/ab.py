@@ -28,7 +28,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Literal, Protocol
+from typing import Any, Literal, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,7 +38,7 @@ from evaluation.scenarios.scenario import Frame, Scenario
 from gridbridge import GridFilter, GridSpec, rasterise
 from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.ego_motion import velocity_displacement
-from gridbridge.filter import FilterStep
+from gridbridge.filter import BeliefFilter, FilterStep
 from gridbridge.params import DetectorModel
 from pfpeople.tracking import TrackerParams, track_sequence
 
@@ -53,10 +53,8 @@ __all__ = [
 ]
 
 
-class StepFilter(Protocol):
-    """What the harness needs of a filter: ``GridFilter`` and ``pfpeople.ParticleFilter`` both qualify."""
-
-    def step(self, detections: Sequence[Any], odometry: Any, dt: float) -> FilterStep: ...
+#: What the harness needs of a filter: the one filter interface of both filters.
+StepFilter: TypeAlias = BeliefFilter
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -106,7 +104,7 @@ class FilterSpec:
             from pfpeople.filters import build_filter
 
             cfg = FilterConfig(kind=self.kind, n_particles=self.n_particles, seed=seed, motion_model=self.motion_model)
-            return build_filter(cfg, spec, detectors)  # type: ignore[no-any-return]
+            return build_filter(cfg, spec, detectors)
         if self.kind == "grid":
             return GridFilter(spec, detectors=detectors, form=self.form)
         from pfpeople.particle_filter import ParticleFilter

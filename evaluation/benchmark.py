@@ -65,8 +65,7 @@ class Mode:
     def build(self, spec: GridSpec, models: Sequence[DetectorModel]) -> Any:
         if self.filter.mode == "paper":
             models = [
-                replace(m, ppv=_TABLE1[m.name].ppv, fnr=_TABLE1[m.name].fnr) if m.name in _TABLE1 else m
-                for m in models
+                replace(m, ppv=_TABLE1[m.name].ppv, fnr=_TABLE1[m.name].fnr) if m.name in _TABLE1 else m for m in models
             ]
         return build_filter(self.filter, spec, models)
 

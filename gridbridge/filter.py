@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -36,7 +36,7 @@ from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
 
-__all__ = ["FilterStep", "GridFilter", "as_odometry", "filter_models"]
+__all__ = ["BeliefFilter", "FilterStep", "GridFilter", "as_odometry", "filter_models"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,6 +64,28 @@ class FilterStep:
     detector_likelihoods: NDArray[np.float64]
     likelihood: NDArray[np.float64]
     posterior: NDArray[np.float64]
+
+
+@runtime_checkable
+class BeliefFilter(Protocol):
+    """The one filter interface: :class:`GridFilter` and :class:`pfpeople.ParticleFilter` both follow it, and the
+    pipeline, the A/B harness, the replay, the benchmark and the notebooks use filters only through it.
+
+    ``belief`` is the current ``(nx, ny)`` posterior; ``reset(belief=None)`` restarts (from the initial belief or
+    the one given); ``step(detections, odometry, dt)`` is one recursive Bayes step returning a
+    :class:`FilterStep` (the stages of Fig. 6). Bad input raises ``ValueError`` naming it and changes nothing.
+    """
+
+    belief: NDArray[np.float64]
+
+    def reset(self, belief: ArrayLike | None = None) -> None: ...
+
+    def step(
+        self,
+        detections: Sequence[ArrayLike | None],
+        odometry: Odometry | tuple[float, float] | None,
+        dt: float,
+    ) -> FilterStep: ...
 
 
 def as_odometry(odometry: Odometry | tuple[float, float] | None) -> Odometry | None:

@@ -45,12 +45,13 @@ import typing
 from collections.abc import Callable, Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.ego_motion import Odometry
+from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from pfpeople.bag.config import BagConfig, DetectorConfig, FilterConfig, check_run_limits
@@ -107,12 +108,8 @@ class Detector(Protocol):
     def detect(self, data: Any, /) -> NDArray[np.float64]: ...
 
 
-class StepFilter(Protocol):
-    belief: NDArray[np.float64]
-
-    def step(self, detections: Sequence[Any], odometry: Odometry | None, dt: float) -> Any: ...
-
-    def reset(self) -> None: ...
+#: The filter interface the pipeline uses (one Protocol for both filters, :class:`gridbridge.filter.BeliefFilter`).
+StepFilter: TypeAlias = BeliefFilter
 
 
 def _import_builtin(kind: str) -> type:

@@ -119,4 +119,4 @@ def test_evaluate_command_on_a_single_frame(tmp_path: Path, capsys: pytest.Captu
     """The default figure frames (the middle two) stay inside a one-frame scenario."""
     args = ["evaluate", "--scenario", "default", "--frames", "1", "--particles", "--no-progress", "--out"]
     assert eval_main([*args, str(tmp_path)]) == 0
-    assert "figures (2)" in capsys.readouterr().out  # frame 0 for each of the two grid filters
+    assert "figures (3)" in capsys.readouterr().out  # frame 0 for each grid filter (paper, linear, recommended)

@@ -504,7 +504,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
     _only(
         data,
-        {"frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "detectors"},
+        {"frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter", "detectors"},
         "top level",
     )
     frames = _table(data, "frames")
