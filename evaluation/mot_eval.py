@@ -30,13 +30,13 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from evaluation.ab import FilterSpec
 from evaluation.gt_csv import GroundTruth
 from evaluation.mot_metrics import MotScores, clear_mot
 from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
+from gridbridge.classifiers import classify_peaks
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
@@ -64,53 +64,11 @@ HypFrames = list[tuple[NDArray[np.int64], Positions]]
 def peak_classifier(
     belief: NDArray[np.float64], spec: GridSpec, *, threshold: float = 0.5, nms_radius: float = 0.6
 ) -> tuple[Positions, NDArray[np.float64]]:
-    """People from a belief grid: local maxima above ``threshold``, non-maximum suppression, sub-cell centroid.
-
-    A stand-in for the recommended classifier. A cell is a peak when its belief is above ``threshold`` and is
-    the maximum of its 3 x 3 neighbourhood; peaks are taken in decreasing belief and a peak within
-    ``nms_radius`` (m) of a kept one is dropped. The position is the belief-weighted centroid of the cells
-    above ``threshold`` in the peak's 3 x 3 neighbourhood (grid frame, m); the score is the peak belief.
-
-    Parameters
-    ----------
-    belief : ndarray, shape (nx, ny)
-        Probability of a person per cell.
-    spec : GridSpec
-    threshold : float
-        Cells at or below it are never people.
-    nms_radius : float
-        Suppression radius (m).
-
-    Returns
-    -------
-    positions : ndarray, shape (K, 2)
-    scores : ndarray, shape (K,)
-    """
-    b = spec.check_grid(belief, "belief")
-    peaks = (b > threshold) & (b >= ndimage.maximum_filter(b, size=3, mode="constant", cval=0.0))
-    ii, jj = np.nonzero(peaks)
-    if ii.size == 0:
-        return np.zeros((0, 2)), np.zeros(0)
-    order = np.argsort(-b[ii, jj], kind="stable")
-    ii, jj = ii[order], jj[order]
-    w = np.where(b > threshold, b, 0.0)
-    wp = np.pad(w, 1)
-    cx, cy = spec.cell_centres()
-    off = (np.arange(3) - 1) * spec.resolution
-    win = np.stack([wp[i : i + 3, j : j + 3] for i, j in zip(ii, jj, strict=True)])  # (K, 3, 3), padding has 0
-    tot = win.sum(axis=(1, 2))
-    pos = np.column_stack(
-        (
-            cx[ii, jj] + np.einsum("kab,a->k", win, off) / tot,
-            cy[ii, jj] + np.einsum("kab,b->k", win, off) / tot,
-        )
-    )
-    keep: list[int] = []
-    r2 = nms_radius**2
-    for n in range(ii.size):
-        if all((pos[n, 0] - pos[k, 0]) ** 2 + (pos[n, 1] - pos[k, 1]) ** 2 > r2 for k in keep):
-            keep.append(n)
-    return pos[keep], b[ii[keep], jj[keep]].astype(float)
+    """People from a belief grid with the recommended classifier (:func:`gridbridge.classifiers.classify_peaks`):
+    local maxima above ``threshold`` with non-maximum suppression within ``nms_radius`` (m); positions (K, 2) in
+    the grid frame and scores (K,) (the peak beliefs)."""
+    found = classify_peaks(belief, spec, threshold=threshold, min_separation=nms_radius)
+    return found.positions, found.scores
 
 
 def merge_detections(detections: Sequence[Positions], *, radius: float = 0.4) -> Positions:

@@ -115,7 +115,7 @@ def classify_peaks(
 ) -> People:
     """People at local maxima of the belief, with non-maximum suppression.
 
-    1. Candidates: cells with belief ``>= threshold`` that are the maximum of the square window of half-width
+    1. Candidates: cells with belief ``> threshold`` that are the maximum of the square window of half-width
        ``ceil(min_separation / r)`` cells around them.
     2. Non-maximum suppression: candidates in decreasing belief order (ties: row-major cell order); a candidate
        closer than ``min_separation`` (centre to centre) to a kept one is dropped (plateaus give one person).
@@ -128,7 +128,7 @@ def classify_peaks(
         Probability of a person per cell.
     spec : GridSpec
     threshold : float
-        Smallest peak belief that is a person.
+        A peak's belief must be strictly above it.
     min_separation : float
         Two people are at least this far apart (m).
     centroid_radius : float
@@ -147,7 +147,7 @@ def classify_peaks(
     r = spec.resolution
     half = max(1, math.ceil(min_separation / r - 1e-9))
     local_max = ndimage.maximum_filter(grid, size=2 * half + 1, mode="constant", cval=0.0)
-    cand = np.argwhere((grid >= threshold) & (grid >= local_max))
+    cand = np.argwhere((grid > threshold) & (grid >= local_max))
     empty = People(
         positions=np.zeros((0, 2)),
         scores=np.zeros(0),

@@ -95,7 +95,7 @@ def _greedy_nms(belief: np.ndarray, spec: GridSpec, threshold: float, sep: float
     for i in range(spec.nx):
         for j in range(spec.ny):
             v = belief[i, j]
-            if v < threshold:
+            if v <= threshold:
                 continue
             win = belief[max(i - half, 0) : i + half + 1, max(j - half, 0) : j + half + 1]
             if v >= win.max():

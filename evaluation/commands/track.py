@@ -13,6 +13,7 @@ Prints one table: sequence, source, MOTA, MOTP (m), IDSW, Frag, MT, ML, recall, 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 from pathlib import Path
@@ -20,8 +21,9 @@ from typing import Any
 
 from evaluation.ab import FilterSpec, particles_label
 from evaluation.gt_csv import read_gt_csv
-from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows
+from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows, peak_classifier
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
+from pfpeople.filters import PEAK_THRESHOLD
 from pfpeople.mot import TrackerConfig
 from pfpeople.output import load_run
 
@@ -81,6 +83,8 @@ def run(args: argparse.Namespace) -> int:
         tracker_opts["report_coast_s"] = None if args.report_coast < 0 else args.report_coast
     rows: list[MotRow] = []
     filters = [] if args.no_grid else [FilterSpec(name="grid (paper)", form="paper")]
+    if not args.no_grid:
+        filters.append(FilterSpec(name="recommended grid", mode="recommended"))
     filters += [FilterSpec(name=particles_label(n), kind="particle", n_particles=n) for n in args.particles]
     for name in args.scenario or []:
         overrides: dict[str, Any] = {"n_frames": args.frames}
@@ -89,7 +93,13 @@ def run(args: argparse.Namespace) -> int:
         scenario = Scenario.from_name(name, **overrides)
         config = TrackerConfig(region=scenario.spec.extent, **tracker_opts)
         rows += evaluate_scenario(
-            scenario, filters=filters, config=config, gate=args.gate, seed=args.pf_seed, n_frames=args.frames
+            scenario,
+            filters=filters,
+            classify=functools.partial(peak_classifier, threshold=PEAK_THRESHOLD),
+            config=config,
+            gate=args.gate,
+            seed=args.pf_seed,
+            n_frames=args.frames,
         )
     if args.run is not None:
         sector = tuple(math.radians(a) for a in args.sector) if args.sector else None
