@@ -50,9 +50,17 @@ Factory = Callable[[np.random.Generator], Any]
 
 def soak_modes() -> dict[str, Factory]:
     """The filter modes the soak benchmark runs: name -> ``factory(rng) -> filter`` (``step(dets, odo, dt)``,
-    ``belief``). The paper's grid forms and the particle filter with both people motion models."""
+    ``belief``). The paper's grid forms, the particle filter with both people motion models, and the recommended
+    grid and particle filters (:func:`pfpeople.filters.build_filter`)."""
+    from pfpeople.bag.config import FilterConfig
+    from pfpeople.filters import build_filter
+
     spec = GridSpec()
     return {
+        "recommended-grid": lambda rng: build_filter(FilterConfig(), spec, PAPER_DETECTORS),
+        "recommended-particle": lambda rng: build_filter(
+            FilterConfig(kind="particle", seed=int(rng.integers(2**31))), spec, PAPER_DETECTORS
+        ),
         "grid-paper": lambda rng: GridFilter(spec, detectors=PAPER_DETECTORS, form="paper"),
         "grid-linear": lambda rng: GridFilter(spec, detectors=PAPER_DETECTORS, form="linear"),
         "particle": lambda rng: ParticleFilter(spec, detectors=PAPER_DETECTORS, n_particles=5000, rng=rng),

@@ -295,7 +295,7 @@ def _f(v: float, nd: int = 2) -> str:
 def format_rows(rows: Sequence[BenchRow]) -> str:
     """The table: scene, source, frames, recall, precision, false people per scan, FPCPF, ms per frame."""
     head = (
-        f"{'scene':<24}{'source':<28}{'frames':>7}{'recall':>8}{'prec.':>7}{'FP/scan':>9}{'FPCPF':>7}{'ms/fr':>8}  note"
+        f"{'scene':<28}{'source':<28}{'frames':>7}{'recall':>8}{'prec.':>7}{'FP/scan':>9}{'FPCPF':>7}{'ms/fr':>8}  note"
     )
     lines = [head, "-" * len(head)]
     last = None
@@ -304,7 +304,7 @@ def format_rows(rows: Sequence[BenchRow]) -> str:
             lines.append("")
         last = r.scene
         lines.append(
-            f"{r.scene:<24}{r.source:<28}{r.frames:>7}{_f(r.recall):>8}{_f(r.precision):>7}{_f(r.fp_per_frame, 3):>9}"
+            f"{r.scene:<28}{r.source:<28}{r.frames:>7}{_f(r.recall):>8}{_f(r.precision):>7}{_f(r.fp_per_frame, 3):>9}"
             f"{_f(r.fpcpf):>7}{_f(r.ms_per_frame):>8}  {r.note}"
         )
     return "\n".join(lines)
