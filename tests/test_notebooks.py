@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import nbformat
@@ -18,6 +17,7 @@ def test_notebook_executes(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("PFPEOPLE_NOTEBOOK_QUICK", "1")
     monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel draws inline
     nb = nbformat.read(NOTEBOOKS / name, as_version=4)
+    nb.cells.append(nbformat.v4.new_code_cell('print("quick sizes:", QUICK)'))  # the kernel saw the setting
     NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(NOTEBOOKS)}}).execute()
     outputs = [o for cell in nb.cells if cell.cell_type == "code" for o in cell.get("outputs", [])]
     assert not [o for o in outputs if o.get("output_type") == "error"]
@@ -28,4 +28,4 @@ def test_notebook_executes(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     else:
         assert "Detector laser-legs" in text and "grid (paper) + blobs" in text
         assert any("image/png" in o.get("data", {}) for o in outputs)
-    assert os.environ["PFPEOPLE_NOTEBOOK_QUICK"] == "1"
+    assert "quick sizes: True" in text  # the kernel ran the small sizes (the variable reached it)

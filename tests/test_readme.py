@@ -23,8 +23,14 @@ def test_python_example_runs() -> None:
 
 
 def test_command_section_names_real_subcommands(capsys) -> None:
+    expected = {
+        "pfpeople": {"run", "inspect", "view", "batch", "train-detector"},
+        "pfpeople-eval": {"evaluate", "benchmark", "score", "calibrate", "track", "sweep", "simulate-bag"},
+    }
     for prog, main in (("pfpeople", pf_main), ("pfpeople-eval", eval_main)):
-        for sub in sorted(set(re.findall(rf"\.venv/bin/{prog} ([a-z-]+)", README))):
+        found = set(re.findall(rf"\.venv/bin/{prog} ([a-z-]+)", README))
+        assert expected[prog] <= found, f"README does not show {sorted(expected[prog] - found)} of {prog}"
+        for sub in sorted(found):
             try:
                 main([sub, "--help"])
             except SystemExit as exc:  # argparse exits 0 after printing help
