@@ -89,6 +89,8 @@ log = logging.getLogger(__name__)
 
 #: dt of the first frame (s).
 FIRST_DT_S = 0.1
+#: Confirmed tracks at least this fast (m/s) are kept out of the static-clutter map.
+MOVING_SPEED = 0.3
 #: A gap between frames longer than this (s) restarts the filter.
 MAX_GAP_S = 2.0
 #: TF on /tf (not static) read before the run to find sensor mounts: the first this many seconds of the bag.
@@ -730,7 +732,11 @@ class Pipeline:
                     self.tracker.reset()
                 self.tracker.update(people, dt, scores=found.scores, ego=ego)
                 tracks = self.tracker.confirmed()
-            self._last_people = np.array([[t.x, t.y] for t in tracks]).reshape(-1, 2) if tracks else people
+            # people kept out of the clutter map next frame: confirmed tracks that move (>= MOVING_SPEED); a person
+            # standing still is protected by the map's own "seen moving" set. Excluding every track would let
+            # clutter that became a track never turn static.
+            moving = [t for t in (tracks or []) if math.hypot(t.vx, t.vy) >= MOVING_SPEED]
+            self._last_people = np.array([[t.x, t.y] for t in moving]).reshape(-1, 2)
             prev_stamp = frame.stamp_ns
             if pose is not None:  # a frame without odometry keeps the last pose: its motion is not lost
                 prev_pose = pose
