@@ -32,7 +32,7 @@ from gridbridge.components import (
 )
 from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
-from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood
+from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
 
@@ -189,21 +189,11 @@ class GridFilter:
             ego_motion = VelocityEgoMotion(noise=self.noise, outside=self.outside)
         if not isinstance(ego_motion, EgoMotionModel):
             raise TypeError(f"ego_motion must be an EgoMotionModel component, got {type(ego_motion).__name__}")
-        if appearance is not None and not isinstance(appearance, Appearance):
-            raise TypeError(f"appearance must be an Appearance or None, got {type(appearance).__name__}")
-        if bounds is not None and not isinstance(bounds, BeliefBounds):
-            raise TypeError(f"bounds must be a BeliefBounds or None, got {type(bounds).__name__}")
+        self.likelihood, self.appearance, self.bounds = update_components(likelihood, appearance, bounds)
         self.prediction = prediction
         self.motion = prediction.motion
         self.form = str(getattr(prediction, "form", "custom"))
         self.ego_motion = ego_motion
-        self.appearance = appearance
-        self.bounds = bounds
-        if likelihood is None:
-            likelihood = DeMorganLikelihood()
-        if not isinstance(likelihood, DetectionLikelihood):
-            raise TypeError(f"likelihood must be a DetectionLikelihood component, got {type(likelihood).__name__}")
-        self.likelihood = likelihood
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
         self._observed: NDArray[np.bool_] | None = None
 

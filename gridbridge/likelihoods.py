@@ -34,11 +34,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from gridbridge._validate import check_probability
+from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import Likelihood, detection_map, fov_mask, likelihood_from_detections
 from gridbridge.params import DetectorModel
 
-__all__ = ["DeMorganLikelihood", "DetectionLikelihood", "IndependentLikelihood"]
+__all__ = ["DeMorganLikelihood", "DetectionLikelihood", "IndependentLikelihood", "update_components"]
 
 
 @runtime_checkable
@@ -108,3 +109,21 @@ class IndependentLikelihood:
             log_lr += np.where(cov, np.log(lr), 0.0)
         fused = 1.0 / (1.0 + np.exp(-log_lr))
         return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
+
+
+def update_components(
+    likelihood: object, appearance: object, bounds: object
+) -> tuple[DetectionLikelihood, Appearance | None, BeliefBounds | None]:
+    """The update components of a filter, checked: a likelihood (default :class:`DeMorganLikelihood`), an optional
+    :class:`~gridbridge.components.Appearance` and optional :class:`~gridbridge.components.BeliefBounds`.
+
+    Raises ``TypeError`` naming the argument. Shared by :class:`gridbridge.GridFilter` and the particle filter.
+    """
+    lik = DeMorganLikelihood() if likelihood is None else likelihood
+    if not isinstance(lik, DetectionLikelihood):
+        raise TypeError(f"likelihood must be a DetectionLikelihood component, got {type(lik).__name__}")
+    if appearance is not None and not isinstance(appearance, Appearance):
+        raise TypeError(f"appearance must be an Appearance or None, got {type(appearance).__name__}")
+    if bounds is not None and not isinstance(bounds, BeliefBounds):
+        raise TypeError(f"bounds must be a BeliefBounds or None, got {type(bounds).__name__}")
+    return lik, appearance, bounds

@@ -81,7 +81,7 @@ from gridbridge import (
 from gridbridge._validate import check_choice, check_positive, check_probability
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.filter import filter_models
-from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood
+from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
 from pfpeople.motion import (
@@ -211,17 +211,7 @@ class ParticleFilter:
         self.outside = check_probability(outside, "outside")
         self.n_birth = _check_count(n_birth, "n_birth")
         self.ego_pool = _check_count(ego_pool, "ego_pool")
-        if likelihood is None:
-            likelihood = DeMorganLikelihood()
-        if not isinstance(likelihood, DetectionLikelihood):
-            raise TypeError(f"likelihood must be a DetectionLikelihood component, got {type(likelihood).__name__}")
-        if appearance is not None and not isinstance(appearance, Appearance):
-            raise TypeError(f"appearance must be an Appearance or None, got {type(appearance).__name__}")
-        if bounds is not None and not isinstance(bounds, BeliefBounds):
-            raise TypeError(f"bounds must be a BeliefBounds or None, got {type(bounds).__name__}")
-        self.likelihood = likelihood
-        self.appearance = appearance
-        self.bounds = bounds
+        self.likelihood, self.appearance, self.bounds = update_components(likelihood, appearance, bounds)
         self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
         self._inflow_cache: dict[float, NDArray[np.float64]] = {}
         self.state = ParticleState.empty()
