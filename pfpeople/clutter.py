@@ -468,7 +468,7 @@ class MovingPeople:
     gate : float
         Largest distance (m) between a track and the detection that continues it (one scan apart): 0.35 m is
         2.6 m/s at 7.5 Hz. Larger gates let a chair's detection that jumps between two leg pairs continue (and
-        "move") its track: on the benchmark 0.5 m gave 0.200 false people per negative scan instead of 0.177,
+        "move") its track: on the benchmark 0.5 m gave 0.199 false people per negative scan instead of 0.177,
         for the same recall; 0.25 m gave 0.152 but lost walkers (positive_4 leg recall 0.315 -> 0.292).
     min_distance : float
         Distance (m) from its start after which a track is moving.
