@@ -474,6 +474,11 @@ class Pipeline:
                 self._base_to_grid = tf.lookup(c.base_frame, self.grid_frame)
             except TfLookupError as exc:
                 raise ValueError(f"odometry needs the grid frame's mount on the base frame: {exc}") from None
+        if c.base_frame not in self.frame_mounts:  # so ground truth given in the base frame can be scored
+            try:
+                self.frame_mounts[c.base_frame] = tf.lookup(self.grid_frame, c.base_frame)
+            except TfLookupError:
+                pass
         self.spec = c.grid if c.grid is not None else self._default_grid(tf, first, ids)
         if c.grid is None:
             check_run_limits(self.spec, c.filter, len(c.detectors))

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_pipeline_bags import config, write_bag
+from test_pipeline_bags import MOUNT, config, write_bag
 
 from gridbridge import GridFilter, GridSpec
 from gridbridge.classifiers import PeakClassifier, classify_peaks
@@ -134,6 +134,10 @@ def test_peaks_position_plateau_and_observed_mask() -> None:
     assert len(classify_peaks(np.zeros(spec.shape), spec)) == 0
 
 
+def _pose(p: Pose2D) -> list[float]:
+    return [p.x, p.y, p.yaw]
+
+
 def test_default_run_writes_tracks_and_static_flags(tmp_path: Path) -> None:
     """The README's default (recommended mode, tracking, clutter map) on a synthetic bag of two people."""
     bag = tmp_path / "synthetic.bag"
@@ -144,6 +148,8 @@ def test_default_run_writes_tracks_and_static_flags(tmp_path: Path) -> None:
     assert summary.frames == 20
     run = load_run(tmp_path / "run")
     assert "static" in run.detections and set(np.unique(run.detections["static"])) <= {0, 1}
+    # the base frame's pose in the grid (laser) frame is recorded, so GT in base_link can be scored
+    np.testing.assert_allclose(run.meta["frames_in_grid"]["base_link"], _pose(MOUNT.inverse()), atol=1e-9)
     with (tmp_path / "run" / "tracks.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert tuple(rows[0]) == TRACK_COLUMNS
