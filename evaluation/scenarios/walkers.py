@@ -103,19 +103,27 @@ class WalkerConfig:
         return np.array([self.p_stand, self.p_walk, self.p_cross, self.p_stop_and_go, self.p_pair], dtype=float)
 
 
-def _speed(cfg: WalkerConfig, rng: np.random.Generator) -> float:
-    """One walking speed from the truncated normal (rejection sampling, bounded number of tries)."""
+def walking_speed(mu: float, sigma: float, lo: float, hi: float, rng: np.random.Generator) -> float:
+    """One walking speed (m/s) from N(mu, sigma) truncated to [lo, hi] (rejection sampling, bounded tries).
+
+    Shared by the walkers of this module and the scan-level scenes (:mod:`evaluation.scenarios.scan`).
+    """
     for _ in range(1000):
-        s = rng.normal(cfg.speed_mu, cfg.speed_sigma)
-        if cfg.speed_min <= s <= cfg.speed_max:
+        s = rng.normal(mu, sigma)
+        if lo <= s <= hi:
             return float(s)
-    return float(np.clip(cfg.speed_mu, cfg.speed_min, cfg.speed_max))
+    return float(np.clip(mu, lo, hi))
 
 
-def _polyline(
+def _speed(cfg: WalkerConfig, rng: np.random.Generator) -> float:
+    return walking_speed(cfg.speed_mu, cfg.speed_sigma, cfg.speed_min, cfg.speed_max, rng)
+
+
+def polyline_knots(
     t0: float, points: NDArray[np.float64], speed: float, pauses: dict[int, float]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Knot times for walking a polyline at ``speed``, pausing ``pauses[k]`` seconds at vertex k."""
+    """Knot times (s, from ``t0``) and positions for walking the polyline ``points`` (m) at ``speed`` (m/s),
+    pausing ``pauses[k]`` seconds at vertex k."""
     times = [t0]
     xy = [points[0]]
     t = t0
@@ -217,7 +225,7 @@ def synthetic_tracks(
         if kind == "pair":
             base = "walk" if rng.random() < 0.5 else "cross"
         path, pauses, speed = _local_path(base, spec, config, rng)
-        knots_t, knots_xy = _polyline(0.0, path, speed, pauses)
+        knots_t, knots_xy = polyline_knots(0.0, path, speed, pauses)
         t0 = t_spawn
         if initial:  # already under way: start somewhere along the track
             t0 = -rng.uniform(0.0, 0.6) * float(knots_t[-1])

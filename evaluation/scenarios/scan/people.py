@@ -26,6 +26,7 @@ from evaluation.scenarios.eth_ucy import load_tracks
 from evaluation.scenarios.robot import sensor_to_world
 from evaluation.scenarios.scan.scene import PeopleConfig
 from evaluation.scenarios.tracks import Track
+from evaluation.scenarios.walkers import polyline_knots, walking_speed
 
 __all__ = ["BEHAVIOURS", "cut_to_region", "scene_tracks"]
 
@@ -35,27 +36,14 @@ _MIN_TRACK_S = 1.0
 
 
 def _speed(pc: PeopleConfig, rng: np.random.Generator) -> float:
-    for _ in range(1000):
-        s = rng.normal(pc.speed_mu, pc.speed_sigma)
-        if pc.speed_min <= s <= pc.speed_max:
-            return float(s)
-    return float(np.clip(pc.speed_mu, pc.speed_min, pc.speed_max))
+    return walking_speed(pc.speed_mu, pc.speed_sigma, pc.speed_min, pc.speed_max, rng)
 
 
 def _knots(
     points: NDArray[np.float64], speed: float, pauses: dict[int, float]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Knot times from 0 for walking the polyline ``points`` at ``speed``, pausing ``pauses[k]`` s at vertex k."""
-    times, xy, t = [0.0], [points[0]], 0.0
-    for k in range(1, len(points)):
-        t += float(np.hypot(*(points[k] - points[k - 1]))) / speed
-        times.append(t)
-        xy.append(points[k])
-        if k in pauses:
-            t += pauses[k]
-            times.append(t)
-            xy.append(points[k])
-    return np.array(times), np.array(xy)
+    return polyline_knots(0.0, points, speed, pauses)
 
 
 def cut_to_region(track: Track, region: tuple[float, float, float, float]) -> Track | None:
