@@ -67,6 +67,7 @@ __all__ = [
     "BagMessage",
     "BagReadError",
     "BagSource",
+    "MessageDataError",
     "image_from_msg",
     "laser_from_msg",
     "odometry_pose_from_msg",
@@ -84,6 +85,15 @@ TF_TYPES = ("tf2_msgs/msg/TFMessage",)
 
 class BagReadError(RuntimeError):
     """A bag could not be opened or read (corrupt, truncated, unknown format or type)."""
+
+
+class MessageDataError(ValueError):
+    """One message holds data that cannot be used (not the expected type, undecodable, NaN, inconsistent).
+
+    Raised by the message converters (:func:`laser_from_msg`, :func:`image_from_msg`,
+    :func:`odometry_pose_from_msg`, :func:`positions_from_msg`). A run counts such a message and treats its
+    detector as having no data in the frame; any other exception is a bug and ends the run.
+    """
 
 
 #: Largest uncompressed zip member extracted (bytes); ``$PFPEOPLE_MAX_ZIP_BYTES`` overrides.
@@ -456,15 +466,17 @@ def laser_from_msg(msg: Any, *, stamp_ns: int, frame_id: str, topic: str = "") -
         ranges = np.asarray(msg.ranges, dtype=float)
         rmin, rmax = float(msg.range_min), float(msg.range_max)
     except AttributeError:
-        raise ValueError(f"topic {topic!r}: {type(msg).__name__} is not a sensor_msgs/LaserScan") from None
+        raise MessageDataError(f"topic {topic!r}: {type(msg).__name__} is not a sensor_msgs/LaserScan") from None
+    except ValueError as exc:
+        raise MessageDataError(f"topic {topic!r}: LaserScan ranges or bounds are not numbers: {exc}") from None
     where = f"topic {topic!r}: LaserScan at stamp {stamp_ns} ns"
     if math.isnan(rmin) or math.isnan(rmax) or rmin > rmax:
-        raise ValueError(
+        raise MessageDataError(
             f"{where} has range_min={rmin!r} > range_max={rmax!r} or a NaN bound: every beam would be invalid "
             "(fix the driver's range parameters)"
         )
     if ranges.size and np.isnan(ranges).all():
-        raise ValueError(f"{where}: all {ranges.size} ranges are NaN (the sensor measured nothing)")
+        raise MessageDataError(f"{where}: all {ranges.size} ranges are NaN (the sensor measured nothing)")
     try:
         return LaserScan(
             ranges=ranges,
@@ -476,9 +488,9 @@ def laser_from_msg(msg: Any, *, stamp_ns: int, frame_id: str, topic: str = "") -
             frame_id=frame_id,
         )
     except AttributeError:
-        raise ValueError(f"topic {topic!r}: {type(msg).__name__} is not a sensor_msgs/LaserScan") from None
+        raise MessageDataError(f"topic {topic!r}: {type(msg).__name__} is not a sensor_msgs/LaserScan") from None
     except ValueError as exc:
-        raise ValueError(f"topic {topic!r}: bad LaserScan at stamp {stamp_ns} ns: {exc}") from None
+        raise MessageDataError(f"topic {topic!r}: bad LaserScan at stamp {stamp_ns} ns: {exc}") from None
 
 
 _ENCODINGS = {
@@ -498,22 +510,24 @@ def image_from_msg(msg: Any, msgtype: str, *, stamp_ns: int, frame_id: str, topi
         data = np.frombuffer(bytes(msg.data), dtype=np.uint8)
         pixels = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
         if pixels is None:
-            raise ValueError(
+            raise MessageDataError(
                 f"topic {topic!r}: CompressedImage at stamp {stamp_ns} ns (format {msg.format!r}) cannot be decoded"
             )
         if pixels.dtype != np.uint8:
-            raise ValueError(f"topic {topic!r}: CompressedImage decodes to {pixels.dtype}, expected 8-bit")
+            raise MessageDataError(f"topic {topic!r}: CompressedImage decodes to {pixels.dtype}, expected 8-bit")
         if pixels.ndim == 3 and pixels.shape[2] == 4:
             pixels = cv2.cvtColor(pixels, cv2.COLOR_BGRA2BGR)
         return CameraImage(pixels=np.asarray(pixels, dtype=np.uint8), stamp_ns=stamp_ns, frame_id=frame_id)
     enc = str(msg.encoding).lower()
     if enc not in _ENCODINGS:
-        raise ValueError(f"topic {topic!r}: image encoding {msg.encoding!r} not supported; use {sorted(_ENCODINGS)}")
+        raise MessageDataError(
+            f"topic {topic!r}: image encoding {msg.encoding!r} not supported; use {sorted(_ENCODINGS)}"
+        )
     channels, conversion = _ENCODINGS[enc]
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
     buf = np.frombuffer(bytes(msg.data), dtype=np.uint8)
     if step < w * channels or buf.size < h * step:
-        raise ValueError(
+        raise MessageDataError(
             f"topic {topic!r}: Image {w}x{h} {enc} with step {step} needs {h * step} bytes, has {buf.size}"
         )
     rows = buf[: h * step].reshape(h, step)[:, : w * channels]
@@ -530,11 +544,11 @@ def odometry_pose_from_msg(msg: Any, *, topic: str = "") -> tuple[Pose2D, str]:
         pose = Pose2D(x=float(p.x), y=float(p.y), yaw=yaw_from_quaternion(q.x, q.y, q.z, q.w))
         child = str(msg.child_frame_id).lstrip("/")
     except AttributeError:
-        raise ValueError(f"topic {topic!r}: {type(msg).__name__} is not a nav_msgs/Odometry") from None
+        raise MessageDataError(f"topic {topic!r}: {type(msg).__name__} is not a nav_msgs/Odometry") from None
     if not all(np.isfinite([pose.x, pose.y, pose.yaw])):
-        raise ValueError(f"topic {topic!r}: odometry pose has NaN or infinite values")
+        raise MessageDataError(f"topic {topic!r}: odometry pose has NaN or infinite values")
     if max(abs(pose.x), abs(pose.y)) > MAX_ODOMETRY_COORD_M:
-        raise ValueError(
+        raise MessageDataError(
             f"topic {topic!r}: odometry position ({pose.x:.6g}, {pose.y:.6g}) m is beyond "
             f"{MAX_ODOMETRY_COORD_M:.0e} m from the odom origin: not a robot pose"
         )
@@ -565,7 +579,7 @@ def positions_from_msg(msg: Any, *, topic: str = "", msgtype: str = "") -> NDArr
     """Person positions ``(M, 2)`` (m, the message's frame) from a detection message (see module docstring)."""
     out: list[tuple[float, float]] = []
     if not _collect_positions(msg, out):
-        raise ValueError(
+        raise MessageDataError(
             f"topic {topic!r}: message type {msgtype or type(msg).__name__!r} holds no positions; expected "
             "PoseArray, Pose(Stamped), Point(Stamped) or a message with pose/poses/position/people/points"
         )

@@ -1,0 +1,226 @@
+"""Ego-motion of the grid frame between frames: from odometry messages, or from laser scan matching.
+
+The odometry pose of the base frame is interpolated to the frame stamp (linear in x, y and the wrapped yaw)
+and composed with the grid frame's mount on the base (``P_grid = P_base * T_base_grid``). The relative motion
+``D = P_grid(t_{k-1})^-1 P_grid(t_k)`` is converted to the velocity motion model's controls over
+``dt = t_k - t_{k-1}`` (:func:`odometry_between`):
+
+    omega = dtheta / dt,   v = (dtheta/2) / sin(dtheta/2) * (dx cos(dtheta/2) + dy sin(dtheta/2)) / dt
+
+(exact for motion on an arc; the lateral part ``-dx sin(dtheta/2) + dy cos(dtheta/2)``, which a sensor mounted
+off the rotation axis can have, is not representable by (v, omega); its largest magnitude is counted in
+:attr:`pfpeople.run_state.RunSummary.max_lateral_m`). Without odometry in a frame the robot is taken as
+standing (counted, logged once); the next frame with odometry moves the grid by the whole displacement since
+the last frame that had it, so no motion is lost.
+
+Without an odometry topic, the motion can come from the driving laser's scan matching
+(:mod:`pfpeople.clutter`, ``[clutter] laser_odometry``): :meth:`OdometryIntegrator.from_laser`.
+
+Frame timing: the first frame uses ``dt =`` :data:`FIRST_DT_S` (the paper's step; the initial belief is
+uniform, so the prediction has no effect there). A gap between frames longer than :data:`MAX_GAP_S` restarts
+the filter (:attr:`EgoMotion.restarted`; counted): a prediction over a long gap would be meaningless and its
+kernel very large.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, replace
+
+from gridbridge.ego_motion import Odometry
+from pfpeople.bag.reader import MessageDataError, odometry_pose_from_msg
+from pfpeople.bag.sync import Frame
+from pfpeople.run_state import RunSummary, WarnOnce, count
+from pfpeople.sensors import Pose2D
+
+__all__ = ["FIRST_DT_S", "MAX_GAP_S", "EgoMotion", "OdometryIntegrator", "interpolate_pose", "odometry_between"]
+
+log = logging.getLogger(__name__)
+
+#: dt of the first frame (s).
+FIRST_DT_S = 0.1
+#: A gap between frames longer than this (s) restarts the filter.
+MAX_GAP_S = 2.0
+
+
+def interpolate_pose(a: tuple[int, Pose2D], b: tuple[int, Pose2D], t: int) -> Pose2D:
+    """The pose at stamp ``t`` (ns) between ``a = (t_a, pose_a)`` and ``b``: linear in x, y and the wrapped yaw."""
+    (ta, pa), (tb, pb) = a, b
+    if tb == ta:
+        return pb
+    f = (t - ta) / (tb - ta)
+    dyaw = math.atan2(math.sin(pb.yaw - pa.yaw), math.cos(pb.yaw - pa.yaw))
+    return Pose2D(x=pa.x + f * (pb.x - pa.x), y=pa.y + f * (pb.y - pa.y), yaw=pa.yaw + f * dyaw)
+
+
+def odometry_between(p0: Pose2D, p1: Pose2D, dt: float) -> tuple[Odometry, float]:
+    """Velocity-model controls moving a frame from pose ``p0`` to ``p1`` in ``dt`` s (see module docstring).
+
+    Returns
+    -------
+    odometry : Odometry
+        ``v`` (m/s) and ``omega`` (rad/s) in the moving frame.
+    lateral : float
+        The lateral displacement (m) the arc model cannot represent.
+    """
+    d = p0.inverse().compose(p1)
+    half = 0.5 * d.yaw
+    along = d.x * math.cos(half) + d.y * math.sin(half)
+    lateral = -d.x * math.sin(half) + d.y * math.cos(half)
+    arc = 1.0 if abs(half) < 1e-9 else half / math.sin(half)
+    return Odometry(v=arc * along / dt, omega=d.yaw / dt), lateral
+
+
+@dataclass(frozen=True, kw_only=True)
+class EgoMotion:
+    """The grid frame's motion into one frame.
+
+    Attributes
+    ----------
+    dt : float
+        Time step (s): since the previous frame, :data:`FIRST_DT_S` for the first frame and after a restart.
+    first : bool
+        True for the first frame of the run (no previous frame).
+    restarted : bool
+        True when a gap longer than :data:`MAX_GAP_S` preceded the frame (the filter restarts).
+    pose : Pose2D or None
+        The grid frame's odometry pose (odom frame; None: no odometry in this frame).
+    ego : Pose2D or None
+        The grid frame at this frame in the grid frame at the previous frame with odometry (from odometry).
+    odometry : Odometry or None
+        Controls of the filter's ego-motion step (m/s, rad/s); None: the robot is taken as standing.
+    laser_ego : Pose2D or None
+        The scan-matched motion (grid frame) when it gave :attr:`odometry` (:meth:`OdometryIntegrator.from_laser`).
+    """
+
+    dt: float
+    first: bool = False
+    restarted: bool = False
+    pose: Pose2D | None = None
+    ego: Pose2D | None = None
+    odometry: Odometry | None = None
+    laser_ego: Pose2D | None = None
+
+    @property
+    def motion(self) -> Pose2D | None:
+        """The motion the step used, from odometry or else from scan matching (None: unknown)."""
+        return self.ego if self.ego is not None else self.laser_ego
+
+
+class OdometryIntegrator:
+    """Frame timing and the grid frame's ego-motion, frame after frame (see the module docstring).
+
+    Call :meth:`begin` for each frame, :meth:`from_laser` when a scan-matched motion is known, and
+    :meth:`end` once the frame is processed.
+
+    Parameters
+    ----------
+    topic : str or None
+        The odometry topic (``nav_msgs/Odometry``); None or ``""``: no odometry (the robot stands, unless
+        ``laser_odometry``).
+    base_to_grid : Pose2D, optional
+        The grid frame's pose in the base frame (the odometry's child frame); required with ``topic``.
+    laser_odometry : bool
+        Without ``topic``, take the motion from scan matching (:meth:`from_laser`).
+    summary : RunSummary, optional
+        Where the counts go (``frames_without_odometry``, ``max_lateral_m``, ``laser_odometry_frames``,
+        ``filter_restarts``, ``bad_messages[topic]``); default a new one.
+    warn : WarnOnce, optional
+        Warn-once logger shared with the rest of the run; default a new one.
+
+    Raises
+    ------
+    ValueError
+        If ``topic`` is given without ``base_to_grid``.
+    """
+
+    def __init__(
+        self,
+        topic: str | None,
+        base_to_grid: Pose2D | None = None,
+        *,
+        laser_odometry: bool = False,
+        summary: RunSummary | None = None,
+        warn: WarnOnce | None = None,
+    ) -> None:
+        if topic and base_to_grid is None:
+            raise ValueError(f"odometry topic {topic!r} needs base_to_grid, the grid frame's pose in the base frame")
+        self.topic = topic or None
+        self.base_to_grid = base_to_grid
+        self.laser_odometry = laser_odometry
+        self.summary = summary if summary is not None else RunSummary()
+        self.warn = warn if warn is not None else WarnOnce(log)
+        self.prev_stamp_ns: int | None = None
+        #: The grid frame's pose in the latest frame that had odometry (None after a restart).
+        self.prev_pose: Pose2D | None = None
+
+    def reset(self) -> None:
+        """Forget the previous frame (a new run)."""
+        self.prev_stamp_ns = None
+        self.prev_pose = None
+
+    def pose(self, frame: Frame) -> Pose2D | None:
+        """The grid frame's odometry pose at the frame stamp (None: no usable odometry message in the frame)."""
+        if not self.topic:
+            return None
+        poses = []
+        for m in frame.inputs.get(self.topic, []):
+            try:
+                pose, _child = odometry_pose_from_msg(m.msg, topic=m.topic)
+            except MessageDataError as exc:
+                count(self.summary.bad_messages, self.topic)
+                self.warn("bad:odom", "%s (such messages are not used; counted)", exc, logger=log)
+                return None
+            poses.append((m.stamp_ns, pose))
+        if not poses:
+            return None
+        base = poses[0][1] if len(poses) == 1 else interpolate_pose(poses[0], poses[1], frame.stamp_ns)
+        assert self.base_to_grid is not None
+        return base.compose(self.base_to_grid)
+
+    def begin(self, frame: Frame) -> EgoMotion:
+        """Time step, restart and odometry motion into ``frame`` (the state moves on at :meth:`end`)."""
+        s = self.summary
+        first = self.prev_stamp_ns is None
+        dt = FIRST_DT_S if self.prev_stamp_ns is None else (frame.stamp_ns - self.prev_stamp_ns) * 1e-9
+        restarted = False
+        if dt > MAX_GAP_S:
+            restarted = True
+            s.filter_restarts += 1
+            log.warning("gap of %.3f s before frame %d: restarting the filter", dt, frame.index)
+            dt, self.prev_pose = FIRST_DT_S, None
+        pose = self.pose(frame)
+        odo: Odometry | None = None
+        ego: Pose2D | None = None
+        if self.topic:
+            if pose is None:
+                s.frames_without_odometry += 1
+                self.warn(
+                    "noodo",
+                    "frame %d has no odometry within the tolerance: robot taken as standing (counted)",
+                    frame.index,
+                    logger=log,
+                )
+            elif self.prev_pose is not None:
+                odo, lateral = odometry_between(self.prev_pose, pose, dt)
+                s.max_lateral_m = max(s.max_lateral_m, abs(lateral))
+        if pose is not None and self.prev_pose is not None:
+            ego = self.prev_pose.inverse().compose(pose)
+        return EgoMotion(dt=dt, first=first, restarted=restarted, pose=pose, ego=ego, odometry=odo)
+
+    def from_laser(self, motion: EgoMotion, laser_ego: Pose2D | None) -> EgoMotion:
+        """``motion`` with the controls of the scan-matched motion ``laser_ego`` (grid frame) when the run has no
+        odometry topic, ``laser_odometry`` is on and the frame is not the first; else ``motion`` unchanged."""
+        if self.topic or not self.laser_odometry or laser_ego is None or motion.first:
+            return motion
+        odo, lateral = odometry_between(Pose2D(), laser_ego, motion.dt)
+        self.summary.laser_odometry_frames += 1
+        self.summary.max_lateral_m = max(self.summary.max_lateral_m, abs(lateral))
+        return replace(motion, odometry=odo, laser_ego=laser_ego)
+
+    def end(self, frame: Frame, motion: EgoMotion) -> None:
+        """Move on past ``frame``: a frame without odometry keeps the last pose, so its motion is not lost."""
+        self.prev_stamp_ns = frame.stamp_ns
+        if motion.pose is not None:
+            self.prev_pose = motion.pose

@@ -1,0 +1,117 @@
+"""What the parts of a bag run share: one processed frame, the run's counts, and warn-once logging.
+
+:class:`FrameResult` is what :class:`pfpeople.pipeline.Pipeline` yields per frame and what every sink
+(:mod:`pfpeople.sinks`) writes; :class:`RunSummary` collects the counts that the detector adapters
+(:mod:`pfpeople.adapters`), the odometry integrator (:mod:`pfpeople.odometry`) and the clutter stage
+(:mod:`pfpeople.suppression`) add to during a run (written to ``run.json`` as ``stats``); :class:`WarnOnce`
+logs a condition the first time it happens in a run (the count says how often).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gridbridge.ego_motion import Odometry
+from pfpeople.bag.sync import Frame
+
+__all__ = ["FrameResult", "RunSummary", "WarnOnce", "count"]
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class FrameResult:
+    """One processed frame: detections in the grid frame (None: no data), belief, classified people.
+
+    Attributes
+    ----------
+    frame : Frame
+        The synchronised input frame.
+    dt : float
+        Time step of the filter (s).
+    odometry : Odometry or None
+        Controls of the ego-motion step (m/s, rad/s; None: the robot was taken as standing).
+    detections : list of ndarray (M_k, 2) or None
+        Positions (m, grid frame) per detector, in the configuration's order; None: no data in the frame.
+    belief : ndarray, shape (nx, ny)
+        Posterior probability of a person per cell.
+    people : ndarray, shape (P, 2)
+        Classified people (m, grid frame).
+    people_size, people_probability : list
+        Cells and mean probability of each person.
+    step : object
+        The filter's step result (posterior, covered cells, ...).
+    tracks : list or None
+        Confirmed tracks (:mod:`pfpeople.mot`) when tracking is on.
+    static : list of ndarray (M_k,) of bool or None
+        Per detector, the detections the static-clutter map suppressed (None: no suppression).
+    """
+
+    frame: Frame
+    dt: float
+    odometry: Odometry | None
+    detections: list[NDArray[np.float64] | None]
+    belief: NDArray[np.float64]
+    people: NDArray[np.float64]
+    people_size: list[int] = field(default_factory=list)
+    people_probability: list[float] = field(default_factory=list)
+    step: Any = None
+    tracks: list[Any] | None = None
+    static: list[NDArray[np.bool_] | None] | None = None
+
+
+@dataclass
+class RunSummary:
+    """Counts of a run (also written to ``run.json`` as ``stats``)."""
+
+    frames: int = 0
+    elapsed_s: float = 0.0
+    no_data: dict[str, int] = field(default_factory=dict)
+    empty_scans: dict[str, int] = field(default_factory=dict)
+    bad_messages: dict[str, int] = field(default_factory=dict)
+    frames_without_odometry: int = 0
+    filter_restarts: int = 0
+    max_lateral_m: float = 0.0
+    suppressed: dict[str, int] = field(default_factory=dict)
+    laser_odometry_frames: int = 0
+    sync: dict[str, dict[str, int]] = field(default_factory=dict)
+    error: str | None = None
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.elapsed_s if self.elapsed_s > 0 else math.nan
+
+    def as_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["fps"] = self.fps
+        return out
+
+
+def count(table: dict[str, int], name: str, n: int = 1) -> None:
+    """Add ``n`` to ``table[name]`` (a :class:`RunSummary` count per detector or topic)."""
+    table[name] = table.get(name, 0) + n
+
+
+class WarnOnce:
+    """Log a warning the first time a key is seen (the conditions it reports are counted, not repeated).
+
+    Parameters
+    ----------
+    logger : logging.Logger
+        Where the warnings go.
+    """
+
+    def __init__(self, logger: logging.Logger) -> None:
+        self.logger = logger
+        self.seen: set[str] = set()
+
+    def __call__(self, key: str, msg: str, *args: object, logger: logging.Logger | None = None) -> None:
+        """Warn ``msg % args`` unless ``key`` was warned before (to ``logger``, default the instance's)."""
+        if key not in self.seen:
+            self.seen.add(key)
+            (logger or self.logger).warning(msg, *args)

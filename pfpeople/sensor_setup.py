@@ -1,0 +1,232 @@
+"""Sensor setup of a bag run: topic checks, TF mounts, each laser's field of view, and the default grid.
+
+Before the first frame, :func:`setup_sensors` reads what is fixed for the whole run:
+
+- the topics and their message types (:meth:`pfpeople.bag.reader.BagSource.require`);
+- TF: every ``/tf_static`` message and the first :data:`TF_PRELOAD_S` s of ``/tf`` (the config's ``[mounts]``
+  stand in for frames without TF, as children of the base frame);
+- the grid frame (``[frames] grid_frame``, else the driver's ``frame_id``);
+- each detector's mount ``T`` (its frame's pose in the grid frame, m and rad), the pose in the grid frame of
+  every frame the run's positions may be given in (written to ``run.json`` as ``frames_in_grid``), and the
+  grid frame's mount on the base frame (needed by odometry, :mod:`pfpeople.odometry`);
+- for a LaserScan detector, the field of view ``[fov_min, fov_max]`` (rad) and ``max_range`` (m) of its
+  first scan where ``[detectors.model]`` leaves them out;
+- the grid: ``[grid]``, else the one covering the driving laser's field of view
+  (:func:`pfpeople.filters.grid_for_scan`), else the paper's 30 x 30 grid of 0.3 m.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Collection, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+from gridbridge.grid import GridSpec
+from pfpeople.bag.config import BagConfig, DetectorConfig, check_run_limits
+from pfpeople.bag.reader import IMAGE_TYPES, LASER_TYPES, ODOMETRY_TYPES, BagMessage, BagSource
+from pfpeople.bag.tf import TfBuffer, TfLookupError
+from pfpeople.filters import grid_for_scan
+from pfpeople.sensors import Pose2D
+
+__all__ = ["TF_PRELOAD_S", "SensorSetup", "SetupSensors", "run_topics", "scan_bearings", "setup_sensors"]
+
+log = logging.getLogger(__name__)
+
+#: TF on /tf (not static) read before the run to find sensor mounts: the first this many seconds of the bag.
+TF_PRELOAD_S = 1.0
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class SensorSetup:
+    """What is fixed for a run: frames, mounts, the detectors' configurations and the grid.
+
+    Attributes
+    ----------
+    tf : TfBuffer
+        The transforms read before the run.
+    grid_frame : str
+        The frame the grid is attached to.
+    detectors : tuple of DetectorConfig
+        The configured detectors, each LaserScan detector with its scan's field of view and range filled in.
+    mounts : tuple of Pose2D
+        Per detector, its frame's pose in the grid frame (m, rad).
+    frame_mounts : dict of str to Pose2D
+        Pose in the grid frame of the grid frame, every detector frame and (when TF knows it) the base frame.
+    base_to_grid : Pose2D or None
+        The grid frame's pose in the base frame (only with an odometry topic).
+    spec : GridSpec
+        The grid.
+    first : dict of str to BagMessage
+        The first message of the driver and of each detector topic (topics without messages left out).
+    """
+
+    tf: TfBuffer
+    grid_frame: str
+    detectors: tuple[DetectorConfig, ...]
+    mounts: tuple[Pose2D, ...]
+    frame_mounts: dict[str, Pose2D]
+    base_to_grid: Pose2D | None
+    spec: GridSpec
+    first: dict[str, BagMessage]
+
+
+#: The signature of :func:`setup_sensors` (a replacement passed to :class:`pfpeople.pipeline.Pipeline`).
+SetupSensors = Callable[..., SensorSetup]
+
+
+def run_topics(config: BagConfig) -> list[str]:
+    """The topics a run reads: driver, detector topics and odometry (sorted)."""
+    topics = {config.driver, *(d.topic for d in config.detectors)}
+    if config.odometry:
+        topics.add(config.odometry)
+    return sorted(topics)
+
+
+def scan_bearings(msg: Any) -> tuple[float, float]:
+    """``(lowest, highest)`` bearing of a LaserScan message (rad), whatever the sign of its increment."""
+    a0, a1 = float(msg.angle_min), float(msg.angle_max)
+    lo, hi = min(a0, a1), max(a0, a1)
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi - lo <= 0:
+        raise ValueError(f"LaserScan angles angle_min={a0!r}, angle_max={a1!r} give no field of view")
+    return lo, min(hi, lo + 2 * math.pi)
+
+
+def with_scan_fov(d: DetectorConfig, msg: Any) -> DetectorConfig:
+    """``d`` with the field of view and range of its LaserScan where its ``[detectors.model]`` leaves them out."""
+    try:
+        lo, hi = scan_bearings(msg)
+    except ValueError:
+        return d  # the reader reports such scans; the model keeps its own field of view
+    model = dict(d.model)
+    model.setdefault("fov_min", lo)
+    model.setdefault("fov_max", hi)
+    rmax = float(msg.range_max)
+    if "max_range" not in model and math.isfinite(rmax) and rmax > 0:
+        model["max_range"] = rmax
+    if model.get("min_range", 0.0) >= model.get("max_range", math.inf):
+        model.pop("min_range", None)
+    return replace(d, model=model)
+
+
+def _first_messages(bag: BagSource, topics: Sequence[str]) -> dict[str, BagMessage]:
+    first: dict[str, BagMessage] = {}
+    for topic in topics:
+        for m in bag.messages([topic]):
+            first[topic] = m
+            break
+    return first
+
+
+def read_tf(config: BagConfig, bag: BagSource) -> TfBuffer:
+    """TF known before the run: ``/tf_static``, the first :data:`TF_PRELOAD_S` s of ``/tf``, ``[mounts]``."""
+    tf = TfBuffer(fallback_parent=config.base_frame, fallback=config.mounts)
+    for topic in (t for t in config.tf_topics if t in bag.topics):
+        static = topic.endswith("tf_static")
+        for m in bag.messages([topic]):
+            if not static and m.bag_time_ns - bag.start_time_ns > TF_PRELOAD_S * 1e9:
+                break
+            tf.add_message(m.msg)
+    return tf
+
+
+def setup_sensors(
+    config: BagConfig,
+    bag: BagSource,
+    *,
+    input_types: Mapping[str, Sequence[str] | None],
+    laser_kinds: Collection[str],
+) -> SensorSetup:
+    """Check the bag's topics and read the run's frames, mounts and grid (see the module docstring).
+
+    Parameters
+    ----------
+    config : BagConfig
+        The run's configuration.
+    bag : BagSource
+        The input bag.
+    input_types : mapping of str to sequence of str or None
+        Per detector kind, the message types its topic must carry (None: any).
+    laser_kinds : collection of str
+        Detector kinds whose input is a LaserScan (their scans give field of view, range and default grid).
+
+    Raises
+    ------
+    ValueError
+        If a mount is missing from TF and ``[mounts]`` (naming the detector), the driver has no frame_id and
+        no grid frame is configured, or the default grid is too large for the filter.
+    """
+    c = config
+    types: dict[str, Sequence[str]] = {c.driver: (*LASER_TYPES, *IMAGE_TYPES)}
+    for d in c.detectors:
+        kind_types = input_types.get(d.kind)
+        if kind_types is not None:
+            types[d.topic] = kind_types
+    if c.odometry:
+        types[c.odometry] = ODOMETRY_TYPES
+    bag.require(run_topics(c), types=types)
+    tf = read_tf(c, bag)
+    first = _first_messages(bag, [c.driver, *(d.topic for d in c.detectors)])
+    ids = {t: m.frame_id for t, m in first.items()}
+    grid_frame = c.grid_frame or ids.get(c.driver, "")
+    if not grid_frame:
+        raise ValueError(f"driver topic {c.driver!r} has no frame_id; set [frames] grid_frame in the config")
+    detectors: list[DetectorConfig] = []
+    mounts: list[Pose2D] = []
+    frame_mounts: dict[str, Pose2D] = {grid_frame: Pose2D()}
+    for d in c.detectors:
+        if d.kind in laser_kinds and d.topic in first:
+            d = with_scan_fov(d, first[d.topic].msg)
+        src = d.frame or ids.get(d.topic, "") or grid_frame
+        try:
+            mount = tf.lookup(grid_frame, src)
+        except TfLookupError as exc:
+            raise ValueError(f"detector {d.name!r}: {exc}") from None
+        detectors.append(d)
+        mounts.append(mount)
+        frame_mounts[src] = mount
+    base_to_grid: Pose2D | None = None
+    if c.odometry:
+        try:
+            base_to_grid = tf.lookup(c.base_frame, grid_frame)
+        except TfLookupError as exc:
+            raise ValueError(f"odometry needs the grid frame's mount on the base frame: {exc}") from None
+    if c.base_frame not in frame_mounts:  # so ground truth given in the base frame can be scored
+        try:
+            frame_mounts[c.base_frame] = tf.lookup(grid_frame, c.base_frame)
+        except TfLookupError:
+            pass
+    if c.grid is not None:
+        spec = c.grid
+    else:
+        lasers = [c.driver, *(d.topic for d in c.detectors if d.kind in laser_kinds)]
+        spec = default_grid(tf, grid_frame, first, lasers)
+        check_run_limits(spec, c.filter, len(c.detectors))
+        log.info("grid from the driving laser's field of view: %s", spec)
+    return SensorSetup(
+        tf=tf,
+        grid_frame=grid_frame,
+        detectors=tuple(detectors),
+        mounts=tuple(mounts),
+        frame_mounts=frame_mounts,
+        base_to_grid=base_to_grid,
+        spec=spec,
+        first=first,
+    )
+
+
+def default_grid(tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage], lasers: Sequence[str]) -> GridSpec:
+    """The grid covering the first LaserScan topic of ``lasers`` (:func:`pfpeople.filters.grid_for_scan`) with a
+    first message, or the paper's grid when there is none."""
+    topic = next((t for t in lasers if t in first and first[t].msgtype in LASER_TYPES), None)
+    if topic is None:
+        log.info("no [grid] and no LaserScan to size it: the paper's 30 x 30 grid of 0.3 m")
+        return GridSpec()
+    m = first[topic]
+    try:
+        mount = tf.lookup(grid_frame, m.frame_id or grid_frame)
+    except TfLookupError as exc:
+        raise ValueError(f"grid from the laser {topic!r}: {exc}") from None
+    lo, hi = scan_bearings(m.msg)
+    return grid_for_scan(lo, hi, float(m.msg.range_max), mount=mount)

@@ -1,0 +1,145 @@
+"""The run's static-clutter stage: one :class:`pfpeople.clutter.ClutterSuppressor` per laser topic.
+
+Each laser topic with a detector has its own static-clutter map (:mod:`pfpeople.clutter`), kept in the laser's
+frame: the grid-frame ego-motion ``E`` (from odometry) becomes ``T^-1 E T`` with ``T`` the laser's mount in
+the grid frame, and the people kept out of the map (the previous frame's confirmed tracks, or else its
+classified people, grid frame at the previous frame) are moved into the current laser frame by ``T^-1 E^-1``.
+A detection the map calls static is suppressed: the filter does not see it (it is still written, with
+``static = 1``, and counted in ``suppressed``). Without odometry, the driving laser's scan-matched motion is
+returned in the grid frame (``T E_laser T^-1``) for laser odometry (:mod:`pfpeople.odometry`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pfpeople.adapters import Detections, DetectorAdapter
+from pfpeople.bag.config import BagConfig
+from pfpeople.run_state import RunSummary, count
+from pfpeople.sensors import Pose2D
+
+__all__ = ["ClutterStage"]
+
+
+class ClutterStage:
+    """Static-clutter suppression of the laser detections of a run (see the module docstring).
+
+    Parameters
+    ----------
+    config : BagConfig
+        The run's configuration (``[clutter]``, ``[filter] mode``, the driver topic).
+    adapters : sequence of DetectorAdapter
+        The run's detectors, in the configuration's order (laser ones get a map per topic).
+    summary : RunSummary
+        Where ``suppressed`` is counted (per detector).
+
+    Raises
+    ------
+    ValueError
+        If ``[clutter.params]`` are not :class:`pfpeople.clutter.ClutterConfig` fields.
+    """
+
+    def __init__(self, config: BagConfig, adapters: Sequence[DetectorAdapter], summary: RunSummary) -> None:
+        self.config = config
+        self.adapters = list(adapters)
+        self.summary = summary
+        self.suppressors: dict[str, Any] = {}
+        #: People kept out of the map in the next frame (m, grid frame of the frame they were found in).
+        self.last_people: NDArray[np.float64] = np.zeros((0, 2))
+        c = config
+        if c.clutter.on(c.filter.mode):
+            from pfpeople.clutter import ClutterConfig, ClutterSuppressor
+
+            try:
+                ccfg = ClutterConfig(**dict(c.clutter.params))
+            except TypeError as exc:
+                raise ValueError(f"[clutter.params]: {exc}") from None
+            for a in self.adapters:
+                if a.laser and a.config.topic not in self.suppressors:
+                    self.suppressors[a.config.topic] = ClutterSuppressor(ccfg)
+
+    @property
+    def active(self) -> bool:
+        """True when some laser topic has a map."""
+        return bool(self.suppressors)
+
+    def reset(self) -> None:
+        """Forget every map (the filter restarts after a gap)."""
+        for sup in self.suppressors.values():
+            sup.map.forget()
+
+    def remember(self, people: NDArray[np.float64]) -> None:
+        """People ``(P, 2)`` (m, grid frame) to keep out of the maps in the next frame."""
+        self.last_people = people
+
+    def step(
+        self,
+        found: Sequence[Detections | None],
+        ego_grid: Pose2D | None,
+        dt: float,
+        stamp_ns: int,
+    ) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None], Pose2D | None]:
+        """Update the maps with the frame's scans and suppress the static detections.
+
+        Parameters
+        ----------
+        found : sequence of Detections or None
+            Per detector, its output in the frame (None: no data).
+        ego_grid : Pose2D or None
+            The grid frame's motion since the previous frame, from odometry (None: unknown).
+        dt : float
+            Time step (s).
+        stamp_ns : int
+            Frame stamp (ns).
+
+        Returns
+        -------
+        detections : list of ndarray (M_k, 2) or None
+            The grid-frame detections the filter sees (static ones removed).
+        static : list of ndarray (M_k,) of bool or None
+            Per detector, which of its detections were suppressed (None: not a suppressed laser detector).
+        driver_ego : Pose2D or None
+            The driving laser's scan-matched motion in the grid frame (None when unknown or when ``ego_grid``
+            was given).
+        """
+        c = self.config
+        kept: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
+        static: list[NDArray[np.bool_] | None] = [None] * len(found)
+        scans = {
+            a.config.topic: f.scan
+            for a, f in zip(self.adapters, found, strict=True)
+            if f is not None and f.scan is not None
+        }
+        driver_ego: Pose2D | None = None
+        for topic, sup in self.suppressors.items():
+            scan = scans.get(topic)
+            idx = [k for k, a in enumerate(self.adapters) if a.config.topic == topic and found[k] is not None]
+            if scan is None or not idx:
+                continue
+            mount = self.adapters[idx[0]].mount  # the laser's pose in the grid frame
+            ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
+            exclude = self.last_people
+            if len(exclude):
+                if ego_grid is not None:
+                    exclude = ego_grid.inverse().apply(exclude)
+                exclude = mount.inverse().apply(exclude)
+            st = sup.step(
+                scan.points(),
+                [f.sensor for k in idx if (f := found[k]) is not None],
+                ego=ego,
+                exclude=exclude,
+                stamp_ns=stamp_ns,
+                dt=dt,
+            )
+            for k, keep in zip(idx, st.keep, strict=True):
+                static[k] = ~keep
+                d = kept[k]
+                kept[k] = d[keep] if d is not None and len(d) else d
+                count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
+            if topic == c.driver and st.ego_ok and ego is None:
+                driver_ego = mount.compose(st.ego).compose(mount.inverse())
+        return kept, static, driver_ego
