@@ -1,0 +1,116 @@
+"""The odometry integrator (pfpeople.odometry): frame timing and the grid frame's ego-motion, hand-computed.
+
+Frames are built directly (no bag): a driver message and ``nav_msgs/Odometry``-like namespaces on ``/odom``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from types import SimpleNamespace
+
+import pytest
+
+import pfpeople.pipeline as pipeline
+from pfpeople.bag.reader import BagMessage
+from pfpeople.bag.sync import Frame
+from pfpeople.odometry import FIRST_DT_S, OdometryIntegrator, interpolate_pose, odometry_between
+from pfpeople.run_state import RunSummary
+from pfpeople.sensors import Pose2D
+
+S = 1_000_000_000  # ns per s
+
+
+def _odom(stamp_ns: int, x: float, y: float = 0.0, yaw: float = 0.0) -> BagMessage:
+    q = SimpleNamespace(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+    pose = SimpleNamespace(pose=SimpleNamespace(position=SimpleNamespace(x=x, y=y, z=0.0), orientation=q))
+    msg = SimpleNamespace(pose=pose, child_frame_id="base_link")
+    return BagMessage("/odom", "nav_msgs/msg/Odometry", 0, stamp_ns, stamp_ns, "odom", msg)
+
+
+def _frame(index: int, t_s: float, *odom: BagMessage) -> Frame:
+    stamp = round(t_s * S)
+    driver = BagMessage("/scan", "sensor_msgs/msg/LaserScan", index, stamp, stamp, "laser", None)
+    return Frame(index=index, driver=driver, stamp_ns=stamp, inputs={"/odom": list(odom)})
+
+
+def _step(integ: OdometryIntegrator, frame: Frame):  # type: ignore[no-untyped-def]
+    m = integ.begin(frame)
+    integ.end(frame, m)
+    return m
+
+
+def test_rotation_about_the_base_gives_no_forward_speed_and_the_chord_as_lateral_motion() -> None:
+    # The grid frame 0.5 m ahead of base_link; the base turns 0.1 rad on the spot in 0.1 s. The grid origin
+    # moves on a circle of 0.5 m: chord 2 * 0.5 * sin(0.05), perpendicular to the mean heading (pure lateral).
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(x=0.5), summary=summary)
+    first = _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    assert (first.dt, first.first, first.odometry, first.pose) == (FIRST_DT_S, True, None, Pose2D(x=0.5))
+    m = _step(integ, _frame(1, 0.1, _odom(round(0.1 * S), 0.0, yaw=0.1)))
+    assert m.dt == pytest.approx(0.1, abs=1e-12) and not m.first
+    assert m.odometry is not None
+    assert m.odometry.omega == pytest.approx(1.0, abs=1e-9)
+    assert m.odometry.v == pytest.approx(0.0, abs=1e-9)
+    assert summary.max_lateral_m == pytest.approx(math.sin(0.05), abs=1e-12)
+    assert m.ego is not None and m.motion == m.ego
+    assert (m.ego.x, m.ego.y, m.ego.yaw) == pytest.approx((0.5 * math.cos(0.1) - 0.5, 0.5 * math.sin(0.1), 0.1))
+
+
+def test_pose_is_interpolated_to_the_frame_stamp_and_motion_since_the_last_odometry_is_kept() -> None:
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), summary=summary)
+    _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    # Odometry at 0.05 s (x 0.05) and 0.15 s (x 0.25): at 0.1 s, x = 0.15; v = 0.15 / 0.1.
+    m1 = _step(integ, _frame(1, 0.1, _odom(round(0.05 * S), 0.05), _odom(round(0.15 * S), 0.25)))
+    assert m1.pose == Pose2D(x=pytest.approx(0.15), y=0.0, yaw=0.0)
+    assert m1.odometry is not None and m1.odometry.v == pytest.approx(1.5) and m1.odometry.omega == 0.0
+    m2 = _step(integ, _frame(2, 0.2))  # no odometry: standing, counted
+    assert m2.odometry is None and m2.pose is None and m2.motion is None
+    assert summary.frames_without_odometry == 1
+    # Next frame: the whole displacement since frame 1 (0.15 -> 0.45 m) over this frame's dt (0.1 s).
+    m3 = _step(integ, _frame(3, 0.3, _odom(round(0.3 * S), 0.45)))
+    assert m3.odometry is not None and m3.odometry.v == pytest.approx(3.0)
+    assert interpolate_pose((0, Pose2D(yaw=3.0)), (10, Pose2D(yaw=-3.0)), 5).yaw == pytest.approx(
+        3.0 + (2 * math.pi - 6) / 2
+    )
+
+
+def test_a_long_gap_restarts_and_bad_odometry_is_counted(caplog: pytest.LogCaptureFixture) -> None:
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), summary=summary)
+    _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    with caplog.at_level(logging.WARNING):
+        m = _step(integ, _frame(1, 2.5, _odom(round(2.5 * S), 1.0)))
+    assert m.restarted and m.dt == FIRST_DT_S and m.odometry is None  # no motion across the restart
+    assert summary.filter_restarts == 1 and "gap of 2.500 s before frame 1: restarting the filter" in caplog.text
+    m = _step(integ, _frame(2, 2.6, _odom(round(2.6 * S), math.nan)))
+    assert m.pose is None and m.odometry is None
+    assert summary.bad_messages == {"/odom": 1} and summary.frames_without_odometry == 1
+    assert "odometry pose has NaN" in caplog.text
+    m = _step(integ, _frame(3, 2.7, _odom(round(2.7 * S), 1.2)))
+    assert m.odometry is not None and m.odometry.v == pytest.approx(2.0)  # 1.0 -> 1.2 m over 0.1 s
+
+
+def test_laser_odometry_moves_the_grid_without_an_odometry_topic() -> None:
+    summary = RunSummary()
+    integ = OdometryIntegrator(None, laser_odometry=True, summary=summary)
+    step = Pose2D(x=0.1, yaw=0.02)
+    m0 = integ.begin(_frame(0, 0.0))
+    assert integ.from_laser(m0, step) is m0  # first frame: no previous scan to match
+    integ.end(_frame(0, 0.0), m0)
+    m1 = integ.from_laser(integ.begin(_frame(1, 0.1)), step)
+    expect, lateral = odometry_between(Pose2D(), step, 0.1)
+    assert m1.odometry == expect and m1.motion == step and summary.laser_odometry_frames == 1
+    assert summary.max_lateral_m == pytest.approx(abs(lateral))
+    off = OdometryIntegrator(None, laser_odometry=False)
+    off.end(_frame(0, 0.0), off.begin(_frame(0, 0.0)))
+    m = off.begin(_frame(1, 0.1))
+    assert off.from_laser(m, step) is m and m.odometry is None
+    with pytest.raises(ValueError, match="needs base_to_grid"):
+        OdometryIntegrator("/odom")
+
+
+def test_pipeline_module_still_exports_the_odometry_helpers() -> None:
+    assert pipeline.odometry_between is odometry_between
+    assert (pipeline.FIRST_DT_S, pipeline.MAX_GAP_S) == (0.1, 2.0)
