@@ -6,7 +6,7 @@ no ROS installation is needed. See :mod:`pfpeople.bag.config` for the TOML confi
 """
 
 from pfpeople.bag.config import BagConfig, DetectorConfig, FilterConfig, load_config
-from pfpeople.bag.reader import BagReadError, BagSource, open_bag_paths
+from pfpeople.bag.reader import BagReadError, BagSource, MessageDataError, open_bag_paths
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer
 
@@ -18,6 +18,7 @@ __all__ = [
     "FilterConfig",
     "Frame",
     "FrameAssembler",
+    "MessageDataError",
     "TfBuffer",
     "load_config",
     "open_bag_paths",
