@@ -19,6 +19,9 @@ topic     :class:`TopicAdapter`            positions read from detection message
 there (or in the ``adapters`` mapping it is given), so a kind is added or replaced without touching the
 pipeline. An adapter class is called as ``cls(config, mount, detector)`` (``detector``: a ready detector
 object to use instead of building one, or None) and needs the members of :class:`DetectorAdapter`.
+The pipeline reads ``input_types`` and ``laser`` from the factory itself before building any adapter (to
+check the topics and fill in a laser's field of view), so a factory that is not a class carries them as
+attributes (default: any type, not a laser).
 
 Bad data versus bugs: a message that cannot be used raises
 :class:`~pfpeople.bag.reader.MessageDataError` (raised by the message converters of
