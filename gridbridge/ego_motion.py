@@ -34,9 +34,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from gridbridge._validate import check_finite, check_positive, check_probability
 from gridbridge.grid import GridSpec
 from gridbridge.params import SensorMotionNoise
+from gridbridge.validation import check_finite, check_positive, check_probability
 
 __all__ = [
     "Odometry",

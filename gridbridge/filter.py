@@ -20,7 +20,6 @@ from typing import Literal, NamedTuple, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_choice, check_positive, check_probability
 from gridbridge.components import (
     Appearance,
     BeliefBounds,
@@ -35,6 +34,7 @@ from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
+from gridbridge.validation import check_choice, check_positive, check_probability
 
 __all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models"]
 

@@ -40,9 +40,9 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_grid_array, check_positions
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
+from gridbridge.validation import check_grid_array, check_positions
 
 __all__ = [
     "Likelihood",

@@ -81,12 +81,12 @@ from gridbridge import (
     predict_people,
     warp_belief,
 )
-from gridbridge._validate import check_choice, check_positive, check_probability
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.filter import Prediction, filter_models
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
+from gridbridge.validation import check_choice, check_positive, check_probability
 from pfpeople.motion import (
     PersistentMotion,
     apply_ego_motion,

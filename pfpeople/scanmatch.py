@@ -36,16 +36,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from gridbridge.validation import check_number
 from pfpeople.sensors import Pose2D
 
 __all__ = ["MatchResult", "OdometryStep", "ScanMatchConfig", "ScanOdometry", "ScanOdometryConfig", "match_scans"]
 
 
 def _check_number(value: object, name: str, *, low: float = 0.0, allow_low: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
-    v = float(value)
-    if not math.isfinite(v) or v < low or (v == low and not allow_low):
+    v = check_number(value, name)
+    if v < low or (v == low and not allow_low):
         bound = f">= {low}" if allow_low else f"> {low}"
         raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
     return v

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_positive
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.params import SensorMotionNoise
+from gridbridge.validation import check_positive
 
 __all__ = [
     "RobotProfile",

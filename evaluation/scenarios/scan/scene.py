@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from evaluation.scenarios.scan.gait import GaitParams
 from evaluation.scenarios.scan.raycast import NO_RETURN_KINDS
-from gridbridge._validate import check_positive
+from gridbridge.validation import check_number, check_positive
 
 __all__ = [
     "PEOPLE_SOURCES",
@@ -59,14 +59,6 @@ def _int(value: object, name: str, *, minimum: int = 0) -> int:
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
     return int(value)
-
-
-def _finite(value: object, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
-        raise TypeError(f"{name} must be a number, got {value!r}")
-    if not math.isfinite(float(value)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return float(value)
 
 
 def _rows(value: object, width: int, name: str) -> tuple[tuple[float, ...], ...]:
@@ -136,9 +128,12 @@ class LaserConfig:
             )
         if len(self.mount) != 3:
             raise ValueError(f"LaserConfig.mount must be [x, y, yaw], got {self.mount!r}")
-        object.__setattr__(self, "mount", tuple(_finite(v, "LaserConfig.mount") for v in self.mount))
+        object.__setattr__(self, "mount", tuple(check_number(v, "LaserConfig.mount") for v in self.mount))
         _int(self.n_beams, "LaserConfig.n_beams", minimum=2)
-        lo, hi = _finite(self.angle_min, "LaserConfig.angle_min"), _finite(self.angle_max, "LaserConfig.angle_max")
+        lo, hi = (
+            check_number(self.angle_min, "LaserConfig.angle_min"),
+            check_number(self.angle_max, "LaserConfig.angle_max"),
+        )
         if not -math.pi - 1e-9 <= lo < hi <= math.pi + 1e-9:
             raise ValueError(f"LaserConfig.angle_min/angle_max must satisfy -pi <= min < max <= pi, got {lo}, {hi}")
         check_positive(self.rate_hz, "LaserConfig.rate_hz")
@@ -147,7 +142,7 @@ class LaserConfig:
         if self.range_min >= self.range_max:
             raise ValueError("LaserConfig.range_min must be below range_max")
         check_positive(self.noise_sd, "LaserConfig.noise_sd", allow_zero=True)
-        if not 0.0 <= _finite(self.dropout, "LaserConfig.dropout") < 1.0:
+        if not 0.0 <= check_number(self.dropout, "LaserConfig.dropout") < 1.0:
             raise ValueError(f"LaserConfig.dropout must be in [0, 1), got {self.dropout!r}")
         if self.no_return not in NO_RETURN_KINDS:
             raise ValueError(f"LaserConfig.no_return must be one of {NO_RETURN_KINDS}, got {self.no_return!r}")
@@ -202,7 +197,7 @@ class RobotRoute:
             raise TypeError(f"RobotRoute.loop must be a boolean, got {self.loop!r}")
         if len(self.start) not in (0, 3):
             raise ValueError(f"RobotRoute.start must be [] or [x, y, yaw], got {self.start!r}")
-        object.__setattr__(self, "start", tuple(_finite(v, "RobotRoute.start") for v in self.start))
+        object.__setattr__(self, "start", tuple(check_number(v, "RobotRoute.start") for v in self.start))
         check_positive(self.v_min, "RobotRoute.v_min", allow_zero=True)
         check_positive(self.v_max, "RobotRoute.v_max", allow_zero=True)
         if self.v_min > self.v_max:
@@ -309,7 +304,7 @@ class PeopleConfig:
             raise ValueError(f"PeopleConfig.source must be one of {PEOPLE_SOURCES}, got {self.source!r}")
         if len(self.region) != 4:
             raise ValueError("PeopleConfig.region must be [x_min, x_max, y_min, y_max]")
-        region = tuple(_finite(v, "PeopleConfig.region") for v in self.region)
+        region = tuple(check_number(v, "PeopleConfig.region") for v in self.region)
         if region[0] >= region[1] or region[2] >= region[3]:
             raise ValueError(f"PeopleConfig.region must have x_min < x_max and y_min < y_max, got {region}")
         object.__setattr__(self, "region", region)
@@ -337,7 +332,7 @@ class PeopleConfig:
                 raise ValueError(f"PeopleConfig.{lo} must not exceed {hi}")
         if len(self.offset) != 2:
             raise ValueError("PeopleConfig.offset must be [x, y]")
-        object.__setattr__(self, "offset", tuple(_finite(v, "PeopleConfig.offset") for v in self.offset))
+        object.__setattr__(self, "offset", tuple(check_number(v, "PeopleConfig.offset") for v in self.offset))
         if not isinstance(self.gait, GaitParams):
             raise TypeError("PeopleConfig.gait must be a GaitParams")
 
