@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from gridbridge.geometry import Pose2D
 from gridbridge.validation import check_number
-from pfpeople.sensors import Pose2D
 
 __all__ = ["MatchResult", "OdometryStep", "ScanMatchConfig", "ScanOdometry", "ScanOdometryConfig", "match_scans"]
 
@@ -215,7 +215,7 @@ def _match(ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: Scan
     src = _stride(cur, config.max_points)
     if ref.points.shape[0] < 3 or src.shape[0] < 3:
         return MatchResult(pose=init, rmse=math.inf, inlier_fraction=0.0, converged=False, degenerate=True)
-    x, y, th = init.x, init.y, init.yaw
+    pose = init
     n_half = config.gate_iterations
     ratio = config.min_correspondence / config.max_correspondence
     converged = False
@@ -223,8 +223,7 @@ def _match(ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: Scan
     it = 0
     for it in range(1, config.max_iterations + 1):
         gate = config.max_correspondence * ratio ** min(1.0, (it - 1) / n_half)
-        c, s = math.cos(th), math.sin(th)
-        q = np.column_stack((x + c * src[:, 0] - s * src[:, 1], y + s * src[:, 0] + c * src[:, 1]))
+        q = pose.apply(src)
         dist, idx = ref.tree.query(q, k=1, distance_upper_bound=gate)
         inl = np.isfinite(dist)
         if inl.sum() < 3:
@@ -245,14 +244,10 @@ def _match(ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: Scan
         hp = proj.T @ h @ proj
         d = -proj @ np.linalg.solve(hp, proj.T @ g) if good.any() else np.zeros(3)
         dx, dy, dth = float(d[0]), float(d[1]), float(d[2]) / rho
-        # left-compose the increment: T <- (dx, dy, dth) * T
-        cd, sd = math.cos(dth), math.sin(dth)
-        x, y = dx + cd * x - sd * y, dy + sd * x + cd * y
-        th = math.atan2(math.sin(th + dth), math.cos(th + dth))
+        pose = Pose2D(x=dx, y=dy, yaw=dth).compose(pose)  # left-compose the increment: T <- (dx, dy, dth) * T
         if it > n_half and math.hypot(dx, dy) < config.tolerance and abs(dth) < config.tolerance:
             converged = True
             break
-    pose = Pose2D(x=x, y=y, yaw=th)
     q = pose.apply(src)
     dist, idx = ref.tree.query(q, k=1, distance_upper_bound=config.min_correspondence)
     inl = np.isfinite(dist)

@@ -38,9 +38,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gridbridge.geometry import Pose2D
 from pfpeople.bag.reader import LASER_TYPES, ODOMETRY_TYPES, TF_TYPES, BagReadError, BagSource, header_stamp_ns
 from pfpeople.bag.tf import TfBuffer, TfLookupError, yaw_from_quaternion
-from pfpeople.sensors import Pose2D
 
 __all__ = [
     "TIME_SOURCE_THRESHOLD_S",

@@ -35,10 +35,10 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.validation import check_number
 from pfpeople.output import RunData
-from pfpeople.sensors import Pose2D
 
 __all__ = [
     "TRACK_COLUMNS",

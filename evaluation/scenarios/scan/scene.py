@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 
 from evaluation.scenarios.scan.gait import GaitParams
 from evaluation.scenarios.scan.raycast import NO_RETURN_KINDS
+from gridbridge.geometry import from_frame
 from gridbridge.validation import check_number, check_positive
 
 __all__ = [
@@ -446,11 +447,9 @@ class SceneConfig:
             (self.chairs, (half_c, half_c), self.chair_leg_radius),
             (self.tables, (tl, tw), self.table_leg_radius),
         ):
+            legs = [(sx * (hx - rad), sy * (hy - rad)) for sx, sy in ((1, 1), (1, -1), (-1, 1), (-1, -1))]
             for x, y, yaw in items:
-                c, s = math.cos(yaw), math.sin(yaw)
-                for sx, sy in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
-                    lx, ly = sx * (hx - rad), sy * (hy - rad)
-                    rows.append((x + c * lx - s * ly, y + s * lx + c * ly, rad))
+                rows += [(float(lx), float(ly), rad) for lx, ly in from_frame(legs, (x, y, yaw))]
         return np.array(rows, dtype=float).reshape(-1, 3)
 
     def static_segments(self) -> NDArray[np.float64]:
@@ -460,19 +459,11 @@ class SceneConfig:
             w, h = self.room
             rows += [(0.0, 0.0, w, 0.0), (w, 0.0, w, h), (w, h, 0.0, h), (0.0, h, 0.0, 0.0)]
         for cx, cy, length, width, yaw in self.boxes:
-            c, s = math.cos(yaw), math.sin(yaw)
-            corners = [
-                (cx + c * px - s * py, cy + s * px + c * py)
-                for px, py in (
-                    (length / 2, width / 2),
-                    (-length / 2, width / 2),
-                    (-length / 2, -width / 2),
-                    (length / 2, -width / 2),
-                )
-            ]
+            hl, hw = length / 2, width / 2
+            corners = from_frame([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)], (cx, cy, yaw))
             for k in range(4):
                 (x0, y0), (x1, y1) = corners[k], corners[(k + 1) % 4]
-                rows.append((x0, y0, x1, y1))
+                rows.append((float(x0), float(y0), float(x1), float(y1)))
         return np.array(rows, dtype=float).reshape(-1, 4)
 
 
