@@ -58,14 +58,12 @@ __all__ = [
     "TOPIC_TF_STATIC",
     "TOPIC_TRACKS",
     "TOPIC_TRACK_MARKERS",
-    "BagFormat",
     "ResultBagWriter",
     "bag_format_for",
     "check_bag_out",
     "detection_topic",
 ]
 
-BagFormat = Literal["ros1", "mcap", "sqlite3"]
 #: The output formats: ROS 1 ``.bag`` file, rosbag2 folder with MCAP or sqlite3 storage.
 BAG_FORMATS: tuple[str, ...] = ("ros1", "mcap", "sqlite3")
 
