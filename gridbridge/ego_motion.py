@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from gridbridge.geometry import from_frame
+from gridbridge.geometry import from_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import SensorMotionNoise
 from gridbridge.validation import check_finite, check_positive, check_probability
@@ -158,9 +158,9 @@ def warp_belief(
     if len(p) == 1 and np.all(p[0] == 0.0):
         return bel.copy()
     gx, gy = spec.cell_centres()
-    # p_old = R(dtheta) p_new + t, evaluated at every new cell centre for every pose: shape (S, nx, ny, 2).
-    old = from_frame(np.stack((gx, gy), axis=-1), p[:, None, None, :])
-    u, v = spec.to_fractional(old[..., 0], old[..., 1])
+    # p_old = R(dtheta) p_new + t, evaluated at every new cell centre for every pose: shape (S, nx, ny).
+    x_old, y_old = from_frame_xy(gx, gy, p[:, None, None, :])
+    u, v = spec.to_fractional(x_old, y_old)
     coords = np.stack((u.ravel() - 0.5, v.ravel() - 0.5))
     samples = ndimage.map_coordinates(bel, coords, order=1, mode="grid-constant", cval=outside)
     out = np.tensordot(w, samples.reshape(len(p), *spec.shape), axes=1)

@@ -31,10 +31,12 @@ __all__ = [
     "PoseLike",
     "compose",
     "from_frame",
+    "from_frame_xy",
     "inverse",
     "quaternion_from_yaw",
     "rotate",
     "to_frame",
+    "to_frame_xy",
     "yaw_from_quaternion",
 ]
 
@@ -98,11 +100,8 @@ def from_frame(points: ArrayLike, pose: PoseLike) -> NDArray[np.float64]:
 
     ``pose`` is one pose or an array ``(..., 3)`` broadcast against the points' leading axes.
     """
-    x, y, yaw = _xyyaw(pose)
-    c, s = _cos_sin(yaw)
     pts = _points(points)
-    px, py = pts[..., 0], pts[..., 1]
-    return np.stack((x + c * px - s * py, y + s * px + c * py), axis=-1)
+    return np.stack(from_frame_xy(pts[..., 0], pts[..., 1], pose), axis=-1)
 
 
 def to_frame(points: ArrayLike, pose: PoseLike) -> NDArray[np.float64]:
@@ -110,11 +109,25 @@ def to_frame(points: ArrayLike, pose: PoseLike) -> NDArray[np.float64]:
 
     The inverse of :func:`from_frame`; ``pose`` broadcasts as there.
     """
+    pts = _points(points)
+    return np.stack(to_frame_xy(pts[..., 0], pts[..., 1], pose), axis=-1)
+
+
+def from_frame_xy(px: ArrayLike, py: ArrayLike, pose: PoseLike) -> tuple[Any, Any]:
+    """:func:`from_frame` on coordinates kept apart: ``(x, y)`` in the parent frame of ``(px, py)`` given in the
+    frame at ``pose`` (everything broadcast; no stacking, for grids of points such as cell centres)."""
     x, y, yaw = _xyyaw(pose)
     c, s = _cos_sin(yaw)
-    pts = _points(points)
-    dx, dy = pts[..., 0] - x, pts[..., 1] - y
-    return np.stack((c * dx + s * dy, -s * dx + c * dy), axis=-1)
+    px_, py_ = np.asarray(px, dtype=float), np.asarray(py, dtype=float)
+    return x + c * px_ - s * py_, y + s * px_ + c * py_
+
+
+def to_frame_xy(px: ArrayLike, py: ArrayLike, pose: PoseLike) -> tuple[Any, Any]:
+    """:func:`to_frame` on coordinates kept apart (see :func:`from_frame_xy`)."""
+    x, y, yaw = _xyyaw(pose)
+    c, s = _cos_sin(yaw)
+    dx, dy = np.asarray(px, dtype=float) - x, np.asarray(py, dtype=float) - y
+    return c * dx + s * dy, -s * dx + c * dy
 
 
 def rotate(vectors: ArrayLike, yaw: ArrayLike) -> NDArray[np.float64]:
