@@ -21,7 +21,6 @@ outside the grid are not counted: the grid cannot show them.
 from __future__ import annotations
 
 import functools
-import json
 import math
 import platform
 import time
@@ -40,6 +39,7 @@ from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.filter import BeliefFilter, FilterStep
 from gridbridge.params import DetectorModel
+from pfpeople.jsonio import dumps
 from pfpeople.tracking import TrackerParams, track_sequence
 
 __all__ = [
@@ -419,20 +419,6 @@ def _progress(it: Iterable[Frame], show: bool, desc: str, total: int) -> Iterabl
     return tqdm(it, desc=desc, total=total, unit="frame", leave=False)
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
 def write_record(
     result: ABResult,
     scenario: Scenario,
@@ -468,7 +454,7 @@ def write_record(
         "versions": {"python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__},
         "machine": platform.platform(),
     }
-    path.write_text(json.dumps(_jsonable(record), indent=2) + "\n")
+    path.write_text(dumps(record) + "\n")
     return path
 
 

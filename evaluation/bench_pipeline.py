@@ -21,6 +21,7 @@ from pathlib import Path
 
 from evaluation.commands.score import score_run
 from evaluation.gt_csv import read_gt_csv
+from gridbridge.limits import ResourceLimitError
 from pfpeople.bag.config import builtin_config_path, load_config
 from pfpeople.bag.reader import BagSource
 from pfpeople.output import load_run
@@ -51,7 +52,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             try:
                 with BagSource(data / BAG) as src:
                     summary, _ = Pipeline(cfg).run(src, out, max_frames=args.max_frames)
-            except ValueError as exc:
+            except ResourceLimitError as exc:  # too large for this machine; any other error is a failure
                 print(f"{kind:<10} skipped: {exc}")
                 continue
             run = load_run(out)

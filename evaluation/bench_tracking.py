@@ -29,8 +29,8 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.geometry import Pose2D
 from pfpeople.mot import MultiPersonTracker
-from pfpeople.sensors import Pose2D
 
 DT = 0.1
 OMEGA = 0.1

@@ -34,9 +34,9 @@ from scipy.stats import norm
 
 from evaluation.metrics import assign_one_to_one
 from evaluation.scenarios.sensors import in_field_of_view
-from gridbridge._validate import check_positions, check_positive, check_probability
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
+from gridbridge.validation import check_positions, check_positive, check_probability
 
 __all__ = [
     "CalibrationCounts",

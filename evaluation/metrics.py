@@ -32,7 +32,6 @@ Tracking helpers (:func:`tracking_summary`) take per-frame arrays from the track
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -41,7 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import rankdata
 
-from gridbridge._validate import check_positions
+from gridbridge.validation import check_positions, check_positive
 
 __all__ = [
     "DetectionAccumulator",
@@ -129,8 +128,7 @@ def match_people(
     k, p = det.shape[0], tru.shape[0]
     if rule not in ("distance", "overlap"):
         raise ValueError(f"rule must be 'distance' or 'overlap', got {rule!r}")
-    if not (math.isfinite(gate) and gate >= 0):
-        raise ValueError(f"gate must be a finite non-negative distance (m), got {gate!r}")
+    check_positive(gate, "gate", allow_zero=True)
     dist = np.linalg.norm(det[:, None, :] - tru[None, :, :], axis=-1) if k and p else np.zeros((k, p))
     if rule == "distance":
         feasible = dist <= gate
@@ -342,8 +340,7 @@ class DetectionAccumulator:
     ):
         if rule not in ("distance", "overlap"):
             raise ValueError(f"rule must be 'distance' or 'overlap', got {rule!r}")
-        if not (math.isfinite(gate) and gate >= 0):
-            raise ValueError(f"gate must be a finite non-negative distance (m), got {gate!r}")
+        check_positive(gate, "gate", allow_zero=True)
         if not (0.0 < eps < 0.5):
             raise ValueError(f"eps must be in (0, 0.5), got {eps!r}")
         self.gate = gate
@@ -487,8 +484,7 @@ def tracking_summary(
         the gate), ``mean_error_m``, ``median_error_m``, ``max_error_m`` (over tracked frames),
         ``all_missed_frames`` and ``held_while_all_missed`` (tracked and correct in those frames).
     """
-    if not (math.isfinite(gate) and gate >= 0):
-        raise ValueError(f"gate must be a finite non-negative distance (m), got {gate!r}")
+    check_positive(gate, "gate", allow_zero=True)
     tr = np.asarray(tracked)
     if tr.dtype != bool or tr.ndim != 1:
         raise ValueError(f"tracked must be a 1-D bool array, got {tr.dtype} {tr.shape}")

@@ -38,11 +38,11 @@ from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
 from gridbridge.classifiers import classify_peaks
 from gridbridge.ego_motion import velocity_displacement
+from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from pfpeople.mot import MultiPersonTracker, TrackerConfig
 from pfpeople.output import RunData
-from pfpeople.sensors import Pose2D
 
 __all__ = [
     "Classifier",

@@ -12,7 +12,8 @@ from gridbridge.ego_motion import (
     velocity_displacement,
     warp_belief,
 )
-from gridbridge.filter import FilterStep, GridFilter, as_odometry
+from gridbridge.filter import BeliefFilter, FilterStep, GridFilter, Prediction, as_odometry
+from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import (
     Likelihood,
@@ -29,6 +30,7 @@ from gridbridge.people_motion import people_motion_kernel, predict_people, trunc
 
 __all__ = [
     "PAPER_DETECTORS",
+    "BeliefFilter",
     "Blob",
     "BlobParams",
     "ClassificationResult",
@@ -39,6 +41,8 @@ __all__ = [
     "Likelihood",
     "Odometry",
     "PeopleMotion",
+    "Pose2D",
+    "Prediction",
     "SensorMotionNoise",
     "as_odometry",
     "bayes_update",

@@ -24,9 +24,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from gridbridge._validate import check_positive, check_probability
 from gridbridge.classify import BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.grid import GridSpec
+from gridbridge.validation import check_positive, check_probability
 
 __all__ = [
     "BlobClassifier",

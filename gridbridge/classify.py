@@ -64,8 +64,8 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from gridbridge._validate import check_positive, check_probability
 from gridbridge.grid import GridSpec
+from gridbridge.validation import check_positive, check_probability
 
 __all__ = [
     "Blob",

@@ -38,11 +38,11 @@ from typing import Literal, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_grid_array, check_positive, check_probability
 from gridbridge.ego_motion import Odometry, predict_sensor
 from gridbridge.grid import GridSpec
 from gridbridge.params import PeopleMotion, SensorMotionNoise
 from gridbridge.people_motion import people_motion_kernel, predict_people
+from gridbridge.validation import check_grid_array, check_positive, check_probability
 
 __all__ = [
     "Appearance",

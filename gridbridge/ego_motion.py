@@ -34,9 +34,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from gridbridge._validate import check_finite, check_positive, check_probability
+from gridbridge.geometry import from_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import SensorMotionNoise
+from gridbridge.validation import check_finite, check_positive, check_probability
 
 __all__ = [
     "Odometry",
@@ -157,10 +158,8 @@ def warp_belief(
     if len(p) == 1 and np.all(p[0] == 0.0):
         return bel.copy()
     gx, gy = spec.cell_centres()
-    c, s = np.cos(p[:, 2])[:, None, None], np.sin(p[:, 2])[:, None, None]
     # p_old = R(dtheta) p_new + t, evaluated at every new cell centre for every pose: shape (S, nx, ny).
-    x_old = p[:, 0, None, None] + c * gx - s * gy
-    y_old = p[:, 1, None, None] + s * gx + c * gy
+    x_old, y_old = from_frame_xy(gx, gy, p[:, None, None, :])
     u, v = spec.to_fractional(x_old, y_old)
     coords = np.stack((u.ravel() - 0.5, v.ravel() - 0.5))
     samples = ndimage.map_coordinates(bel, coords, order=1, mode="grid-constant", cval=outside)

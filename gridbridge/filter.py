@@ -15,12 +15,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, Protocol, runtime_checkable
+from typing import Literal, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_choice, check_positive, check_probability
 from gridbridge.components import (
     Appearance,
     BeliefBounds,
@@ -35,8 +34,9 @@ from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
+from gridbridge.validation import check_choice, check_positive, check_probability
 
-__all__ = ["BeliefFilter", "FilterStep", "GridFilter", "as_odometry", "filter_models"]
+__all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,19 +66,43 @@ class FilterStep:
     posterior: NDArray[np.float64]
 
 
+class Prediction(NamedTuple):
+    """The two prediction stages of one filter step (Fig. 6d-e), ``(nx, ny)`` each.
+
+    Attributes
+    ----------
+    people_prior : ndarray
+        After the people-motion prediction (eqs. 5-9).
+    sensor_prior : ndarray
+        After the sensor-motion prediction (eqs. 10-11): the prior of the update, as
+        :attr:`FilterStep.sensor_prior` records it.
+    """
+
+    people_prior: NDArray[np.float64]
+    sensor_prior: NDArray[np.float64]
+
+
 @runtime_checkable
 class BeliefFilter(Protocol):
     """The one filter interface: :class:`GridFilter` and :class:`pfpeople.ParticleFilter` both follow it, and the
     pipeline, the A/B harness, the replay, the benchmark and the notebooks use filters only through it.
 
-    ``belief`` is the current ``(nx, ny)`` posterior; ``reset(belief=None)`` restarts (from the initial belief or
-    the one given); ``step(detections, odometry, dt)`` is one recursive Bayes step returning a
-    :class:`FilterStep` (the stages of Fig. 6). Bad input raises ``ValueError`` naming it and changes nothing.
+    ``belief`` is the current ``(nx, ny)`` belief; ``reset(belief=None)`` restarts (from the initial belief or
+    the one given). One recursive Bayes step is ``predict(odometry, dt)`` (both predictions, eqs. 5-11: the belief
+    becomes the prior bel-bar, returned as a :class:`Prediction`) then ``update(detections)`` (eqs. 12-14: the
+    belief becomes the posterior; returns the :class:`FilterStep` of the whole step, the stages of Fig. 6).
+    ``step(detections, odometry, dt)`` is the two in one call, with the same result bit for bit. ``update``
+    without a ``predict`` before it updates the current belief (a step of zero length). Bad input raises
+    ``ValueError`` naming it and changes nothing.
     """
 
     belief: NDArray[np.float64]
 
     def reset(self, belief: ArrayLike | None = None) -> None: ...
+
+    def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction: ...
+
+    def update(self, detections: Sequence[ArrayLike | None]) -> FilterStep: ...
 
     def step(
         self,
@@ -196,6 +220,8 @@ class GridFilter:
         self.ego_motion = ego_motion
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
         self._observed: NDArray[np.bool_] | None = None
+        #: The people prior of a :meth:`predict` not yet followed by :meth:`update`.
+        self._people_prior: NDArray[np.float64] | None = None
 
     @property
     def observed(self) -> NDArray[np.bool_]:
@@ -210,16 +236,22 @@ class GridFilter:
             self.belief = np.full(self.spec.shape, self.initial)
         else:
             self.belief = self.spec.check_grid(belief, "belief").copy()
+        self._people_prior = None
 
     def kernel(self, dt: float) -> NDArray[np.float64]:
         """The people-motion kernel used for a step of ``dt`` seconds."""
         return self.prediction.kernel(self.spec, dt)
 
-    def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Both predictions; returns ``(people_prior, prior)`` without changing the belief.
+    def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction:
+        """Both predictions (eqs. 5-11); the belief becomes the prior of the update.
 
-        ``prior`` is the sensor-motion prediction with appearances added (when the filter has an
-        :class:`~gridbridge.components.Appearance`): the prior of the update.
+        The prior is the sensor-motion prediction with appearances added (when the filter has an
+        :class:`~gridbridge.components.Appearance`). Arguments as in :meth:`step`; on bad input nothing changes.
+
+        Returns
+        -------
+        Prediction
+            ``(people_prior, sensor_prior)``, ``(nx, ny)`` each; ``sensor_prior`` is the new ``belief``.
         """
         dt = check_positive(dt, "dt")
         odo = as_odometry(odometry)
@@ -227,22 +259,40 @@ class GridFilter:
         sensor = self.ego_motion.predict(people, self.spec, odo, dt)
         if self.appearance is not None:
             sensor = self.appearance.apply(sensor, dt, where=self.observed)
-        return people, sensor
+        self.belief = sensor
+        self._people_prior = people
+        return Prediction(people, sensor)
 
-    def update(
-        self, prior: ArrayLike, detections: Sequence[ArrayLike | None]
-    ) -> tuple[Likelihood, NDArray[np.float64]]:
-        """Measurement update (eqs. 12-14) of ``prior`` (then the bounds); sets and returns the belief.
+    def update(self, detections: Sequence[ArrayLike | None]) -> FilterStep:
+        """Measurement update (eqs. 12-14) of the belief (the prior), then the bounds; sets the posterior.
 
-        Returns ``(likelihood, posterior)``; on bad input nothing changes.
+        Without a :meth:`predict` since the last update the current belief is the prior (and both priors of the
+        returned record). ``detections`` as in :meth:`step`; on bad input nothing changes.
+
+        Returns
+        -------
+        FilterStep
+            The stages of the step (the priors of the last :meth:`predict`).
         """
-        prior_ = self.spec.check_grid(prior, "prior")
-        lik = self.likelihood(self.spec, self.detectors, list(detections))
-        posterior = bayes_update(prior_, lik.likelihood)
+        return self._update(self.likelihood(self.spec, self.detectors, list(detections)))
+
+    def _update(self, lik: Likelihood) -> FilterStep:
+        prior = self.belief
+        people = prior if self._people_prior is None else self._people_prior
+        posterior = bayes_update(prior, lik.likelihood)
         if self.bounds is not None:
             posterior = self.bounds.apply(posterior)
         self.belief = posterior
-        return lik, posterior
+        self._people_prior = None
+        return FilterStep(
+            people_prior=people,
+            sensor_prior=prior,
+            fired=lik.fired,
+            covered=lik.covered,
+            detector_likelihoods=lik.detector_likelihoods,
+            likelihood=lik.likelihood,
+            posterior=posterior,
+        )
 
     def step(
         self,
@@ -250,7 +300,7 @@ class GridFilter:
         odometry: Odometry | tuple[float, float] | None,
         dt: float,
     ) -> FilterStep:
-        """One recursive Bayes step.
+        """One recursive Bayes step: :meth:`predict` then :meth:`update`.
 
         Parameters
         ----------
@@ -265,16 +315,9 @@ class GridFilter:
         Returns
         -------
         FilterStep
-            All stages; ``self.belief`` becomes the posterior. On bad input nothing changes.
+            All stages; ``self.belief`` becomes the posterior. On bad input nothing changes (the detections are
+            checked before the prediction).
         """
-        people, sensor = self.predict(odometry, dt)
-        lik, posterior = self.update(sensor, detections)
-        return FilterStep(
-            people_prior=people,
-            sensor_prior=sensor,
-            fired=lik.fired,
-            covered=lik.covered,
-            detector_likelihoods=lik.detector_likelihoods,
-            likelihood=lik.likelihood,
-            posterior=posterior,
-        )
+        lik = self.likelihood(self.spec, self.detectors, list(detections))
+        self.predict(odometry, dt)
+        return self._update(lik)

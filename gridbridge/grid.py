@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_grid_array
+from gridbridge.validation import check_grid_array
 
 __all__ = ["GridSpec"]
 

@@ -33,11 +33,11 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gridbridge._validate import check_probability
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import Likelihood, detection_map, fov_mask, likelihood_from_detections
 from gridbridge.params import DetectorModel
+from gridbridge.validation import check_probability
 
 __all__ = ["DeMorganLikelihood", "DetectionLikelihood", "IndependentLikelihood", "update_components"]
 

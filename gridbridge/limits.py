@@ -30,7 +30,6 @@ __all__ = [
     "ResourceLimitError",
     "check_grid_size",
     "check_particles",
-    "check_run",
     "estimate_run_bytes",
     "kernel_reach_cells",
     "memory_budget_bytes",
@@ -130,22 +129,3 @@ def check_memory(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0, wh
             f"{n_particles} particles), more than the budget of {_human(budget)} (half the physical memory, or "
             "PFPEOPLE_MAX_MEMORY_BYTES)"
         )
-
-
-def check_run(
-    nx: int,
-    ny: int,
-    resolution: float,
-    *,
-    n_detectors: int = 1,
-    n_particles: int = 0,
-    v_max: float | None = None,
-    dt: float = 0.1,
-    where: str = "run",
-) -> None:
-    """All checks of a run: grid cells, prediction work (with ``v_max``), particles and memory."""
-    check_grid_size(nx, ny, resolution, v_max=v_max, dt=dt, where=f"{where} grid")
-    if n_particles:
-        check_particles(n_particles, n_cells=nx * ny, n_detectors=n_detectors, where=f"{where} n_particles")
-    else:
-        check_memory(nx * ny, n_detectors=n_detectors, where=where)

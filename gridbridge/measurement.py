@@ -40,9 +40,10 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_grid_array, check_positions
+from gridbridge.geometry import to_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
+from gridbridge.validation import check_grid_array, check_positions
 
 __all__ = [
     "Likelihood",
@@ -104,10 +105,7 @@ def _fov_mask_cached(spec: GridSpec, model: DetectorModel) -> NDArray[np.bool_]:
 def in_field_of_view(model: DetectorModel, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
     """True where points (m, grid's sensor frame; any broadcastable shape) lie in the detector's field of view:
     bearing in [fov_min, fov_max] and range in [min_range, max_range], both seen from the detector's mount."""
-    dx = np.asarray(x, dtype=float) - model.mount_x
-    dy = np.asarray(y, dtype=float) - model.mount_y
-    c, s = math.cos(model.mount_yaw), math.sin(model.mount_yaw)
-    lx, ly = c * dx + s * dy, -s * dx + c * dy
+    lx, ly = to_frame_xy(x, y, (model.mount_x, model.mount_y, model.mount_yaw))  # in the detector's mount frame
     rng = np.hypot(lx, ly)
     rel = np.mod(np.arctan2(ly, lx) - model.fov_min, 2 * math.pi)
     in_bearing = rel <= (model.fov_max - model.fov_min) + 1e-12

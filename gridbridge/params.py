@@ -24,7 +24,7 @@ import numbers
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from gridbridge._validate import check_finite, check_positive, check_probability
+from gridbridge.validation import check_finite, check_positive, check_probability
 
 __all__ = [
     "CALIBRATED_LASER_DETECTORS",

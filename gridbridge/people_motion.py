@@ -46,9 +46,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage, special
 
-from gridbridge._validate import check_choice, check_grid_array, check_positive, check_probability
 from gridbridge.grid import GridSpec
 from gridbridge.params import PeopleMotion
+from gridbridge.validation import check_choice, check_grid_array, check_positive, check_probability
 
 __all__ = [
     "DT_QUANTUM_S",

@@ -75,8 +75,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from gridbridge.geometry import Pose2D
 from pfpeople.scanmatch import ScanOdometry
-from pfpeople.sensors import Pose2D
 
 __all__ = [
     "ClutterConfig",

@@ -25,11 +25,11 @@ import numpy as np
 from gridbridge.classifiers import BlobClassifier, Classifier, PeakClassifier, ThresholdClassifier
 from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction, VelocityEgoMotion
 from gridbridge.filter import GridFilter
+from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import IndependentLikelihood
 from gridbridge.params import DetectorModel, PeopleMotion
 from pfpeople.bag.config import ClassifierConfig, FilterConfig
-from pfpeople.sensors import Pose2D
 
 log = logging.getLogger(__name__)
 

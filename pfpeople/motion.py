@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from scipy import special
 
 from gridbridge import GridSpec, Odometry, PeopleMotion, SensorMotionNoise, velocity_displacement
-from gridbridge._validate import check_positive, check_probability
+from gridbridge.validation import check_positive, check_probability
 from pfpeople.particles import ParticleState
 
 __all__ = [

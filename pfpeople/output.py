@@ -64,6 +64,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.grid import GridSpec
+from pfpeople.jsonio import dumps
 
 __all__ = [
     "FORMAT",
@@ -181,29 +182,6 @@ def _npy_header(n: int, nx: int, ny: int) -> bytes:
     return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(body)) + body.encode("latin1")
 
 
-def _json_default(obj: object) -> object:
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.floating):
-        return float(obj)
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-
-def _json_safe(value: Any) -> Any:
-    """``value`` with every non-finite float written as a string (``"inf"``, ``"-inf"``, ``"nan"``): strict JSON."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    return value
-
-
 class RunWriter:
     """Write a run directory incrementally (see the module docstring).
 
@@ -318,7 +296,7 @@ class RunWriter:
 
     def _write_json(self) -> None:
         """Replace ``run.json`` atomically (temporary file in the directory, fsync, ``os.replace``)."""
-        text = json.dumps(_json_safe(self._meta), indent=2, default=_json_default) + "\n"
+        text = dumps(self._meta) + "\n"
         fd, tmp = tempfile.mkstemp(prefix=".run.json.", suffix=".tmp", dir=self.path)
         try:
             with os.fdopen(fd, "w") as fh:
@@ -577,8 +555,11 @@ def load_run(path: str | Path) -> RunData:
     people = _read_csv(path / "people.csv", PEOPLE_COLUMNS)
     try:
         dets = _read_csv(path / "detections.csv", DETECTION_COLUMNS)
-    except ValueError:  # a run written before the static column
-        dets = _read_csv(path / "detections.csv", _DETECTION_COLUMNS_V1)
+    except ValueError as exc:  # a run written before the static column, or a bad table: then its own error
+        try:
+            dets = _read_csv(path / "detections.csv", _DETECTION_COLUMNS_V1)
+        except ValueError:
+            raise exc from None
         dets["static"] = np.zeros(len(dets["frame"]), dtype=np.int64)
     keep_p = people["frame"] < n
     keep_d = dets["frame"] < n

@@ -2,7 +2,8 @@
 
 Particles carry occupancy mass (:mod:`pfpeople.particles`): the sum of weights in a cell is that cell's
 probability of holding a person, i.e. the grid filter's belief. One step (same input as
-:meth:`gridbridge.GridFilter.step`):
+:meth:`gridbridge.GridFilter.step`; :meth:`ParticleFilter.predict` is phases 1-2 and the empty-cell prior of
+phase 4, :meth:`ParticleFilter.update` the rest, each phase one private method):
 
 1. **People motion** (eqs. 5-9, sampling form; :mod:`pfpeople.motion`). Optionally (``redraw_in_cell``) each
    particle is first re-drawn uniformly inside its cell. Particles that leave the grid are dropped. Inflow: the
@@ -54,9 +55,10 @@ Use at least about 5 particles per cell.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -67,6 +69,7 @@ from gridbridge import (
     DetectorModel,
     FilterStep,
     GridSpec,
+    Likelihood,
     Odometry,
     PeopleMotion,
     SensorMotionNoise,
@@ -78,12 +81,12 @@ from gridbridge import (
     predict_people,
     warp_belief,
 )
-from gridbridge._validate import check_choice, check_positive, check_probability
 from gridbridge.components import Appearance, BeliefBounds
-from gridbridge.filter import filter_models
+from gridbridge.filter import Prediction, filter_models
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
+from gridbridge.validation import check_choice, check_positive, check_probability
 from pfpeople.motion import (
     PersistentMotion,
     apply_ego_motion,
@@ -97,6 +100,8 @@ from pfpeople.particles import ParticleState, uniform_in_cells
 from pfpeople.resampling import RESAMPLERS, effective_sample_size, resample_by_cell
 
 __all__ = ["BIRTH_FLOOR", "ParticleFilter", "ParticleStep"]
+
+log = logging.getLogger(__name__)
 
 #: Cells whose posterior (or inflow) mass is at most this get no particles.
 BIRTH_FLOOR = 1e-12
@@ -216,6 +221,9 @@ class ParticleFilter:
         self._inflow_cache: dict[float, NDArray[np.float64]] = {}
         self.state = ParticleState.empty()
         self.belief: NDArray[np.float64] = np.zeros(self.spec.shape)
+        self._pending: _Pending | None = None
+        #: Steps whose resampling was skipped because every weight was 0 (logged as a warning).
+        self.resampling_skipped = 0
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -234,6 +242,7 @@ class ParticleFilter:
         cells = np.repeat(np.arange(n_cells, dtype=np.intp), per_cell)
         self.state = self._born(cells, bel.ravel()[cells] / per_cell[cells])
         self.belief = bel
+        self._pending = None
 
     @property
     def particles(self) -> ParticleState:
@@ -278,7 +287,43 @@ class ParticleFilter:
         people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
         return warp_belief(people, self.spec, poses, pose_w, outside=self.outside)
 
-    # ------------------------------------------------------------------ step
+    def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction:
+        """Both predictions (phases 1-2 and the empty-cell prior of phase 4 in the module docstring).
+
+        The particles move; the belief becomes the prior of the update: the rasterised mass with empty cells
+        filled, clipped to [0, 1], appearances added. Arguments as in :meth:`step`; on bad input nothing changes.
+
+        Returns
+        -------
+        Prediction
+            ``people_prior`` and ``sensor_prior``, ``(nx, ny)`` each, the rasterised mass after each prediction
+            (``sensor_prior`` with the empty cells filled, before the clip and the appearances).
+        """
+        dt = check_positive(dt, "dt")
+        odo = as_odometry(odometry)
+        # The filter never writes into particle arrays in place, so a shallow copy protects self.state.
+        moved = self._predict_people(self.state.shallow_copy(), dt)
+        st, cells, sensor_prior, poses, pose_w = self._predict_sensor(moved, odo, dt)
+        empty = np.bincount(cells, minlength=self.spec.n_cells) == 0
+        if empty.any():
+            sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w).ravel()[empty]
+        self.state = st
+        self._pending = self._prediction(cells, empty, moved.prior, sensor_prior, dt)
+        self.belief = self._pending.prior.reshape(self.spec.shape)
+        return Prediction(moved.prior.reshape(self.spec.shape), sensor_prior.reshape(self.spec.shape))
+
+    def update(self, detections: Sequence[ArrayLike | None]) -> ParticleStep:
+        """Measurement update, births in empty cells and resampling (phases 3-5 in the module docstring).
+
+        Without a :meth:`predict` since the last update the prior is the particles' rasterised mass (empty cells:
+        the belief). ``detections`` as in :meth:`step`; on bad input nothing changes.
+
+        Returns
+        -------
+        ParticleStep
+            The stages of the step (the priors of the last :meth:`predict`) and the particles.
+        """
+        return self._update(self.likelihood(self.spec, self.detectors, list(detections)))
 
     def step(
         self,
@@ -286,96 +331,102 @@ class ParticleFilter:
         odometry: Odometry | tuple[float, float] | None,
         dt: float,
     ) -> ParticleStep:
-        """One filter step: the arguments of :meth:`gridbridge.GridFilter.step`, bad input likewise changing nothing.
+        """One filter step, :meth:`predict` then :meth:`update`: the arguments of :meth:`gridbridge.GridFilter.step`,
+        bad input likewise changing nothing (the detections are checked before the prediction).
 
         Returns a :class:`ParticleStep` (the stages rasterised into (nx, ny) grids, plus the particles);
         ``self.state`` becomes the new particles.
         """
-        dt = check_positive(dt, "dt")
-        odo = as_odometry(odometry)
         lik = self.likelihood(self.spec, self.detectors, list(detections))
-        spec, rng, n_cells, n_target = self.spec, self.rng, self.spec.n_cells, self.n_particles
-        # The filter never writes into particle arrays in place, so a shallow copy protects self.state.
-        st = self.state.shallow_copy()
+        self.predict(odometry, dt)
+        return self._update(lik)
 
-        # 1. People motion.
+    # ---------------------------------------------------------------- phases
+
+    def _predict_people(self, st: ParticleState, dt: float) -> _PeopleMoved:
+        """Phase 1: people motion of ``st`` (fields replaced), and the births of the inflow across the border."""
+        spec, n_cells = self.spec, self.spec.n_cells
         if self.redraw_in_cell:
-            redraw_in_cells(st, spec, rng=rng)
+            redraw_in_cells(st, spec, rng=self.rng)
         if self.motion_model == "paper":
-            move_paper(st, self.motion, dt, rng=rng)
+            move_paper(st, self.motion, dt, rng=self.rng)
         else:
-            move_persistent(st, self.motion, self.persistent, dt, rng=rng)
+            move_persistent(st, self.motion, self.persistent, dt, rng=self.rng)
         # Particles that left are dropped; to compress the arrays once per step they are only masked here.
         cells = spec.flat_index(st.x, st.y)
         inside = cells >= 0
         n_inside = int(np.count_nonzero(inside))
         # Half of the free slots are left to the births of the sensor-motion stage.
-        free = n_target - n_inside
+        free = self.n_particles - n_inside
         born, born_cells = self._born_from_mass(self.people_inflow(dt).ravel(), free - max(free, 0) // 2)
-        people_prior = np.bincount(cells + 1, weights=st.w, minlength=n_cells + 1)[1:].astype(np.float64)
-        people_prior += np.bincount(born_cells, weights=born.w, minlength=n_cells)
+        prior = np.bincount(cells + 1, weights=st.w, minlength=n_cells + 1)[1:].astype(np.float64)
+        prior += np.bincount(born_cells, weights=born.w, minlength=n_cells)
+        return _PeopleMoved(st, cells, inside, n_inside, born, born_cells, prior)
 
-        # 2. Sensor motion (the particles and the newborn separately, each with its own pose draws).
+    def _predict_sensor(
+        self, moved: _PeopleMoved, odo: Odometry | None, dt: float
+    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Phase 2: ego-motion of the particles and the newborn (each with its own pose draws), births of the
+        inflow, the particles that left dropped. Returns the particles, their cells, the rasterised mass (flat)
+        and the sigma points ``(poses, weights)`` of the grid's warp."""
+        spec, n_cells = self.spec, self.spec.n_cells
         poses, pose_w = ego_motion_sigma_points(odo, dt, self.noise)
-        parts = [st, born]
-        if np.any(poses != 0.0):
-            for part in parts:
-                if part.size:
-                    sampled = sample_ego_poses(odo, dt, self.noise, min(part.size, self.ego_pool), rng=rng)
-                    apply_ego_motion(part, sampled)
-            cells = spec.flat_index(st.x, st.y)
-            inside &= cells >= 0
-            born_moved = spec.flat_index(born.x, born.y)
-            born_in = born_moved >= 0
-            ego_in = warp_belief(np.zeros(spec.shape), spec, poses, pose_w, outside=self.outside).ravel()
-            n_now = n_inside + int(np.count_nonzero(born_in))
-            born2, born2_cells = self._born_from_mass(ego_in, n_target - n_now)
-            st = ParticleState.concatenate([st.take(inside), born.take(born_in), born2])
-            cells = np.concatenate((cells[inside], born_moved[born_in], born2_cells))
-            sensor_prior = np.bincount(cells, weights=st.w, minlength=n_cells).astype(np.float64, copy=False)
-        else:
-            if n_inside < st.size:
+        st, cells, inside, born = moved.state, moved.cells, moved.inside, moved.born
+        if not np.any(poses != 0.0):  # standing: nothing moves, the people prior is the sensor prior
+            if moved.n_inside < st.size:
                 st, cells = st.take(inside), cells[inside]
             st = ParticleState.concatenate([st, born])
-            cells = np.concatenate((cells, born_cells))
-            sensor_prior = people_prior.copy()
+            return st, np.concatenate((cells, moved.born_cells)), moved.prior.copy(), poses, pose_w
+        for part in (st, born):
+            if part.size:
+                sampled = sample_ego_poses(odo, dt, self.noise, min(part.size, self.ego_pool), rng=self.rng)
+                apply_ego_motion(part, sampled)
+        cells = spec.flat_index(st.x, st.y)
+        inside = inside & (cells >= 0)
+        born_moved = spec.flat_index(born.x, born.y)
+        born_in = born_moved >= 0
+        ego_in = warp_belief(np.zeros(spec.shape), spec, poses, pose_w, outside=self.outside).ravel()
+        n_now = moved.n_inside + int(np.count_nonzero(born_in))
+        born2, born2_cells = self._born_from_mass(ego_in, self.n_particles - n_now)
+        st = ParticleState.concatenate([st.take(inside), born.take(born_in), born2])
+        cells = np.concatenate((cells[inside], born_moved[born_in], born2_cells))
+        mass = np.bincount(cells, weights=st.w, minlength=n_cells).astype(np.float64, copy=False)
+        return st, cells, mass, poses, pose_w
 
-        # 3-4. Update, empty cells.
-        counts = np.bincount(cells, minlength=n_cells)
-        empty = counts == 0
-        if empty.any():
-            sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w).ravel()[empty]
+    def _prediction(
+        self,
+        cells: NDArray[np.intp],
+        empty: NDArray[np.bool_],
+        people_prior: NDArray[np.float64],
+        sensor_prior: NDArray[np.float64],
+        dt: float,
+    ) -> _Pending:
+        """The prior of eq. 12: the sensor prior clipped to [0, 1] (Monte Carlo noise), appearances added."""
         prior = np.clip(sensor_prior, 0.0, 1.0)
-        if self.appearance is not None:  # appearances scale the particles of a cell up (births where empty)
+        if self.appearance is not None and dt > 0.0:  # appearances scale the particles of a cell up
             prior = self.appearance.apply(prior, dt, where=self.observed)
-        posterior = bayes_update(prior, lik.likelihood.ravel())
-        if self.bounds is not None:
-            posterior = self.bounds.apply(posterior)
-        held = sensor_prior > 0.0
-        factor = np.divide(posterior, sensor_prior, out=np.zeros(n_cells), where=held & ~empty)
-        st.w = st.w * factor[cells]
-        if empty.any():
-            birth_cells = np.flatnonzero(empty & (posterior > BIRTH_FLOOR))
-            posterior[empty & (posterior <= BIRTH_FLOOR)] = 0.0
-            if birth_cells.size:
-                rep = np.repeat(birth_cells, self.n_birth)
-                st = ParticleState.concatenate([st, self._born(rep, posterior[rep] / self.n_birth)])
-                cells = np.concatenate((cells, rep))
+        return _Pending(cells=cells, empty=empty, people_prior=people_prior, sensor_prior=sensor_prior, prior=prior)
 
-        # 5. Resampling.
-        resampled = False
-        if st.size > n_target or effective_sample_size(st.w) < self.ess_threshold * n_target:
-            if st.w.sum() > 0.0:
-                anc, new_w = resample_by_cell(cells, st.w, n_target, n_cells=n_cells, rng=rng, resampler=self.resampler)
-                st = st.take(anc)
-                st.w = new_w
-                resampled = True
+    def _held(self) -> _Pending:
+        """A prediction of zero length: the particles' rasterised mass (empty cells: the belief)."""
+        cells = self.spec.flat_index(self.state.x, self.state.y)
+        if np.any(cells < 0):
+            raise ValueError("particles outside the grid: reset() or predict() before update()")
+        n_cells = self.spec.n_cells
+        mass = np.bincount(cells, weights=self.state.w, minlength=n_cells).astype(np.float64, copy=False)
+        empty = np.bincount(cells, minlength=n_cells) == 0
+        mass[empty] = self.belief.ravel()[empty]
+        return self._prediction(cells, empty, mass, mass, 0.0)
 
-        self.state = st
-        self.belief = posterior.reshape(spec.shape)
+    def _update(self, lik: Likelihood) -> ParticleStep:
+        pending = self._held() if self._pending is None else self._pending
+        st, cells, posterior = self._update_weights(self.state.shallow_copy(), pending, lik)
+        st, resampled = self._resample(st, cells)
+        self.state, self._pending = st, None
+        self.belief = posterior.reshape(self.spec.shape)
         return ParticleStep(
-            people_prior=people_prior.reshape(spec.shape),
-            sensor_prior=sensor_prior.reshape(spec.shape),
+            people_prior=pending.people_prior.reshape(self.spec.shape),
+            sensor_prior=pending.sensor_prior.reshape(self.spec.shape),
             fired=lik.fired,
             covered=lik.covered,
             detector_likelihoods=lik.detector_likelihoods,
@@ -384,6 +435,73 @@ class ParticleFilter:
             particles=st.shallow_copy(),
             resampled=resampled,
         )
+
+    def _update_weights(
+        self, st: ParticleState, pending: _Pending, lik: Likelihood
+    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64]]:
+        """Phases 3-4: Bayes update (eq. 12) per cell, particles scaled to their cell's posterior, births in the
+        empty cells with posterior mass. Returns the particles, their cells and the posterior (flat)."""
+        cells, empty = pending.cells, pending.empty
+        posterior = bayes_update(pending.prior, lik.likelihood.ravel())
+        if self.bounds is not None:
+            posterior = self.bounds.apply(posterior)
+        held = pending.sensor_prior > 0.0
+        factor = np.divide(posterior, pending.sensor_prior, out=np.zeros(self.spec.n_cells), where=held & ~empty)
+        st.w = st.w * factor[cells]
+        if empty.any():
+            birth_cells = np.flatnonzero(empty & (posterior > BIRTH_FLOOR))
+            posterior[empty & (posterior <= BIRTH_FLOOR)] = 0.0
+            if birth_cells.size:
+                rep = np.repeat(birth_cells, self.n_birth)
+                st = ParticleState.concatenate([st, self._born(rep, posterior[rep] / self.n_birth)])
+                cells = np.concatenate((cells, rep))
+        return st, cells, posterior
+
+    def _resample(self, st: ParticleState, cells: NDArray[np.intp]) -> tuple[ParticleState, bool]:
+        """Phase 5: resample by cell when the ESS is low or births overflowed ``n_particles``.
+
+        With a total weight of 0 (every posterior 0) there is nothing to resample: the step keeps the particles,
+        logs a warning and counts it in :attr:`resampling_skipped`.
+        """
+        n_target = self.n_particles
+        if not (st.size > n_target or effective_sample_size(st.w) < self.ess_threshold * n_target):
+            return st, False
+        total = float(st.w.sum())
+        if not total > 0.0:
+            self.resampling_skipped += 1
+            log.warning(
+                "particle filter: total weight %g, resampling skipped (%d steps so far)", total, self.resampling_skipped
+            )
+            return st, False
+        anc, new_w = resample_by_cell(
+            cells, st.w, n_target, n_cells=self.spec.n_cells, rng=self.rng, resampler=self.resampler
+        )
+        st = st.take(anc)
+        st.w = new_w
+        return st, True
+
+
+class _PeopleMoved(NamedTuple):
+    """The particles after the people motion (phase 1): cells are flat indices, -1 outside the grid."""
+
+    state: ParticleState
+    cells: NDArray[np.intp]
+    inside: NDArray[np.bool_]
+    n_inside: int
+    born: ParticleState
+    born_cells: NDArray[np.intp]
+    prior: NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class _Pending:
+    """A prediction waiting for its update; flat ``(n_cells,)`` grids, ``cells`` the cell of each particle."""
+
+    cells: NDArray[np.intp]
+    empty: NDArray[np.bool_]
+    people_prior: NDArray[np.float64]
+    sensor_prior: NDArray[np.float64]
+    prior: NDArray[np.float64]
 
 
 def _check_count(value: int, name: str) -> int:

@@ -36,16 +36,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from pfpeople.sensors import Pose2D
+from gridbridge.geometry import Pose2D
+from gridbridge.validation import check_number
 
 __all__ = ["MatchResult", "OdometryStep", "ScanMatchConfig", "ScanOdometry", "ScanOdometryConfig", "match_scans"]
 
 
 def _check_number(value: object, name: str, *, low: float = 0.0, allow_low: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
-    v = float(value)
-    if not math.isfinite(v) or v < low or (v == low and not allow_low):
+    v = check_number(value, name)
+    if v < low or (v == low and not allow_low):
         bound = f">= {low}" if allow_low else f"> {low}"
         raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
     return v
@@ -216,7 +215,7 @@ def _match(ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: Scan
     src = _stride(cur, config.max_points)
     if ref.points.shape[0] < 3 or src.shape[0] < 3:
         return MatchResult(pose=init, rmse=math.inf, inlier_fraction=0.0, converged=False, degenerate=True)
-    x, y, th = init.x, init.y, init.yaw
+    pose = init
     n_half = config.gate_iterations
     ratio = config.min_correspondence / config.max_correspondence
     converged = False
@@ -224,8 +223,7 @@ def _match(ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: Scan
     it = 0
     for it in range(1, config.max_iterations + 1):
         gate = config.max_correspondence * ratio ** min(1.0, (it - 1) / n_half)
-        c, s = math.cos(th), math.sin(th)
-        q = np.column_stack((x + c * src[:, 0] - s * src[:, 1], y + s * src[:, 0] + c * src[:, 1]))
+        q = pose.apply(src)
         dist, idx = ref.tree.query(q, k=1, distance_upper_bound=gate)
         inl = np.isfinite(dist)
         if inl.sum() < 3:
@@ -246,14 +244,10 @@ def _match(ref: _Reference, cur: NDArray[np.float64], init: Pose2D, config: Scan
         hp = proj.T @ h @ proj
         d = -proj @ np.linalg.solve(hp, proj.T @ g) if good.any() else np.zeros(3)
         dx, dy, dth = float(d[0]), float(d[1]), float(d[2]) / rho
-        # left-compose the increment: T <- (dx, dy, dth) * T
-        cd, sd = math.cos(dth), math.sin(dth)
-        x, y = dx + cd * x - sd * y, dy + sd * x + cd * y
-        th = math.atan2(math.sin(th + dth), math.cos(th + dth))
+        pose = Pose2D(x=dx, y=dy, yaw=dth).compose(pose)  # left-compose the increment: T <- (dx, dy, dth) * T
         if it > n_half and math.hypot(dx, dy) < config.tolerance and abs(dth) < config.tolerance:
             converged = True
             break
-    pose = Pose2D(x=x, y=y, yaw=th)
     q = pose.apply(src)
     dist, idx = ref.tree.query(q, k=1, distance_upper_bound=config.min_correspondence)
     inl = np.isfinite(dist)

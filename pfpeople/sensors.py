@@ -11,35 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.geometry import Pose2D  # re-exported: the one pose type
+
 __all__ = ["CameraImage", "CameraIntrinsics", "LaserScan", "Pose2D"]
-
-
-@dataclass(frozen=True, kw_only=True)
-class Pose2D:
-    """A planar pose: position (m) and yaw (rad) of a child frame in a parent frame."""
-
-    x: float = 0.0
-    y: float = 0.0
-    yaw: float = 0.0
-
-    def apply(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Map ``(N, 2)`` points from the child frame to the parent frame."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        return np.column_stack((self.x + c * pts[:, 0] - s * pts[:, 1], self.y + s * pts[:, 0] + c * pts[:, 1]))
-
-    def compose(self, other: Pose2D) -> Pose2D:
-        """``self * other``: the pose of ``other``'s child in ``self``'s parent frame."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(
-            x=self.x + c * other.x - s * other.y,
-            y=self.y + s * other.x + c * other.y,
-            yaw=math.atan2(math.sin(self.yaw + other.yaw), math.cos(self.yaw + other.yaw)),
-        )
-
-    def inverse(self) -> Pose2D:
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(x=-(c * self.x + s * self.y), y=-(-s * self.x + c * self.y), yaw=-self.yaw)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs
+from gridbridge.geometry import to_frame
 from gridbridge.grid import GridSpec
 
 __all__ = ["BlobTracker", "TrackFrame", "TrackResult", "TrackerParams", "TrackingError", "track_sequence"]
@@ -210,19 +211,11 @@ class BlobTracker:
 
     def _move_reference(self, t: NDArray[np.float64]) -> None:
         assert self._ref_centroid is not None and self._ref_mask is not None
-        dx, dy, dth = t
-        c, s = math.cos(-dth), math.sin(-dth)
-
-        def move(x: NDArray[np.float64], y: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-            px, py = x - dx, y - dy
-            return c * px - s * py, s * px + c * py
-
-        cx, cy = move(self._ref_centroid[:1], self._ref_centroid[1:])
-        self._ref_centroid = np.array([cx[0], cy[0]])
+        # t = (dx, dy, dtheta) is the current sensor frame in the previous one: points move into it.
+        self._ref_centroid = to_frame(self._ref_centroid, t)
         ii, jj = np.nonzero(self._ref_mask)
-        x, y = self.spec.cell_centre(ii, jj)
-        nx_, ny_ = move(x, y)
-        flat = self.spec.flat_index(nx_, ny_)
+        moved = to_frame(np.column_stack(self.spec.cell_centre(ii, jj)), t)
+        flat = self.spec.flat_index(moved[:, 0], moved[:, 1])
         mask = np.zeros(self.spec.shape, dtype=bool)
         mask.flat[flat[flat >= 0]] = True
         self._ref_mask = mask

@@ -10,13 +10,13 @@ Examples::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from dataclasses import asdict
 from pathlib import Path
 
 from evaluation.benchmark import SCENES, format_rows, run_benchmark
 from evaluation.scenarios.eth_ucy import default_data_root
+from pfpeople.jsonio import dumps
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -57,5 +57,5 @@ def run(args: argparse.Namespace) -> int:
     rows = run_benchmark(scenes, data=data, frames=args.frames, work=args.work, progress=progress)
     print(format_rows(rows))
     if args.json is not None:
-        args.json.write_text(json.dumps([asdict(r) for r in rows], indent=2, default=str) + "\n")
+        args.json.write_text(dumps([asdict(r) for r in rows], default=str) + "\n")
     return 0

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -40,6 +39,7 @@ from evaluation.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from pfpeople.jsonio import dumps
 from pfpeople.output import load_run
 
 
@@ -250,6 +250,6 @@ def run(args: argparse.Namespace) -> int:
         }
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=2))
+        args.json.write_text(dumps(report))
         print(f"wrote {args.json}")
     return 0

@@ -26,7 +26,6 @@ the latter are also logged as a warning.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -39,6 +38,7 @@ from evaluation.run_truth import gt_coverage, in_region, truth_and_sources
 from gridbridge.classify import classify_blobs
 from gridbridge.grid import GridSpec
 from pfpeople.gt_csv import GroundTruth, read_gt_csv, resolve_gt_frame
+from pfpeople.jsonio import dumps
 from pfpeople.output import RunData, load_run
 
 __all__ = ["score_run"]
@@ -154,7 +154,7 @@ def _score(args: argparse.Namespace) -> int:
     if args.recall_only:
         print("recall only: the ground truth does not annotate everybody (precision/FPCPF not meaningful)")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2, default=str) + "\n")
+        Path(args.json).write_text(dumps(result, default=str) + "\n")
     return 0
 
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -24,6 +23,7 @@ from evaluation.gt_csv import read_gt_csv
 from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows, peak_classifier
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
 from pfpeople.filters import PEAK_THRESHOLD
+from pfpeople.jsonio import dumps
 from pfpeople.mot import TrackerConfig
 from pfpeople.output import load_run
 
@@ -117,5 +117,5 @@ def run(args: argparse.Namespace) -> int:
     print(format_rows(rows))
     if args.json:
         data = [{"sequence": r.sequence, "source": r.source, **r.scores.as_dict(), **r.extra} for r in rows]
-        args.json.write_text(json.dumps(data, indent=2, default=str) + "\n")
+        args.json.write_text(dumps(data, default=str) + "\n")
     return 0

@@ -20,15 +20,15 @@ segment targets are reached under acceleration limits, so v and omega change smo
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_positive
 from gridbridge.ego_motion import velocity_displacement
+from gridbridge.geometry import compose, from_frame, to_frame
 from gridbridge.params import SensorMotionNoise
+from gridbridge.validation import check_positive
 
 __all__ = [
     "RobotProfile",
@@ -162,10 +162,8 @@ def robot_controls(
 
 def step_pose(pose: ArrayLike, v: float, omega: float, dt: float) -> NDArray[np.float64]:
     """Move a world pose ``(x, y, yaw)`` (m, m, rad) by constant controls over ``dt`` (exact arc)."""
-    x, y, yaw = (float(c) for c in np.asarray(pose, dtype=float))
     dx, dy, dth = velocity_displacement(v, omega, dt)
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([x + c * float(dx) - s * float(dy), y + s * float(dx) + c * float(dy), yaw + float(dth)])
+    return compose(pose, (float(dx), float(dy), float(dth)), wrap=False)
 
 
 def integrate_path(
@@ -223,16 +221,9 @@ def noisy_odometry(
 
 def world_to_sensor(points: ArrayLike, pose: ArrayLike) -> NDArray[np.float64]:
     """Express world points ``(N, 2)`` in the sensor frame of a robot at world ``pose`` ``(x, y, yaw)``."""
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    x, y, yaw = (float(c) for c in np.asarray(pose, dtype=float))
-    c, s = math.cos(yaw), math.sin(yaw)
-    dx, dy = pts[:, 0] - x, pts[:, 1] - y
-    return np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+    return to_frame(np.asarray(points, dtype=float).reshape(-1, 2), np.asarray(pose, dtype=float).reshape(3))
 
 
 def sensor_to_world(points: ArrayLike, pose: ArrayLike) -> NDArray[np.float64]:
     """Inverse of :func:`world_to_sensor`."""
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    x, y, yaw = (float(c) for c in np.asarray(pose, dtype=float))
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.column_stack((x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]))
+    return from_frame(np.asarray(points, dtype=float).reshape(-1, 2), np.asarray(pose, dtype=float).reshape(3))

@@ -55,10 +55,10 @@ from evaluation.scenarios.sensors import (
 )
 from evaluation.scenarios.tracks import Track, sample_tracks
 from evaluation.scenarios.walkers import WalkerConfig, synthetic_tracks
-from gridbridge._validate import check_positive
 from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel, SensorMotionNoise
+from gridbridge.validation import check_positive
 
 __all__ = [
     "EthReplay",

@@ -35,10 +35,10 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_positive, check_probability
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import in_field_of_view as grid_in_field_of_view
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from gridbridge.validation import check_positive, check_probability
 
 __all__ = [
     "LASER_SIGMA",

@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 
 from evaluation.scenarios.robot import sensor_to_world
 from evaluation.scenarios.tracks import Track
-from gridbridge._validate import check_positive
 from gridbridge.grid import GridSpec
+from gridbridge.validation import check_positive
 
 __all__ = ["BEHAVIOURS", "WalkerConfig", "synthetic_tracks"]
 

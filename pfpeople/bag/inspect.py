@@ -38,9 +38,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gridbridge.geometry import Pose2D
 from pfpeople.bag.reader import LASER_TYPES, ODOMETRY_TYPES, TF_TYPES, BagReadError, BagSource, header_stamp_ns
 from pfpeople.bag.tf import TfBuffer, TfLookupError, yaw_from_quaternion
-from pfpeople.sensors import Pose2D
+from pfpeople.jsonio import json_safe
 
 __all__ = [
     "TIME_SOURCE_THRESHOLD_S",
@@ -146,20 +147,10 @@ class BagReport:
         return (self.end_ns - self.start_ns) / 1e9
 
     def to_dict(self) -> dict[str, Any]:
-        """A JSON-able mapping (non-finite floats as strings)."""
+        """A JSON-able mapping (:mod:`pfpeople.jsonio`: NaN as None, infinities as ``"inf"`` / ``"-inf"``)."""
         out = asdict(self)
         out["duration_s"] = self.duration_s
-        return _json_safe(out)
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    return value
+        return json_safe(out)
 
 
 def _rate(count: int, first_ns: int, last_ns: int) -> float | None:

@@ -59,7 +59,8 @@ from numpy.typing import NDArray
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
-from pfpeople.sensors import CameraImage, LaserScan, Pose2D
+from gridbridge.geometry import Pose2D
+from pfpeople.sensors import CameraImage, LaserScan
 
 from .tf import yaw_from_quaternion
 

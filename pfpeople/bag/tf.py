@@ -13,21 +13,15 @@ Static fallbacks (``[mounts]`` in the run config) give frames the bag has no TF 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
-from pfpeople.sensors import Pose2D
+from gridbridge.geometry import Pose2D, yaw_from_quaternion
 
 __all__ = ["TfBuffer", "TfLookupError", "yaw_from_quaternion"]
 
 
 class TfLookupError(LookupError):
     """No chain of transforms connects two frames."""
-
-
-def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
-    """Yaw (rad, CCW about z) of a unit quaternion."""
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 class TfBuffer:

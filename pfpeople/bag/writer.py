@@ -47,6 +47,7 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from gridbridge.geometry import quaternion_from_yaw
 from gridbridge.grid import GridSpec
 
 __all__ = [
@@ -57,14 +58,12 @@ __all__ = [
     "TOPIC_TF_STATIC",
     "TOPIC_TRACKS",
     "TOPIC_TRACK_MARKERS",
-    "BagFormat",
     "ResultBagWriter",
     "bag_format_for",
     "check_bag_out",
     "detection_topic",
 ]
 
-BagFormat = Literal["ros1", "mcap", "sqlite3"]
 #: The output formats: ROS 1 ``.bag`` file, rosbag2 folder with MCAP or sqlite3 storage.
 BAG_FORMATS: tuple[str, ...] = ("ros1", "mcap", "sqlite3")
 
@@ -319,7 +318,8 @@ class ResultBagWriter:
         return self._m("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
 
     def _pose(self, x: float, y: float, yaw: float = 0.0, z: float = 0.0) -> Any:
-        q = self._m("geometry_msgs/msg/Quaternion", x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+        qx, qy, qz, qw = quaternion_from_yaw(yaw)
+        q = self._m("geometry_msgs/msg/Quaternion", x=qx, y=qy, z=qz, w=qw)
         return self._m("geometry_msgs/msg/Pose", position=self._point(x, y, z), orientation=q)
 
     def _pose_array(self, stamp_ns: int, points: NDArray[np.float64], yaws: Sequence[float] | None = None) -> Any:

@@ -12,13 +12,13 @@ See :mod:`pfpeople.bag.inspect` for what is measured and how the configuration i
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
 from pfpeople.bag.inspect import format_report, inspect_bag, starter_config
 from pfpeople.bag.reader import BagReadError, BagSource
+from pfpeople.jsonio import dumps
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -29,7 +29,7 @@ def _run(args: argparse.Namespace) -> int:
         print(f"pfpeople inspect: error: {exc}", file=sys.stderr)
         return 2
     if args.json:
-        print(json.dumps(report.to_dict(), indent=2))
+        print(dumps(report.to_dict()))
     else:
         print(format_report(report))
     if args.write_config:

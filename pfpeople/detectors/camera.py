@@ -34,8 +34,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge._validate import check_positive
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from gridbridge.validation import check_positive
 from pfpeople.sensors import CameraImage, CameraIntrinsics, Pose2D
 
 __all__ = [

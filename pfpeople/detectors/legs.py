@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge._validate import check_positive
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
+from gridbridge.validation import check_positive
 from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams, segment_features, segment_scan
 from pfpeople.sensors import LaserScan
 

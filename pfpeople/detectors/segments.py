@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge._validate import check_positive
+from gridbridge.validation import check_positive
 from pfpeople.sensors import LaserScan
 
 __all__ = ["FEATURE_NAMES", "RADIUS_CAP", "SegmentationParams", "Segments", "segment_features", "segment_scan"]

@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge._validate import check_positive, check_probability
+from gridbridge.validation import check_positive, check_probability
 from pfpeople.detectors._bags import LabelledScan, load_labelled_scans, load_scans
 from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams, segment_features, segment_scan
 from pfpeople.sensors import LaserScan

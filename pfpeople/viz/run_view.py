@@ -35,9 +35,10 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
+from gridbridge.validation import check_number
 from pfpeople.output import RunData
-from pfpeople.sensors import Pose2D
 
 __all__ = [
     "TRACK_COLUMNS",
@@ -94,9 +95,7 @@ class ViewOptions:
                 raise ValueError(f"ViewOptions.{name} must be an even number of pixels in [160, 7680], got {v}")
         for name in ("dpi", "fps"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float):
-                raise TypeError(f"ViewOptions.{name} must be a number, got {type(v).__name__}")
-            if not (math.isfinite(v) and v > 0):
+            if check_number(v, f"ViewOptions.{name}") <= 0:
                 raise ValueError(f"ViewOptions.{name} must be positive and finite, got {v}")
 
 

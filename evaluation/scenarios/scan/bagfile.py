@@ -36,6 +36,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from evaluation.scenarios.scan.scene import SceneConfig, load_scene
 from evaluation.scenarios.scan.simulate import SceneSim, simulate_scene
+from gridbridge.geometry import quaternion_from_yaw
 
 __all__ = ["GT_TOPIC", "ODOM_TOPIC", "SceneBag", "run_config_text", "write_gt_csv", "write_scene_bag", "write_sim_bag"]
 
@@ -105,7 +106,8 @@ class _Msgs:
         return self.T["std_msgs/msg/Header"](seq=seq, stamp=stamp, frame_id=frame)
 
     def quat(self, yaw: float) -> Any:
-        return self.T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+        qx, qy, qz, qw = quaternion_from_yaw(yaw)
+        return self.T["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw)
 
     def pose(self, x: float, y: float, yaw: float = 0.0) -> Any:
         point = self.T["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge._validate import check_positive
+from gridbridge.validation import check_positive
 
 __all__ = ["GaitParams", "leg_positions"]
 

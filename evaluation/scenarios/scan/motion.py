@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from evaluation.scenarios.robot import step_pose
 from evaluation.scenarios.scan.scene import OdometryNoise, RobotRoute
 from gridbridge.ego_motion import velocity_displacement
+from gridbridge.geometry import rotate
 
 __all__ = ["drive_route", "integrate_controls", "interpolate_poses", "odometry_from_controls"]
 
@@ -122,9 +123,9 @@ def integrate_controls(v: ArrayLike, omega: ArrayLike, dt: float, *, start: Arra
     dx, dy, dth = velocity_displacement(v, w, dt)
     yaw = th0 + np.cumsum(dth)
     before = yaw - dth  # heading at the start of each step
-    c, s = np.cos(before), np.sin(before)
-    x = x0 + np.cumsum(c * dx - s * dy)
-    y = y0 + np.cumsum(s * dx + c * dy)
+    step = rotate(np.stack((dx, dy), axis=-1), before)  # each arc's displacement in the world frame
+    x = x0 + np.cumsum(step[:, 0])
+    y = y0 + np.cumsum(step[:, 1])
     return np.column_stack((x, y, yaw))
 
 

@@ -27,6 +27,7 @@ from evaluation.scenarios.robot import sensor_to_world
 from evaluation.scenarios.scan.scene import PeopleConfig
 from evaluation.scenarios.tracks import Track
 from evaluation.scenarios.walkers import polyline_knots, walking_speed
+from gridbridge.geometry import rotate
 
 __all__ = ["BEHAVIOURS", "cut_to_region", "scene_tracks"]
 
@@ -124,11 +125,10 @@ def _walker_tracks(
         n_wander = int(rng.integers(pc.wander_min, pc.wander_max + 1))
         extra = [np.array([rng.uniform(*pc.region[:2]), rng.uniform(*pc.region[2:])]) for _ in range(n_wander)]
         waits = [float(rng.uniform(0.0, pc.stop_max)) for _ in range(n_wander)]
-        c, s = math.cos(pose[2]), math.sin(pose[2])
         for off in offsets:
             cut = cut_to_region(Track(next_id, kt + t0, sensor_to_world(kxy + off, pose)), pc.region)
             if cut is not None and extra:
-                off_world = np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]])
+                off_world = rotate(off, float(pose[2]))
                 cut = _wander(cut, [e + off_world for e in extra], waits, speed, pc.region)
             if cut is not None:
                 tracks.append(cut)

@@ -23,7 +23,6 @@ REP-117's "no return"), ``"nan"`` or ``"above_max"`` (``range_max + 1`` m, as ol
 from __future__ import annotations
 
 import math
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,7 +30,6 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = ["NO_RETURN_KINDS", "beam_angles", "cast_rays", "measure_ranges", "no_return_value"]
 
 NO_RETURN_KINDS = ("inf", "nan", "above_max")
-NoReturn = Literal["inf", "nan", "above_max"]
 
 
 def beam_angles(angle_min: float, angle_max: float, n_beams: int) -> NDArray[np.float64]:

@@ -35,7 +35,8 @@ from numpy.typing import NDArray
 
 from evaluation.scenarios.scan.gait import GaitParams
 from evaluation.scenarios.scan.raycast import NO_RETURN_KINDS
-from gridbridge._validate import check_positive
+from gridbridge.geometry import from_frame
+from gridbridge.validation import check_number, check_positive
 
 __all__ = [
     "PEOPLE_SOURCES",
@@ -59,14 +60,6 @@ def _int(value: object, name: str, *, minimum: int = 0) -> int:
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
     return int(value)
-
-
-def _finite(value: object, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
-        raise TypeError(f"{name} must be a number, got {value!r}")
-    if not math.isfinite(float(value)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return float(value)
 
 
 def _rows(value: object, width: int, name: str) -> tuple[tuple[float, ...], ...]:
@@ -136,9 +129,12 @@ class LaserConfig:
             )
         if len(self.mount) != 3:
             raise ValueError(f"LaserConfig.mount must be [x, y, yaw], got {self.mount!r}")
-        object.__setattr__(self, "mount", tuple(_finite(v, "LaserConfig.mount") for v in self.mount))
+        object.__setattr__(self, "mount", tuple(check_number(v, "LaserConfig.mount") for v in self.mount))
         _int(self.n_beams, "LaserConfig.n_beams", minimum=2)
-        lo, hi = _finite(self.angle_min, "LaserConfig.angle_min"), _finite(self.angle_max, "LaserConfig.angle_max")
+        lo, hi = (
+            check_number(self.angle_min, "LaserConfig.angle_min"),
+            check_number(self.angle_max, "LaserConfig.angle_max"),
+        )
         if not -math.pi - 1e-9 <= lo < hi <= math.pi + 1e-9:
             raise ValueError(f"LaserConfig.angle_min/angle_max must satisfy -pi <= min < max <= pi, got {lo}, {hi}")
         check_positive(self.rate_hz, "LaserConfig.rate_hz")
@@ -147,7 +143,7 @@ class LaserConfig:
         if self.range_min >= self.range_max:
             raise ValueError("LaserConfig.range_min must be below range_max")
         check_positive(self.noise_sd, "LaserConfig.noise_sd", allow_zero=True)
-        if not 0.0 <= _finite(self.dropout, "LaserConfig.dropout") < 1.0:
+        if not 0.0 <= check_number(self.dropout, "LaserConfig.dropout") < 1.0:
             raise ValueError(f"LaserConfig.dropout must be in [0, 1), got {self.dropout!r}")
         if self.no_return not in NO_RETURN_KINDS:
             raise ValueError(f"LaserConfig.no_return must be one of {NO_RETURN_KINDS}, got {self.no_return!r}")
@@ -202,7 +198,7 @@ class RobotRoute:
             raise TypeError(f"RobotRoute.loop must be a boolean, got {self.loop!r}")
         if len(self.start) not in (0, 3):
             raise ValueError(f"RobotRoute.start must be [] or [x, y, yaw], got {self.start!r}")
-        object.__setattr__(self, "start", tuple(_finite(v, "RobotRoute.start") for v in self.start))
+        object.__setattr__(self, "start", tuple(check_number(v, "RobotRoute.start") for v in self.start))
         check_positive(self.v_min, "RobotRoute.v_min", allow_zero=True)
         check_positive(self.v_max, "RobotRoute.v_max", allow_zero=True)
         if self.v_min > self.v_max:
@@ -309,7 +305,7 @@ class PeopleConfig:
             raise ValueError(f"PeopleConfig.source must be one of {PEOPLE_SOURCES}, got {self.source!r}")
         if len(self.region) != 4:
             raise ValueError("PeopleConfig.region must be [x_min, x_max, y_min, y_max]")
-        region = tuple(_finite(v, "PeopleConfig.region") for v in self.region)
+        region = tuple(check_number(v, "PeopleConfig.region") for v in self.region)
         if region[0] >= region[1] or region[2] >= region[3]:
             raise ValueError(f"PeopleConfig.region must have x_min < x_max and y_min < y_max, got {region}")
         object.__setattr__(self, "region", region)
@@ -337,7 +333,7 @@ class PeopleConfig:
                 raise ValueError(f"PeopleConfig.{lo} must not exceed {hi}")
         if len(self.offset) != 2:
             raise ValueError("PeopleConfig.offset must be [x, y]")
-        object.__setattr__(self, "offset", tuple(_finite(v, "PeopleConfig.offset") for v in self.offset))
+        object.__setattr__(self, "offset", tuple(check_number(v, "PeopleConfig.offset") for v in self.offset))
         if not isinstance(self.gait, GaitParams):
             raise TypeError("PeopleConfig.gait must be a GaitParams")
 
@@ -451,11 +447,9 @@ class SceneConfig:
             (self.chairs, (half_c, half_c), self.chair_leg_radius),
             (self.tables, (tl, tw), self.table_leg_radius),
         ):
+            legs = [(sx * (hx - rad), sy * (hy - rad)) for sx, sy in ((1, 1), (1, -1), (-1, 1), (-1, -1))]
             for x, y, yaw in items:
-                c, s = math.cos(yaw), math.sin(yaw)
-                for sx, sy in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
-                    lx, ly = sx * (hx - rad), sy * (hy - rad)
-                    rows.append((x + c * lx - s * ly, y + s * lx + c * ly, rad))
+                rows += [(float(lx), float(ly), rad) for lx, ly in from_frame(legs, (x, y, yaw))]
         return np.array(rows, dtype=float).reshape(-1, 3)
 
     def static_segments(self) -> NDArray[np.float64]:
@@ -465,19 +459,11 @@ class SceneConfig:
             w, h = self.room
             rows += [(0.0, 0.0, w, 0.0), (w, 0.0, w, h), (w, h, 0.0, h), (0.0, h, 0.0, 0.0)]
         for cx, cy, length, width, yaw in self.boxes:
-            c, s = math.cos(yaw), math.sin(yaw)
-            corners = [
-                (cx + c * px - s * py, cy + s * px + c * py)
-                for px, py in (
-                    (length / 2, width / 2),
-                    (-length / 2, width / 2),
-                    (-length / 2, -width / 2),
-                    (length / 2, -width / 2),
-                )
-            ]
+            hl, hw = length / 2, width / 2
+            corners = from_frame([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)], (cx, cy, yaw))
             for k in range(4):
                 (x0, y0), (x1, y1) = corners[k], corners[(k + 1) % 4]
-                rows.append((x0, y0, x1, y1))
+                rows.append((float(x0), float(y0), float(x1), float(y1)))
         return np.array(rows, dtype=float).reshape(-1, 4)
 
 

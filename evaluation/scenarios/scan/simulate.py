@@ -30,6 +30,7 @@ from evaluation.scenarios.scan.people import scene_tracks
 from evaluation.scenarios.scan.raycast import beam_angles, cast_rays, measure_ranges
 from evaluation.scenarios.scan.scene import LaserConfig, SceneConfig, load_scene
 from evaluation.scenarios.tracks import sample_tracks
+from gridbridge.geometry import compose, to_frame
 from gridbridge.measurement import in_field_of_view
 from gridbridge.params import DetectorModel
 
@@ -39,19 +40,9 @@ __all__ = ["LaserRecord", "SceneSim", "laser_field_of_view", "simulate_scene", "
 FIRST_SCAN_S = 0.1
 
 
-def to_frame(points: NDArray[np.float64], pose: NDArray[np.float64]) -> NDArray[np.float64]:
-    """World points ``(..., 2)`` expressed in the frame at world ``pose`` ``(..., 3)`` ``(x, y, yaw)``
-    (broadcast against the points' leading dimensions)."""
-    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
-    dx, dy = points[..., 0] - pose[..., 0], points[..., 1] - pose[..., 1]
-    return np.stack((c * dx + s * dy, -s * dx + c * dy), axis=-1)
-
-
 def _compose(base: NDArray[np.float64], mount: tuple[float, float, float]) -> NDArray[np.float64]:
     """World poses ``(T, 3)`` of a frame mounted at ``mount`` on bodies at world poses ``base`` ``(T, 3)``."""
-    c, s = np.cos(base[:, 2]), np.sin(base[:, 2])
-    mx, my, myaw = mount
-    return np.column_stack((base[:, 0] + c * mx - s * my, base[:, 1] + s * mx + c * my, base[:, 2] + myaw))
+    return compose(base, mount, wrap=False)
 
 
 def laser_field_of_view(laser: LaserConfig) -> DetectorModel:

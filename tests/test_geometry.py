@@ -1,0 +1,62 @@
+"""gridbridge.geometry: the one pose type and its transforms (compose, inverse, points in and out of a frame)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gridbridge.geometry import (
+    Pose2D,
+    compose,
+    from_frame,
+    inverse,
+    quaternion_from_yaw,
+    rotate,
+    to_frame,
+    yaw_from_quaternion,
+)
+from pfpeople.sensors import Pose2D as SensorsPose2D
+
+RNG = np.random.default_rng(0)
+PTS = RNG.uniform(-5.0, 5.0, (20, 2))
+
+
+def test_one_pose_type() -> None:
+    assert SensorsPose2D is Pose2D
+
+
+def test_frames_round_trip_and_match_the_pose_methods() -> None:
+    a, b = Pose2D(x=1.0, y=-2.0, yaw=2.5), Pose2D(x=-0.3, y=0.4, yaw=-3.0)
+    np.testing.assert_allclose(to_frame(from_frame(PTS, a), a), PTS, atol=1e-12)
+    np.testing.assert_array_equal(a.apply(PTS), from_frame(PTS, a))
+    np.testing.assert_array_equal(from_frame(PTS, a), from_frame(PTS, a.as_array()))
+    ab = a.compose(b)
+    np.testing.assert_allclose(ab.apply(PTS), a.apply(b.apply(PTS)), atol=1e-12)
+    assert -math.pi < ab.yaw <= math.pi
+    ident = a.compose(a.inverse())
+    assert abs(ident.x) < 1e-12 and abs(ident.y) < 1e-12 and abs(ident.yaw) < 1e-12
+    np.testing.assert_allclose(a.inverse().apply(PTS), to_frame(PTS, a), atol=1e-12)
+
+
+def test_arrays_of_poses_broadcast_like_one_pose_each() -> None:
+    poses = RNG.uniform(-3.0, 3.0, (4, 3))
+    many = to_frame(PTS[None, :, :], poses[:, None, :])
+    assert many.shape == (4, 20, 2)
+    for k, p in enumerate(poses):
+        np.testing.assert_array_equal(many[k], to_frame(PTS, p))
+    walked = compose(poses, (0.5, 0.1, 0.2), wrap=False)
+    np.testing.assert_allclose(walked[:, 2], poses[:, 2] + 0.2)
+    np.testing.assert_allclose(walked[:, :2], from_frame(np.array([0.5, 0.1]), poses), atol=1e-12)
+    np.testing.assert_allclose(compose(poses, inverse(poses))[:, :2], 0.0, atol=1e-12)
+    np.testing.assert_allclose(rotate(np.array([1.0, 0.0]), math.pi / 2), [0.0, 1.0], atol=1e-15)
+
+
+def test_quaternion_yaw_round_trip_and_bad_shapes() -> None:
+    for yaw in (-3.0, -0.5, 0.0, 1.2, 3.1):
+        assert yaw_from_quaternion(*quaternion_from_yaw(yaw)) == pytest.approx(yaw, abs=1e-12)
+    with pytest.raises(ValueError, match="pose"):
+        to_frame(PTS, (1.0, 2.0))
+    with pytest.raises(ValueError, match="points"):
+        from_frame(np.zeros((3, 3)), Pose2D())
