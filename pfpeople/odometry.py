@@ -29,10 +29,10 @@ import math
 from dataclasses import dataclass, replace
 
 from gridbridge.ego_motion import Odometry
+from gridbridge.geometry import Pose2D
 from pfpeople.bag.reader import MessageDataError, odometry_pose_from_msg
 from pfpeople.bag.sync import Frame
 from pfpeople.run_state import RunSummary, WarnOnce, count
-from pfpeople.sensors import Pose2D
 
 __all__ = ["FIRST_DT_S", "MAX_GAP_S", "EgoMotion", "OdometryIntegrator", "interpolate_pose", "odometry_between"]
 

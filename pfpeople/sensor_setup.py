@@ -23,12 +23,12 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import BagConfig, DetectorConfig, check_run_limits
 from pfpeople.bag.reader import IMAGE_TYPES, LASER_TYPES, ODOMETRY_TYPES, BagMessage, BagSource
 from pfpeople.bag.tf import TfBuffer, TfLookupError
 from pfpeople.filters import grid_for_scan
-from pfpeople.sensors import Pose2D
 
 __all__ = ["TF_PRELOAD_S", "SensorSetup", "SetupSensors", "run_topics", "scan_bearings", "setup_sensors"]
 

@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.geometry import Pose2D
 from pfpeople.adapters import Detections, DetectorAdapter
 from pfpeople.bag.config import BagConfig
 from pfpeople.run_state import RunSummary, count
-from pfpeople.sensors import Pose2D
 
 __all__ = ["ClutterStage"]
 
