@@ -35,9 +35,11 @@ from numpy.typing import NDArray
 from evaluation.metrics import DetectionAccumulator, tracking_summary
 from evaluation.scenarios.scenario import Frame, Scenario
 from gridbridge import GridFilter, GridSpec, rasterise
+from gridbridge.classifiers import classify_frame
 from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs, classify_threshold
-from gridbridge.ego_motion import velocity_displacement
+from gridbridge.ego_motion import odometry_pose, velocity_displacement
 from gridbridge.filter import BeliefFilter, FilterStep
+from gridbridge.geometry import Pose2D
 from gridbridge.params import DetectorModel
 from pfpeople.jsonio import dumps
 from pfpeople.tracking import TrackerParams, track_sequence
@@ -208,12 +210,14 @@ def run_filter(
     classified: list[ClassificationResult] = []
     times: list[float] = []
     iterable = progress(frames) if progress else frames
+    peaks = _recommended_classifier() if fs.mode == "recommended" else None
     for fr in iterable:
         t0 = time.perf_counter()
-        out = filt.step(fr.detections, fr.odometry(noisy=noisy_odometry), dt)
+        odo = fr.odometry(noisy=noisy_odometry)
+        out = filt.step(fr.detections, odo, dt)
         times.append(time.perf_counter() - t0)
-        if fs.mode == "recommended":
-            cls = _peaks_result(out, spec)
+        if peaks is not None:
+            cls = _peaks_result(out, spec, peaks, odometry_pose(odo, dt))
         else:
             cls = classify_blobs(out.posterior, spec=spec, params=blob_params)
         _, truth = _people_in_grid(fr, spec)
@@ -235,14 +239,17 @@ def run_filter(
     )
 
 
-def _peaks_result(out: FilterStep, spec: GridSpec) -> ClassificationResult:
-    """The recommended classifier's people as a :class:`ClassificationResult` (one selected blob per person)."""
+def _recommended_classifier() -> Any:
+    """A fresh recommended classifier (peaks with hysteresis: one per run, it keeps the previous frame)."""
     from pfpeople.bag.config import ClassifierConfig
     from pfpeople.filters import build_classifier
 
-    found = build_classifier(ClassifierConfig()).classify(
-        out.posterior, spec, observed=np.asarray(out.covered).any(axis=0)
-    )
+    return build_classifier(ClassifierConfig())
+
+
+def _peaks_result(out: FilterStep, spec: GridSpec, classifier: Any, ego: Pose2D | None) -> ClassificationResult:
+    """The recommended classifier's people as a :class:`ClassificationResult` (one selected blob per person)."""
+    found = classify_frame(classifier, out.posterior, spec, observed=np.asarray(out.covered).any(axis=0), ego=ego)
     labels = np.zeros(spec.shape, dtype=np.intp)
     blobs = []
     gx, gy = spec.cell_centres()

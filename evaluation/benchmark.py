@@ -20,6 +20,7 @@ the filter and classifier (replay) or the whole pipeline including detectors (``
 
 from __future__ import annotations
 
+import copy
 import math
 import tempfile
 import time
@@ -33,7 +34,8 @@ from numpy.typing import NDArray
 
 from evaluation.metrics import DetectionAccumulator
 from evaluation.replay import ReplayLog, log_from_run, log_from_scenario
-from gridbridge.classifiers import BlobClassifier, Classifier, ThresholdClassifier
+from gridbridge.classifiers import BlobClassifier, Classifier, ThresholdClassifier, classify_frame
+from gridbridge.ego_motion import odometry_pose
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
 from pfpeople.bag.config import BagConfig, ClassifierConfig, DetectorConfig, FilterConfig
@@ -152,11 +154,18 @@ def mode_row(log: ReplayLog, mode: Mode, *, gate: float = 0.5) -> BenchRow:
     if mode.filter.mode == "recommended":
         log = _SEEN.get(id(log), log)
     filt = mode.build(log.spec, log.models)
+    classifier = copy.deepcopy(mode.classifier)  # a stateful one (hysteresis) starts afresh on every log
     people, masks, times = [], [], []
     for k in range(len(log)):
         t0 = time.perf_counter()
         out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
-        found = mode.classifier.classify(out.posterior, log.spec, observed=np.asarray(out.covered).any(axis=0))
+        found = classify_frame(
+            classifier,
+            out.posterior,
+            log.spec,
+            observed=np.asarray(out.covered).any(axis=0),
+            ego=odometry_pose(log.odometry[k], float(log.dt[k])),
+        )
         times.append(time.perf_counter() - t0)
         people.append(found.positions)
         masks.append(found.mask)
@@ -194,10 +203,10 @@ def _pipeline_log(
         per.setdefault(int(f), []).append((float(x), float(y)))
     for f, pts in per.items():
         people[f] = np.asarray(pts, dtype=float)
-    masks = [
-        build_classifier(config.classifier, config.filter.mode).classify(np.asarray(g), log.spec).mask
-        for g in run.grids
-    ]
+    # the cells classified as people (FPCPF): the run's classifier over its grids in order (with hysteresis, the
+    # grid's motion between frames is not in the run directory: taken as none)
+    classifier = build_classifier(config.classifier, config.filter.mode)
+    masks = [classify_frame(classifier, np.asarray(g), log.spec).mask for g in run.grids]
     row = BenchRow(name, "recommended (pipeline)", n, **_score(log, people, masks, gate=0.5))
     row.ms_per_frame = 1e3 * summary.elapsed_s / max(summary.frames, 1)
     row.note = f"{summary.fps:.0f} fps incl. detectors"

@@ -27,8 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evaluation.metrics import DetectionAccumulator
-from gridbridge.classifiers import Classifier
-from gridbridge.ego_motion import Odometry
+from gridbridge.classifiers import Classifier, classify_frame
+from gridbridge.ego_motion import Odometry, odometry_pose
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 
@@ -182,11 +182,19 @@ def replay(
     ``post(k, positions, scores) -> (positions, scores)`` may post-process the people of frame k (a tracker).
     """
     filt = make_filter(log.spec, log.models)
+    if hasattr(classifier, "reset"):  # a stateful classifier (hysteresis) starts afresh
+        classifier.reset()
     people, scores, beliefs, times = [], [], [], []
     for k in range(len(log)):
         t0 = time.perf_counter()
         out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
-        found = classifier.classify(out.posterior, log.spec, observed=np.asarray(out.covered).any(axis=0))
+        found = classify_frame(
+            classifier,
+            out.posterior,
+            log.spec,
+            observed=np.asarray(out.covered).any(axis=0),
+            ego=odometry_pose(log.odometry[k], float(log.dt[k])),
+        )
         pos, sc = found.positions, found.scores
         if post is not None:
             pos, sc = post(k, pos, sc)

@@ -8,6 +8,8 @@ component                   what it does
 :class:`PeakClassifier`     local maxima above a threshold with non-maximum suppression; the position is the
                             belief-weighted mean of the cells around the peak (sub-cell); separates people
                             standing or walking close together, which connected components merge
+:class:`HysteresisPeaks`    peaks with hysteresis (stateful): a person starts at a peak above ``threshold`` and
+                            continues while a peak near where it was stays above ``keep``
 ==========================  ==================================================================================
 
 Every classifier returns :class:`People`: positions (m, grid's sensor frame), a score per person (its peak
@@ -25,15 +27,18 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from gridbridge.classify import BlobParams, ClassificationResult, classify_blobs, classify_threshold
+from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.validation import check_positive, check_probability
 
 __all__ = [
     "BlobClassifier",
     "Classifier",
+    "HysteresisPeaks",
     "PeakClassifier",
     "People",
     "ThresholdClassifier",
+    "classify_frame",
     "classify_peaks",
 ]
 
@@ -232,3 +237,98 @@ class PeakClassifier:
             min_separation=self.min_separation,
             centroid_radius=self.centroid_radius,
         )
+
+
+class HysteresisPeaks:
+    """Peaks with hysteresis: what was a person in the previous frame needs less belief to stay one.
+
+    A peak (:func:`classify_peaks`, non-maximum suppression ``min_separation``) is a person when its belief is
+    above ``threshold``, or above ``keep`` (< ``threshold``) and within ``gate`` of a person of the previous frame
+    (moved into this frame by ``ego``). One miss of both laser detectors multiplies a person's odds by
+    FNR_legs x FNR_boosted (about 0.4) while the prediction spreads the peak: a walker found at P = 0.8 falls
+    to about 0.55 at the next miss, and without hysteresis is lost for that frame. The two thresholds are
+    the usual start / continue pair of trackers; with ``keep = threshold`` it is :class:`PeakClassifier`.
+
+    It is stateful: call :meth:`reset` when the filter restarts, and pass ``ego`` (the current grid frame in
+    the previous one; None: the grid did not move) to :meth:`classify` once per frame, in order.
+
+    Parameters
+    ----------
+    threshold, keep : float
+        Thresholds on a peak's belief, ``0 <= keep <= threshold <= 1`` (strictly above, as :func:`classify_peaks`).
+    gate : float
+        Largest distance (m) from a person of the previous frame for a peak above ``keep`` to continue it.
+    min_separation, centroid_radius, only_observed
+        As :class:`PeakClassifier`.
+    """
+
+    stateful = True
+
+    def __init__(
+        self,
+        *,
+        threshold: float = 0.7,
+        keep: float = 0.5,
+        gate: float = 0.5,
+        min_separation: float = 0.6,
+        centroid_radius: float = 0.35,
+        only_observed: bool = True,
+    ) -> None:
+        check_probability(threshold, "HysteresisPeaks.threshold")
+        check_probability(keep, "HysteresisPeaks.keep")
+        if keep > threshold:
+            raise ValueError(f"HysteresisPeaks.keep must be <= threshold, got keep={keep!r} > threshold={threshold!r}")
+        self.threshold, self.keep = float(threshold), float(keep)
+        self.gate = check_positive(gate, "HysteresisPeaks.gate", allow_zero=True)
+        self.peaks = PeakClassifier(
+            threshold=keep, min_separation=min_separation, centroid_radius=centroid_radius, only_observed=only_observed
+        )
+        self.previous = np.zeros((0, 2))
+        """People of the latest frame (m, its grid frame), shape (K, 2)."""
+
+    def reset(self) -> None:
+        """Forget the previous frame's people."""
+        self.previous = np.zeros((0, 2))
+
+    def classify(
+        self, belief: ArrayLike, spec: GridSpec, *, observed: ArrayLike | None = None, ego: Pose2D | None = None
+    ) -> People:
+        """People of this frame (see the class docstring); ``ego`` moves the previous frame's people."""
+        if ego is not None and not isinstance(ego, Pose2D):
+            raise TypeError(f"ego must be a Pose2D or None, got {type(ego).__name__}")
+        cand = self.peaks.classify(belief, spec, observed=observed)
+        prev = self.previous
+        if ego is not None and prev.shape[0]:
+            prev = ego.inverse().apply(prev)
+        ok = cand.scores > self.threshold
+        if prev.shape[0] and cand.positions.shape[0] and self.keep < self.threshold:
+            d = np.hypot(cand.positions[:, None, 0] - prev[None, :, 0], cand.positions[:, None, 1] - prev[None, :, 1])
+            ok |= d.min(axis=1) <= self.gate
+        mask = cand.mask
+        if not ok.all():  # each classified cell belongs to its nearest peak; a rejected peak's cells are not people
+            gx, gy = spec.cell_centres()
+            cells = np.flatnonzero(mask)
+            d = np.hypot(
+                gx.ravel()[cells, None] - cand.positions[None, :, 0],
+                gy.ravel()[cells, None] - cand.positions[None, :, 1],
+            )
+            mask = np.zeros(spec.shape, dtype=bool)
+            mask.ravel()[cells[ok[np.argmin(d, axis=1)]]] = True
+        found = People(positions=cand.positions[ok], scores=cand.scores[ok], sizes=cand.sizes[ok], mask=mask)
+        self.previous = found.positions.copy()
+        return found
+
+
+def classify_frame(
+    classifier: Classifier | HysteresisPeaks,
+    belief: ArrayLike,
+    spec: GridSpec,
+    *,
+    observed: ArrayLike | None = None,
+    ego: Pose2D | None = None,
+) -> People:
+    """``classifier.classify`` for one frame of a sequence: a stateful classifier (:class:`HysteresisPeaks`)
+    also gets ``ego`` (the current grid frame in the previous one), a stateless one does not need it."""
+    if getattr(classifier, "stateful", False):
+        return classifier.classify(belief, spec, observed=observed, ego=ego)  # type: ignore[call-arg]
+    return classifier.classify(belief, spec, observed=observed)

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from gridbridge.geometry import from_frame_xy
+from gridbridge.geometry import Pose2D, from_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import SensorMotionNoise
 from gridbridge.validation import check_finite, check_positive, check_probability
@@ -42,6 +42,7 @@ from gridbridge.validation import check_finite, check_positive, check_probabilit
 __all__ = [
     "Odometry",
     "ego_motion_sigma_points",
+    "odometry_pose",
     "predict_sensor",
     "velocity_displacement",
     "warp_belief",
@@ -78,6 +79,15 @@ def velocity_displacement(
     dy = np.where(turning, v / w_safe * (1.0 - np.cos(w * dt)), 0.0)
     dtheta = (w + np.asarray(gamma, dtype=float)) * dt
     return dx, dy, np.broadcast_to(dtheta, np.broadcast(dx, dtheta).shape).copy()
+
+
+def odometry_pose(odometry: Odometry | None, dt: float) -> Pose2D:
+    """The sensor frame after ``dt`` s of ``odometry`` in the frame before (the mean motion, no noise);
+    identity for None."""
+    if odometry is None:
+        return Pose2D()
+    dx, dy, dth = velocity_displacement(odometry.v, odometry.omega, dt)
+    return Pose2D(x=float(dx), y=float(dy), yaw=float(dth))
 
 
 def ego_motion_sigma_points(

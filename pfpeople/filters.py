@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from gridbridge.classifiers import BlobClassifier, Classifier, PeakClassifier, ThresholdClassifier
+from gridbridge.classifiers import BlobClassifier, Classifier, HysteresisPeaks, PeakClassifier, ThresholdClassifier
 from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction, VelocityEgoMotion
 from gridbridge.filter import GridFilter
 from gridbridge.geometry import Pose2D
@@ -33,12 +33,23 @@ from pfpeople.bag.config import ClassifierConfig, FilterConfig
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BELIEF_MIN", "DEFAULT_GRID_RANGE_M", "PEAK_THRESHOLD", "build_classifier", "build_filter", "grid_for_scan"]
+__all__ = [
+    "BELIEF_MIN",
+    "DEFAULT_GRID_RANGE_M",
+    "PEAK_KEEP",
+    "PEAK_THRESHOLD",
+    "build_classifier",
+    "build_filter",
+    "grid_for_scan",
+]
 
 #: Lower bound of the belief in the recommended mode.
 BELIEF_MIN = 1e-4
 #: Default peak threshold of the recommended classifier (see ClassifierConfig).
 PEAK_THRESHOLD = 0.7
+#: Default hysteresis threshold of the recommended classifier: a person of the previous frame continues at a
+#: peak above it (see ClassifierConfig.keep).
+PEAK_KEEP = 0.5
 #: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
 DEFAULT_GRID_RANGE_M = 10.0
 
@@ -151,7 +162,7 @@ def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detec
     )
 
 
-def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Classifier:
+def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Classifier | HysteresisPeaks:
     """The classifier of ``config`` (its kind defaults by ``mode``: peaks, or the paper's blobs)."""
     kind = config.kind or ("blobs" if mode == "paper" else "peaks")
     if kind == "blobs":
@@ -159,4 +170,7 @@ def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Cla
     if kind == "threshold":
         return ThresholdClassifier(threshold=0.5 if config.threshold is None else config.threshold)
     thr = PEAK_THRESHOLD if config.threshold is None else config.threshold
-    return PeakClassifier(threshold=thr, min_separation=config.min_separation)
+    keep = min(PEAK_KEEP, thr) if config.keep is None else config.keep
+    if keep >= thr:
+        return PeakClassifier(threshold=thr, min_separation=config.min_separation)
+    return HysteresisPeaks(threshold=thr, keep=keep, min_separation=config.min_separation)

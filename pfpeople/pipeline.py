@@ -50,6 +50,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.classifiers import classify_frame
 from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
@@ -291,7 +292,11 @@ class Pipeline:
             motion = self.odometry.from_laser(motion, laser_ego)
         step = self.filter.step(dets, motion.odometry, motion.dt)
         belief = np.asarray(step.posterior, dtype=float)
-        people_found = self.classifier.classify(belief, self.spec, observed=np.asarray(step.covered).any(axis=0))
+        if motion.restarted and hasattr(self.classifier, "reset"):
+            self.classifier.reset()
+        people_found = classify_frame(
+            self.classifier, belief, self.spec, observed=np.asarray(step.covered).any(axis=0), ego=motion.motion
+        )
         people = people_found.positions.reshape(-1, 2)
         tracks = None
         if self.tracker is not None:
@@ -299,10 +304,8 @@ class Pipeline:
                 self.tracker.reset()
             self.tracker.update(people, motion.dt, scores=people_found.scores, ego=motion.motion)
             tracks = self.tracker.confirmed()
-        # people kept out of the clutter map next frame: the confirmed tracks (else the classified people), so
-        # that a person standing still is not absorbed into the map. Trade-off measured on the benchmark:
-        # keeping out only tracks moving >= 0.3 m/s cut the wheelchair scene's false people by 15 % but lost
-        # people who stand still from the first scan (they turn static after static_time).
+        # with [clutter] keep_out = "tracks": the confirmed tracks (else the classified people) are kept out of the
+        # clutter map next frame (see pfpeople.bag.config.ClutterSuppression.keep_out for the trade-off)
         self.clutter.remember(np.array([[t.x, t.y] for t in tracks]).reshape(-1, 2) if tracks else people)
         self.odometry.end(frame, motion)
         self.summary.frames += 1

@@ -256,11 +256,16 @@ class ClassifierConfig:
         false people for 4 % more recall on the ETH/UCY replays), 0.5 for the plain threshold classifier.
     min_separation : float
         Peaks: two people are at least this far apart (m).
+    keep : float or None
+        Peaks: hysteresis (:class:`gridbridge.classifiers.HysteresisPeaks`): a person of the previous frame
+        continues at a peak within 0.5 m whose belief is above ``keep`` (<= ``threshold``); None: 0.5
+        (see ``pfpeople.filters.PEAK_KEEP``); equal to ``threshold``: no hysteresis.
     """
 
     kind: str | None = None
     threshold: float | None = None
     min_separation: float = 0.6
+    keep: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind is not None and self.kind not in ("peaks", "blobs", "threshold"):
@@ -268,6 +273,11 @@ class ClassifierConfig:
         thr = self.threshold
         if thr is not None and (isinstance(thr, bool) or not isinstance(thr, int | float) or not 0 <= thr <= 1):
             raise ValueError(f"ClassifierConfig.threshold must be a probability, got {thr!r}")
+        keep = self.keep
+        if keep is not None and (isinstance(keep, bool) or not isinstance(keep, int | float) or not 0 <= keep <= 1):
+            raise ValueError(f"ClassifierConfig.keep must be a probability, got {keep!r}")
+        if keep is not None and thr is not None and keep > thr:
+            raise ValueError(f"ClassifierConfig.keep must be <= threshold, got keep={keep!r} > threshold={thr!r}")
         if (
             isinstance(self.min_separation, bool)
             or not isinstance(self.min_separation, int | float)
