@@ -25,21 +25,6 @@ from pfpeople.run_state import RunSummary, count
 __all__ = ["ClutterStage"]
 
 
-def _agreement(
-    mine: Sequence[NDArray[np.float64] | None], every: Sequence[NDArray[np.float64] | None], radius: float = 0.3
-) -> NDArray[np.int64]:
-    """For each detection of ``mine`` (concatenated, grid frame), how many of the frame's detectors (``every``,
-    grid frame, the laser's own included) have a detection within ``radius`` m of it."""
-    arrays = [np.asarray(d, dtype=float).reshape(-1, 2) for d in mine if d is not None]
-    pts = np.concatenate(arrays) if arrays else np.zeros((0, 2))
-    n = np.zeros(pts.shape[0], dtype=np.int64)
-    for d in every:
-        if d is not None and len(d) and pts.shape[0]:
-            d = np.asarray(d, dtype=float).reshape(-1, 2)
-            n += (np.hypot(pts[:, None, 0] - d[None, :, 0], pts[:, None, 1] - d[None, :, 1]) <= radius).any(axis=1)
-    return n
-
-
 class ClutterStage:
     """Static-clutter suppression of the laser detections of a run (see the module docstring).
 
@@ -89,7 +74,7 @@ class ClutterStage:
 
     def remember(self, people: NDArray[np.float64]) -> None:
         """People ``(P, 2)`` (m, grid frame) to keep out of the maps in the next frame (only with
-        ``[clutter] keep_out = "tracks"``; by default only the people seen moving or corroborated are)."""
+        ``[clutter] keep_out = "tracks"``; by default only the people seen moving are)."""
         if self.config.clutter.keep_out == "tracks":
             self.last_people = people
 
@@ -151,7 +136,6 @@ class ClutterStage:
                 exclude=exclude,
                 stamp_ns=stamp_ns,
                 dt=dt,
-                agreement=_agreement([kept[k] for k in idx], kept),
             )
             for k, keep in zip(idx, st.keep, strict=True):
                 static[k] = ~keep

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from pfpeople.clutter import ClutterConfig, ClutterSuppressor, MovingPeople, StaticClutterMap, detector_agreement
+from pfpeople.clutter import ClutterConfig, ClutterSuppressor, MovingPeople, StaticClutterMap
 from pfpeople.sensors import Pose2D
 
 DT = 0.1
@@ -296,7 +296,7 @@ def test_moving_people_measures_motion_over_a_window_so_odometry_drift_is_not_mo
     """A chair whose detection drifts 0.05 m/s (odometry drift) for 30 s is never moving with the 2 s window
     (0.1 m per window < 0.6 m), but is from where it started after 12 s; a 0.5 m/s walker moves 0.6 m in
     1.2 s and is a person from then on (the anchor is its start until window / 2 = 1 s has passed)."""
-    windowed, from_start = MovingPeople(corroborated_after=1), MovingPeople(window=None, corroborated_after=1)
+    windowed, from_start = MovingPeople(), MovingPeople(window=None)
     first_w: int | None = None
     first_s: int | None = None
     first_walker: int | None = None
@@ -313,29 +313,10 @@ def test_moving_people_measures_motion_over_a_window_so_odometry_drift_is_not_mo
     assert first_w is None
     assert first_s == 120  # 0.005 m x 120 = 0.6 m
     assert first_walker == 12  # 0.05 m x 12 = 0.6 m
-
-
-def test_moving_people_corroborated_by_two_detectors_is_a_person() -> None:
-    """A standing person seen by two detectors at once (agreement 2) is a person after ``corroborated_after``
-    such detections; a chair leg seen by one detector (agreement 1) never is; agreement is checked."""
-    mp = MovingPeople(corroborated_after=5)
-    got = [mp.update(np.array([[2.0, 0.0], [3.0, 1.0]]), dt=DT, agreement=[2, 1]).shape[0] for _ in range(8)]
-    assert got == [0, 0, 0, 0, 1, 1, 1, 1]
-    assert np.allclose(mp.update(np.array([[2.0, 0.0], [3.0, 1.0]]), agreement=[2, 1]), [[2.0, 0.0]])
-    off = MovingPeople(min_agreement=0)
-    assert all(off.update(np.array([[2.0, 0.0]]), agreement=[2]).shape[0] == 0 for _ in range(10))
-    with pytest.raises(ValueError, match="agreement"):
-        mp.update(np.array([[2.0, 0.0]]), agreement=[1, 2])
-    with pytest.raises(ValueError, match="corroborated_after"):
-        MovingPeople(corroborated_after=0)
-
-
-def test_detector_agreement_counts_detectors_within_the_radius() -> None:
-    legs = np.array([[1.0, 0.0], [4.0, 0.0]])
-    boosted = np.array([[1.2, 0.1], [6.0, 0.0]])
-    assert detector_agreement([legs, boosted]).tolist() == [2, 1, 2, 1]
-    assert detector_agreement([legs, np.zeros((0, 2))]).tolist() == [1, 1]
-    assert detector_agreement([]).shape == (0,)
+    # after window / 2 the anchor moves on: a walker who stops stays moving (sticky) while it is matched
+    assert walker.update(np.array([[1.0 + 0.05 * 39, -1.0]]), dt=DT).shape == (1, 2)
+    with pytest.raises(ValueError, match="window"):
+        MovingPeople(window=0.0)
 
 
 def test_clutter_keep_out_setting_is_read_checked_and_decides_what_the_stage_remembers(tmp_path: Path) -> None:

@@ -45,7 +45,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
     enabled = true              # default: on in the recommended mode, off in the paper mode
     laser_odometry = true       # no odometry topic: move the grid by scan matching the driving laser
-    keep_out = "moving"         # kept out of the map: people seen moving / by two detectors ("tracks": + tracks)
+    keep_out = "moving"         # kept out of the map: people seen moving ("tracks": also every confirmed track)
     [clutter.params]            # pfpeople.clutter.ClutterConfig fields
 
     [[detectors]]
@@ -299,9 +299,10 @@ class ClutterSuppression:
         Without an odometry topic, move the grid with the driving laser's scan matching (when it succeeds).
     keep_out : {"moving", "tracks"}
         Who is kept out of the map (never turns static): ``"moving"`` (default) the people seen moving 0.6 m
-        within 2 s or seen by two detectors at once (:class:`pfpeople.clutter.MovingPeople`); ``"tracks"`` also
-        every confirmed track (a person standing still from the start is never absorbed, but neither is a chair
-        that became a track: on the wheelchair scene precision 0.62 instead of 0.91).
+        within 2 s (:class:`pfpeople.clutter.MovingPeople`); ``"tracks"`` also every confirmed track (a person
+        standing still from the first scan is never absorbed, but neither is a chair that became a track: on
+        the wheelchair scene precision 0.62 instead of 0.91). With ``"moving"`` a person who has stood still
+        since they were first seen is taken for furniture after about 0.6 s.
     params : mapping
         :class:`pfpeople.clutter.ClutterConfig` fields overriding its defaults.
     """
