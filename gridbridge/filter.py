@@ -129,22 +129,25 @@ def filter_models(
     motion: PeopleMotion | None,
     noise: SensorMotionNoise | None,
 ) -> tuple[GridSpec, tuple[DetectorModel, ...], PeopleMotion, SensorMotionNoise]:
-    """A filter's grid, detectors and models with the defaults filled in; ValueError naming a wrong type.
+    """A filter's grid, detectors and models with the defaults filled in; TypeError naming a wrong type,
+    ValueError for no detectors.
 
     Shared by :class:`GridFilter` and the particle filter, which take the same arguments.
     """
     spec_ = GridSpec() if spec is None else spec
     if not isinstance(spec_, GridSpec):
-        raise ValueError(f"spec must be a GridSpec, got {type(spec).__name__}")
+        raise TypeError(f"spec must be a GridSpec, got {type(spec).__name__}")
     dets = tuple(detectors)
-    if not dets or not all(isinstance(d, DetectorModel) for d in dets):
+    if not dets:
         raise ValueError("detectors must be a non-empty sequence of DetectorModel")
+    if not all(isinstance(d, DetectorModel) for d in dets):
+        raise TypeError("detectors must be a non-empty sequence of DetectorModel")
     motion_ = PeopleMotion() if motion is None else motion
     if not isinstance(motion_, PeopleMotion):
-        raise ValueError(f"motion must be a PeopleMotion, got {type(motion).__name__}")
+        raise TypeError(f"motion must be a PeopleMotion, got {type(motion).__name__}")
     noise_ = SensorMotionNoise() if noise is None else noise
     if not isinstance(noise_, SensorMotionNoise):
-        raise ValueError(f"noise must be a SensorMotionNoise, got {type(noise).__name__}")
+        raise TypeError(f"noise must be a SensorMotionNoise, got {type(noise).__name__}")
     return spec_, dets, motion_, noise_
 
 

@@ -201,7 +201,7 @@ class ParticleFilter:
                 f"n_particles must be at least the number of grid cells ({self.spec.n_cells}), got {n_particles}"
             )
         if not isinstance(rng, np.random.Generator):
-            raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
         self.rng = rng
         self.motion_model = check_choice(motion_model, "motion_model", ("paper", "persistent"))
         self.persistent = PersistentMotion() if persistent is None else persistent

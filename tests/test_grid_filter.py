@@ -95,10 +95,12 @@ def test_constructor_validation() -> None:
         GridFilter(form="quadratic")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="detectors"):
         GridFilter(detectors=[])
-    with pytest.raises(ValueError, match="spec"):
+    with pytest.raises(TypeError, match="detectors"):
+        GridFilter(detectors=["laser"])  # type: ignore[list-item]
+    with pytest.raises(TypeError, match="spec"):
         GridFilter(spec=(30, 30))  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="motion must be a PeopleMotion"):
+    with pytest.raises(TypeError, match="motion must be a PeopleMotion"):
         GridFilter(motion={"mu": 1.4})  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="noise must be a SensorMotionNoise"):
+    with pytest.raises(TypeError, match="noise must be a SensorMotionNoise"):
         GridFilter(noise=0.1)  # type: ignore[arg-type]
     assert GridFilter(GridSpec(nx=10, ny=12)).belief.shape == (10, 12)

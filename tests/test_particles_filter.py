@@ -133,13 +133,19 @@ def test_particle_state_checks() -> None:
         ({"motion_model": "teleport"}, "motion_model must be one of"),
         ({"ess_threshold": float("nan")}, "ess_threshold"),
         ({"n_birth": 0}, "n_birth"),
-        ({"rng": 3}, "rng must be a numpy.random.Generator"),
     ],
 )
 def test_bad_constructor_arguments(kwargs: dict, match: str) -> None:
     args = {"n_particles": 1000, "rng": np.random.default_rng(0), **kwargs}
     with pytest.raises(ValueError, match=match):
         ParticleFilter(**args)
+
+
+def test_wrong_constructor_types_are_type_errors() -> None:
+    with pytest.raises(TypeError, match="rng must be a numpy.random.Generator"):
+        ParticleFilter(n_particles=1000, rng=3)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="motion must be a PeopleMotion"):
+        ParticleFilter(n_particles=1000, motion=1.4, rng=np.random.default_rng(0))  # type: ignore[arg-type]
 
 
 def test_bad_step_input_changes_nothing() -> None:
