@@ -142,7 +142,7 @@ def test_bad_constructor_arguments(kwargs: dict, match: str) -> None:
 
 
 def test_wrong_constructor_types_are_type_errors() -> None:
-    with pytest.raises(TypeError, match="rng must be a numpy.random.Generator"):
+    with pytest.raises(TypeError, match=r"rng must be a numpy\.random\.Generator"):
         ParticleFilter(n_particles=1000, rng=3)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="motion must be a PeopleMotion"):
         ParticleFilter(n_particles=1000, motion=1.4, rng=np.random.default_rng(0))  # type: ignore[arg-type]
