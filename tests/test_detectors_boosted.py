@@ -224,3 +224,16 @@ def test_train_detector_command_missing_dir(tmp_path: Path, capsys: pytest.Captu
     rc = pfpeople_main(["train-detector", "--data-dir", str(tmp_path / "absent"), "--out", str(tmp_path)])
     assert rc == 2
     assert "absent" in capsys.readouterr().err
+
+
+def test_train_from_directory_argument_errors(tmp_path: Path) -> None:
+    from pfpeople.detectors.training import train_from_directory
+
+    with pytest.raises(ValueError, match="scan_step"):
+        train_from_directory(tmp_path, tmp_path, scan_step=0)
+    with pytest.raises(ValueError, match=r"both in train_positive and test_positive"):
+        train_from_directory(tmp_path, tmp_path, test_positive=["positive_4_extracted.bag"])
+    with pytest.raises(ValueError, match="names no bag"):
+        train_from_directory(tmp_path, tmp_path, train_positive=[])
+    with pytest.raises(FileNotFoundError, match=r"positive_1_extracted\.bag"):
+        train_from_directory(tmp_path, tmp_path)
