@@ -16,11 +16,14 @@ from pfpeople.detectors.boosted import BoostedSegmentDetector, default_model_pat
 from pfpeople.detectors.segments import FEATURE_NAMES
 from pfpeople.detectors.synthetic import render_scan
 from pfpeople.detectors.training import (
+    POSITIVE_BAGS,
     BoostTrainingParams,
     boost_scores,
     build_training_set,
+    leave_one_bag_out,
     load_labelled_scans,
     load_scans,
+    negative_blocks,
     segment_metrics,
     train_boost,
 )
@@ -34,12 +37,22 @@ def test_shipped_model_loads_with_sidecar() -> None:
     side: dict[str, Any] = det.sidecar
     assert side["features"] == list(FEATURE_NAMES)
     files = {d["file"]: d["bytes"] for d in side["data"]}
-    assert set(files) == {"positive_1_extracted.bag", "positive_4_extracted.bag", "negative_2.bag"}
-    assert all(b > 0 for b in files.values())
-    test = side["metrics"]["test"]
-    # held-out segment metrics recorded at training time (positive_4 + last 30 % of negative_2)
-    assert 0.4 < test["recall"] <= 1.0
-    assert 0.1 < test["precision"] <= 1.0
+    assert set(files) == {*POSITIVE_BAGS, "negative_2.bag"}
+    assert all(b > 0 and len(d["sha256"]) == 64 for d, b in zip(side["data"], files.values(), strict=True))
+    # trained on every labelled bag and all of negative_2; nothing held out of the shipped model
+    assert side["split"]["train_positive"] == [f"positive_{k}_extracted.bag" for k in (1, 2, 3, 4, 6, 7)]
+    assert side["split"]["test_positive"] == [] and side["params"]["holdout_fraction"] == 0.0
+    assert side["split"]["scan_step"] == 1 and side["split"]["train_negative_scans"] == 1304
+    assert "test" not in side["metrics"]
+    # its quality on unseen bags: the leave-one-bag-out folds, one per labelled bag
+    lobo = side["leave_one_bag_out"]
+    assert [f["bag"] for f in lobo["folds"]] == list(POSITIVE_BAGS)
+    for f in lobo["folds"]:
+        assert f["negative_topic"] not in {b.split("#")[0] for b in f["train_negative_blocks"]}
+        assert 0.4 < f["recall"] <= 1.0 and 0.1 < f["precision"] <= 1.0
+    pooled = lobo["pooled"]
+    assert pooled["tp"] + pooled["fn"] == side["counts"]["train"]["positives"]  # every positive tested once
+    assert 0.5 < pooled["recall"] < 0.9 and 0.3 < pooled["f1"] < 0.7
     assert det.model == CALIBRATED_LASER_DETECTORS[1]
 
 
@@ -99,6 +112,63 @@ def test_training_is_reproducible_on_synthetic_data(rng: np.random.Generator) ->
     assert m["recall"] > 0.9 and m["precision"] > 0.9  # separable toy problem, training-set metrics
 
 
+def test_negative_blocks_cut_topics_into_periods() -> None:
+    scans = {"/a": list(range(7)), "/b": list(range(10, 14))}
+    blocks = negative_blocks(scans, n_periods=2)  # type: ignore[arg-type]
+    assert [(t, p, s) for t, p, s in blocks] == [
+        ("/a", 0, [0, 1, 2, 3]),
+        ("/b", 0, [10, 11]),
+        ("/a", 1, [4, 5, 6]),
+        ("/b", 1, [12, 13]),
+    ]
+    with pytest.raises(ValueError, match="n_periods"):
+        negative_blocks(scans, n_periods=0)  # type: ignore[arg-type]
+
+
+def test_leave_one_bag_out_on_synthetic_bags(rng: np.random.Generator) -> None:
+    from pfpeople.detectors.training import LabelledScan
+
+    def bag(n: int) -> list[LabelledScan]:
+        out = []
+        for _ in range(n):
+            px, py = rng.uniform(1.0, 4.0), rng.uniform(-0.5, 0.5)
+            legs = [(px, py - 0.15, 0.06), (px, py + 0.15, 0.06)]
+            scan = render_scan(circles=legs, noise_sd=0.005, rng=rng, angle_increment=math.radians(0.5))
+            out.append(LabelledScan(scan=scan, legs=np.array([[px - 0.04, py - 0.15], [px - 0.04, py + 0.15]])))
+        return out
+
+    def walls(n: int) -> list[LaserScan]:
+        return [
+            render_scan(
+                circles=[(rng.uniform(1, 4), rng.uniform(-2, 2), rng.uniform(0.2, 0.5))],
+                segments=[(wx, -3.0, wx + rng.uniform(-1, 1), 3.0)],
+                noise_sd=0.005,
+                rng=rng,
+                angle_increment=math.radians(0.5),
+            )
+            for wx in rng.uniform(2.0, 5.0, n)
+        ]
+
+    positives = {"b0": bag(6), "b1": bag(5), "b2": bag(4)}
+    negatives = {"/l": walls(8), "/r": walls(8)}
+    params = BoostTrainingParams(weak_count=10, seed=1)
+    res = leave_one_bag_out(positives, negatives, params=params)
+    folds = res["folds"]
+    assert [f["bag"] for f in folds] == ["b0", "b1", "b2"]
+    # fold i tests on block i (topic-major within a period) and trains on other topics in other periods
+    assert [(f["negative_topic"], f["negative_period"]) for f in folds] == [("/l", 0), ("/r", 0), ("/l", 1)]
+    assert [f["train_negative_blocks"] for f in folds] == [["/r#1"], ["/l#1"], ["/r#0"]]
+    assert [f["positive_scans"] for f in folds] == [6, 5, 4] and all(f["negative_scans"] == 4 for f in folds)
+    assert [f["labels"] for f in folds] == [12, 10, 8]
+    pooled = res["pooled"]
+    assert pooled["tp"] + pooled["fn"] == sum(f["tp"] + f["fn"] for f in folds) >= 30
+    assert pooled["recall"] > 0.9 and pooled["precision"] > 0.9  # separable toy problem, unseen bags
+    assert pooled["false_leg_segments_per_negative_scan"] == pooled["fp"] / 12
+    assert leave_one_bag_out(positives, negatives, params=params) == res  # deterministic
+    with pytest.raises(ValueError, match="two positive bags"):
+        leave_one_bag_out({"b0": positives["b0"]}, negatives)
+
+
 def test_train_boost_input_errors() -> None:
     X = np.ones((4, len(FEATURE_NAMES)), dtype=np.float32)
     with pytest.raises(ValueError, match="both classes"):
@@ -128,31 +198,42 @@ def test_training_is_reproducible_on_a_real_subset(shared_data: Path) -> None:
 
 @pytest.mark.realdata
 def test_train_detector_command(shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    rc = pfpeople_main(
-        [
-            "train-detector",
-            "--data-dir",
-            str(shared_data / "leg_tracker"),
-            "--out",
-            str(tmp_path),
-            "--name",
-            "small",
-            "--weak-count",
-            "20",
-        ]
-    )
-    assert rc == 0
+    # a small subset (every 10th scan, 20 trees) so that the test stays fast; the defaults train on all six bags
+    args = ["train-detector", "--data-dir", str(shared_data / "leg_tracker"), "--out", str(tmp_path)]
+    args += ["--name", "small", "--weak-count", "20", "--scan-step", "10", "--holdout-fraction", "0.3"]
+    args += ["--train-positive", "positive_2_extracted.bag", "positive_6_extracted.bag"]
+    args += ["--test-positive", "positive_4_extracted.bag"]
+    assert pfpeople_main(args) == 0
     side = json.loads((tmp_path / "small.json").read_text())
     assert side["params"]["weak_count"] == 20 and side["seed"] == 0
     assert side["split"]["test_positive"] == ["positive_4_extracted.bag"]
+    assert side["split"]["scan_step"] == 10
+    assert side["split"]["train_positive_scans"] == 9 + 19  # 83 and 187 scans, every 10th
     assert side["counts"]["train"]["labels_matched"] == side["counts"]["train"]["labels"]
     assert 0.0 < side["metrics"]["test"]["recall"] <= 1.0
+    folds = side["leave_one_bag_out"]["folds"]
+    assert [f["bag"] for f in folds] == ["positive_2_extracted.bag", "positive_6_extracted.bag"]
+    assert [(f["negative_topic"], f["negative_period"]) for f in folds] == [("/left_scan", 0), ("/rear_scan", 0)]
     det = BoostedSegmentDetector(tmp_path / "small.yml")
     assert det.sidecar["model_file"] == "small.yml"
-    assert '"metrics"' in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert '"metrics"' in out and "positive_6_extracted.bag" in out and "pooled" in out
 
 
 def test_train_detector_command_missing_dir(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rc = pfpeople_main(["train-detector", "--data-dir", str(tmp_path / "absent"), "--out", str(tmp_path)])
     assert rc == 2
     assert "absent" in capsys.readouterr().err
+
+
+def test_train_from_directory_argument_errors(tmp_path: Path) -> None:
+    from pfpeople.detectors.training import train_from_directory
+
+    with pytest.raises(ValueError, match="scan_step"):
+        train_from_directory(tmp_path, tmp_path, scan_step=0)
+    with pytest.raises(ValueError, match=r"both in train_positive and test_positive"):
+        train_from_directory(tmp_path, tmp_path, test_positive=["positive_4_extracted.bag"])
+    with pytest.raises(ValueError, match="names no bag"):
+        train_from_directory(tmp_path, tmp_path, train_positive=[])
+    with pytest.raises(FileNotFoundError, match=r"positive_1_extracted\.bag"):
+        train_from_directory(tmp_path, tmp_path)

@@ -63,15 +63,13 @@ def test_leg_detector_recall_and_false_positives(leg_data: Path) -> None:
 
 def test_boosted_detector_recall_and_false_positives(leg_data: Path) -> None:
     det = BoostedSegmentDetector()
-    # positive_4 and the last 30 % of negative_2 are held out from training (see the model's sidecar)
-    r4 = leg_recall(det, leg_data / "positive_4_extracted.bag")  # measured 0.530 (held out)
-    r1 = leg_recall(det, leg_data / "positive_1_extracted.bag")  # measured 1.000 (training data)
-    fp_held = false_people_per_scan(det, leg_data / "negative_2.bag", last=0.3)  # measured 0.464 per scan (392 scans)
-    fp_all = false_people_per_scan(det, leg_data / "negative_2.bag")  # measured 0.32 per scan
-    print(
-        f"Boosted: leg recall {r1:.3f} (train) / {r4:.3f} (held out); "
-        f"false people/scan {fp_all:.3f}, {fp_held:.3f} held out"
-    )
-    assert r4 >= 0.48 and r1 >= 0.95
-    assert fp_all <= 0.47
-    assert fp_held <= 0.61
+    # the shipped model trains on all six labelled bags and all of negative_2, so these are training-set figures;
+    # its figures on unseen bags are the leave-one-bag-out folds of its sidecar (tests/test_detectors_boosted.py)
+    r1 = leg_recall(det, leg_data / "positive_1_extracted.bag")  # measured 0.917 (324 labels)
+    r4 = leg_recall(det, leg_data / "positive_4_extracted.bag")  # measured 0.945 (415 labels)
+    fp_last = false_people_per_scan(det, leg_data / "negative_2.bag", last=0.3)  # measured 0.397 per scan (390 scans)
+    fp_all = false_people_per_scan(det, leg_data / "negative_2.bag")  # measured 0.350 per scan (1304 scans)
+    print(f"Boosted: leg recall {r1:.3f} / {r4:.3f}; false people/scan {fp_all:.3f}, {fp_last:.3f} (last 30 %)")
+    assert r1 >= 0.86 and r4 >= 0.89
+    assert fp_all <= 0.50
+    assert fp_last <= 0.55

@@ -1,14 +1,17 @@
 """The built-in people detectors (Batista & Pereira 2015, Sect. 4): two laser detectors and one camera detector.
 
 ========================  ==========================================================  =====================
-class                     method                                                      default model (Table 1)
+class                     method                                                      default model
 ========================  ==========================================================  =====================
-:class:`LegDetector`      geometric leg candidates paired into people (Bellotto & Hu)  PPV 0.95, FNR 0.30
-:class:`BoostedSegment    boosted segment classifier (Arras et al.; Spinello &         PPV 0.50, FNR 0.40
-Detector`                 Siegwart), trained by ``pfpeople train-detector``
+:class:`LegDetector`      geometric leg candidates paired into people (Bellotto & Hu)  measured (1)
+:class:`BoostedSegment    boosted segment classifier (Arras et al.; Spinello &         measured (1)
+Detector`                 Siegwart), trained by ``pfpeople train-detector`` on the
+                          six labelled leg_tracker bags
 :class:`HogCameraDetec    OpenCV HOG + flat-ground range (Stein et al. 2003)           PPV 0.95, FNR 0.50
-tor`
+tor`                                                                                  (Table 1)
 ========================  ==========================================================  =====================
+
+(1) PPV / FNR measured on the labelled data: :data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`.
 
 Each has ``detect(...) -> (M, 2)`` person positions (m) and a ``.model`` (:class:`gridbridge.DetectorModel`).
 """

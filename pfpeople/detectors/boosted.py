@@ -7,8 +7,10 @@ with a score above ``threshold`` are legs; legs become people with the same pair
 (:func:`pfpeople.detectors.legs.people_from_legs`: legs-together segments alone, pairs at 0.1-0.6 m, optional
 single legs).
 
-The shipped model ``pfpeople/models/boosted_legs.yml`` (with its JSON sidecar of data, parameters and metrics)
-loads by default through ``importlib.resources``.
+The shipped model ``pfpeople/models/boosted_legs.yml`` (with its JSON sidecar of data, parameters, metrics and
+leave-one-bag-out evaluation) is trained on all six labelled leg_tracker bags and loads by default through
+``importlib.resources``. Single legs (``PairingParams.count_single_legs``) are off by default, as for the
+leg-pattern detector (figures in :mod:`pfpeople.detectors.legs`).
 """
 
 from __future__ import annotations
@@ -84,7 +86,7 @@ class BoostedSegmentDetector:
     pairing : PairingParams, optional
         How legs become people (shared with :class:`~pfpeople.detectors.legs.LegDetector`).
     model : DetectorModel, optional
-        PPV / FNR and field of view for the grid; default PPV 0.90, FNR 0.65 as measured on the labelled data
+        PPV / FNR and field of view for the grid; default PPV 0.90, FNR 0.55 as measured on the labelled data
         (:data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`), 180 deg.
     """
 
