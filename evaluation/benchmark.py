@@ -57,7 +57,7 @@ class Mode:
 
     The paper's modes use the paper's Table 1 PPV / FNR for the detectors it names (laser-legs, laser-boosted,
     camera-hog): its update needs FNR < 0.5 (a detector with FNR >= 0.5 makes every non-detection raise the
-    belief, so every cell would drift to 1 with the measured FNR of our laser detectors, 0.60 / 0.65).
+    belief, so every cell would drift to 1 with the measured FNR of our laser detectors, 0.60 / 0.55).
     """
 
     name: str

@@ -245,8 +245,8 @@ class HysteresisPeaks:
     A peak (:func:`classify_peaks`, non-maximum suppression ``min_separation``) is a person when its belief is
     above ``threshold``, or above ``keep`` (< ``threshold``) and within ``gate`` of a person of the previous frame
     (moved into this frame by ``ego``). One miss of both laser detectors multiplies a person's odds by
-    FNR_legs x FNR_boosted (about 0.4) while the prediction spreads the peak: a walker found at P = 0.8 falls
-    to about 0.6 at the next miss, and without hysteresis is lost for that frame. The two thresholds are
+    FNR_legs x FNR_boosted (0.60 x 0.55 = 0.33) while the prediction spreads the peak: a walker found at P = 0.8 falls
+    to about 0.55 at the next miss, and without hysteresis is lost for that frame. The two thresholds are
     the usual start / continue pair of trackers; with ``keep = threshold`` it is :class:`PeakClassifier`.
 
     It is stateful: call :meth:`reset` when the filter restarts, and pass ``ego`` (the current grid frame in
