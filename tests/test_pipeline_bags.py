@@ -623,8 +623,8 @@ def test_real_bag_recall_per_detector_and_filter(
     assert summary.frames == frames
     result = score_run(load_run(out), read_gt_csv(gt_path), frame="laser", recall_only=True)
     s = result["scores"]
-    # Measured (gate 0.5 m): first 600 scans, grid filter: legs 0.466, boosted 0.541, filter 0.653;
-    # first 300 scans, particle filter (5000 particles, seed 0): legs 0.416, boosted 0.460, filter 0.629.
+    # Measured (gate 0.5 m): first 600 scans, grid filter: legs 0.466, boosted 0.682, filter 0.867;
+    # first 300 scans, particle filter (5000 particles, seed 0): legs 0.416, boosted 0.735, filter 0.863.
     assert s["laser-legs"]["recall"] > 0.35
     assert s["laser-boosted"]["recall"] > 0.35
     assert s["filter"]["recall"] > max(s["laser-legs"]["recall"], s["laser-boosted"]["recall"]) - 0.05
