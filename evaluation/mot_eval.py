@@ -22,6 +22,7 @@ The tracker's hypotheses in a frame are its confirmed tracks after the update (c
 
 from __future__ import annotations
 
+import csv
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -30,6 +31,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
 
 from evaluation.ab import FilterSpec
 from evaluation.gt_csv import GroundTruth
@@ -53,6 +55,7 @@ __all__ = [
     "format_rows",
     "merge_detections",
     "peak_classifier",
+    "read_tracks_csv",
     "run_tracker",
 ]
 
@@ -273,6 +276,8 @@ def evaluate_run(
     sources: Sequence[str] | None = None,
     classify: Classifier | None = peak_classifier,
     classifier_name: str = "peaks",
+    in_grid: bool = True,
+    min_hit_beams: int | None = None,
 ) -> list[MotRow]:
     """CLEAR-MOT of the tracker on a run's filter output and on each detector's detections.
 
@@ -295,6 +300,18 @@ def evaluate_run(
         Classifier of the stored belief grids (``grids.npy``); None: no such row.
     classifier_name : str
         Its label.
+    in_grid : bool
+        Score only ground truth and hypotheses inside the run's grid (the grid cannot show people outside it;
+        as :func:`evaluate_scenario`).
+    min_hit_beams : int, optional
+        Visibility filter for a GT CSV with a ``hit_beams`` column (the scan-level scenes): a person hit by
+        fewer laser beams in a frame is *don't care* there: removed from the truth, and a hypothesis matched
+        to it (one-to-one within ``gate``) is removed too (neither a hit nor a false positive). The sequence
+        name gets `` [hit_beams>=N]``. None: every annotated person counts.
+
+    Sources: ``"filter (people.csv)"`` (the run's people tracked here, births from any of them), ``"grid +
+    NAME"``, ``"tracks.csv (pipeline)"`` (the tracks the run itself wrote: the shipped output; when the run
+    has a ``tracks.csv``), ``"NAME (raw)"`` per detector and ``"all detectors merged (raw)"``.
 
     Returns
     -------
@@ -302,6 +319,17 @@ def evaluate_run(
         ``extra["followed"]`` holds ``{"id", "annotated_frames", "matched_fraction", "id_switches"}``.
     """
     truth = _gt_frames(run, gt, frame, tolerance_ns)
+    hidden: list[NDArray[np.float64]] | None = None
+    if min_hit_beams is not None:
+        beams = _gt_hit_beams(run, gt, tolerance_ns)
+        hidden = []
+        for k, (ids, pos) in enumerate(truth):
+            low = np.array([beams[k].get(int(i), 0) < min_hit_beams for i in ids], dtype=bool)
+            hidden.append(pos[low])
+            truth[k] = (ids[~low], pos[~low])
+    spec = run.spec
+    if in_grid:
+        truth = [_in_grid(spec, i, p) for i, p in truth]
     dts, egos = _run_egos(run)
     n = run.n_frames
     if config is None:
@@ -341,9 +369,21 @@ def evaluate_run(
         follow_id = int(ids[np.argmax(counts)])
     bags = run.meta.get("provenance", {}).get("bag") or []
     seq = Path(str(bags[0])).name.removesuffix(".zip").removesuffix(".bag") if bags else run.path.name
-    rows: list[MotRow] = []
+    if min_hit_beams is not None:
+        seq += f" [hit_beams>={min_hit_beams}]"
+    hyps: dict[str, HypFrames] = {}
+    shipped = run.path / "tracks.csv"
+    if shipped.is_file() and (sources is None or {"tracks", "tracks.csv"} & set(sources)):
+        hyps["tracks.csv (pipeline)"] = read_tracks_csv(shipped, n)
     for source, (pos, sc) in inputs.items():
-        hyp = run_tracker(pos, dts, scores=sc, egos=egos, config=config)
+        cfg = replace(config, birth_min_score=0.0) if source == "filter" else config
+        hyps[source] = run_tracker(pos, dts, scores=sc, egos=egos, config=cfg)
+    rows: list[MotRow] = []
+    for source, hyp in hyps.items():
+        if in_grid:
+            hyp = [_in_grid(spec, i, p) for i, p in hyp]
+        if hidden is not None:
+            hyp = [_drop_matched(i, p, hidden[k], gate) for k, (i, p) in enumerate(hyp)]
         scores = clear_mot(truth, hyp, gate=gate, sector=sector, max_range=max_range)
         extra: dict[str, Any] = {}
         if follow_id is not None:
@@ -357,6 +397,56 @@ def evaluate_run(
             }
         rows.append(MotRow(seq, f"{source} (people.csv)" if source == "filter" else source, scores, extra))
     return rows
+
+
+def read_tracks_csv(path: str | Path, n_frames: int) -> HypFrames:
+    """The confirmed tracks of a run's ``tracks.csv`` as per-frame ``(ids, positions)`` (``n_frames`` frames)."""
+    ids: list[list[int]] = [[] for _ in range(n_frames)]
+    pos: list[list[tuple[float, float]]] = [[] for _ in range(n_frames)]
+    with Path(path).open(newline="") as fh:
+        for line, row in enumerate(csv.DictReader(fh), start=2):
+            try:
+                f, tid, x, y = int(row["frame"]), int(row["id"]), float(row["x"]), float(row["y"])
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ValueError(f"{path}: line {line}: needs frame, id, x, y: {exc}") from None
+            if not 0 <= f < n_frames:
+                raise ValueError(f"{path}: line {line}: frame {f} outside the run's {n_frames} frames")
+            ids[f].append(tid)
+            pos[f].append((x, y))
+    return [
+        (np.array(i, dtype=np.int64), np.array(p, dtype=float).reshape(-1, 2)) for i, p in zip(ids, pos, strict=True)
+    ]
+
+
+def _gt_hit_beams(run: RunData, gt: GroundTruth, tolerance_ns: int) -> list[dict[int, int]]:
+    """Per run frame, ``{person id: hit_beams}`` from the GT CSV's ``hit_beams`` column (rows as ``gt``)."""
+    with gt.path.open(newline="", encoding="utf-8-sig") as fh:
+        reader = csv.DictReader(fh)
+        if reader.fieldnames is None or "hit_beams" not in [c.strip() for c in reader.fieldnames]:
+            raise ValueError(f"{gt.path}: min_hit_beams needs a hit_beams column")
+        beams = [int(r["hit_beams"]) for r in reader if any(v for v in r.values())]
+    if len(beams) != len(gt):
+        raise ValueError(f"{gt.path}: {len(beams)} hit_beams values for {len(gt)} ground-truth rows")
+    fr = run.frames
+    rows_frame, _ = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    out: list[dict[int, int]] = [{} for _ in range(run.n_frames)]
+    for f, pid, b in zip(rows_frame, gt.person_id, beams, strict=True):
+        if 0 <= f < run.n_frames:
+            out[int(f)][int(pid)] = b
+    return out
+
+
+def _drop_matched(
+    ids: NDArray[np.int64], pos: Positions, hidden: Positions, gate: float
+) -> tuple[NDArray[np.int64], Positions]:
+    """Hypotheses without those matched one-to-one (within ``gate``, least total distance) to ``hidden``."""
+    if len(hidden) == 0 or len(pos) == 0:
+        return ids, pos
+    d = np.linalg.norm(hidden[:, None, :] - pos[None, :, :], axis=2)
+    r, c = linear_sum_assignment(np.where(d <= gate, d, 1e6))
+    keep = np.ones(len(pos), dtype=bool)
+    keep[c[d[r, c] <= gate]] = False
+    return ids[keep], pos[keep]
 
 
 def _f(v: float, digits: int = 3) -> str:

@@ -50,6 +50,7 @@ from typing import Any, Protocol, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.classifiers import PeakClassifier
 from gridbridge.ego_motion import Odometry
 from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
@@ -396,6 +397,7 @@ class Pipeline:
         self.spec: GridSpec = config.grid if config.grid is not None else GridSpec()
         self.classifier: Any = None
         self.tracker: Any = None
+        self._track_classifier: PeakClassifier | None = None
         self._suppressors: dict[str, Any] = {}
         self._frame_scans: dict[str, Any] = {}
         self._frame_raw: dict[int, NDArray[np.float64]] = {}
@@ -498,12 +500,17 @@ class Pipeline:
             for d in c.detectors:
                 if d.kind in ("leg", "boosted") and d.topic not in self._suppressors:
                     self._suppressors[d.topic] = ClutterSuppressor(ccfg)
-        self.tracker = None
+        self.tracker, self._track_classifier = None, None
         if c.tracking.enabled:
             from pfpeople.mot import MultiPersonTracker, TrackerConfig
 
+            params = dict(c.tracking.params)
+            pt = c.tracking.peak_threshold
+            if isinstance(self.classifier, PeakClassifier) and pt is not None and pt < self.classifier.threshold:
+                self._track_classifier = replace(self.classifier, threshold=pt)  # lower peaks update tracks
+                params.setdefault("birth_min_score", self.classifier.threshold)  # people start them
             try:
-                self.tracker = MultiPersonTracker(TrackerConfig(**dict(c.tracking.params)))
+                self.tracker = MultiPersonTracker(TrackerConfig(**params))
             except TypeError as exc:
                 raise ValueError(f"[tracking.params]: {exc}") from None
         return tf
@@ -727,7 +734,8 @@ class Pipeline:
                     s.max_lateral_m = max(s.max_lateral_m, abs(lateral))
             step = self.filter.step(dets, odo, dt)
             belief = np.asarray(step.posterior, dtype=float)
-            found = self.classifier.classify(belief, self.spec, observed=np.asarray(step.covered).any(axis=0))
+            observed = np.asarray(step.covered).any(axis=0)
+            found = self.classifier.classify(belief, self.spec, observed=observed)
             people = found.positions.reshape(-1, 2)
             tracks = None
             if self.tracker is not None:
@@ -736,7 +744,14 @@ class Pipeline:
                     ego = laser_ego
                 if restarted:
                     self.tracker.reset()
-                self.tracker.update(people, dt, scores=found.scores, ego=ego)
+                tin = (
+                    found
+                    if self._track_classifier is None
+                    else self._track_classifier.classify(belief, self.spec, observed=observed)
+                )
+                self.tracker.update(
+                    tin.positions.reshape(-1, 2), dt, scores=tin.scores, ego=ego, belief=belief, spec=self.spec
+                )
                 tracks = self.tracker.confirmed()
             # people kept out of the clutter map next frame: the confirmed tracks (else the classified people), so
             # that a person standing still is not absorbed into the map. Trade-off measured on the benchmark:
