@@ -36,9 +36,10 @@ from scipy.optimize import linear_sum_assignment
 from evaluation.ab import FilterSpec
 from evaluation.gt_csv import GroundTruth
 from evaluation.mot_metrics import MotScores, clear_mot
+from evaluation.replay import ReplayLog
 from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
-from gridbridge.classifiers import classify_peaks
+from gridbridge.classifiers import PeakClassifier, classify_peaks
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
@@ -50,6 +51,7 @@ __all__ = [
     "Classifier",
     "MotRow",
     "detector_config",
+    "evaluate_log",
     "evaluate_run",
     "evaluate_scenario",
     "format_rows",
@@ -217,6 +219,68 @@ def evaluate_scenario(
     return rows
 
 
+def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | None = None) -> list[MotRow]:
+    """CLEAR-MOT of a replay log with person ids (:func:`evaluation.replay.log_from_scenario`): the recommended
+    filter and tracker as ``pfpeople run`` runs them, and tracking-by-detection on each detector and all merged.
+
+    Row ``"recommended (tracker)"``: the recommended grid filter (:func:`pfpeople.filters.build_filter` with the
+    default :class:`~pfpeople.bag.config.FilterConfig`), its peaks classifier, and the tracker fed as the pipeline
+    feeds it (:class:`~pfpeople.bag.config.TrackingConfig`: the peaks above ``peak_threshold`` update tracks,
+    those above the classifier's threshold start them; the belief grid passed along). Ego-motion: the log's
+    odometry controls. Detector rows as :func:`evaluate_scenario`. Truth and hypotheses inside the grid only.
+    ``config``: tracker parameters (default ``TrackerConfig()``, the pipeline's).
+    """
+    from pfpeople.bag.config import ClassifierConfig, FilterConfig, TrackingConfig
+    from pfpeople.filters import build_classifier, build_filter
+
+    if log.truth_ids is None:
+        raise ValueError(f"log {log.name!r} has no person ids (truth_ids): CLEAR-MOT needs them")
+    spec = log.spec
+    config = TrackerConfig() if config is None else config
+    n = len(log)
+    dts = [float(v) for v in log.dt]
+    egos: list[Pose2D | None] = []
+    for odo, dt in zip(log.odometry, dts, strict=True):
+        if odo is None:
+            egos.append(None)
+        else:
+            dx, dy, dth = velocity_displacement(odo.v, odo.omega, dt)
+            egos.append(Pose2D(x=float(dx), y=float(dy), yaw=float(dth)))
+    gt = [_in_grid(spec, log.truth_ids[k], log.truth[k]) for k in range(n)]
+    rows: list[MotRow] = []
+
+    def score(source: str, hyp: HypFrames) -> None:
+        rows.append(MotRow(log.name, source, clear_mot(gt, [_in_grid(spec, i, p) for i, p in hyp], gate=gate)))
+
+    filt = build_filter(FilterConfig(), spec, log.models)
+    people = build_classifier(ClassifierConfig())
+    pt = TrackingConfig().peak_threshold
+    feed = people
+    tcfg = config
+    if isinstance(people, PeakClassifier) and pt is not None and pt < people.threshold:
+        feed = replace(people, threshold=pt)
+        tcfg = replace(config, birth_min_score=max(config.birth_min_score, people.threshold))
+    tracker = MultiPersonTracker(tcfg)
+    hyp: HypFrames = []
+    for k in range(n):
+        dets = [np.zeros((0, 2)) if d is None else d for d in log.detections[k]]
+        out = filt.step(dets, log.odometry[k], dts[k])
+        belief = np.asarray(out.posterior, dtype=float)
+        found = feed.classify(belief, spec, observed=np.asarray(out.covered).any(axis=0))
+        tr = tracker.update(found.positions, dts[k], scores=found.scores, ego=egos[k], belief=belief, spec=spec)
+        hyp.append((np.array([t.id for t in tr], dtype=np.int64), np.array([[t.x, t.y] for t in tr]).reshape(-1, 2)))
+    score("recommended (tracker)", hyp)
+    for i, m in enumerate(log.models):
+        det: list[Positions] = []
+        for k in range(n):
+            d = log.detections[k][i]
+            det.append(np.zeros((0, 2)) if d is None else d)
+        score(f"{m.name} (raw)", run_tracker(det, dts, egos=egos, config=detector_config(config, m)))
+    merged = [merge_detections([d for d in log.detections[k] if d is not None]) for k in range(n)]
+    score("all detectors merged (raw)", run_tracker(merged, dts, egos=egos, config=config))
+    return rows
+
+
 def detector_config(config: TrackerConfig, model: DetectorModel) -> TrackerConfig:
     """The tracker configuration for one detector's raw detections: a detector whose model has a Gaussian
     position uncertainty (the camera) gets that uncertainty as measurement noise (RMS of its lateral and
@@ -278,6 +342,7 @@ def evaluate_run(
     classifier_name: str = "peaks",
     in_grid: bool = True,
     min_hit_beams: int | None = None,
+    followed: bool = True,
 ) -> list[MotRow]:
     """CLEAR-MOT of the tracker on a run's filter output and on each detector's detections.
 
@@ -308,6 +373,8 @@ def evaluate_run(
         fewer laser beams in a frame is *don't care* there: removed from the truth, and a hypothesis matched
         to it (one-to-one within ``gate``) is removed too (neither a hit nor a false positive). The sequence
         name gets `` [hit_beams>=N]``. None: every annotated person counts.
+    followed : bool
+        Compute the followed-person figure (False: none, e.g. for a GT that annotates everybody).
 
     Sources: ``"filter (people.csv)"`` (the run's people tracked here, births from any of them), ``"grid +
     NAME"``, ``"tracks.csv (pipeline)"`` (the tracks the run itself wrote: the shipped output; when the run
@@ -323,10 +390,10 @@ def evaluate_run(
     if min_hit_beams is not None:
         beams = _gt_hit_beams(run, gt, tolerance_ns)
         hidden = []
-        for k, (ids, pos) in enumerate(truth):
-            low = np.array([beams[k].get(int(i), 0) < min_hit_beams for i in ids], dtype=bool)
-            hidden.append(pos[low])
-            truth[k] = (ids[~low], pos[~low])
+        for k, (tids, tpos) in enumerate(truth):
+            low = np.array([beams[k].get(int(i), 0) < min_hit_beams for i in tids], dtype=bool)
+            hidden.append(tpos[low])
+            truth[k] = (tids[~low], tpos[~low])
     spec = run.spec
     if in_grid:
         truth = [_in_grid(spec, i, p) for i, p in truth]
@@ -341,7 +408,7 @@ def evaluate_run(
     prob = np.clip(np.nan_to_num(ppl["mean_probability"].astype(float), nan=1.0), 0.0, 1.0)
     fsc = [g[:, 0].copy() for g in group_by_frame(ppl["frame"], np.column_stack((prob, prob)), n)]
     inputs["filter"] = (fpos, fsc)
-    if classify is not None:
+    if classify is not None and (sources is None or f"grid + {classifier_name}" in sources):
         spec = run.spec
         cpos: list[Positions] = []
         csc: list[NDArray[np.float64]] = []
@@ -362,9 +429,12 @@ def evaluate_run(
     if sources is not None:
         wanted = set(sources)
         inputs = {k: v for k, v in inputs.items() if k in wanted or k.removesuffix(" (raw)") in wanted}
-        if not inputs:
+        has_tracks = bool({"tracks", "tracks.csv"} & wanted) and (run.path / "tracks.csv").is_file()
+        if not inputs and not has_tracks:
             raise ValueError(f"sources {sorted(wanted)} name none of the run's sources")
-    if follow_id is None and len(gt):
+    if not followed:
+        follow_id = None
+    elif follow_id is None and len(gt):
         ids, counts = np.unique(gt.person_id, return_counts=True)
         follow_id = int(ids[np.argmax(counts)])
     bags = run.meta.get("provenance", {}).get("bag") or []
