@@ -43,7 +43,7 @@ from gridbridge.classifiers import PeakClassifier, classify_peaks
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
-from pfpeople.mot import MultiPersonTracker, TrackerConfig
+from pfpeople.mot import MultiPersonTracker, TrackerConfig, tracker_inputs
 from pfpeople.output import RunData
 from pfpeople.sensors import Pose2D
 
@@ -255,10 +255,11 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
     filt = build_filter(FilterConfig(), spec, log.models)
     people = build_classifier(ClassifierConfig())
     pt = TrackingConfig().peak_threshold
-    feed = people
+    low: PeakClassifier | None = None
+    high = 1.0
     tcfg = config
     if isinstance(people, PeakClassifier) and pt is not None and pt < people.threshold:
-        feed = replace(people, threshold=pt)
+        low, high = replace(people, threshold=pt), people.threshold
         tcfg = replace(config, birth_min_score=max(config.birth_min_score, people.threshold))
     tracker = MultiPersonTracker(tcfg)
     hyp: HypFrames = []
@@ -266,8 +267,12 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         dets = [np.zeros((0, 2)) if d is None else d for d in log.detections[k]]
         out = filt.step(dets, log.odometry[k], dts[k])
         belief = np.asarray(out.posterior, dtype=float)
-        found = feed.classify(belief, spec, observed=np.asarray(out.covered).any(axis=0))
-        tr = tracker.update(found.positions, dts[k], scores=found.scores, ego=egos[k], belief=belief, spec=spec)
+        observed = np.asarray(out.covered).any(axis=0)
+        found = people.classify(belief, spec, observed=observed)
+        tpos, tsc = found.positions, found.scores
+        if low is not None:
+            tpos, tsc = tracker_inputs(found, belief, spec, low=low, high=high, observed=observed)
+        tr = tracker.update(tpos, dts[k], scores=tsc, ego=egos[k], belief=belief, spec=spec)
         hyp.append((np.array([t.id for t in tr], dtype=np.int64), np.array([[t.x, t.y] for t in tr]).reshape(-1, 2)))
     score("recommended (tracker)", hyp)
     for i, m in enumerate(log.models):

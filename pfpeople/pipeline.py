@@ -70,7 +70,7 @@ from pfpeople.bag.reader import (
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer, TfLookupError
 from pfpeople.filters import build_classifier, grid_for_scan
-from pfpeople.mot import track_rows
+from pfpeople.mot import track_rows, tracker_inputs
 from pfpeople.output import RunWriter, deferred_signals, interrupt_signals
 from pfpeople.sensors import Pose2D
 
@@ -744,14 +744,17 @@ class Pipeline:
                     ego = laser_ego
                 if restarted:
                     self.tracker.reset()
-                tin = (
-                    found
-                    if self._track_classifier is None
-                    else self._track_classifier.classify(belief, self.spec, observed=observed)
-                )
-                self.tracker.update(
-                    tin.positions.reshape(-1, 2), dt, scores=tin.scores, ego=ego, belief=belief, spec=self.spec
-                )
+                tpos, tsc = people, found.scores
+                if self._track_classifier is not None:  # the people + weaker peaks (update, never start tracks)
+                    tpos, tsc = tracker_inputs(
+                        found,
+                        belief,
+                        self.spec,
+                        low=self._track_classifier,
+                        high=self.classifier.threshold,
+                        observed=observed,
+                    )
+                self.tracker.update(tpos, dt, scores=tsc, ego=ego, belief=belief, spec=self.spec)
                 tracks = self.tracker.confirmed()
             # people kept out of the clutter map next frame: the confirmed tracks (else the classified people), so
             # that a person standing still is not absorbed into the map. Trade-off measured on the benchmark:

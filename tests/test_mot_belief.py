@@ -133,3 +133,68 @@ def test_read_tracks_csv_and_drop_matched(tmp_path: Path) -> None:
     # hidden person at (1.1, 0): hypothesis 2 is don't care; one at (5, 0) matches nothing within 0.75 m
     kid, kpos = _drop_matched(ids, pos, np.array([[1.1, 0.0], [5.0, 0.0]]), 0.75)
     assert kid.tolist() == [1, 3] and kpos.tolist() == [[0.0, 0.0], [3.0, 0.0]]
+
+
+def test_prefer_confirmed_keeps_the_person_on_its_track() -> None:
+    """A confirmed track stands at (2, 0); a clutter point at (2.5, 0) starts a tentative track beside it; then one
+    detection at (2.3, 0): it is nearer the tentative track (0.2 m vs 0.3 m, and a lower assignment cost), so
+    without prefer_confirmed the clutter track takes it and the person's track misses; with it (the default) the
+    person's track keeps it."""
+    for prefer, person_hit in ((False, False), (True, True)):
+        tracker = MultiPersonTracker(TrackerConfig(prefer_confirmed=prefer))
+        for _ in range(20):
+            tracker.update(np.array([[2.0, 0.0]]), DT)
+        tracker.update(np.array([[2.0, 0.0], [2.5, 0.0]]), DT)
+        tracker.update(np.array([[2.3, 0.0]]), DT)
+        person, clutter = tracker.tracks
+        assert person.confirmed and not clutter.confirmed
+        assert (person.misses == 0) is person_hit and (clutter.misses == 0) is (not person_hit)
+    with pytest.raises(TypeError, match="prefer_confirmed"):
+        TrackerConfig(prefer_confirmed=1)  # type: ignore[arg-type]
+
+
+def test_tracker_inputs_people_plus_weaker_peaks() -> None:
+    """Blobs (on cell centres) of 0.9 at (3.15, 1.05), 0.6 at (6.15, -1.95) and 0.6 at (3.45, 1.05) (within 0.6 m of
+    the strong one: no peak of its own): the inputs are the person unchanged plus the one separate weak peak at
+    its belief; without a weak blob, the people alone."""
+    from gridbridge.classifiers import PeakClassifier
+    from pfpeople.mot import tracker_inputs
+
+    high = PeakClassifier(threshold=0.7)
+    low = PeakClassifier(threshold=0.5)
+    b = np.maximum(_blob(3.15, 1.05, 0.9), _blob(6.15, -1.95, 0.6))
+    b = np.maximum(b, _blob(3.45, 1.05, 0.6))
+    people = high.classify(b, SPEC)
+    pos, sc = tracker_inputs(people, b, SPEC, low=low, high=0.7)
+    assert len(people) == 1 and pos.shape == (2, 2)
+    assert np.array_equal(pos[0], people.positions[0]) and sc[0] == people.scores[0]
+    assert np.hypot(*(pos[1] - [6.15, -1.95])) < 1e-9 and sc[1] == pytest.approx(0.6, abs=1e-12)
+    only = _blob(3.15, 1.05, 0.9)
+    pos, sc = tracker_inputs(high.classify(only, SPEC), only, SPEC, low=low, high=0.7)
+    assert pos.shape == (1, 2) and np.array_equal(pos, high.classify(only, SPEC).positions)
+    with pytest.raises(ValueError, match="below"):
+        tracker_inputs(people, b, SPEC, low=high, high=0.7)
+
+
+def test_tracker_inputs_weak_peaks_equal_a_low_threshold_pass() -> None:
+    """On 30 random grids (8 blobs each, peaks uniform in [0.4, 0.95], random observed mask) the weak peaks equal the
+    peaks of PeakClassifier(threshold=0.5) with belief <= 0.7 (positions to 1e-9 m, scores exactly)."""
+    from gridbridge.classifiers import PeakClassifier
+    from pfpeople.mot import tracker_inputs
+
+    rng = np.random.default_rng(5)
+    high, low = PeakClassifier(threshold=0.7), PeakClassifier(threshold=0.5)
+    n_weak = 0
+    for _ in range(30):
+        b = np.full(SPEC.shape, 0.01)
+        for _ in range(8):
+            b = np.maximum(b, _blob(rng.uniform(0, 9), rng.uniform(-4.5, 4.5), rng.uniform(0.4, 0.95)))
+        obs = rng.random(SPEC.shape) > 0.1
+        people = high.classify(b, SPEC, observed=obs)
+        pos, sc = tracker_inputs(people, b, SPEC, low=low, high=0.7, observed=obs)
+        ref = low.classify(b, SPEC, observed=obs)
+        weak = ref.scores <= 0.7
+        assert np.array_equal(sc[len(people) :], ref.scores[weak])
+        np.testing.assert_allclose(pos[len(people) :], ref.positions[weak], atol=1e-9)
+        n_weak += int(weak.sum())
+    assert n_weak > 20  # the test exercises weak peaks
