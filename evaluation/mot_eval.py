@@ -17,7 +17,14 @@ Two harnesses, one tracker (:class:`pfpeople.mot.MultiPersonTracker`) and one sc
   that person. Ego-motion: ``frames.csv`` (``v_mps``, ``omega_radps``, ``dt_s``; frames without odometry
   count as standing).
 
-The tracker's hypotheses in a frame are its confirmed tracks after the update (coasting ones included).
+- **Replay log** (:func:`evaluate_log`, the MOT table of ``pfpeople-eval benchmark``): a scenario's log, the
+  recommended filter and the tracker fed exactly as ``pfpeople run`` feeds it (the people plus the weaker belief
+  peaks, :func:`pfpeople.mot.tracker_inputs`), against tracking-by-detection on each detector and all merged.
+
+Bag runs are also scored on the run's own ``tracks.csv`` (:func:`read_tracks_csv`: the shipped output), and,
+for a GT with a ``hit_beams`` column (the scan-level scenes), optionally on the people a laser can see only
+(``min_hit_beams``; the others are don't-care). The tracker's hypotheses in a frame are its confirmed tracks
+after the update (coasting ones included).
 """
 
 from __future__ import annotations

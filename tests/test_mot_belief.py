@@ -66,6 +66,7 @@ def test_belief_support_keeps_a_coasting_track_alive() -> None:
 def test_belief_below_support_and_report_belief() -> None:
     """Belief 0.2 < belief_support 0.3 gives no update (the track coasts); report_belief = 0.3 hides the coasting
     track at once, report_belief = 0.1 reports it up to report_coast_s."""
+
     def run(cfg: TrackerConfig) -> list[int]:
         tracker = MultiPersonTracker(cfg)
         n = []
@@ -102,7 +103,8 @@ def test_confirm_score_confirms_at_birth() -> None:
 
 
 @pytest.mark.parametrize(
-    ("field", "value"), [("belief_support", 0.0), ("belief_support", 1.5), ("report_belief", -0.1), ("confirm_score", 2)]
+    ("field", "value"),
+    [("belief_support", 0.0), ("belief_support", 1.5), ("report_belief", -0.1), ("confirm_score", 2)],
 )
 def test_belief_options_validated(field: str, value: float) -> None:
     with pytest.raises(ValueError, match=field):
