@@ -12,7 +12,9 @@ a second classifier pass (whose per-peak loops over every person would double th
 frame): a weaker local maximum is never suppressed by a person's peak (non-maximum suppression reaches less far
 than the local-maximum window, so a stronger peak that close would have made it no maximum), only by an equal
 weaker one (a plateau: the first in row-major order is kept); its position is the belief-weighted mean of the
-cells within ``centroid_radius`` of at least half the lower threshold, its score its belief, as there.
+cells within ``centroid_radius`` of at least half the lower threshold, its score its belief, as there. A weaker
+peak whose cell lies within half ``min_separation`` of a person is that person (a classifier with hysteresis,
+:class:`gridbridge.classifiers.HysteresisPeaks`, keeps people below its threshold) and is not added again.
 """
 
 from __future__ import annotations
@@ -49,7 +51,8 @@ def tracker_inputs(
     spec : GridSpec
     low : PeakClassifier
         The classifier with the lower threshold (``low.threshold < high``); its other settings should be the
-        people classifier's.
+        people classifier's (only its threshold, ``min_separation``, ``centroid_radius`` and ``only_observed``
+        are used: it is not run).
     high : float
         The people classifier's threshold.
     observed : array_like of bool, shape (nx, ny), optional
@@ -89,6 +92,11 @@ def tracker_inputs(
         if any((i - cl[m][0]) ** 2 + (j - cl[m][1]) ** 2 < sep2 for m in kept):
             continue
         kept.append(k)
+    if len(pos) and kept:  # a peak the people already hold (a classifier with hysteresis keeps people below high)
+        kc = cand[kept]
+        kx, ky = spec.cell_centre(kc[:, 0], kc[:, 1])
+        d2 = (kx[:, None] - pos[None, :, 0]) ** 2 + (ky[:, None] - pos[None, :, 1]) ** 2
+        kept = [k for k, near in zip(kept, (d2 < (0.5 * low.min_separation) ** 2).any(axis=1), strict=True) if not near]
     ci, cj = cand[kept, 0], cand[kept, 1]
     ii, jj = ci[:, None] + di[None, :], cj[:, None] + dj[None, :]  # (K, D) cells of each centroid disk
     ok = (ii >= 0) & (ii < spec.nx) & (jj >= 0) & (jj < spec.ny)
