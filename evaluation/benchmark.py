@@ -267,6 +267,53 @@ def scene_logs(
     raise ValueError(f"unknown scene {scene!r}; scenes: {', '.join(SCENES)}")
 
 
+def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, gate: float = 0.75) -> list[Any]:
+    """The multi-person tracking (CLEAR-MOT) rows of one scene, after :func:`scene_logs` ran it in ``work``.
+
+    Replay scenes: the recommended filter + tracker replayed as ``pfpeople run`` runs them, and the tracker on
+    each detector's raw detections and on all merged (tracking-by-detection), :func:`evaluation.mot_eval.
+    evaluate_log`. Bag scenes: the run's own ``tracks.csv`` (the shipped output) and the tracker on each
+    detector's detections and all merged (:func:`evaluation.mot_eval.evaluate_run`); the scan-level scenes
+    again scoring only people hit by >= 3 laser beams (``[hit_beams>=3]``: fully occluded people out).
+    ``person_following_outdoor_1`` annotates the followed person only: its figure is the followed-person line
+    (MOTA / precision there count passers-by as false). ``negative_2`` (nobody there) has no MOT rows.
+    Gate ``gate`` m (leg_tracker's 0.75).
+    """
+    from evaluation.gt_csv import read_gt_csv
+    from evaluation.mot_eval import evaluate_log, evaluate_run
+    from pfpeople.mot import TrackerConfig
+    from pfpeople.output import load_run
+
+    if scene in REPLAY_SCENES:
+        from evaluation.scenarios.scenario import Scenario
+
+        return evaluate_log(log_from_scenario(Scenario.from_name(scene, n_frames=frames)), gate=gate)
+    srcs = ["tracks", "laser-legs", "laser-boosted", "all detectors merged"]
+    if scene.startswith("scan:"):
+        name = scene.split(":", 1)[1]
+        run, gt = load_run(work / f"{name}_run"), read_gt_csv(work / name / f"{name}_gt.csv")
+        return [
+            row
+            for beams in (None, 3)
+            for row in evaluate_run(
+                run,
+                gt,
+                config=TrackerConfig(),
+                gate=gate,
+                sources=srcs,
+                classify=None,
+                min_hit_beams=beams,
+                followed=False,
+            )
+        ]
+    if scene == "person_following_outdoor_1":
+        gt = read_gt_csv(data / "leg_tracker" / "person_following_outdoor_1_gt.csv")
+        return evaluate_run(
+            load_run(work / "pf1_run"), gt, config=TrackerConfig(), gate=gate, sources=srcs, classify=None
+        )
+    return []
+
+
 def run_benchmark(
     scenes: Iterable[str] = SCENES,
     *,
@@ -275,8 +322,12 @@ def run_benchmark(
     frames: int | None = None,
     work: Path | None = None,
     progress: Callable[[str], None] | None = None,
+    mot: list[Any] | None = None,
 ) -> list[BenchRow]:
-    """Every scene x (each detector, each mode, the pipeline's own run). See the module docstring."""
+    """Every scene x (each detector, each mode, the pipeline's own run). See the module docstring.
+
+    ``mot``: when a list, the multi-person tracking rows of every scene (:func:`mot_rows`,
+    :class:`evaluation.mot_eval.MotRow`) are appended to it."""
     rows: list[BenchRow] = []
     with tempfile.TemporaryDirectory(prefix="pfpeople-bench-") as tmp:
         base = Path(work) if work is not None else Path(tmp)
@@ -294,6 +345,8 @@ def run_benchmark(
                     rows.append(mode_row(log, mode))
                 if prow is not None:
                     rows.append(prow)
+            if mot is not None:
+                mot.extend(mot_rows(scene, data=data, work=base, frames=frames))
     return rows
 
 

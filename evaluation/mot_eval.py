@@ -17,11 +17,19 @@ Two harnesses, one tracker (:class:`pfpeople.mot.MultiPersonTracker`) and one sc
   that person. Ego-motion: ``frames.csv`` (``v_mps``, ``omega_radps``, ``dt_s``; frames without odometry
   count as standing).
 
-The tracker's hypotheses in a frame are its confirmed tracks after the update (coasting ones included).
+- **Replay log** (:func:`evaluate_log`, the MOT table of ``pfpeople-eval benchmark``): a scenario's log, the
+  recommended filter and the tracker fed exactly as ``pfpeople run`` feeds it (the people plus the weaker belief
+  peaks, :func:`pfpeople.mot.tracker_inputs`), against tracking-by-detection on each detector and all merged.
+
+Bag runs are also scored on the run's own ``tracks.csv`` (:func:`read_tracks_csv`: the shipped output), and,
+for a GT with a ``hit_beams`` column (the scan-level scenes), optionally on the people a laser can see only
+(``min_hit_beams``; the others are don't-care). The tracker's hypotheses in a frame are its confirmed tracks
+after the update (coasting ones included).
 """
 
 from __future__ import annotations
 
+import csv
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -30,29 +38,33 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
 
 from evaluation.ab import FilterSpec
 from evaluation.gt_csv import GroundTruth
 from evaluation.mot_metrics import MotScores, clear_mot
+from evaluation.replay import ReplayLog
 from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
-from gridbridge.classifiers import classify_peaks
+from gridbridge.classifiers import PeakClassifier, classify_peaks
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
-from pfpeople.mot import MultiPersonTracker, TrackerConfig
+from pfpeople.mot import MultiPersonTracker, TrackerConfig, tracker_inputs
 from pfpeople.output import RunData
 
 __all__ = [
     "Classifier",
     "MotRow",
     "detector_config",
+    "evaluate_log",
     "evaluate_run",
     "evaluate_scenario",
     "format_rows",
     "merge_detections",
     "peak_classifier",
+    "read_tracks_csv",
     "run_tracker",
 ]
 
@@ -214,6 +226,73 @@ def evaluate_scenario(
     return rows
 
 
+def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | None = None) -> list[MotRow]:
+    """CLEAR-MOT of a replay log with person ids (:func:`evaluation.replay.log_from_scenario`): the recommended
+    filter and tracker as ``pfpeople run`` runs them, and tracking-by-detection on each detector and all merged.
+
+    Row ``"recommended (tracker)"``: the recommended grid filter (:func:`pfpeople.filters.build_filter` with the
+    default :class:`~pfpeople.bag.config.FilterConfig`), its peaks classifier, and the tracker fed as the pipeline
+    feeds it (:class:`~pfpeople.bag.config.TrackingConfig`: the peaks above ``peak_threshold`` update tracks,
+    those above the classifier's threshold start them; the belief grid passed along). Ego-motion: the log's
+    odometry controls. Detector rows as :func:`evaluate_scenario`. Truth and hypotheses inside the grid only.
+    ``config``: tracker parameters (default ``TrackerConfig()``, the pipeline's).
+    """
+    from pfpeople.bag.config import ClassifierConfig, FilterConfig, TrackingConfig
+    from pfpeople.filters import build_classifier, build_filter
+
+    if log.truth_ids is None:
+        raise ValueError(f"log {log.name!r} has no person ids (truth_ids): CLEAR-MOT needs them")
+    spec = log.spec
+    config = TrackerConfig() if config is None else config
+    n = len(log)
+    dts = [float(v) for v in log.dt]
+    egos: list[Pose2D | None] = []
+    for odo, dt in zip(log.odometry, dts, strict=True):
+        if odo is None:
+            egos.append(None)
+        else:
+            dx, dy, dth = velocity_displacement(odo.v, odo.omega, dt)
+            egos.append(Pose2D(x=float(dx), y=float(dy), yaw=float(dth)))
+    gt = [_in_grid(spec, log.truth_ids[k], log.truth[k]) for k in range(n)]
+    rows: list[MotRow] = []
+
+    def score(source: str, hyp: HypFrames) -> None:
+        rows.append(MotRow(log.name, source, clear_mot(gt, [_in_grid(spec, i, p) for i, p in hyp], gate=gate)))
+
+    filt = build_filter(FilterConfig(), spec, log.models)
+    people = build_classifier(ClassifierConfig())
+    pt = TrackingConfig().peak_threshold
+    low: PeakClassifier | None = None
+    high = 1.0
+    tcfg = config
+    if isinstance(people, PeakClassifier) and pt is not None and pt < people.threshold:
+        low, high = replace(people, threshold=pt), people.threshold
+        tcfg = replace(config, birth_min_score=max(config.birth_min_score, people.threshold))
+    tracker = MultiPersonTracker(tcfg)
+    hyp: HypFrames = []
+    for k in range(n):
+        dets = [np.zeros((0, 2)) if d is None else d for d in log.detections[k]]
+        out = filt.step(dets, log.odometry[k], dts[k])
+        belief = np.asarray(out.posterior, dtype=float)
+        observed = np.asarray(out.covered).any(axis=0)
+        found = people.classify(belief, spec, observed=observed)
+        tpos, tsc = found.positions, found.scores
+        if low is not None:
+            tpos, tsc = tracker_inputs(found, belief, spec, low=low, high=high, observed=observed)
+        tr = tracker.update(tpos, dts[k], scores=tsc, ego=egos[k], belief=belief, spec=spec)
+        hyp.append((np.array([t.id for t in tr], dtype=np.int64), np.array([[t.x, t.y] for t in tr]).reshape(-1, 2)))
+    score("recommended (tracker)", hyp)
+    for i, m in enumerate(log.models):
+        det: list[Positions] = []
+        for k in range(n):
+            d = log.detections[k][i]
+            det.append(np.zeros((0, 2)) if d is None else d)
+        score(f"{m.name} (raw)", run_tracker(det, dts, egos=egos, config=detector_config(config, m)))
+    merged = [merge_detections([d for d in log.detections[k] if d is not None]) for k in range(n)]
+    score("all detectors merged (raw)", run_tracker(merged, dts, egos=egos, config=config))
+    return rows
+
+
 def detector_config(config: TrackerConfig, model: DetectorModel) -> TrackerConfig:
     """The tracker configuration for one detector's raw detections: a detector whose model has a Gaussian
     position uncertainty (the camera) gets that uncertainty as measurement noise (RMS of its lateral and
@@ -273,6 +352,9 @@ def evaluate_run(
     sources: Sequence[str] | None = None,
     classify: Classifier | None = peak_classifier,
     classifier_name: str = "peaks",
+    in_grid: bool = True,
+    min_hit_beams: int | None = None,
+    followed: bool = True,
 ) -> list[MotRow]:
     """CLEAR-MOT of the tracker on a run's filter output and on each detector's detections.
 
@@ -295,6 +377,20 @@ def evaluate_run(
         Classifier of the stored belief grids (``grids.npy``); None: no such row.
     classifier_name : str
         Its label.
+    in_grid : bool
+        Score only ground truth and hypotheses inside the run's grid (the grid cannot show people outside it;
+        as :func:`evaluate_scenario`).
+    min_hit_beams : int, optional
+        Visibility filter for a GT CSV with a ``hit_beams`` column (the scan-level scenes): a person hit by
+        fewer laser beams in a frame is *don't care* there: removed from the truth, and a hypothesis matched
+        to it (one-to-one within ``gate``) is removed too (neither a hit nor a false positive). The sequence
+        name gets `` [hit_beams>=N]``. None: every annotated person counts.
+    followed : bool
+        Compute the followed-person figure (False: none, e.g. for a GT that annotates everybody).
+
+    Sources: ``"filter (people.csv)"`` (the run's people tracked here, births from any of them), ``"grid +
+    NAME"``, ``"tracks.csv (pipeline)"`` (the tracks the run itself wrote: the shipped output; when the run
+    has a ``tracks.csv``), ``"NAME (raw)"`` per detector and ``"all detectors merged (raw)"``.
 
     Returns
     -------
@@ -302,6 +398,17 @@ def evaluate_run(
         ``extra["followed"]`` holds ``{"id", "annotated_frames", "matched_fraction", "id_switches"}``.
     """
     truth = _gt_frames(run, gt, frame, tolerance_ns)
+    hidden: list[NDArray[np.float64]] | None = None
+    if min_hit_beams is not None:
+        beams = _gt_hit_beams(run, gt, tolerance_ns)
+        hidden = []
+        for k, (tids, tpos) in enumerate(truth):
+            low = np.array([beams[k].get(int(i), 0) < min_hit_beams for i in tids], dtype=bool)
+            hidden.append(tpos[low])
+            truth[k] = (tids[~low], tpos[~low])
+    spec = run.spec
+    if in_grid:
+        truth = [_in_grid(spec, i, p) for i, p in truth]
     dts, egos = _run_egos(run)
     n = run.n_frames
     if config is None:
@@ -313,7 +420,7 @@ def evaluate_run(
     prob = np.clip(np.nan_to_num(ppl["mean_probability"].astype(float), nan=1.0), 0.0, 1.0)
     fsc = [g[:, 0].copy() for g in group_by_frame(ppl["frame"], np.column_stack((prob, prob)), n)]
     inputs["filter"] = (fpos, fsc)
-    if classify is not None:
+    if classify is not None and (sources is None or f"grid + {classifier_name}" in sources):
         spec = run.spec
         cpos: list[Positions] = []
         csc: list[NDArray[np.float64]] = []
@@ -334,16 +441,31 @@ def evaluate_run(
     if sources is not None:
         wanted = set(sources)
         inputs = {k: v for k, v in inputs.items() if k in wanted or k.removesuffix(" (raw)") in wanted}
-        if not inputs:
+        has_tracks = bool({"tracks", "tracks.csv"} & wanted) and (run.path / "tracks.csv").is_file()
+        if not inputs and not has_tracks:
             raise ValueError(f"sources {sorted(wanted)} name none of the run's sources")
-    if follow_id is None and len(gt):
+    if not followed:
+        follow_id = None
+    elif follow_id is None and len(gt):
         ids, counts = np.unique(gt.person_id, return_counts=True)
         follow_id = int(ids[np.argmax(counts)])
     bags = run.meta.get("provenance", {}).get("bag") or []
     seq = Path(str(bags[0])).name.removesuffix(".zip").removesuffix(".bag") if bags else run.path.name
-    rows: list[MotRow] = []
+    if min_hit_beams is not None:
+        seq += f" [hit_beams>={min_hit_beams}]"
+    hyps: dict[str, HypFrames] = {}
+    shipped = run.path / "tracks.csv"
+    if shipped.is_file() and (sources is None or {"tracks", "tracks.csv"} & set(sources)):
+        hyps["tracks.csv (pipeline)"] = read_tracks_csv(shipped, n)
     for source, (pos, sc) in inputs.items():
-        hyp = run_tracker(pos, dts, scores=sc, egos=egos, config=config)
+        cfg = replace(config, birth_min_score=0.0) if source == "filter" else config
+        hyps[source] = run_tracker(pos, dts, scores=sc, egos=egos, config=cfg)
+    rows: list[MotRow] = []
+    for source, hyp in hyps.items():
+        if in_grid:
+            hyp = [_in_grid(spec, i, p) for i, p in hyp]
+        if hidden is not None:
+            hyp = [_drop_matched(i, p, hidden[k], gate) for k, (i, p) in enumerate(hyp)]
         scores = clear_mot(truth, hyp, gate=gate, sector=sector, max_range=max_range)
         extra: dict[str, Any] = {}
         if follow_id is not None:
@@ -357,6 +479,56 @@ def evaluate_run(
             }
         rows.append(MotRow(seq, f"{source} (people.csv)" if source == "filter" else source, scores, extra))
     return rows
+
+
+def read_tracks_csv(path: str | Path, n_frames: int) -> HypFrames:
+    """The confirmed tracks of a run's ``tracks.csv`` as per-frame ``(ids, positions)`` (``n_frames`` frames)."""
+    ids: list[list[int]] = [[] for _ in range(n_frames)]
+    pos: list[list[tuple[float, float]]] = [[] for _ in range(n_frames)]
+    with Path(path).open(newline="") as fh:
+        for line, row in enumerate(csv.DictReader(fh), start=2):
+            try:
+                f, tid, x, y = int(row["frame"]), int(row["id"]), float(row["x"]), float(row["y"])
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ValueError(f"{path}: line {line}: needs frame, id, x, y: {exc}") from None
+            if not 0 <= f < n_frames:
+                raise ValueError(f"{path}: line {line}: frame {f} outside the run's {n_frames} frames")
+            ids[f].append(tid)
+            pos[f].append((x, y))
+    return [
+        (np.array(i, dtype=np.int64), np.array(p, dtype=float).reshape(-1, 2)) for i, p in zip(ids, pos, strict=True)
+    ]
+
+
+def _gt_hit_beams(run: RunData, gt: GroundTruth, tolerance_ns: int) -> list[dict[int, int]]:
+    """Per run frame, ``{person id: hit_beams}`` from the GT CSV's ``hit_beams`` column (rows as ``gt``)."""
+    with gt.path.open(newline="", encoding="utf-8-sig") as fh:
+        reader = csv.DictReader(fh)
+        if reader.fieldnames is None or "hit_beams" not in [c.strip() for c in reader.fieldnames]:
+            raise ValueError(f"{gt.path}: min_hit_beams needs a hit_beams column")
+        beams = [int(r["hit_beams"]) for r in reader if any(v for v in r.values())]
+    if len(beams) != len(gt):
+        raise ValueError(f"{gt.path}: {len(beams)} hit_beams values for {len(gt)} ground-truth rows")
+    fr = run.frames
+    rows_frame, _ = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    out: list[dict[int, int]] = [{} for _ in range(run.n_frames)]
+    for f, pid, b in zip(rows_frame, gt.person_id, beams, strict=True):
+        if 0 <= f < run.n_frames:
+            out[int(f)][int(pid)] = b
+    return out
+
+
+def _drop_matched(
+    ids: NDArray[np.int64], pos: Positions, hidden: Positions, gate: float
+) -> tuple[NDArray[np.int64], Positions]:
+    """Hypotheses without those matched one-to-one (within ``gate``, least total distance) to ``hidden``."""
+    if len(hidden) == 0 or len(pos) == 0:
+        return ids, pos
+    d = np.linalg.norm(hidden[:, None, :] - pos[None, :, :], axis=2)
+    r, c = linear_sum_assignment(np.where(d <= gate, d, 1e6))
+    keep = np.ones(len(pos), dtype=bool)
+    keep[c[d[r, c] <= gate]] = False
+    return ids[keep], pos[keep]
 
 
 def _f(v: float, digits: int = 3) -> str:

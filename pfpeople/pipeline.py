@@ -50,7 +50,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.classifiers import classify_frame
+from gridbridge.classifiers import PeakClassifier, classify_frame
 from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
@@ -70,6 +70,7 @@ from pfpeople.bag.reader import BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer
 from pfpeople.filters import build_classifier
+from pfpeople.mot.inputs import tracker_inputs
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
@@ -190,6 +191,8 @@ class Pipeline:
         self.spec: GridSpec = config.grid if config.grid is not None else GridSpec()
         self.classifier: Any = None
         self.tracker: Any = None
+        #: The weak-peak classifier of [tracking] peak_threshold (None: the tracker gets only the people).
+        self._weak_peaks: PeakClassifier | None = None
         self.odometry: OdometryIntegrator | None = None
         self.clutter: ClutterStage | None = None
         self._warn = WarnOnce(log)
@@ -227,11 +230,20 @@ class Pipeline:
         self.clutter = ClutterStage(c, self.adapters, self.summary)
         self.odometry = self._odometry_factory(c, setup.base_to_grid, self.summary, self._warn)
         self.tracker = None
+        self._weak_peaks = None
         if c.tracking.enabled:
             from pfpeople.mot import MultiPersonTracker, TrackerConfig
 
             try:
-                self.tracker = MultiPersonTracker(TrackerConfig(**dict(c.tracking.params)))
+                params = dict(c.tracking.params)
+                # tracks start only from people (peaks above the classifier's threshold), not from weak peaks
+                high = getattr(self.classifier, "threshold", None)
+                if c.tracking.peak_threshold is not None and high is not None:
+                    params.setdefault("birth_min_score", float(high))
+                    base = getattr(self.classifier, "peaks", self.classifier)  # HysteresisPeaks holds a PeakClassifier
+                    if isinstance(base, PeakClassifier) and c.tracking.peak_threshold < high:
+                        self._weak_peaks = replace(base, threshold=c.tracking.peak_threshold)
+                self.tracker = MultiPersonTracker(TrackerConfig(**params))
             except TypeError as exc:
                 raise ValueError(f"[tracking.params]: {exc}") from None
         return setup.tf
@@ -302,7 +314,17 @@ class Pipeline:
         if self.tracker is not None:
             if motion.restarted:
                 self.tracker.reset()
-            self.tracker.update(people, motion.dt, scores=people_found.scores, ego=motion.motion)
+            tpos, tsc = people, people_found.scores
+            if self._weak_peaks is not None:  # [tracking] peak_threshold: the weaker peaks update tracks too
+                tpos, tsc = tracker_inputs(
+                    people_found,
+                    belief,
+                    self.spec,
+                    low=self._weak_peaks,
+                    high=self.classifier.threshold,
+                    observed=np.asarray(step.covered).any(axis=0),
+                )
+            self.tracker.update(tpos, motion.dt, scores=tsc, ego=motion.motion)
             tracks = self.tracker.confirmed()
         # with [clutter] keep_out = "tracks": the confirmed tracks (else the classified people) are kept out of the
         # clutter map next frame (see pfpeople.bag.config.ClutterSuppression.keep_out for the trade-off)

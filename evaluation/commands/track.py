@@ -22,6 +22,7 @@ from evaluation.ab import FilterSpec, particles_label
 from evaluation.gt_csv import read_gt_csv
 from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows, peak_classifier
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
+from pfpeople.bag.config import TrackingConfig
 from pfpeople.filters import PEAK_THRESHOLD
 from pfpeople.jsonio import dumps
 from pfpeople.mot import TrackerConfig
@@ -49,7 +50,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--particles", type=int, nargs="*", default=[5_000], help="particle-filter rows (default 5000; none: no PF)"
     )
-    p.add_argument("--no-grid", action="store_true", help="no grid-filter row")
+    p.add_argument("--no-grid", action="store_true", help="no grid-filter rows")
+    p.add_argument("--no-paper", action="store_true", help="no paper grid-filter row (the recommended grid only)")
     p.add_argument("--pf-seed", type=int, default=0, help="seed of the particle filters (default 0)")
     p.add_argument("--run", type=Path, help="run directory written by 'pfpeople run'")
     p.add_argument("--gt", type=Path, help="ground-truth CSV with person ids (with --run)")
@@ -61,6 +63,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--max-coast", type=float, help="tracker: longest coasting before deletion (s; default 5)")
     p.add_argument(
         "--report-coast", type=float, help="tracker: longest coasting still reported (s; default 1; <0: always)"
+    )
+    p.add_argument(
+        "--peak-threshold",
+        type=float,
+        default=TrackingConfig().peak_threshold,
+        help="scenarios: the tracker is fed the belief peaks above this; tracks start only from peaks above the "
+        f"classifier's {PEAK_THRESHOLD} (default: [tracking] peak_threshold, {TrackingConfig().peak_threshold})",
     )
     p.add_argument("--json", type=Path, help="also write the rows to this JSON file")
     p.set_defaults(func=run)
@@ -81,8 +90,11 @@ def run(args: argparse.Namespace) -> int:
         tracker_opts["max_coast_s"] = args.max_coast
     if args.report_coast is not None:
         tracker_opts["report_coast_s"] = None if args.report_coast < 0 else args.report_coast
+    peak_threshold = PEAK_THRESHOLD if args.peak_threshold is None else args.peak_threshold
+    if not 0 <= peak_threshold <= PEAK_THRESHOLD:
+        raise ValueError(f"--peak-threshold must be in [0, {PEAK_THRESHOLD}], got {peak_threshold}")
     rows: list[MotRow] = []
-    filters = [] if args.no_grid else [FilterSpec(name="grid (paper)", form="paper")]
+    filters = [] if args.no_grid or args.no_paper else [FilterSpec(name="grid (paper)", form="paper")]
     if not args.no_grid:
         filters.append(FilterSpec(name="recommended grid", mode="recommended"))
     filters += [FilterSpec(name=particles_label(n), kind="particle", n_particles=n) for n in args.particles]
@@ -91,11 +103,13 @@ def run(args: argparse.Namespace) -> int:
         if args.seed is not None:
             overrides["seed"] = args.seed
         scenario = Scenario.from_name(name, **overrides)
-        config = TrackerConfig(region=scenario.spec.extent, **tracker_opts)
+        # as the pipeline feeds its tracker (TrackingConfig): the peaks above peak_threshold update tracks, the
+        # people (peaks above the classifier's PEAK_THRESHOLD) start them; raw detections (no scores) start them
+        config = TrackerConfig(region=scenario.spec.extent, **{"birth_min_score": PEAK_THRESHOLD, **tracker_opts})
         rows += evaluate_scenario(
             scenario,
             filters=filters,
-            classify=functools.partial(peak_classifier, threshold=PEAK_THRESHOLD),
+            classify=functools.partial(peak_classifier, threshold=peak_threshold),
             config=config,
             gate=args.gate,
             seed=args.pf_seed,

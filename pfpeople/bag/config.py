@@ -40,6 +40,8 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
 
     [tracking]
     enabled = true              # tracks.csv and tracks in the result bag
+    peak_threshold = 0.5        # with the peaks classifier: the tracker gets the peaks above this and starts
+                                #   tracks only from the classifier's people (above its threshold)
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
@@ -335,16 +337,27 @@ class TrackingConfig:
     ----------
     enabled : bool
         Track (default True).
+    peak_threshold : float or None
+        With the peaks classifier and a threshold below the classifier's: the tracker is fed the belief peaks
+        above this (they update tracks through a dip of the belief) and starts tracks only from the peaks above
+        the classifier's threshold (``birth_min_score``, unless ``params`` sets it). None: the tracker gets the
+        classifier's people. Default 0.5 (MOT ablation: see :class:`pfpeople.mot.TrackerConfig`).
     params : mapping
         :class:`pfpeople.mot.TrackerConfig` fields overriding its defaults.
     """
 
     enabled: bool = True
+    peak_threshold: float | None = 0.5
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.enabled, bool):
             raise ValueError(f"TrackingConfig.enabled must be true or false, got {self.enabled!r}")
+        pt = self.peak_threshold
+        if pt is not None and (
+            isinstance(pt, bool) or not isinstance(pt, int | float) or not (math.isfinite(pt) and 0 <= pt < 1)
+        ):
+            raise ValueError(f"TrackingConfig.peak_threshold must be a number in [0, 1) or absent, got {pt!r}")
         if not isinstance(self.params, Mapping):
             raise ValueError("TrackingConfig.params must be a table")
 
@@ -462,7 +475,11 @@ class BagConfig:
             "mounts": {k: list(v) for k, v in self.mounts.items()},
             "filter": {f.name: getattr(self.filter, f.name) for f in fields(FilterConfig)},
             "classifier": {f.name: getattr(self.classifier, f.name) for f in fields(ClassifierConfig)},
-            "tracking": {"enabled": self.tracking.enabled, "params": dict(self.tracking.params)},
+            "tracking": {
+                "enabled": self.tracking.enabled,
+                "peak_threshold": self.tracking.peak_threshold,
+                "params": dict(self.tracking.params),
+            },
             "clutter": {
                 k: v
                 for k, v in {
@@ -550,7 +567,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     classifier = _table(data, "classifier")
     _only(classifier, {f.name for f in fields(ClassifierConfig)}, "classifier")
     tracking = _table(data, "tracking")
-    _only(tracking, {"enabled", "params"}, "tracking")
+    _only(tracking, {"enabled", "peak_threshold", "params"}, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "keep_out", "params"}, "clutter")
     dets = data.get("detectors", [])

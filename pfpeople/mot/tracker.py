@@ -20,17 +20,27 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
 3. **Gating and assignment.** Innovation ``y = z - H s``, ``S = H P H^T + R``, ``R = sigma_z^2 I``; a pair
    (track, measurement) is allowed when the Mahalanobis distance ``d^2 = y^T S^-1 y <= gate_mahalanobis``
    and the Euclidean distance ``|y| <= gate_distance``. The cost of an allowed pair is the negative
-   log-likelihood ``d^2 + ln det S`` (a precise track near a detection wins over a vague one); the optimal
-   one-to-one assignment is :func:`scipy.optimize.linear_sum_assignment` over allowed pairs only.
+   log-likelihood ``d^2 + ln det S`` (a precise track near a detection wins over a vague one), plus a
+   constant for a tentative track with ``prefer_confirmed`` (confirmed tracks take precedence: a clutter
+   track born beside a person does not take over its detections); the optimal one-to-one assignment is
+   :func:`scipy.optimize.linear_sum_assignment` over allowed pairs only.
 4. **Update** of assigned tracks (Kalman update, ``P = (I - K H) P`` symmetrised); unassigned tracks coast
    (keep their prediction); every unassigned measurement with ``score >= birth_min_score`` starts a
    tentative track at its position with zero velocity and covariance ``diag(sz^2, sz^2, sv^2, sv^2)``.
+
+   4b. **Belief** (optional, a fused belief grid given to ``update``): for a confirmed track left unassigned,
+   ``b`` = the largest belief within ``belief_radius`` of its prediction (none when a position of this frame
+   lies that close: the belief there is that position's). With ``belief_support`` and ``b >=
+   belief_support`` the belief-weighted centre of those cells of belief ``>= b / 2`` updates the track as a
+   measurement of confidence ``b`` (a hit); with ``report_belief`` a coasting track is reported only while
+   ``b >= report_belief``.
 5. **Existence score** ``r`` in [0, 1] (a confidence, not a calibrated probability): a hit with
    measurement confidence ``c`` (1 when ``scores`` is None) gives ``r <- r + hit_gain c (1 - r)``; a frame
    without a hit gives ``r <- r exp(-dt / score_tau)``. A new track starts at ``r = hit_gain c``.
 6. **Confirmation and deletion.** A tentative track is confirmed when it has ``confirm_hits`` hits within
    its first ``confirm_window`` frames (M of N); it is deleted when that has become impossible or after
-   ``tentative_max_misses`` consecutive misses. A confirmed track is deleted after coasting longer than
+   ``tentative_max_misses`` consecutive misses (with ``confirm_score``, a measurement of that confidence or
+   more confirms it at once). A confirmed track is deleted after coasting longer than
    ``max_coast_s`` seconds without a hit, or when its score falls below ``delete_score``, or (with
    ``region``) when its position leaves the region by more than ``region_margin``. The output (the confirmed
    tracks) leaves out tracks coasting longer than ``report_coast_s``: they stay alive to keep their id.
@@ -52,6 +62,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
+from gridbridge.grid import GridSpec
 from pfpeople.sensors import Pose2D
 
 __all__ = ["TRACK_COLUMNS", "MultiPersonTracker", "Track", "TrackerConfig", "track_rows"]
@@ -60,6 +71,9 @@ __all__ = ["TRACK_COLUMNS", "MultiPersonTracker", "Track", "TrackerConfig", "tra
 TRACK_COLUMNS = ("frame", "stamp_ns", "id", "x", "y", "vx", "vy", "cov_xx", "cov_xy", "cov_yy", "score")
 
 _INFEASIBLE = 1e9
+#: Added to the cost of a tentative track's pairs with ``prefer_confirmed`` (above any allowed pair's cost:
+#: ``d^2 <= gate_mahalanobis``, ``|ln det S|`` a few units).
+_TENTATIVE = 1e3
 
 
 def _finite_positive(value: Any, name: str, *, allow_zero: bool = False) -> float:
@@ -90,8 +104,8 @@ class TrackerConfig:
     Parameters
     ----------
     process_noise : float
-        ``q``, spectral density of the white-noise acceleration (m^2/s^3). 1.0: a walker's velocity can change
-        by ~1 m/s within a second.
+        ``q``, spectral density of the white-noise acceleration (m^2/s^3). 0.3: a walker's velocity changes by
+        ~0.5 m/s (one sigma) within a second (see Notes for the choice).
     measurement_sigma : float
         ``sigma_z``, standard deviation of a measured position per axis (m).
     initial_velocity_sigma : float
@@ -124,6 +138,25 @@ class TrackerConfig:
         Confirmed tracks coasting longer than this (s) stay alive (and keep their id when seen again) but are
         not reported by :meth:`MultiPersonTracker.confirmed` / ``update`` (SORT's rule); None reports every
         confirmed track up to its deletion.
+    belief_support : float or None
+        With a belief grid given to ``update``: a confirmed track that no position was assigned to takes the
+        belief-weighted centre of the cells within ``belief_radius`` of its prediction (cells of at least half
+        the largest) as a measurement when that largest belief is ``>= belief_support``, with that belief as
+        its confidence (step 4b). None (default): the belief is not used for this.
+    belief_radius : float
+        Radius (m) around a track's predicted position searched in the belief grid (``belief_support``,
+        ``report_belief``).
+    report_belief : float or None
+        With a belief grid given to ``update``: a coasting confirmed track is reported only while the largest
+        belief within ``belief_radius`` of its prediction is ``>= report_belief``. None (default): not used.
+    confirm_score : float or None
+        A tentative track is confirmed at once by a measurement of confidence ``>= confirm_score`` (its birth
+        included), besides the M-of-N rule. None (default): M of N only.
+    prefer_confirmed : bool
+        In the assignment a confirmed track has precedence over a tentative one: the cost of a tentative
+        track's pairs is raised by a constant larger than any allowed pair's cost, so a measurement that a
+        confirmed track can take goes to a tentative one only when the optimum needs it to (step 3). Default
+        True (MOT ablation: fewer identity switches on 5 of 7 scenes, none more).
 
     Notes
     -----
@@ -131,9 +164,16 @@ class TrackerConfig:
     ``person_following_outdoor_1`` run, the ``eth`` and ``complementary`` scenarios; 300 frames each):
     against 1.5 s / always reported it cut identity switches on the real run 4-6x (legs detector 17 -> 3) at
     equal or better MOTA on every sequence and source; q and the gate (0.75-1.0 m) changed little.
+
+    ``process_noise = 0.3`` (was 1.0) was chosen with the pipeline feeding the tracker the belief peaks above 0.5
+    and starting tracks only from peaks above the classifier's 0.7 (``[tracking] peak_threshold``), on the
+    seven scenes of the MOT ablation at once (``eth``, ``hotel``, ``zara01``, the scan-level ``wheelchair``,
+    ``corridor``, ``crowd`` and the real ``person_following_outdoor_1``); see ``evaluation.mot_eval``. The
+    belief options (``belief_support``, ``report_belief``) and ``confirm_score`` are off by default: in that
+    ablation each lowered MOTA on most scenes (they trade false tracks for misses).
     """
 
-    process_noise: float = 1.0
+    process_noise: float = 0.3
     measurement_sigma: float = 0.15
     initial_velocity_sigma: float = 1.0
     gate_mahalanobis: float = 9.21
@@ -149,6 +189,11 @@ class TrackerConfig:
     region: tuple[float, float, float, float] | None = None
     region_margin: float = 0.5
     report_coast_s: float | None = 1.0
+    belief_support: float | None = None
+    belief_radius: float = 0.45
+    report_belief: float | None = None
+    confirm_score: float | None = None
+    prefer_confirmed: bool = True
 
     def __post_init__(self) -> None:
         for name in (
@@ -167,6 +212,14 @@ class TrackerConfig:
         if self.report_coast_s is not None:
             rc = _finite_positive(self.report_coast_s, "report_coast_s", allow_zero=True)
             object.__setattr__(self, "report_coast_s", rc)
+        object.__setattr__(self, "belief_radius", _finite_positive(self.belief_radius, "belief_radius"))
+        for name in ("belief_support", "confirm_score", "report_belief"):
+            v = getattr(self, name)
+            if v is not None:
+                v = _finite_positive(v, name)
+                if v > 1:
+                    raise ValueError(f"TrackerConfig.{name} must be in (0, 1] or None, got {v!r}")
+                object.__setattr__(self, name, v)
         for name, lo_open, hi_open in (
             ("delete_score", False, True),
             ("hit_gain", True, False),
@@ -178,6 +231,8 @@ class TrackerConfig:
                 hi = "1)" if hi_open else "1]"
                 raise ValueError(f"TrackerConfig.{name} must be in {lo}, {hi}, got {v!r}")
             object.__setattr__(self, name, v)
+        if not isinstance(self.prefer_confirmed, bool):
+            raise TypeError(f"TrackerConfig.prefer_confirmed must be a bool, got {self.prefer_confirmed!r}")
         object.__setattr__(self, "confirm_hits", _count(self.confirm_hits, "confirm_hits"))
         object.__setattr__(self, "confirm_window", _count(self.confirm_window, "confirm_window"))
         object.__setattr__(self, "tentative_max_misses", _count(self.tentative_max_misses, "tentative_max_misses"))
@@ -255,6 +310,7 @@ class _State:
     age: int = 1
     confirmed: bool = False
     coast_s: float = 0.0
+    support: float = 1.0
 
 
 def _check_positions(positions: ArrayLike) -> NDArray[np.float64]:
@@ -344,9 +400,16 @@ class MultiPersonTracker:
         Coasting tracks are included, up to ``config.report_coast_s`` of coasting when that is set.
         """
         rc = self.config.report_coast_s
-        if rc is None:
-            return self._snapshots([i for i, m in enumerate(self._meta) if m.confirmed])
-        return self._snapshots([i for i, m in enumerate(self._meta) if m.confirmed and m.coast_s <= rc + 1e-9])
+        rb = self.config.report_belief
+        rc = math.inf if rc is None else rc + 1e-9
+        rb = -1.0 if rb is None else rb
+        return self._snapshots(
+            [
+                i
+                for i, m in enumerate(self._meta)
+                if m.confirmed and (m.misses == 0 or (m.coast_s <= rc and m.support >= rb))
+            ]
+        )
 
     def _snapshots(self, idx: list[int]) -> list[Track]:
         if not idx:
@@ -385,6 +448,8 @@ class MultiPersonTracker:
         *,
         scores: ArrayLike | None = None,
         ego: Pose2D | None = None,
+        belief: ArrayLike | None = None,
+        spec: GridSpec | None = None,
     ) -> list[Track]:
         """Advance the tracks by one frame.
 
@@ -399,6 +464,12 @@ class MultiPersonTracker:
             Confidence of each position in [0, 1] (e.g. the belief at a grid peak); None counts each as 1.
         ego : Pose2D, optional
             Pose of the current sensor frame in the previous one (m, m, rad); None: the sensor stood still.
+        belief : array_like, shape (nx, ny), optional
+            The fused belief grid of this frame (probability of a person per cell, current sensor frame), used
+            with ``config.belief_support`` to update confirmed tracks that no position was assigned to (step
+            4b of the module docstring). Ignored when ``config.belief_support`` is None.
+        spec : GridSpec, optional
+            Geometry of ``belief`` (required with it).
 
         Returns
         -------
@@ -411,11 +482,16 @@ class MultiPersonTracker:
             ``positions`` not (M, 2) or not finite; ``scores`` of the wrong shape or outside [0, 1];
             ``dt`` not finite and positive; ``ego`` not finite.
         TypeError
-            ``ego`` not a Pose2D, ``dt`` not a number.
+            ``ego`` not a Pose2D, ``dt`` not a number, ``spec`` not a GridSpec.
         """
         z = _check_positions(positions)
         c = _check_scores(scores, z.shape[0])
         dt = _check_dt(dt)
+        grid = None
+        if belief is not None and (self.config.belief_support is not None or self.config.report_belief is not None):
+            if not isinstance(spec, GridSpec):
+                raise TypeError(f"spec must be the GridSpec of belief, got {type(spec).__name__}")
+            grid = spec.check_grid(belief, "belief")
         if ego is not None:
             if not isinstance(ego, Pose2D):
                 raise TypeError(f"ego must be a pfpeople.sensors.Pose2D or None, got {type(ego).__name__}")
@@ -431,15 +507,24 @@ class MultiPersonTracker:
         n_old = len(self._meta)
         meas_of = np.full(n_old, -1, dtype=np.intp)
         meas_of[rows] = cols
+        conf = np.zeros(n_old)
+        conf[rows] = c[cols]
+        if grid is not None and spec is not None:
+            g_rows, g_pos, g_conf = self._belief_measurements(grid, spec, z, meas_of)
+            if g_rows.size and cfg.belief_support is not None:
+                self._correct(g_rows, np.arange(g_rows.size, dtype=np.intp), g_pos)
+                meas_of[g_rows] = n_old  # any value >= 0: a hit
+                conf[g_rows] = g_conf
         decay = math.exp(-dt / cfg.score_tau)
         for i, m in enumerate(self._meta):
             m.age += 1
-            j = meas_of[i]
-            if j >= 0:
+            if meas_of[i] >= 0:
                 m.hits += 1
                 m.misses = 0
                 m.coast_s = 0.0
-                m.score += cfg.hit_gain * float(c[j]) * (1.0 - m.score)
+                m.score += cfg.hit_gain * float(conf[i]) * (1.0 - m.score)
+                if not m.confirmed and cfg.confirm_score is not None and conf[i] >= cfg.confirm_score:
+                    m.confirmed = True
             else:
                 m.misses += 1
                 m.coast_s += dt
@@ -493,7 +578,10 @@ class MultiPersonTracker:
         allowed = (d2 <= cfg.gate_mahalanobis) & (dist2 <= cfg.gate_distance**2)
         if not allowed.any():
             return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-        cost = np.where(allowed, d2 + np.log(det), _INFEASIBLE)
+        cost = d2 + np.log(det)
+        if cfg.prefer_confirmed:
+            cost = cost + np.array([0.0 if m.confirmed else _TENTATIVE for m in self._meta])[:, None]
+        cost = np.where(allowed, cost, _INFEASIBLE)
         # Only rows/columns with an allowed pair take part (smaller problem, same optimum).
         r_idx = np.flatnonzero(allowed.any(axis=1))
         c_idx = np.flatnonzero(allowed.any(axis=0))
@@ -501,6 +589,60 @@ class MultiPersonTracker:
         rr, cc = linear_sum_assignment(sub)
         ok = allowed[r_idx[rr], c_idx[cc]]
         return r_idx[rr[ok]].astype(np.intp), c_idx[cc[ok]].astype(np.intp)
+
+    def _belief_measurements(
+        self, grid: NDArray[np.float64], spec: GridSpec, z: NDArray[np.float64], meas_of: NDArray[np.intp]
+    ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+        """Positions read from the belief grid for confirmed tracks without an assigned position (step 4b).
+
+        Returns the track rows, their measured positions ``(K, 2)`` and confidences ``(K,)``.
+        """
+        cfg = self.config
+        thr = 2.0 if cfg.belief_support is None else cfg.belief_support
+        rad = cfg.belief_radius
+        for i, m in enumerate(self._meta):
+            m.support = 1.0 if meas_of[i] >= 0 else 0.0
+        cand = [i for i, m in enumerate(self._meta) if m.confirmed and meas_of[i] < 0]
+        if not cand:
+            return np.zeros(0, dtype=np.intp), np.zeros((0, 2)), np.zeros(0)
+        res = spec.resolution
+        h = math.ceil(rad / res)
+        out_rows: list[int] = []
+        out_pos: list[tuple[float, float]] = []
+        out_conf: list[float] = []
+        for i in cand:
+            px, py = float(self._s[i, 0]), float(self._s[i, 1])
+            # a position of this frame near the track: the association kept it from this track (gated, or given to
+            # another one); the belief around it is that position's, not evidence for this track
+            if z.shape[0] and float(np.min((z[:, 0] - px) ** 2 + (z[:, 1] - py) ** 2)) <= rad * rad:
+                continue
+            ci = math.floor((px - spec.x0) / res)
+            cj = math.floor((py - spec.y0) / res)
+            i0, i1 = max(ci - h, 0), min(ci + h + 1, spec.nx)
+            j0, j1 = max(cj - h, 0), min(cj + h + 1, spec.ny)
+            if i0 >= i1 or j0 >= j1:
+                continue
+            win = grid[i0:i1, j0:j1]
+            xs = spec.x0 + (np.arange(i0, i1) + 0.5) * res
+            ys = spec.y0 + (np.arange(j0, j1) + 0.5) * res
+            near = (xs[:, None] - px) ** 2 + (ys[None, :] - py) ** 2 <= rad * rad
+            if not near.any():
+                continue
+            w = np.where(near, win, 0.0)
+            peak = float(w.max())
+            self._meta[i].support = peak
+            if peak < thr:
+                continue
+            w = np.where(w >= 0.5 * peak, w, 0.0)
+            tot = float(w.sum())
+            out_rows.append(i)
+            out_pos.append((float((w.sum(axis=1) @ xs) / tot), float((w.sum(axis=0) @ ys) / tot)))
+            out_conf.append(peak)
+        return (
+            np.array(out_rows, dtype=np.intp),
+            np.array(out_pos, dtype=float).reshape(-1, 2),
+            np.array(out_conf, dtype=float),
+        )
 
     def _correct(self, rows: NDArray[np.intp], cols: NDArray[np.intp], z: NDArray[np.float64]) -> None:
         if rows.size == 0:
@@ -553,12 +695,12 @@ class MultiPersonTracker:
         p0 = np.diag([cfg.measurement_sigma**2] * 2 + [cfg.initial_velocity_sigma**2] * 2)
         self._s = np.concatenate([self._s, s0])
         self._p = np.concatenate([self._p, np.broadcast_to(p0, (new.size, 4, 4))])
+        cs = cfg.confirm_score
         for j in new:
-            self._meta.append(_State(id=self._next_id, score=cfg.hit_gain * float(c[j])))
+            st = _State(id=self._next_id, score=cfg.hit_gain * float(c[j]))
+            st.confirmed = cfg.confirm_hits <= 1 or (cs is not None and float(c[j]) >= cs)
+            self._meta.append(st)
             self._next_id += 1
-        if cfg.confirm_hits <= 1:
-            for m in self._meta[-new.size :]:
-                m.confirmed = True
 
 
 def track_rows(frame: int, stamp_ns: int, tracks: Sequence[Track]) -> list[tuple[Any, ...]]:
