@@ -337,3 +337,17 @@ def test_clutter_keep_out_setting_is_read_checked_and_decides_what_the_stage_rem
         stage = ClutterStage(cfg, [], RunSummary())
         stage.remember(people)
         assert stage.last_people.shape[0] == remembered
+
+
+def test_suppressor_keeps_one_moving_set_per_detector_and_excludes_their_union() -> None:
+    """Array 0 sees a walker, array 1 a post: each array has its own set; the walker is moving and kept out of
+    the map, the post is not."""
+    sup = ClutterSuppressor(CFG)
+    pts = np.array([[5.0, 0.0], [5.0, 0.1]])
+    for k in range(30):
+        walker = np.array([[1.0 + 0.06 * k, -1.0]])
+        st = sup.step(pts, [walker, np.array([[3.0, 1.0]])], ego=Pose2D(), dt=DT)
+    assert len(sup._moving_sets) == 2
+    moving = sup._prev_moving
+    assert moving.shape == (1, 2) and np.allclose(moving, [[1.0 + 0.06 * 29, -1.0]])
+    assert st.excluded.shape == (1, 2)  # the walker of the previous scan
