@@ -258,6 +258,11 @@ class BuiltinAdapter:
         return Detections(pts, pts if self.self_mounted else self.mount.apply(pts), scan)
 
 
+#: The latest (message, LaserScan) read: the detectors of one laser get the same scan object, so they share its
+#: segmentation (:func:`pfpeople.detectors.segments.scan_segments`).
+_LATEST_SCAN: tuple[BagMessage, LaserScan] | None = None
+
+
 class LaserAdapter(BuiltinAdapter):
     """A detector on a ``sensor_msgs/LaserScan`` (positions in the laser's frame)."""
 
@@ -274,9 +279,14 @@ class LaserAdapter(BuiltinAdapter):
         MessageDataError
             If the message is not a usable LaserScan (:func:`pfpeople.bag.reader.laser_from_msg`).
         """
+        global _LATEST_SCAN
+        latest = _LATEST_SCAN
+        if latest is not None and latest[0] is msg:  # another detector of the same laser read this message
+            return latest[1]
         scan = laser_from_msg(msg.msg, stamp_ns=msg.stamp_ns, frame_id=msg.frame_id, topic=msg.topic)
         if scan.ranges.size == 0:
             raise EmptyInputError(msg.topic, msg.stamp_ns)
+        _LATEST_SCAN = (msg, scan)
         return scan
 
 

@@ -111,3 +111,19 @@ def test_model_and_params_validation() -> None:
         PairingParams(min_separation=0.7, max_separation=0.6)
     with pytest.raises(TypeError, match="model"):
         LegDetector(model="laser")  # type: ignore[arg-type]
+
+
+def test_scan_segments_are_shared_by_identity_and_params() -> None:
+    """The leg and boosted detectors of one laser share the segmentation of the same scan object."""
+    from pfpeople.detectors.segments import SegmentationParams, scan_segments, segment_features, segment_scan
+    from pfpeople.sensors import LaserScan
+
+    scan = LaserScan(ranges=np.full(90, 3.0), angle_min=-0.5, angle_increment=0.01)
+    segs, feats = scan_segments(scan)
+    again, again_feats = scan_segments(scan)
+    assert again is segs and again_feats is feats  # computed once
+    np.testing.assert_array_equal(feats, segment_features(segment_scan(scan)))
+    other = scan_segments(scan, params=SegmentationParams(jump_distance=0.5))[0]
+    assert other is not segs  # other parameters: computed again
+    copy = LaserScan(ranges=scan.ranges.copy(), angle_min=-0.5, angle_increment=0.01)
+    assert scan_segments(copy)[0] is not segs  # an equal but other scan object: computed again

@@ -43,7 +43,11 @@ from numpy.typing import NDArray
 
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_positive
-from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams, segment_features, segment_scan
+from pfpeople.detectors.segments import (
+    FEATURE_NAMES,
+    SegmentationParams,
+    scan_segments,
+)
 from pfpeople.sensors import LaserScan
 
 __all__ = ["LegDetector", "LegDetectorParams", "PairingParams", "pair_legs", "people_from_legs"]
@@ -224,8 +228,7 @@ class LegDetector:
         )
 
     def _legs(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        segs = segment_scan(scan, params=self.params.segmentation)
-        feats = segment_features(segs)
+        segs, feats = scan_segments(scan, params=self.params.segmentation)
         keep = self.leg_mask(feats)
         return segs.centroids[keep], feats[keep, _F["width"]]
 

@@ -55,7 +55,15 @@ from numpy.typing import NDArray
 from gridbridge.validation import check_positive
 from pfpeople.sensors import LaserScan
 
-__all__ = ["FEATURE_NAMES", "RADIUS_CAP", "SegmentationParams", "Segments", "segment_features", "segment_scan"]
+__all__ = [
+    "FEATURE_NAMES",
+    "RADIUS_CAP",
+    "SegmentationParams",
+    "Segments",
+    "scan_segments",
+    "segment_features",
+    "segment_scan",
+]
 
 #: Names of the columns of :func:`segment_features`, in order.
 FEATURE_NAMES: tuple[str, ...] = (
@@ -364,3 +372,24 @@ def segment_features(segments: Segments) -> NDArray[np.float64]:
         )
     )
     return out
+
+
+#: The latest (scan, params, segments, features): two detectors on one scan (legs, boosted) share them.
+_LATEST: tuple[LaserScan, SegmentationParams, Segments, NDArray[np.float64]] | None = None
+
+
+def scan_segments(scan: LaserScan, *, params: SegmentationParams | None = None) -> tuple[Segments, NDArray[np.float64]]:
+    """``segment_scan(scan, params)`` and its ``segment_features``, computed once per scan object and params.
+
+    The latest result is kept (by the scan's identity, so a scan must not be changed after it was passed):
+    the leg detector and the boosted detector of one laser segment the same scan with the same parameters.
+    """
+    global _LATEST
+    p = params if params is not None else SegmentationParams()
+    latest = _LATEST
+    if latest is not None and latest[0] is scan and latest[1] == p:
+        return latest[2], latest[3]
+    segs = segment_scan(scan, params=p)
+    feats = segment_features(segs)
+    _LATEST = (scan, p, segs, feats)
+    return segs, feats

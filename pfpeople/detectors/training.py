@@ -39,7 +39,11 @@ from numpy.typing import NDArray
 
 from gridbridge.validation import check_positive, check_probability
 from pfpeople.detectors._bags import LabelledScan, load_labelled_scans, load_scans
-from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams, segment_features, segment_scan
+from pfpeople.detectors.segments import (
+    FEATURE_NAMES,
+    SegmentationParams,
+    scan_segments,
+)
 from pfpeople.sensors import LaserScan
 
 __all__ = [
@@ -139,8 +143,7 @@ def scan_features(
     scan: LaserScan, *, segmentation: SegmentationParams | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Segment a scan: ``(features (S, F), centroids (S, 2), widths (S,))``."""
-    segs = segment_scan(scan, params=segmentation)
-    feats = segment_features(segs)
+    segs, feats = scan_segments(scan, params=segmentation)
     return feats, segs.centroids, feats[:, FEATURE_NAMES.index("width")]
 
 
