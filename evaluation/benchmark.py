@@ -33,9 +33,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evaluation.metrics import DetectionAccumulator
-from evaluation.replay import ReplayLog, log_from_run, log_from_scenario
+from evaluation.replay import ReplayLog, log_from_run, log_from_scenario, step_and_classify
 from gridbridge.classifiers import BlobClassifier, Classifier, ThresholdClassifier, classify_frame
-from gridbridge.ego_motion import odometry_pose
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
 from pfpeople.bag.config import BagConfig, ClassifierConfig, DetectorConfig, FilterConfig
@@ -158,14 +157,7 @@ def mode_row(log: ReplayLog, mode: Mode, *, gate: float = 0.5) -> BenchRow:
     people, masks, times = [], [], []
     for k in range(len(log)):
         t0 = time.perf_counter()
-        out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
-        found = classify_frame(
-            classifier,
-            out.posterior,
-            log.spec,
-            observed=np.asarray(out.covered).any(axis=0),
-            ego=odometry_pose(log.odometry[k], float(log.dt[k])),
-        )
+        _, found = step_and_classify(filt, classifier, log, k)
         times.append(time.perf_counter() - t0)
         people.append(found.positions)
         masks.append(found.mask)

@@ -27,12 +27,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evaluation.metrics import DetectionAccumulator
-from gridbridge.classifiers import Classifier, classify_frame
+from gridbridge.classifiers import Classifier, People, classify_frame
 from gridbridge.ego_motion import Odometry, odometry_pose
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 
-__all__ = ["ReplayLog", "ReplayResult", "log_from_run", "log_from_scenario", "replay", "score_log"]
+__all__ = [
+    "ReplayLog",
+    "ReplayResult",
+    "log_from_run",
+    "log_from_scenario",
+    "replay",
+    "score_log",
+    "step_and_classify",
+]
 
 FilterFactory = Callable[[GridSpec, Sequence[DetectorModel]], Any]
 
@@ -169,6 +177,20 @@ class ReplayResult:
     beliefs: list[NDArray[np.float64]] = field(default_factory=list)
 
 
+def step_and_classify(filt: Any, classifier: Any, log: ReplayLog, k: int) -> tuple[Any, People]:
+    """Frame ``k`` of ``log``: one filter step and the classification of its posterior (a stateful classifier
+    also gets the grid's motion, from the frame's odometry); returns ``(step record, people)``."""
+    out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
+    found = classify_frame(
+        classifier,
+        out.posterior,
+        log.spec,
+        observed=np.asarray(out.covered).any(axis=0),
+        ego=odometry_pose(log.odometry[k], float(log.dt[k])),
+    )
+    return out, found
+
+
 def replay(
     log: ReplayLog,
     make_filter: FilterFactory,
@@ -187,14 +209,7 @@ def replay(
     people, scores, beliefs, times = [], [], [], []
     for k in range(len(log)):
         t0 = time.perf_counter()
-        out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
-        found = classify_frame(
-            classifier,
-            out.posterior,
-            log.spec,
-            observed=np.asarray(out.covered).any(axis=0),
-            ego=odometry_pose(log.odometry[k], float(log.dt[k])),
-        )
+        out, found = step_and_classify(filt, classifier, log, k)
         pos, sc = found.positions, found.scores
         if post is not None:
             pos, sc = post(k, pos, sc)
