@@ -2,8 +2,10 @@
 
 Each laser topic with a detector has its own static-clutter map (:mod:`pfpeople.clutter`), kept in the laser's
 frame: the grid-frame ego-motion ``E`` (from odometry) becomes ``T^-1 E T`` with ``T`` the laser's mount in
-the grid frame, and the people kept out of the map (the previous frame's confirmed tracks, or else its
-classified people, grid frame at the previous frame) are moved into the current laser frame by ``T^-1 E^-1``.
+the grid frame. Each map keeps the people its detectors saw moving out of itself
+(:class:`pfpeople.clutter.MovingPeople`); with ``[clutter] keep_out = "tracks"`` the previous frame's confirmed
+tracks (or else its classified people, grid frame at the previous frame) are kept out too, moved into the
+current laser frame by ``T^-1 E^-1``.
 A detection the map calls static is suppressed: the filter does not see it (it is still written, with
 ``static = 1``, and counted in ``suppressed``). Without odometry, the driving laser's scan-matched motion is
 returned in the grid frame (``T E_laser T^-1``) for laser odometry (:mod:`pfpeople.odometry`).
