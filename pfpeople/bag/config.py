@@ -37,6 +37,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     kind = "peaks"              # "peaks" (recommended mode's default), "blobs" (paper's), "threshold"
     threshold = 0.7             # default 0.7 for peaks, 0.5 for threshold
     min_separation = 0.6        # m
+    keep = 0.5                  # peaks: a person of the previous frame continues above this (hysteresis)
 
     [tracking]
     enabled = true              # tracks.csv and tracks in the result bag
