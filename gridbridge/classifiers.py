@@ -285,6 +285,9 @@ class HysteresisPeaks:
         )
         self.previous = np.zeros((0, 2))
         """People of the latest frame (m, its grid frame), shape (K, 2)."""
+        self.rejected: People | None = None
+        """The latest frame's peaks above ``keep`` that were not people (no previous person near them): the
+        weaker peaks, already separated from the people by ``min_separation`` (e.g. for a tracker)."""
 
     def reset(self) -> None:
         """Forget the previous frame's people."""
@@ -316,6 +319,9 @@ class HysteresisPeaks:
             mask.ravel()[cells[ok[np.argmin(d, axis=1)]]] = True
         found = People(positions=cand.positions[ok], scores=cand.scores[ok], sizes=cand.sizes[ok], mask=mask)
         self.previous = found.positions.copy()
+        self.rejected = People(
+            positions=cand.positions[~ok], scores=cand.scores[~ok], sizes=cand.sizes[~ok], mask=np.zeros_like(mask)
+        )
         return found
 
 

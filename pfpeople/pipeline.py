@@ -306,23 +306,24 @@ class Pipeline:
         belief = np.asarray(step.posterior, dtype=float)
         if motion.restarted and hasattr(self.classifier, "reset"):
             self.classifier.reset()
-        people_found = classify_frame(
-            self.classifier, belief, self.spec, observed=np.asarray(step.covered).any(axis=0), ego=motion.motion
-        )
+        observed = np.asarray(step.covered).any(axis=0)
+        people_found = classify_frame(self.classifier, belief, self.spec, observed=observed, ego=motion.motion)
         people = people_found.positions.reshape(-1, 2)
         tracks = None
         if self.tracker is not None:
             if motion.restarted:
                 self.tracker.reset()
             tpos, tsc = people, people_found.scores
-            if self._weak_peaks is not None:  # [tracking] peak_threshold: the weaker peaks update tracks too
+            weak = self._weak_peaks
+            rejected = getattr(self.classifier, "rejected", None)
+            if weak is not None and rejected is not None and weak.threshold >= self.classifier.keep:
+                # the hysteresis classifier already found the weaker peaks (its candidates it did not accept)
+                sel = rejected.scores > weak.threshold
+                tpos = np.concatenate((people, rejected.positions[sel]))
+                tsc = np.concatenate((people_found.scores, rejected.scores[sel]))
+            elif weak is not None:  # [tracking] peak_threshold: the weaker peaks update tracks too
                 tpos, tsc = tracker_inputs(
-                    people_found,
-                    belief,
-                    self.spec,
-                    low=self._weak_peaks,
-                    high=self.classifier.threshold,
-                    observed=np.asarray(step.covered).any(axis=0),
+                    people_found, belief, self.spec, low=weak, high=self.classifier.threshold, observed=observed
                 )
             self.tracker.update(tpos, motion.dt, scores=tsc, ego=motion.motion)
             tracks = self.tracker.confirmed()

@@ -39,6 +39,8 @@ def test_a_person_continues_above_keep_and_a_new_peak_needs_start() -> None:
     assert second.scores.tolist() == [0.6]
     i, j = SPEC.to_cell(6.0, 2.0)
     assert not second.mask[int(i), int(j)]  # the rejected peak's cells are not people (FPCPF)
+    assert h.rejected is not None and np.allclose(h.rejected.positions, [centre(6.0, 2.0)])  # kept for a tracker
+    assert h.rejected.scores.tolist() == [0.6]
     # at or below keep the person ends; a plain peak classifier at 0.7 would have lost it one frame earlier
     assert h.classify(belief_with((3.3, 0.0, 0.5)), SPEC).positions.shape == (0, 2)
     assert PeakClassifier(threshold=0.7).classify(belief_with((3.3, 0.0, 0.6)), SPEC).positions.shape == (0, 2)
