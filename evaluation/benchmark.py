@@ -34,11 +34,11 @@ from numpy.typing import NDArray
 
 from evaluation.metrics import DetectionAccumulator
 from evaluation.replay import ReplayLog, log_from_run, log_from_scenario, step_and_classify
-from gridbridge.classifiers import BlobClassifier, Classifier, ThresholdClassifier, classify_frame
+from gridbridge.classifiers import BlobClassifier, Classifier, ThresholdClassifier, classify_frame, people_cells
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
-from pfpeople.bag.config import BagConfig, ClassifierConfig, DetectorConfig, FilterConfig
-from pfpeople.filters import build_classifier, build_filter
+from pfpeople.bag.config import BagConfig, ClassifierConfig, DetectorConfig, FilterConfig, TrackingConfig
+from pfpeople.filters import build_classifier, build_filter, build_people_tracker
 
 __all__ = ["MODES", "SCENES", "BenchRow", "Mode", "format_rows", "run_benchmark"]
 
@@ -62,6 +62,9 @@ class Mode:
     name: str
     filter: FilterConfig
     classifier: Classifier
+    #: The run's [tracking] (people confirmed by the tracker, :mod:`pfpeople.mot.people`) as ``pfpeople run``
+    #: applies it in this filter mode; None: the classifier's people.
+    tracking: TrackingConfig | None = None
 
     def build(self, spec: GridSpec, models: Sequence[DetectorModel]) -> Any:
         if self.filter.mode == "paper":
@@ -75,8 +78,10 @@ RECOMMENDED = FilterConfig()
 MODES: tuple[Mode, ...] = (
     Mode("paper grid + blobs", FilterConfig(mode="paper"), BlobClassifier()),
     Mode("paper grid + threshold", FilterConfig(mode="paper"), ThresholdClassifier(threshold=0.5)),
-    Mode("recommended grid", RECOMMENDED, build_classifier(ClassifierConfig())),
-    Mode("recommended particles", FilterConfig(kind="particle"), build_classifier(ClassifierConfig())),
+    Mode("recommended grid", RECOMMENDED, build_classifier(ClassifierConfig()), TrackingConfig()),
+    Mode(
+        "recommended particles", FilterConfig(kind="particle"), build_classifier(ClassifierConfig()), TrackingConfig()
+    ),
 )
 
 
@@ -154,10 +159,11 @@ def mode_row(log: ReplayLog, mode: Mode, *, gate: float = 0.5) -> BenchRow:
         log = _SEEN.get(id(log), log)
     filt = mode.build(log.spec, log.models)
     classifier = copy.deepcopy(mode.classifier)  # a stateful one (hysteresis) starts afresh on every log
+    tracker = None if mode.tracking is None else build_people_tracker(mode.tracking, classifier, mode.filter.mode)
     people, masks, times = [], [], []
     for k in range(len(log)):
         t0 = time.perf_counter()
-        _, found = step_and_classify(filt, classifier, log, k)
+        _, found = step_and_classify(filt, classifier, log, k, tracker=tracker)
         times.append(time.perf_counter() - t0)
         people.append(found.positions)
         masks.append(found.mask)
@@ -196,13 +202,26 @@ def _pipeline_log(
     for f, pts in per.items():
         people[f] = np.asarray(pts, dtype=float)
     # the cells classified as people (FPCPF): the run's classifier over its grids in order (with hysteresis, the
-    # grid's motion between frames is not in the run directory: taken as none)
+    # grid's motion between frames is not in the run directory: taken as none), of the peaks the run reported
     classifier = build_classifier(config.classifier, config.filter.mode)
-    masks = [classify_frame(classifier, np.asarray(g), log.spec).mask for g in run.grids]
+    masks = [_reported_cells(classifier, np.asarray(g), log.spec, people[k]) for k, g in enumerate(run.grids)]
     row = BenchRow(name, "recommended (pipeline)", n, **_score(log, people, masks, gate=0.5))
     row.ms_per_frame = 1e3 * summary.elapsed_s / max(summary.frames, 1)
     row.note = f"{summary.fps:.0f} fps incl. detectors"
     return log, row
+
+
+def _reported_cells(
+    classifier: Any, grid: NDArray[np.float64], spec: GridSpec, reported: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """Cells of the classifier's people of ``grid`` that are reported (within 0.3 m of a reported person)."""
+    found = classify_frame(classifier, grid, spec)
+    if not len(found.positions):
+        return found.mask
+    if not len(reported):
+        return np.zeros(spec.shape, dtype=bool)
+    d = np.hypot(found.positions[:, None, 0] - reported[None, :, 0], found.positions[:, None, 1] - reported[None, :, 1])
+    return people_cells(found.mask, spec, found.positions, d.min(axis=1) <= 0.3)
 
 
 def _laser_config(topic: str, **changes: Any) -> BagConfig:

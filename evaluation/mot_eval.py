@@ -46,12 +46,12 @@ from evaluation.mot_metrics import MotScores, clear_mot
 from evaluation.replay import ReplayLog
 from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
-from gridbridge.classifiers import PeakClassifier, classify_peaks
+from gridbridge.classifiers import classify_frame, classify_peaks
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
-from pfpeople.mot import MultiPersonTracker, TrackerConfig, tracker_inputs
+from pfpeople.mot import MultiPersonTracker, PeopleTracker, TrackerConfig
 from pfpeople.output import RunData
 
 __all__ = [
@@ -260,26 +260,22 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         rows.append(MotRow(log.name, source, clear_mot(gt, [_in_grid(spec, i, p) for i, p in hyp], gate=gate)))
 
     filt = build_filter(FilterConfig(), spec, log.models)
-    people = build_classifier(ClassifierConfig())
-    pt = TrackingConfig().peak_threshold
-    low: PeakClassifier | None = None
-    high = 1.0
+    classifier = build_classifier(ClassifierConfig())
+    tracking = TrackingConfig()
     tcfg = config
-    if isinstance(people, PeakClassifier) and pt is not None and pt < people.threshold:
-        low, high = replace(people, threshold=pt), people.threshold
-        tcfg = replace(config, birth_min_score=max(config.birth_min_score, people.threshold))
-    tracker = MultiPersonTracker(tcfg)
+    if tracking.peak_threshold is not None:  # tracks start only from people, as the pipeline's
+        tcfg = replace(
+            config, birth_min_score=max(config.birth_min_score, float(getattr(classifier, "threshold", 0.0)))
+        )
+    tracker = PeopleTracker(classifier, config=tcfg, peak_threshold=tracking.peak_threshold, people="classified")
     hyp: HypFrames = []
     for k in range(n):
         dets = [np.zeros((0, 2)) if d is None else d for d in log.detections[k]]
         out = filt.step(dets, log.odometry[k], dts[k])
         belief = np.asarray(out.posterior, dtype=float)
         observed = np.asarray(out.covered).any(axis=0)
-        found = people.classify(belief, spec, observed=observed)
-        tpos, tsc = found.positions, found.scores
-        if low is not None:
-            tpos, tsc = tracker_inputs(found, belief, spec, low=low, high=high, observed=observed)
-        tr = tracker.update(tpos, dts[k], scores=tsc, ego=egos[k], belief=belief, spec=spec)
+        found = classify_frame(classifier, belief, spec, observed=observed, ego=egos[k])
+        tr = tracker.step(found, belief, spec, dts[k], observed=observed, ego=egos[k]).tracks
         hyp.append((np.array([t.id for t in tr], dtype=np.int64), np.array([[t.x, t.y] for t in tr]).reshape(-1, 2)))
     score("recommended (tracker)", hyp)
     for i, m in enumerate(log.models):

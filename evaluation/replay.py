@@ -177,17 +177,19 @@ class ReplayResult:
     beliefs: list[NDArray[np.float64]] = field(default_factory=list)
 
 
-def step_and_classify(filt: Any, classifier: Any, log: ReplayLog, k: int) -> tuple[Any, People]:
+def step_and_classify(filt: Any, classifier: Any, log: ReplayLog, k: int, *, tracker: Any = None) -> tuple[Any, People]:
     """Frame ``k`` of ``log``: one filter step and the classification of its posterior (a stateful classifier
-    also gets the grid's motion, from the frame's odometry); returns ``(step record, people)``."""
-    out = filt.step(log.detections[k], log.odometry[k], float(log.dt[k]))
-    found = classify_frame(
-        classifier,
-        out.posterior,
-        log.spec,
-        observed=np.asarray(out.covered).any(axis=0),
-        ego=odometry_pose(log.odometry[k], float(log.dt[k])),
-    )
+    also gets the grid's motion, from the frame's odometry); returns ``(step record, people)``.
+
+    ``tracker``: a :class:`pfpeople.mot.people.PeopleTracker` built on ``classifier`` (as the pipeline's
+    ``[tracking]``, :func:`pfpeople.filters.build_people_tracker`); the people are then the ones it reports."""
+    dt = float(log.dt[k])
+    out = filt.step(log.detections[k], log.odometry[k], dt)
+    observed = np.asarray(out.covered).any(axis=0)
+    ego = odometry_pose(log.odometry[k], dt)
+    found = classify_frame(classifier, out.posterior, log.spec, observed=observed, ego=ego)
+    if tracker is not None:
+        found = tracker.step(found, out.posterior, log.spec, dt, observed=observed, ego=ego).people
     return out, found
 
 

@@ -40,6 +40,7 @@ __all__ = [
     "ThresholdClassifier",
     "classify_frame",
     "classify_peaks",
+    "people_cells",
 ]
 
 
@@ -307,22 +308,45 @@ class HysteresisPeaks:
         if prev.shape[0] and cand.positions.shape[0] and self.keep < self.threshold:
             d = np.hypot(cand.positions[:, None, 0] - prev[None, :, 0], cand.positions[:, None, 1] - prev[None, :, 1])
             ok |= d.min(axis=1) <= self.gate
-        mask = cand.mask
-        if not ok.all():  # each classified cell belongs to its nearest peak; a rejected peak's cells are not people
-            gx, gy = spec.cell_centres()
-            cells = np.flatnonzero(mask)
-            d = np.hypot(
-                gx.ravel()[cells, None] - cand.positions[None, :, 0],
-                gy.ravel()[cells, None] - cand.positions[None, :, 1],
-            )
-            mask = np.zeros(spec.shape, dtype=bool)
-            mask.ravel()[cells[ok[np.argmin(d, axis=1)]]] = True
+        mask = cand.mask if ok.all() else people_cells(cand.mask, spec, cand.positions, ok)
         found = People(positions=cand.positions[ok], scores=cand.scores[ok], sizes=cand.sizes[ok], mask=mask)
         self.previous = found.positions.copy()
         self.rejected = People(
             positions=cand.positions[~ok], scores=cand.scores[~ok], sizes=cand.sizes[~ok], mask=np.zeros_like(mask)
         )
         return found
+
+
+def people_cells(mask: ArrayLike, spec: GridSpec, positions: ArrayLike, keep: ArrayLike) -> NDArray[np.bool_]:
+    """The cells of ``mask`` that belong to the kept people: each cell belongs to its nearest person.
+
+    Parameters
+    ----------
+    mask : array_like of bool, shape (nx, ny)
+        Cells classified as people (of every person in ``positions``).
+    spec : GridSpec
+    positions : array_like, shape (K, 2)
+        The people (m, grid frame).
+    keep : array_like of bool, shape (K,)
+        Which people stay.
+
+    Returns
+    -------
+    ndarray of bool, shape (nx, ny)
+    """
+    mask = np.asarray(mask, dtype=bool)
+    pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+    keep = np.asarray(keep, dtype=bool).reshape(-1)
+    if keep.shape[0] != pos.shape[0]:
+        raise ValueError(f"keep has {keep.shape[0]} entries for {pos.shape[0]} people")
+    out = np.zeros(spec.shape, dtype=bool)
+    cells = np.flatnonzero(mask)
+    if not cells.size or not keep.any():
+        return out
+    gx, gy = spec.cell_centres()
+    d = np.hypot(gx.ravel()[cells, None] - pos[None, :, 0], gy.ravel()[cells, None] - pos[None, :, 1])
+    out.ravel()[cells[keep[np.argmin(d, axis=1)]]] = True
+    return out
 
 
 def classify_frame(

@@ -2,8 +2,10 @@
 
 :func:`build_filter` turns a :class:`pfpeople.bag.config.FilterConfig` into a filter composed of components
 (:mod:`gridbridge.components`, :mod:`gridbridge.likelihoods`), :func:`build_classifier` a
-:class:`~pfpeople.bag.config.ClassifierConfig` into a :class:`gridbridge.classifiers.Classifier`, and
-:func:`grid_for_scan` gives the default grid of a laser: the bounding box of its field of view.
+:class:`~pfpeople.bag.config.ClassifierConfig` into a :class:`gridbridge.classifiers.Classifier`,
+:func:`build_people_tracker` a :class:`~pfpeople.bag.config.TrackingConfig` into the tracker and the people it
+confirms (:class:`pfpeople.mot.people.PeopleTracker`), and :func:`grid_for_scan` gives the default grid of a
+laser: the bounding box of its field of view.
 
 Recommended mode (the product's default, chosen on ``pfpeople-eval benchmark`` across every scene; README
 "Recommended mode"): linear people prediction (integrated kernel), appearance probability in observed cells,
@@ -29,7 +31,7 @@ from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import IndependentLikelihood
 from gridbridge.params import DetectorModel, PeopleMotion
-from pfpeople.bag.config import ClassifierConfig, FilterConfig
+from pfpeople.bag.config import ClassifierConfig, FilterConfig, TrackingConfig
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +42,7 @@ __all__ = [
     "PEAK_THRESHOLD",
     "build_classifier",
     "build_filter",
+    "build_people_tracker",
     "grid_for_scan",
 ]
 
@@ -159,6 +162,43 @@ def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detec
         rng=np.random.default_rng(config.seed),
         motion_model=config.motion_model,  # type: ignore[arg-type]
         **kwargs,
+    )
+
+
+def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = "recommended") -> Any:
+    """The multi-person tracker of ``tracking`` on ``classifier``'s people (a
+    :class:`pfpeople.mot.people.PeopleTracker`), or None when tracking is off.
+
+    Tracks start only from the classifier's people (``birth_min_score`` = its threshold, unless
+    ``tracking.params`` sets it) when ``peak_threshold`` feeds the tracker weaker peaks. ``people`` defaults by
+    ``mode``: ``"confirmed"`` in the recommended mode, ``"classified"`` in the paper mode.
+
+    Raises
+    ------
+    ValueError
+        A ``[tracking.params]`` entry that is not a :class:`pfpeople.mot.TrackerConfig` field or is invalid.
+    """
+    if not tracking.enabled:
+        return None
+    from pfpeople.mot import TrackerConfig
+    from pfpeople.mot.people import PeopleTracker
+
+    params = dict(tracking.params)
+    high = getattr(classifier, "threshold", None)
+    if tracking.peak_threshold is not None and high is not None:
+        params.setdefault("birth_min_score", float(high))
+    try:
+        config = TrackerConfig(**params)
+    except TypeError as exc:
+        raise ValueError(f"[tracking.params]: {exc}") from None
+    base = getattr(classifier, "peaks", classifier)
+    return PeopleTracker(
+        classifier,
+        config=config,
+        peak_threshold=tracking.peak_threshold,
+        people=tracking.people or ("classified" if mode == "paper" else "confirmed"),
+        coast_frames=tracking.coast_frames,
+        min_separation=float(getattr(base, "min_separation", 0.6)),
     )
 
 

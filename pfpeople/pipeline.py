@@ -31,7 +31,8 @@ Per frame (driven by the config's ``driver`` topic, see :mod:`pfpeople.bag.sync`
 4. Static clutter (:mod:`pfpeople.suppression`): laser detections the static-clutter map calls static are kept
    from the filter.
 5. Filter step (``GridFilter`` or ``ParticleFilter``, same ``step`` signature), the classification of the belief,
-   the tracker, and one frame to every sink.
+   the tracker and the people it confirms (:mod:`pfpeople.mot.people`, ``[tracking] people``), and one frame to
+   every sink.
 
 The first frame uses ``dt = 0.1 s`` (:data:`FIRST_DT_S`); a gap between frames longer than :data:`MAX_GAP_S`
 restarts the filter, the clutter maps and the tracker (counted).
@@ -50,7 +51,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.classifiers import PeakClassifier, classify_frame
+from gridbridge.classifiers import classify_frame
 from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
@@ -69,8 +70,7 @@ from pfpeople.bag.config import BagConfig, FilterConfig
 from pfpeople.bag.reader import BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer
-from pfpeople.filters import build_classifier
-from pfpeople.mot.inputs import tracker_inputs
+from pfpeople.filters import build_classifier, build_people_tracker
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
@@ -190,9 +190,8 @@ class Pipeline:
         self.filter: StepFilter | None = None
         self.spec: GridSpec = config.grid if config.grid is not None else GridSpec()
         self.classifier: Any = None
+        #: The tracker and the people it confirms (pfpeople.mot.people.PeopleTracker; None: tracking off).
         self.tracker: Any = None
-        #: The weak-peak classifier of [tracking] peak_threshold (None: the tracker gets only the people).
-        self._weak_peaks: PeakClassifier | None = None
         self.odometry: OdometryIntegrator | None = None
         self.clutter: ClutterStage | None = None
         self._warn = WarnOnce(log)
@@ -229,23 +228,7 @@ class Pipeline:
         self.classifier = build_classifier(c.classifier, c.filter.mode)
         self.clutter = ClutterStage(c, self.adapters, self.summary)
         self.odometry = self._odometry_factory(c, setup.base_to_grid, self.summary, self._warn)
-        self.tracker = None
-        self._weak_peaks = None
-        if c.tracking.enabled:
-            from pfpeople.mot import MultiPersonTracker, TrackerConfig
-
-            try:
-                params = dict(c.tracking.params)
-                # tracks start only from people (peaks above the classifier's threshold), not from weak peaks
-                high = getattr(self.classifier, "threshold", None)
-                if c.tracking.peak_threshold is not None and high is not None:
-                    params.setdefault("birth_min_score", float(high))
-                    base = getattr(self.classifier, "peaks", self.classifier)  # HysteresisPeaks holds a PeakClassifier
-                    if isinstance(base, PeakClassifier) and c.tracking.peak_threshold < high:
-                        self._weak_peaks = replace(base, threshold=c.tracking.peak_threshold)
-                self.tracker = MultiPersonTracker(TrackerConfig(**params))
-            except TypeError as exc:
-                raise ValueError(f"[tracking.params]: {exc}") from None
+        self.tracker = build_people_tracker(c.tracking, self.classifier, c.filter.mode)
         return setup.tf
 
     # -- running ---------------------------------------------------------------------------------------------
@@ -308,25 +291,15 @@ class Pipeline:
             self.classifier.reset()
         observed = np.asarray(step.covered).any(axis=0)
         people_found = classify_frame(self.classifier, belief, self.spec, observed=observed, ego=motion.motion)
-        people = people_found.positions.reshape(-1, 2)
         tracks = None
         if self.tracker is not None:
             if motion.restarted:
                 self.tracker.reset()
-            tpos, tsc = people, people_found.scores
-            weak = self._weak_peaks
-            rejected = getattr(self.classifier, "rejected", None)
-            if weak is not None and rejected is not None and weak.threshold >= self.classifier.keep:
-                # the hysteresis classifier already found the weaker peaks (its candidates it did not accept)
-                sel = rejected.scores > weak.threshold
-                tpos = np.concatenate((people, rejected.positions[sel]))
-                tsc = np.concatenate((people_found.scores, rejected.scores[sel]))
-            elif weak is not None:  # [tracking] peak_threshold: the weaker peaks update tracks too
-                tpos, tsc = tracker_inputs(
-                    people_found, belief, self.spec, low=weak, high=self.classifier.threshold, observed=observed
-                )
-            self.tracker.update(tpos, motion.dt, scores=tsc, ego=motion.motion)
-            tracks = self.tracker.confirmed()
+            tracked = self.tracker.step(
+                people_found, belief, self.spec, motion.dt, observed=observed, ego=motion.motion
+            )
+            people_found, tracks = tracked.people, tracked.tracks
+        people = people_found.positions.reshape(-1, 2)
         # with [clutter] keep_out = "tracks": the confirmed tracks (else the classified people) are kept out of the
         # clutter map next frame (see pfpeople.bag.config.ClutterSuppression.keep_out for the trade-off)
         self.clutter.remember(np.array([[t.x, t.y] for t in tracks]).reshape(-1, 2) if tracks else people)

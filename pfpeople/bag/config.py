@@ -43,6 +43,10 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     enabled = true              # tracks.csv and tracks in the result bag
     peak_threshold = 0.5        # with the peaks classifier: the tracker gets the peaks above this and starts
                                 #   tracks only from the classifier's people (above its threshold)
+    people = "confirmed"        # people.csv: the classified people once a track confirms them, plus confirmed
+                                #   tracks through coast_frames misses ("classified": every classified person;
+                                #   default "confirmed" in the recommended mode, "classified" in the paper mode)
+    coast_frames = 1
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
@@ -343,12 +347,21 @@ class TrackingConfig:
         above this (they update tracks through a dip of the belief) and starts tracks only from the peaks above
         the classifier's threshold (``birth_min_score``, unless ``params`` sets it). None: the tracker gets the
         classifier's people. Default 0.5 (MOT ablation: see :class:`pfpeople.mot.TrackerConfig`).
+    people : {"confirmed", "classified"} or None
+        The people a run reports (``people.csv``, the result bag's people; see :mod:`pfpeople.mot.people`):
+        ``"confirmed"``, a classified person once a confirmed track has it, plus confirmed tracks through up to
+        ``coast_frames`` missed frames; ``"classified"``, every classified person. None: ``"confirmed"`` in the
+        recommended filter mode, ``"classified"`` in the paper mode (and whenever tracking is off).
+    coast_frames : int
+        See ``people`` (default 1).
     params : mapping
         :class:`pfpeople.mot.TrackerConfig` fields overriding its defaults.
     """
 
     enabled: bool = True
     peak_threshold: float | None = 0.5
+    people: str | None = None
+    coast_frames: int = 1
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -359,6 +372,11 @@ class TrackingConfig:
             isinstance(pt, bool) or not isinstance(pt, int | float) or not (math.isfinite(pt) and 0 <= pt < 1)
         ):
             raise ValueError(f"TrackingConfig.peak_threshold must be a number in [0, 1) or absent, got {pt!r}")
+        if self.people is not None and self.people not in ("confirmed", "classified"):
+            raise ValueError(f'TrackingConfig.people must be "confirmed" or "classified", got {self.people!r}')
+        cf = self.coast_frames
+        if isinstance(cf, bool) or not isinstance(cf, int) or cf < 0:
+            raise ValueError(f"TrackingConfig.coast_frames must be an integer >= 0, got {cf!r}")
         if not isinstance(self.params, Mapping):
             raise ValueError("TrackingConfig.params must be a table")
 
@@ -479,6 +497,8 @@ class BagConfig:
             "tracking": {
                 "enabled": self.tracking.enabled,
                 "peak_threshold": self.tracking.peak_threshold,
+                "people": self.tracking.people,
+                "coast_frames": self.tracking.coast_frames,
                 "params": dict(self.tracking.params),
             },
             "clutter": {
@@ -568,7 +588,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     classifier = _table(data, "classifier")
     _only(classifier, {f.name for f in fields(ClassifierConfig)}, "classifier")
     tracking = _table(data, "tracking")
-    _only(tracking, {"enabled", "peak_threshold", "params"}, "tracking")
+    _only(tracking, {"enabled", "peak_threshold", "people", "coast_frames", "params"}, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "keep_out", "params"}, "clutter")
     dets = data.get("detectors", [])

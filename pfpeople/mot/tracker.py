@@ -274,6 +274,9 @@ class Track:
         Frames since birth (1 in the birth frame).
     confirmed : bool
         Whether the track has passed the M-of-N confirmation.
+    measurement : int
+        Index (into this update's ``positions``) of the position assigned to the track in this frame, its
+        birth's included; -1 when none was (a coasting track, or one updated from the belief, step 4b).
     """
 
     id: int
@@ -287,6 +290,7 @@ class Track:
     misses: int
     age: int
     confirmed: bool
+    measurement: int = -1
 
     @property
     def position(self) -> NDArray[np.float64]:
@@ -311,6 +315,7 @@ class _State:
     confirmed: bool = False
     coast_s: float = 0.0
     support: float = 1.0
+    measurement: int = -1
 
 
 def _check_positions(positions: ArrayLike) -> NDArray[np.float64]:
@@ -436,6 +441,7 @@ class MultiPersonTracker:
                 misses=m.misses,
                 age=m.age,
                 confirmed=m.confirmed,
+                measurement=m.measurement,
             )
             out.append(t)
         return out
@@ -507,6 +513,7 @@ class MultiPersonTracker:
         n_old = len(self._meta)
         meas_of = np.full(n_old, -1, dtype=np.intp)
         meas_of[rows] = cols
+        assigned = meas_of.copy()  # before step 4b's belief hits
         conf = np.zeros(n_old)
         conf[rows] = c[cols]
         if grid is not None and spec is not None:
@@ -518,6 +525,7 @@ class MultiPersonTracker:
         decay = math.exp(-dt / cfg.score_tau)
         for i, m in enumerate(self._meta):
             m.age += 1
+            m.measurement = int(assigned[i])
             if meas_of[i] >= 0:
                 m.hits += 1
                 m.misses = 0
@@ -697,7 +705,7 @@ class MultiPersonTracker:
         self._p = np.concatenate([self._p, np.broadcast_to(p0, (new.size, 4, 4))])
         cs = cfg.confirm_score
         for j in new:
-            st = _State(id=self._next_id, score=cfg.hit_gain * float(c[j]))
+            st = _State(id=self._next_id, score=cfg.hit_gain * float(c[j]), measurement=int(j))
             st.confirmed = cfg.confirm_hits <= 1 or (cs is not None and float(c[j]) >= cs)
             self._meta.append(st)
             self._next_id += 1

@@ -1,0 +1,178 @@
+"""The people a run reports: classified people confirmed by the tracker, and coasting tracks (pfpeople.mot.people)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gridbridge.classifiers import HysteresisPeaks, PeakClassifier, People, people_cells
+from gridbridge.grid import GridSpec
+from pfpeople.bag.config import TrackingConfig, config_from_mapping
+from pfpeople.filters import build_people_tracker
+from pfpeople.mot import MultiPersonTracker, PeopleTracker, TrackerConfig
+
+SPEC = GridSpec(nx=40, ny=40, resolution=0.25, x0=0.0, y0=-5.0)
+DT = 0.1
+
+
+def people_at(*points: tuple[float, float], score: float = 0.9) -> People:
+    """People at ``points``, each with the cells within 0.3 m of it (as a classifier would give)."""
+    pos = np.array(points, dtype=float).reshape(-1, 2)
+    gx, gy = SPEC.cell_centres()
+    mask = np.zeros(SPEC.shape, dtype=bool)
+    sizes = []
+    for x, y in pos:
+        cells = np.hypot(gx - x, gy - y) <= 0.3
+        mask |= cells
+        sizes.append(int(cells.sum()))
+    return People(positions=pos, scores=np.full(len(pos), score), sizes=np.array(sizes, np.int64), mask=mask)
+
+
+def belief() -> np.ndarray:
+    return np.full(SPEC.shape, 0.01)
+
+
+def make(**kw: object) -> PeopleTracker:
+    return PeopleTracker(PeakClassifier(threshold=0.7), **kw)  # type: ignore[arg-type]
+
+
+def test_track_measurement_is_the_index_of_its_position() -> None:
+    t = MultiPersonTracker(TrackerConfig(confirm_hits=1))
+    out = t.update(np.array([[1.0, 0.0], [3.0, 1.0]]), DT)
+    assert [tr.measurement for tr in out] == [0, 1]  # births
+    out = t.update(np.array([[3.0, 1.0], [1.0, 0.0]]), DT)
+    assert {tr.id: tr.measurement for tr in out} == {1: 1, 2: 0}
+    t.update(np.array([[3.0, 1.0]]), DT)
+    assert {tr.id: tr.measurement for tr in t.tracks} == {1: -1, 2: 0}  # track 1 coasts
+
+
+def test_a_person_is_reported_once_its_track_is_confirmed() -> None:
+    pt = make(config=TrackerConfig(confirm_hits=3, confirm_window=5))
+    counts = [len(pt.step(people_at((2.0, 0.0)), belief(), SPEC, DT).people) for _ in range(4)]
+    assert counts == [0, 0, 1, 1]
+    # its cells are in the mask only once it is reported
+    pt2 = make()
+    first = pt2.step(people_at((2.0, 0.0)), belief(), SPEC, DT).people
+    assert not first.mask.any() and first.sizes.shape == (0,)
+
+
+def test_a_one_frame_false_person_is_never_reported() -> None:
+    pt = make()
+    reported = 0
+    for k in range(8):
+        pts = [(2.0, 0.0)] + ([(4.0, 2.0)] if k == 4 else [])
+        reported += sum(
+            np.hypot(*(p - np.array([4.0, 2.0]))) < 0.5
+            for p in pt.step(people_at(*pts), belief(), SPEC, DT).people.positions
+        )
+    assert reported == 0
+
+
+def test_a_confirmed_walker_coasts_one_missed_frame_at_its_prediction() -> None:
+    pt = make(coast_frames=1)
+    for k in range(10):
+        out = pt.step(people_at((1.0 + 0.1 * k, 0.0)), belief(), SPEC, DT)
+    assert len(out.people) == 1
+    miss = pt.step(people_at(), belief(), SPEC, DT)
+    assert miss.coasted == 1 and len(miss.people) == 1
+    # constant velocity: 1 m/s along x from x = 1.9, within 3 cm (the Kalman velocity after 10 frames)
+    np.testing.assert_allclose(miss.people.positions[0], [2.0, 0.0], atol=0.03)
+    assert miss.people.sizes[0] == 0 and miss.people.scores[0] == pytest.approx(0.01)
+    assert len(pt.step(people_at(), belief(), SPEC, DT).people) == 0  # second miss: not reported
+    assert len(pt.tracker.confirmed()) == 1  # but the track lives on (tracks.csv)
+
+
+def test_coast_frames_two_and_zero() -> None:
+    for frames, expected in ((2, [1, 1, 0]), (0, [0, 0, 0])):
+        pt = make(coast_frames=frames)
+        for k in range(6):
+            pt.step(people_at((2.0, 0.1 * k)), belief(), SPEC, DT)
+        assert [len(pt.step(people_at(), belief(), SPEC, DT).people) for _ in range(3)] == expected
+
+
+def test_coasting_only_in_observed_cells_and_apart_from_people() -> None:
+    pt = make()
+    for _ in range(5):
+        pt.step(people_at((2.0, 0.0)), belief(), SPEC, DT)
+    unobserved = np.ones(SPEC.shape, dtype=bool)
+    unobserved.ravel()[SPEC.flat_index(np.array([2.0]), np.array([0.0]))] = False
+    assert len(pt.step(people_at(), belief(), SPEC, DT, observed=unobserved).people) == 0
+    pt = make(min_separation=0.6)
+    for _ in range(5):
+        pt.step(people_at((2.0, 0.0), (2.0, 0.5)), belief(), SPEC, DT)
+    out = pt.step(people_at((2.0, 0.0)), belief(), SPEC, DT)
+    assert out.coasted == 0 and len(out.people) == 1  # 0.5 m from a reported person: not repeated
+
+
+def test_classified_reports_the_classifier_people_unchanged() -> None:
+    pt = make(people="classified")
+    found = people_at((2.0, 0.0), (3.0, 1.0))
+    out = pt.step(found, belief(), SPEC, DT)
+    assert out.people is found and out.coasted == 0
+
+
+def test_people_cells_keeps_the_cells_nearest_to_kept_people() -> None:
+    found = people_at((2.0, 0.0), (2.5, 0.0))
+    kept = people_cells(found.mask, SPEC, found.positions, np.array([True, False]))
+    gx, gy = SPEC.cell_centres()
+    assert kept.any() and not (kept & ~found.mask).any()
+    d_kept = np.hypot(gx - 2.0, gy)[kept]
+    d_other = np.hypot(gx - 2.5, gy)[kept]
+    assert np.all(d_kept <= d_other)
+    assert not people_cells(found.mask, SPEC, found.positions, np.array([False, False])).any()
+    with pytest.raises(ValueError, match="keep has 1 entries for 2 people"):
+        people_cells(found.mask, SPEC, found.positions, np.array([True]))
+
+
+def test_a_weak_peak_alone_updates_no_track_and_is_not_reported() -> None:
+    cl = HysteresisPeaks(threshold=0.7, keep=0.5)
+    pt = build_people_tracker(TrackingConfig(), cl)  # peak_threshold 0.5, tracks start only above 0.7
+    grid = belief()
+    grid[SPEC.to_cell(np.array([3.0]), np.array([1.0]))] = 0.6
+    for _ in range(5):
+        found = cl.classify(grid, SPEC)
+        assert len(found) == 0 and len(cl.rejected) == 1  # the peak is a weak one...
+        out = pt.step(found, grid, SPEC, DT)
+    assert not pt.tracker.tracks and len(out.people) == 0  # ...fed to the tracker, which starts nothing from it
+
+
+@pytest.mark.parametrize(
+    ("kw", "msg"),
+    [
+        ({"people": "all"}, "people must be one of"),
+        ({"coast_frames": -1}, "coast_frames must be an integer >= 0"),
+        ({"coast_frames": 1.5}, "coast_frames must be an integer >= 0"),
+        ({"min_separation": -0.1}, "min_separation must be a finite number"),
+        ({"peak_threshold": 1.0}, "peak_threshold must be in"),
+    ],
+)
+def test_people_tracker_rejects_bad_settings(kw: dict[str, object], msg: str) -> None:
+    with pytest.raises(ValueError, match=msg):
+        make(**kw)
+
+
+def test_tracking_config_people_and_coast_frames() -> None:
+    with pytest.raises(ValueError, match='people must be "confirmed" or "classified"'):
+        TrackingConfig(people="tracks")
+    with pytest.raises(ValueError, match="coast_frames must be an integer >= 0"):
+        TrackingConfig(coast_frames=-2)
+    cfg = config_from_mapping(
+        {
+            "frames": {"driver": "/scan"},
+            "detectors": [{"name": "legs", "kind": "leg", "topic": "/scan"}],
+            "tracking": {"people": "classified", "coast_frames": 3},
+        }
+    )
+    assert cfg.tracking.people == "classified" and cfg.tracking.coast_frames == 3
+
+
+def test_build_people_tracker_defaults_by_mode() -> None:
+    cl = PeakClassifier(threshold=0.7)
+    rec = build_people_tracker(TrackingConfig(), cl, "recommended")
+    assert rec.people == "confirmed" and rec.coast_frames == 1
+    assert rec.tracker.config.birth_min_score == 0.7  # tracks start only from people
+    assert build_people_tracker(TrackingConfig(), cl, "paper").people == "classified"
+    assert build_people_tracker(TrackingConfig(people="confirmed"), cl, "paper").people == "confirmed"
+    assert build_people_tracker(TrackingConfig(enabled=False), cl) is None
+    with pytest.raises(ValueError, match=r"\[tracking.params\]"):
+        build_people_tracker(TrackingConfig(params={"no_such_field": 1}), cl)
