@@ -22,7 +22,10 @@ time, see ``run.json`` ``config.frames.time_source``); ``bag_time_ns`` the drive
 the detectors that had no data in the frame (they covered no cell). In ``detections.csv`` every detection of
 every detector is listed (each detector alone); ``static`` is 1 for those the static-clutter map suppressed
 (:mod:`pfpeople.clutter`): the filter did not see them (runs written before this column read as 0).
-``tracks.csv`` holds the confirmed tracks of :mod:`pfpeople.mot` (m, m/s, m^2, grid frame).
+``people.csv`` holds the people the run reports (:mod:`pfpeople.mot.people`): with ``[tracking] people =
+"confirmed"`` (the recommended mode) a coasting track reported through a missed frame has ``size_cells`` 0 and
+the belief at its cell as ``mean_probability``. ``tracks.csv`` holds the confirmed tracks of :mod:`pfpeople.mot`
+(m, m/s, m^2, grid frame).
 ``status`` in ``run.json`` is ``"running"`` while a run writes, then ``"complete"``, ``"failed"`` (with
 ``error``) or ``"interrupted"`` (SIGINT / SIGTERM, with ``error`` naming the signal); the frames written before
 stay valid and ``frames`` is the number of frames on disk.
