@@ -361,7 +361,7 @@ class RunWriter:
         no_data = [n for n, d in zip(self.detector_names, detections, strict=True) if d is None]
         v, w = odometry if odometry is not None else (0.0, 0.0)
         with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
-            target = self.path / "frames.csv"
+            target = "frames.csv"
             try:
                 self._frames.writerow(
                     (
@@ -375,10 +375,10 @@ class RunWriter:
                         ";".join(no_data),
                     )
                 )
-                target = self.path / "people.csv"
+                target = "people.csv"
                 for (x, y), size, p in zip(people, sizes, probs, strict=True):
                     self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
-                target = self.path / "detections.csv"
+                target = "detections.csv"
                 for i, (name, det) in enumerate(zip(self.detector_names, detections, strict=True)):
                     if det is None:
                         continue
@@ -388,7 +388,7 @@ class RunWriter:
                     for (x, y), st in zip(pts, flags, strict=True):
                         self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}", int(st)))
                 if tracks is not None:
-                    target = self.path / "tracks.csv"
+                    target = "tracks.csv"
                     if self._tracks is None:
                         from pfpeople.mot import TRACK_COLUMNS
 
@@ -396,9 +396,9 @@ class RunWriter:
                     for row in tracks:
                         self._tracks.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in row])
                 for fh in self._files:
-                    target = Path(fh.name)
+                    target = os.path.basename(fh.name)
                     fh.flush()
-                target = self.path / "grids.npy"
+                target = "grids.npy"
                 self._grids.write(belief.astype("<f4").tobytes())
                 end = self._grids.tell()
                 self._grids.flush()
@@ -408,7 +408,7 @@ class RunWriter:
                 self._grids.seek(end)
                 self._grids.flush()
             except OSError as exc:
-                raise _named_os_error(exc, target) from exc
+                raise _named_os_error(exc, self.path / target) from exc  # names, not paths: per frame
             self.n_frames += 1
 
     def update(self, **items: Any) -> None:
