@@ -434,12 +434,14 @@ class Pipeline:
         results = self.frames(bag, max_frames=max_frames)
         kept: list[FrameResult] = []
         status, error = "complete", None
+        written = 0
         try:  # from here on, whatever stops the run is recorded by the open sinks and the frames written stay valid
             open_sinks(sinks[1:], info, opened)
             for r in results:
                 with deferred_signals():  # a frame goes to every output or to none
                     for sink in opened:
                         sink.write(r)
+                    written += 1
                 if keep:
                     kept.append(r)
         except KeyboardInterrupt as exc:  # SIGINT or SIGTERM (RunInterrupted): recorded, no traceback needed
@@ -457,5 +459,8 @@ class Pipeline:
                 try:
                     results.close()  # ends the frame generator now, so the summary has its elapsed time and sync stats
                 finally:
+                    # a signal can stop the run after a frame was processed but before it was written: the summary
+                    # counts the frames the outputs hold
+                    self.summary.frames = written
                     close_sinks(opened, RunOutcome(status, error, self.summary))
         return self.summary, kept
