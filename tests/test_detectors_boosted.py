@@ -78,25 +78,32 @@ def test_missing_model_file(tmp_path: Path) -> None:
         BoostedSegmentDetector(tmp_path / "nope.yml")
 
 
-def _synthetic_set(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+def _legs_scan(rng: np.random.Generator, y_half: float) -> Any:
+    """A labelled scan of one person's two legs at x in [1, 4] m, y within ``y_half`` m."""
     from pfpeople.detectors.training import LabelledScan
 
+    px, py = rng.uniform(1.0, 4.0), rng.uniform(-y_half, y_half)
+    legs = [(px, py - 0.15, 0.06), (px, py + 0.15, 0.06)]
+    scan = render_scan(circles=legs, noise_sd=0.005, rng=rng, angle_increment=math.radians(0.5))
+    return LabelledScan(scan=scan, legs=np.array([[px - 0.04, py - 0.15], [px - 0.04, py + 0.15]]))
+
+
+def _clutter_scan(rng: np.random.Generator, wx: float) -> LaserScan:
+    """A scan of a wide round object and a wall near x = ``wx`` m (no legs)."""
+    return render_scan(
+        circles=[(rng.uniform(1, 4), rng.uniform(-2, 2), rng.uniform(0.2, 0.5))],
+        segments=[(wx, -3.0, wx + rng.uniform(-1, 1), 3.0)],
+        noise_sd=0.005,
+        rng=rng,
+        angle_increment=math.radians(0.5),
+    )
+
+
+def _synthetic_set(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
     pos, neg = [], []
     for _ in range(n):
-        px, py = rng.uniform(1.0, 4.0), rng.uniform(-1.5, 1.5)
-        legs = [(px, py - 0.15, 0.06), (px, py + 0.15, 0.06)]
-        scan = render_scan(circles=legs, noise_sd=0.005, rng=rng, angle_increment=math.radians(0.5))
-        pos.append(LabelledScan(scan=scan, legs=np.array([[px - 0.04, py - 0.15], [px - 0.04, py + 0.15]])))
-        wx = rng.uniform(2.0, 5.0)
-        neg.append(
-            render_scan(
-                circles=[(rng.uniform(1, 4), rng.uniform(-2, 2), rng.uniform(0.2, 0.5))],
-                segments=[(wx, -3.0, wx + rng.uniform(-1, 1), 3.0)],
-                noise_sd=0.005,
-                rng=rng,
-                angle_increment=math.radians(0.5),
-            )
-        )
+        pos.append(_legs_scan(rng, 1.5))
+        neg.append(_clutter_scan(rng, rng.uniform(2.0, 5.0)))
     X, y, counts = build_training_set(pos, neg)
     assert counts["labels_matched"] == counts["labels"]  # the labelled legs are found as segments
     return X, y
@@ -129,25 +136,10 @@ def test_leave_one_bag_out_on_synthetic_bags(rng: np.random.Generator) -> None:
     from pfpeople.detectors.training import LabelledScan
 
     def bag(n: int) -> list[LabelledScan]:
-        out = []
-        for _ in range(n):
-            px, py = rng.uniform(1.0, 4.0), rng.uniform(-0.5, 0.5)
-            legs = [(px, py - 0.15, 0.06), (px, py + 0.15, 0.06)]
-            scan = render_scan(circles=legs, noise_sd=0.005, rng=rng, angle_increment=math.radians(0.5))
-            out.append(LabelledScan(scan=scan, legs=np.array([[px - 0.04, py - 0.15], [px - 0.04, py + 0.15]])))
-        return out
+        return [_legs_scan(rng, 0.5) for _ in range(n)]
 
     def walls(n: int) -> list[LaserScan]:
-        return [
-            render_scan(
-                circles=[(rng.uniform(1, 4), rng.uniform(-2, 2), rng.uniform(0.2, 0.5))],
-                segments=[(wx, -3.0, wx + rng.uniform(-1, 1), 3.0)],
-                noise_sd=0.005,
-                rng=rng,
-                angle_increment=math.radians(0.5),
-            )
-            for wx in rng.uniform(2.0, 5.0, n)
-        ]
+        return [_clutter_scan(rng, wx) for wx in rng.uniform(2.0, 5.0, n)]
 
     positives = {"b0": bag(6), "b1": bag(5), "b2": bag(4)}
     negatives = {"/l": walls(8), "/r": walls(8)}
