@@ -117,8 +117,12 @@ def run_tracker(
     scores: Sequence[NDArray[np.float64] | None] | None = None,
     egos: Sequence[Pose2D | None] | None = None,
     config: TrackerConfig | None = None,
+    support: Sequence[Positions] | None = None,
 ) -> HypFrames:
-    """Run a fresh tracker over a sequence; per frame the confirmed tracks' ``(ids, positions)``."""
+    """Run a fresh tracker over a sequence; per frame the confirmed tracks' ``(ids, positions)``.
+
+    ``support``: per frame, support positions (single legs, :class:`pfpeople.mot.tracker.MultiPersonTracker`
+    step 4c) that continue confirmed tracks."""
     tracker = MultiPersonTracker(config)
     out: HypFrames = []
     for k, z in enumerate(positions):
@@ -127,6 +131,7 @@ def run_tracker(
             dts[k],
             scores=None if scores is None else scores[k],
             ego=None if egos is None else egos[k],
+            support=None if support is None else support[k],
         )
         ids = np.array([t.id for t in tr], dtype=np.int64)
         pos = np.array([[t.x, t.y] for t in tr], dtype=float).reshape(-1, 2)
@@ -386,7 +391,9 @@ def evaluate_run(
 
     Sources: ``"filter (people.csv)"`` (the run's people tracked here, births from any of them), ``"grid +
     NAME"``, ``"tracks.csv (pipeline)"`` (the tracks the run itself wrote: the shipped output; when the run
-    has a ``tracks.csv``), ``"NAME (raw)"`` per detector and ``"all detectors merged (raw)"``.
+    has a ``tracks.csv``), ``"NAME (raw)"`` per detector and ``"all detectors merged (raw)"``. When the run
+    wrote ``support.csv`` (its tracker used single legs), each raw source's tracker gets its detectors' single
+    legs as support too, as the run's tracker did.
 
     Returns
     -------
@@ -427,13 +434,22 @@ def evaluate_run(
         inputs[f"grid + {classifier_name}"] = (cpos, csc)
     det = run.detections
     per_det: list[list[Positions]] = []
+    support: dict[str, list[Positions] | None] = {}
+    sup_det: list[list[Positions]] = []
     for name in run.meta["detectors"]:
         sel = det["detector"] == name
         d = group_by_frame(det["frame"][sel], np.column_stack((det["x_m"][sel], det["y_m"][sel])), n)
         inputs[f"{name} (raw)"] = (d, None)
         per_det.append(d)
+        if run.support is not None:
+            s = run.support
+            ss = s["detector"] == name
+            sup_det.append(group_by_frame(s["frame"][ss], np.column_stack((s["x_m"][ss], s["y_m"][ss])), n))
+            support[f"{name} (raw)"] = sup_det[-1]
     if len(per_det) > 1:
         inputs["all detectors merged (raw)"] = ([merge_detections([d[k] for d in per_det]) for k in range(n)], None)
+        if sup_det:
+            support["all detectors merged (raw)"] = [np.concatenate([d[k] for d in sup_det]) for k in range(n)]
     if sources is not None:
         wanted = set(sources)
         inputs = {k: v for k, v in inputs.items() if k in wanted or k.removesuffix(" (raw)") in wanted}
@@ -455,7 +471,7 @@ def evaluate_run(
         hyps["tracks.csv (pipeline)"] = read_tracks_csv(shipped, n)
     for source, (pos, sc) in inputs.items():
         cfg = replace(config, birth_min_score=0.0) if source == "filter" else config
-        hyps[source] = run_tracker(pos, dts, scores=sc, egos=egos, config=cfg)
+        hyps[source] = run_tracker(pos, dts, scores=sc, egos=egos, config=cfg, support=support.get(source))
     rows: list[MotRow] = []
     for source, hyp in hyps.items():
         if in_grid:

@@ -79,6 +79,9 @@ class ReplayLog:
     nobody: bool = False
     truth_ids: list[NDArray[np.int64]] | None = None
     stamps_s: NDArray[np.float64] | None = None
+    #: Per frame, the support positions ``(K, 2)`` (m, grid frame) a run's tracker got (the laser detectors'
+    #: single legs, static ones left out with ``suppressed``); None: the log has none.
+    support: list[NDArray[np.float64]] | None = None
 
     def __len__(self) -> int:
         return len(self.dt)
@@ -119,7 +122,8 @@ def log_from_run(
     """A log of a ``pfpeople run`` directory, with the truth of a GT CSV (or ``nobody``).
 
     ``suppressed``: leave out the detections the run's static-clutter map suppressed (``static`` = 1), i.e. the
-    detections its filter saw; by default every detection (each detector alone).
+    detections its filter saw; by default every detection (each detector alone). The same holds for the
+    support positions of ``support.csv`` (:attr:`ReplayLog.support`, when the run wrote it).
     """
     from evaluation.gt_csv import read_gt_csv
     from evaluation.run_truth import truth_and_sources
@@ -147,6 +151,14 @@ def log_from_run(
         for nm in names:
             row.append(None if nm in no_data[k] else np.asarray(per_name[nm][k], dtype=float).reshape(-1, 2))
         detections.append(row)
+    support = None
+    if run.support is not None:
+        sup: list[list[tuple[float, float]]] = [[] for _ in range(n)]
+        s = run.support
+        for f, x, y, st in zip(s["frame"], s["x_m"], s["y_m"], s["static"], strict=True):
+            if not (suppressed and int(st)):
+                sup[int(f)].append((float(x), float(y)))
+        support = [np.asarray(p, dtype=float).reshape(-1, 2) for p in sup]
     if gt is not None:
         truth, _, _ = truth_and_sources(run, read_gt_csv(gt), frame=frame)
     else:
@@ -164,6 +176,7 @@ def log_from_run(
         recall_only=recall_only,
         nobody=nobody,
         stamps_s=np.asarray((fr["stamp_ns"] - fr["stamp_ns"][0]) * 1e-9, dtype=np.float64) if n else None,
+        support=support,
     )
 
 
@@ -182,14 +195,16 @@ def step_and_classify(filt: Any, classifier: Any, log: ReplayLog, k: int, *, tra
     also gets the grid's motion, from the frame's odometry); returns ``(step record, people)``.
 
     ``tracker``: a :class:`pfpeople.mot.people.PeopleTracker` built on ``classifier`` (as the pipeline's
-    ``[tracking]``, :func:`pfpeople.filters.build_people_tracker`); the people are then the ones it reports."""
+    ``[tracking]``, :func:`pfpeople.filters.build_people_tracker`); the people are then the ones it reports (it
+    gets the log's support positions, as the run's tracker did)."""
     dt = float(log.dt[k])
     out = filt.step(log.detections[k], log.odometry[k], dt)
     observed = np.asarray(out.covered).any(axis=0)
     ego = odometry_pose(log.odometry[k], dt)
     found = classify_frame(classifier, out.posterior, log.spec, observed=observed, ego=ego)
     if tracker is not None:
-        found = tracker.step(found, out.posterior, log.spec, dt, observed=observed, ego=ego).people
+        support = None if log.support is None else log.support[k]
+        found = tracker.step(found, out.posterior, log.spec, dt, observed=observed, ego=ego, support=support).people
     return out, found
 
 

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -109,11 +109,17 @@ class Detections:
         The same positions (m) in the grid frame.
     scan : LaserScan or None
         The converted LaserScan of a laser detector (the static-clutter map and scan matching use it).
+    support_sensor, support : ndarray, shape (S, 2)
+        Weaker evidence than a detection (m; detector frame, grid frame): positions that may keep a person the
+        tracker already follows but never start one. The laser detectors give their unpaired single legs
+        (:func:`pfpeople.detectors.legs.people_and_single_legs`); empty for other detectors.
     """
 
     sensor: NDArray[np.float64]
     grid: NDArray[np.float64]
     scan: LaserScan | None = None
+    support_sensor: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    support: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 class DetectorAdapter(Protocol):
@@ -247,15 +253,26 @@ class BuiltinAdapter:
         """Run the detector on the frame's (first) message; see :meth:`DetectorAdapter.detect`."""
         data = self.read(msgs[0])
         assert self.detector is not None
-        return self.located(self.detector.detect(data), scan=data if isinstance(data, LaserScan) else None)
+        scan = data if isinstance(data, LaserScan) else None
+        with_singles = getattr(self.detector, "detect_with_singles", None)
+        if with_singles is None:
+            return self.located(self.detector.detect(data), scan=scan)
+        people, singles = with_singles(data)
+        return self.located(people, scan=scan, support=singles)
 
-    def located(self, positions: Any, *, scan: LaserScan | None = None) -> Detections:
-        """``positions`` ``(M, 2)`` (m) as the detector gave them, with their grid-frame copy."""
+    def located(self, positions: Any, *, scan: LaserScan | None = None, support: Any = None) -> Detections:
+        """``positions`` ``(M, 2)`` and ``support`` ``(S, 2)`` (m) as the detector gave them, with their
+        grid-frame copies."""
+        pts = self._to_grid(positions)
+        sup = self._to_grid(np.zeros((0, 2)) if support is None else support)
+        return Detections(pts[0], pts[1], scan, support_sensor=sup[0], support=sup[1])
+
+    def _to_grid(self, positions: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         pts = np.asarray(positions, dtype=float).reshape(-1, 2)
         if not len(pts):
             pts = np.zeros((0, 2))
-            return Detections(pts, pts, scan)
-        return Detections(pts, pts if self.self_mounted else self.mount.apply(pts), scan)
+            return pts, pts
+        return pts, pts if self.self_mounted else self.mount.apply(pts)
 
 
 #: The latest (message, LaserScan) read: the detectors of one laser get the same scan object, so they share its

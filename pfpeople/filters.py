@@ -199,6 +199,7 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
         people=tracking.people or ("classified" if mode == "paper" else "confirmed"),
         coast_frames=tracking.coast_frames,
         min_separation=float(getattr(base, "min_separation", 0.6)),
+        use_support=tracking.single_legs,
     )
 
 

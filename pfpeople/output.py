@@ -12,6 +12,8 @@ Format (``format = "pfpeople-run"``, ``version = 1``)::
       people.csv      frame, driver_index, stamp_ns, bag_time_ns, x_m, y_m, size_cells, mean_probability
       detections.csv  frame, driver_index, stamp_ns, bag_time_ns, detector, x_m, y_m, static
       tracks.csv      frame, stamp_ns, id, x, y, vx, vy, cov_xx, cov_xy, cov_yy, score   (when tracking is on)
+      support.csv     frame, driver_index, stamp_ns, bag_time_ns, detector, x_m, y_m, static
+                      (when the tracker is given support positions: the laser detectors' single legs)
 
 Positions are metres in the grid frame (REP-103; the grid frame is named in ``run.json``). ``frame`` counts
 the frames of the run (0, 1, ...); ``driver_index`` is the index of the driving message on its topic (the
@@ -25,7 +27,8 @@ every detector is listed (each detector alone); ``static`` is 1 for those the st
 ``people.csv`` holds the people the run reports (:mod:`pfpeople.mot.people`): with ``[tracking] people =
 "confirmed"`` (the recommended mode) a coasting track reported through a missed frame has ``size_cells`` 0 and
 the belief at its cell as ``mean_probability``. ``tracks.csv`` holds the confirmed tracks of :mod:`pfpeople.mot`
-(m, m/s, m^2, grid frame).
+(m, m/s, m^2, grid frame). ``support.csv`` lists every support position of every detector (the laser detectors'
+unpaired single legs, :class:`pfpeople.adapters.Detections`); the tracker got those with ``static`` 0.
 ``status`` in ``run.json`` is ``"running"`` while a run writes, then ``"complete"``, ``"failed"`` (with
 ``error``) or ``"interrupted"`` (SIGINT / SIGTERM, with ``error`` naming the signal); the frames written before
 stay valid and ``frames`` is the number of frames on disk.
@@ -260,6 +263,7 @@ class RunWriter:
             self._people = self._csv("people.csv", PEOPLE_COLUMNS)
             self._dets = self._csv("detections.csv", DETECTION_COLUMNS)
             self._tracks: Any = None
+            self._support: Any = None
         except OSError as exc:
             self._unlock()
             raise _named_os_error(exc, self.path) from exc
@@ -342,12 +346,16 @@ class RunWriter:
         detections: Sequence[NDArray[np.float64] | None],
         tracks: Sequence[Sequence[Any]] | None = None,
         static: Sequence[NDArray[np.bool_] | None] | None = None,
+        support: Sequence[NDArray[np.float64] | None] | None = None,
+        support_static: Sequence[NDArray[np.bool_] | None] | None = None,
     ) -> None:
         """Append one frame to every file and flush (see the module docstring for the columns).
 
         ``static``: per detector, which of its detections the static-clutter map suppressed (column ``static``).
         ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.mot.TRACK_COLUMNS`), written when given (the file is
-        created at the first frame that has them, with its header).
+        created at the first frame that has them, with its header). ``support`` and ``support_static``: per
+        detector, its support positions and which of them the static-clutter map called static (``support.csv``,
+        created like ``tracks.csv``).
         """
         if self._closed:
             raise RuntimeError("RunWriter is closed")
@@ -379,14 +387,12 @@ class RunWriter:
                 for (x, y), size, p in zip(people, sizes, probs, strict=True):
                     self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
                 target = "detections.csv"
-                for i, (name, det) in enumerate(zip(self.detector_names, detections, strict=True)):
-                    if det is None:
-                        continue
-                    pts = np.asarray(det, dtype=float).reshape(-1, 2)
-                    given = static[i] if static is not None else None
-                    flags = np.zeros(len(pts), dtype=bool) if given is None else np.asarray(given, dtype=bool)
-                    for (x, y), st in zip(pts, flags, strict=True):
-                        self._dets.writerow((*key, name, f"{x:.6f}", f"{y:.6f}", int(st)))
+                self._positions(self._dets, key, detections, static)
+                if support is not None:
+                    target = "support.csv"
+                    if self._support is None:
+                        self._support = self._csv("support.csv", DETECTION_COLUMNS)
+                    self._positions(self._support, key, support, support_static)
                 if tracks is not None:
                     target = "tracks.csv"
                     if self._tracks is None:
@@ -410,6 +416,26 @@ class RunWriter:
             except OSError as exc:
                 raise _named_os_error(exc, self.path / target) from exc  # names, not paths: per frame
             self.n_frames += 1
+
+    def _positions(
+        self,
+        writer: Any,
+        key: tuple[int, int, int, int],
+        positions: Sequence[NDArray[np.float64] | None],
+        static: Sequence[NDArray[np.bool_] | None] | None,
+    ) -> None:
+        """Rows ``(*key, detector, x_m, y_m, static)`` of per-detector positions (None: no data, no row)."""
+        if len(positions) != len(self.detector_names):
+            n = len(self.detector_names)
+            raise ValueError(f"per-detector positions must have {n} entries, got {len(positions)}")
+        for i, (name, det) in enumerate(zip(self.detector_names, positions, strict=True)):
+            if det is None:
+                continue
+            pts = np.asarray(det, dtype=float).reshape(-1, 2)
+            given = static[i] if static is not None else None
+            flags = np.zeros(len(pts), dtype=bool) if given is None else np.asarray(given, dtype=bool)
+            for (x, y), st in zip(pts, flags, strict=True):
+                writer.writerow((*key, name, f"{x:.6f}", f"{y:.6f}", int(st)))
 
     def update(self, **items: Any) -> None:
         """Add or replace keys of ``run.json`` (written at once)."""
@@ -458,6 +484,8 @@ class RunData:
     frames: dict[str, NDArray[Any]]
     people: dict[str, NDArray[Any]]
     detections: dict[str, NDArray[Any]]
+    #: ``support.csv`` (columns as ``detections``); None when the run wrote none.
+    support: dict[str, NDArray[Any]] | None = None
 
     @property
     def spec(self) -> GridSpec:
@@ -566,6 +594,10 @@ def load_run(path: str | Path) -> RunData:
         dets["static"] = np.zeros(len(dets["frame"]), dtype=np.int64)
     keep_p = people["frame"] < n
     keep_d = dets["frame"] < n
+    support = None
+    if (path / "support.csv").is_file():
+        sup = _read_csv(path / "support.csv", DETECTION_COLUMNS)
+        support = {k: v[sup["frame"] < n] for k, v in sup.items()}
     return RunData(
         path=path,
         meta=meta,
@@ -573,4 +605,5 @@ def load_run(path: str | Path) -> RunData:
         frames=frames,
         people={k: v[keep_p] for k, v in people.items()},
         detections={k: v[keep_d] for k, v in dets.items()},
+        support=support,
     )

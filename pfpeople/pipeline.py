@@ -71,6 +71,7 @@ from pfpeople.bag.reader import BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer
 from pfpeople.filters import build_classifier, build_people_tracker
+from pfpeople.mot.people import support_positions
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
@@ -282,8 +283,10 @@ class Pipeline:
         raw: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         dets = raw
         static: list[NDArray[np.bool_] | None] = [None] * len(raw)
+        sup_static: list[NDArray[np.bool_] | None] = [None] * len(raw)
         if self.clutter.active:
             dets, static, laser_ego = self.clutter.step(found, motion.ego, motion.dt, frame.stamp_ns)
+            sup_static = self.clutter.support_static
             motion = self.odometry.from_laser(motion, laser_ego)
         step = self.filter.step(dets, motion.odometry, motion.dt)
         belief = np.asarray(step.posterior, dtype=float)
@@ -292,11 +295,16 @@ class Pipeline:
         observed = np.asarray(step.covered).any(axis=0)
         people_found = classify_frame(self.classifier, belief, self.spec, observed=observed, ego=motion.motion)
         tracks = None
+        support: list[NDArray[np.float64] | None] | None = None
         if self.tracker is not None:
             if motion.restarted:
                 self.tracker.reset()
+            kept_support = None
+            if self.tracker.use_support:
+                support = [None if f is None else f.support for f in found]
+                kept_support = support_positions(support, sup_static)
             tracked = self.tracker.step(
-                people_found, belief, self.spec, motion.dt, observed=observed, ego=motion.motion
+                people_found, belief, self.spec, motion.dt, observed=observed, ego=motion.motion, support=kept_support
             )
             people_found, tracks = tracked.people, tracked.tracks
         people = people_found.positions.reshape(-1, 2)
@@ -317,6 +325,8 @@ class Pipeline:
             people_probability=[float(v) for v in people_found.scores],
             step=step,
             tracks=tracks,
+            support=support,
+            support_static=None if support is None else sup_static,
         )
 
     def frames(self, bag: BagSource, *, max_frames: int | None = None) -> Generator[FrameResult, None, None]:

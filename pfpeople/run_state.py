@@ -50,6 +50,11 @@ class FrameResult:
         Confirmed tracks (:mod:`pfpeople.mot`) when tracking is on.
     static : list of ndarray (M_k,) of bool or None
         Per detector, the detections the static-clutter map suppressed (None: no suppression).
+    support : list of ndarray (S_k, 2) or None, or None
+        Per detector, its support positions (m, grid frame; the laser detectors' single legs) when the tracker
+        was given support; None: it was not.
+    support_static : list of ndarray (S_k,) of bool or None, or None
+        Per detector, which support positions the static-clutter map called static (the tracker did not get them).
     """
 
     frame: Frame
@@ -63,6 +68,8 @@ class FrameResult:
     step: Any = None
     tracks: list[Any] | None = None
     static: list[NDArray[np.bool_] | None] | None = None
+    support: list[NDArray[np.float64] | None] | None = None
+    support_static: list[NDArray[np.bool_] | None] | None = None
 
 
 @dataclass

@@ -163,6 +163,8 @@ class RunDirSink:
             detections=r.detections,
             tracks=None if r.tracks is None else track_rows(f.index, f.stamp_ns, r.tracks),
             static=r.static,
+            support=r.support,
+            support_static=r.support_static,
         )
 
     def close(self, outcome: RunOutcome) -> None:

@@ -9,6 +9,8 @@ current laser frame by ``T^-1 E^-1``.
 A detection the map calls static is suppressed: the filter does not see it (it is still written, with
 ``static = 1``, and counted in ``suppressed``). Without odometry, the driving laser's scan-matched motion is
 returned in the grid frame (``T E_laser T^-1``) for laser odometry (:mod:`pfpeople.odometry`).
+The detectors' support positions (single legs, :class:`pfpeople.adapters.Detections`) that the map calls static
+are dropped as well (:attr:`ClutterStage.support_static`); they never enter the map or its moving-people sets.
 """
 
 from __future__ import annotations
@@ -52,6 +54,9 @@ class ClutterStage:
         self.suppressors: dict[str, Any] = {}
         #: People kept out of the map in the next frame (m, grid frame of the frame they were found in).
         self.last_people: NDArray[np.float64] = np.zeros((0, 2))
+        #: Per detector, after :meth:`step`: which of its support positions the map calls static (None: no data or
+        #: no map).
+        self.support_static: list[NDArray[np.bool_] | None] = []
         c = config
         if c.clutter.on(c.filter.mode):
             from pfpeople.clutter import ClutterConfig, ClutterSuppressor
@@ -113,6 +118,7 @@ class ClutterStage:
         c = self.config
         kept: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
+        self.support_static = [None] * len(found)
         scans = {
             a.config.topic: f.scan
             for a, f in zip(self.adapters, found, strict=True)
@@ -144,6 +150,10 @@ class ClutterStage:
                 d = kept[k]
                 kept[k] = d[keep] if d is not None and len(d) else d
                 count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
+                f = found[k]
+                if f is not None:
+                    sst = sup.map.is_static(f.support_sensor) if len(f.support) else np.zeros(0, dtype=bool)
+                    self.support_static[k] = sst
             if topic == c.driver and st.ego_ok and ego is None:
                 driver_ego = mount.compose(st.ego).compose(mount.inverse())
         return kept, static, driver_ego

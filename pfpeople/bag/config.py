@@ -47,6 +47,8 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
                                 #   tracks through coast_frames misses ("classified": every classified person;
                                 #   default "confirmed" in the recommended mode, "classified" in the paper mode)
     coast_frames = 1
+    single_legs = true          # unpaired single legs of the laser detectors continue confirmed tracks (never
+                                #   start one; with people = "confirmed")
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
@@ -354,6 +356,10 @@ class TrackingConfig:
         recommended filter mode, ``"classified"`` in the paper mode (and whenever tracking is off).
     coast_frames : int
         See ``people`` (default 1).
+    single_legs : bool
+        With ``people = "confirmed"``: the laser detectors' unpaired single legs (static clutter removed) are
+        given to the tracker as support positions: they continue confirmed tracks that no classified person
+        continued, which are then reported, and never start a track (:mod:`pfpeople.mot.people`). Default True.
     params : mapping
         :class:`pfpeople.mot.TrackerConfig` fields overriding its defaults.
     """
@@ -362,6 +368,7 @@ class TrackingConfig:
     peak_threshold: float | None = 0.5
     people: str | None = None
     coast_frames: int = 1
+    single_legs: bool = True
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -377,6 +384,8 @@ class TrackingConfig:
         cf = self.coast_frames
         if isinstance(cf, bool) or not isinstance(cf, int) or cf < 0:
             raise ValueError(f"TrackingConfig.coast_frames must be an integer >= 0, got {cf!r}")
+        if not isinstance(self.single_legs, bool):
+            raise ValueError(f"TrackingConfig.single_legs must be true or false, got {self.single_legs!r}")
         if not isinstance(self.params, Mapping):
             raise ValueError("TrackingConfig.params must be a table")
 
@@ -499,6 +508,7 @@ class BagConfig:
                 "peak_threshold": self.tracking.peak_threshold,
                 "people": self.tracking.people,
                 "coast_frames": self.tracking.coast_frames,
+                "single_legs": self.tracking.single_legs,
                 "params": dict(self.tracking.params),
             },
             "clutter": {
@@ -588,7 +598,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     classifier = _table(data, "classifier")
     _only(classifier, {f.name for f in fields(ClassifierConfig)}, "classifier")
     tracking = _table(data, "tracking")
-    _only(tracking, {"enabled", "peak_threshold", "people", "coast_frames", "params"}, "tracking")
+    _only(tracking, {"enabled", "peak_threshold", "people", "coast_frames", "single_legs", "params"}, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "keep_out", "params"}, "clutter")
     dets = data.get("detectors", [])

@@ -18,7 +18,14 @@ Each has ``detect(...) -> (M, 2)`` person positions (m) and a ``.model`` (:class
 
 from pfpeople.detectors.boosted import BoostedSegmentDetector, default_model_path
 from pfpeople.detectors.camera import HogCameraDetector, HogParams, default_intrinsics, foot_points, horizon_row
-from pfpeople.detectors.legs import LegDetector, LegDetectorParams, PairingParams, pair_legs, people_from_legs
+from pfpeople.detectors.legs import (
+    LegDetector,
+    LegDetectorParams,
+    PairingParams,
+    pair_legs,
+    people_and_single_legs,
+    people_from_legs,
+)
 from pfpeople.detectors.segments import (
     FEATURE_NAMES,
     SegmentationParams,
@@ -42,6 +49,7 @@ __all__ = [
     "foot_points",
     "horizon_row",
     "pair_legs",
+    "people_and_single_legs",
     "people_from_legs",
     "segment_features",
     "segment_scan",

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
-from pfpeople.detectors.legs import PairingParams, people_from_legs
+from pfpeople.detectors.legs import PairingParams, people_and_single_legs
 from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams
 from pfpeople.detectors.training import boost_scores, scan_features
 from pfpeople.sensors import LaserScan
@@ -145,5 +145,10 @@ class BoostedSegmentDetector:
 
     def detect(self, scan: LaserScan) -> NDArray[np.float64]:
         """Person positions ``(M, 2)`` (m, scan frame); ``(0, 2)`` for an empty or all-invalid scan."""
+        return self.detect_with_singles(scan)[0]
+
+    def detect_with_singles(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Person positions ``(M, 2)`` and unpaired single legs ``(S, 2)`` (m, scan frame)
+        (:func:`pfpeople.detectors.legs.people_and_single_legs`)."""
         legs, widths = self._legs(scan)
-        return people_from_legs(legs, widths, params=self.pairing)
+        return people_and_single_legs(legs, widths, params=self.pairing)

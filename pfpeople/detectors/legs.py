@@ -50,7 +50,14 @@ from pfpeople.detectors.segments import (
 )
 from pfpeople.sensors import LaserScan
 
-__all__ = ["LegDetector", "LegDetectorParams", "PairingParams", "pair_legs", "people_from_legs"]
+__all__ = [
+    "LegDetector",
+    "LegDetectorParams",
+    "PairingParams",
+    "pair_legs",
+    "people_and_single_legs",
+    "people_from_legs",
+]
 
 _F = {name: k for k, name in enumerate(FEATURE_NAMES)}
 
@@ -151,10 +158,10 @@ def pair_legs(
     return np.array(out, dtype=np.intp).reshape(-1, 2), paired
 
 
-def people_from_legs(
+def people_and_single_legs(
     legs: NDArray[np.float64], widths: NDArray[np.float64], *, params: PairingParams
-) -> NDArray[np.float64]:
-    """Person positions from leg segments (see the module docstring).
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Person positions from leg segments (see the module docstring), and the single legs left unpaired.
 
     Parameters
     ----------
@@ -167,8 +174,13 @@ def people_from_legs(
 
     Returns
     -------
-    ndarray, shape (M, 2)
-        Person positions (m): legs-together segments first, then pair midpoints, then (optionally) single legs.
+    people : ndarray, shape (M, 2)
+        Person positions (m): legs-together segments first, then pair midpoints, then (only with
+        ``params.count_single_legs``) the single legs.
+    single : ndarray, shape (S, 2)
+        The narrow legs in no pair (m), whether or not ``people`` counts them: a tracker may use them to keep a
+        person it already follows (one leg hidden by the other) without starting people from them
+        (:class:`pfpeople.mot.tracker.MultiPersonTracker`, ``support``).
     """
     legs = np.asarray(legs, dtype=float).reshape(-1, 2)
     widths = np.asarray(widths, dtype=float).reshape(-1)
@@ -177,10 +189,18 @@ def people_from_legs(
     together = widths > params.max_single_leg_width
     single = np.flatnonzero(~together)
     pairs, paired = pair_legs(legs[single], min_separation=params.min_separation, max_separation=params.max_separation)
+    alone = legs[single][~paired].reshape(-1, 2)
     parts = [legs[together], 0.5 * (legs[single][pairs[:, 0]] + legs[single][pairs[:, 1]])]
     if params.count_single_legs:
-        parts.append(legs[single][~paired])
-    return np.concatenate(parts, axis=0).reshape(-1, 2)
+        parts.append(alone)
+    return np.concatenate(parts, axis=0).reshape(-1, 2), alone
+
+
+def people_from_legs(
+    legs: NDArray[np.float64], widths: NDArray[np.float64], *, params: PairingParams
+) -> NDArray[np.float64]:
+    """Person positions ``(M, 2)`` (m) from leg segments: the first output of :func:`people_and_single_legs`."""
+    return people_and_single_legs(legs, widths, params=params)[0]
 
 
 class LegDetector:
@@ -238,5 +258,10 @@ class LegDetector:
 
     def detect(self, scan: LaserScan) -> NDArray[np.float64]:
         """Person positions ``(M, 2)`` (m, scan frame); ``(0, 2)`` for an empty or all-invalid scan."""
+        return self.detect_with_singles(scan)[0]
+
+    def detect_with_singles(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Person positions ``(M, 2)`` and unpaired single legs ``(S, 2)`` (m, scan frame)
+        (:func:`people_and_single_legs`)."""
         legs, widths = self._legs(scan)
-        return people_from_legs(legs, widths, params=self.params.pairing)
+        return people_and_single_legs(legs, widths, params=self.params.pairing)

@@ -15,7 +15,12 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
      is never reported;
    - a confirmed track that missed the last ``1 .. coast_frames`` frames is reported at its predicted position
      (constant velocity) when that lies in an observed cell of the grid and farther than ``min_separation``
-     from every reported person; its score is the belief at that cell, its size 0 cells.
+     from every reported person; its score is the belief at that cell, its size 0 cells;
+   - with ``support`` positions (the laser detectors' unpaired single legs, :mod:`pfpeople.detectors.legs`), a
+     confirmed track that no classified person continued but a support position did (the tracker's step 4c,
+     :class:`~pfpeople.mot.tracker.MultiPersonTracker`) is reported at its updated position on the same terms.
+     Single legs never start a person: clutter that looks like one leg stays out, a tracked walker whose far leg
+     is hidden stays in.
 
    ``people = "classified"`` reports the classifier's people unchanged (the paper modes' behaviour).
 
@@ -43,10 +48,31 @@ from pfpeople.mot.inputs import tracker_inputs
 from pfpeople.mot.tracker import MultiPersonTracker, Track, TrackerConfig
 from pfpeople.sensors import Pose2D
 
-__all__ = ["PEOPLE_MODES", "PeopleTracker", "TrackedFrame"]
+__all__ = ["PEOPLE_MODES", "PeopleTracker", "TrackedFrame", "support_positions"]
 
 #: What :class:`PeopleTracker` reports: the tracker-confirmed people, or every classified person.
 PEOPLE_MODES = ("confirmed", "classified")
+
+
+def support_positions(
+    support: Sequence[NDArray[np.float64] | None], static: Sequence[NDArray[np.bool_] | None] | None = None
+) -> NDArray[np.float64]:
+    """The support positions ``(K, 2)`` a tracker gets: every detector's (None: no data), less the static ones.
+
+    Parameters
+    ----------
+    support : sequence of ndarray (S_k, 2) or None
+        Per detector, its support positions (m, grid frame).
+    static : sequence of ndarray (S_k,) of bool or None, optional
+        Per detector, which of them the static-clutter map called static (None: none).
+    """
+    parts = []
+    for k, pts in enumerate(support):
+        if pts is None or not len(pts):
+            continue
+        flags = None if static is None else static[k]
+        parts.append(np.asarray(pts, dtype=float).reshape(-1, 2)[~flags] if flags is not None else pts)
+    return np.concatenate(parts).reshape(-1, 2) if parts else np.zeros((0, 2))
 
 
 @dataclass(frozen=True)
@@ -60,7 +86,7 @@ class TrackedFrame:
     tracks : list of Track
         The tracker's output (:meth:`MultiPersonTracker.confirmed`): what ``tracks.csv`` gets.
     coasted : int
-        How many of ``people`` are coasting tracks (the last ones).
+        How many of ``people`` are coasting or support-continued tracks (the last ones).
     """
 
     people: People
@@ -89,6 +115,9 @@ class PeopleTracker:
         (0: never).
     min_separation : float
         Smallest distance (m) between a coasting track reported and a reported person.
+    use_support : bool
+        With ``"confirmed"``: the ``support`` positions given to :meth:`step` continue confirmed tracks (module
+        docstring); otherwise they are ignored.
 
     Raises
     ------
@@ -105,6 +134,7 @@ class PeopleTracker:
         people: str = "confirmed",
         coast_frames: int = 1,
         min_separation: float = 0.6,
+        use_support: bool = True,
     ) -> None:
         if people not in PEOPLE_MODES:
             raise ValueError(f"people must be one of {PEOPLE_MODES}, got {people!r}")
@@ -115,6 +145,8 @@ class PeopleTracker:
         self.classifier = classifier
         self.tracker = MultiPersonTracker(config)
         self.people, self.coast_frames, self.min_separation = people, int(coast_frames), float(min_separation)
+        #: Whether :meth:`step` uses its ``support`` positions.
+        self.use_support = bool(use_support) and people == "confirmed"
         self._weak: PeakClassifier | None = None
         high = getattr(classifier, "threshold", None)
         if peak_threshold is not None:
@@ -153,6 +185,7 @@ class PeopleTracker:
         *,
         observed: ArrayLike | None = None,
         ego: Pose2D | None = None,
+        support: ArrayLike | None = None,
     ) -> TrackedFrame:
         """Track this frame's people and report the confirmed ones (module docstring).
 
@@ -169,10 +202,14 @@ class PeopleTracker:
             Cells some detector observes (as given to the classifier); None: every cell.
         ego : Pose2D, optional
             The current grid frame in the previous one.
+        support : array_like, shape (K, 2), optional
+            Support positions (m, grid frame) that may continue confirmed tracks (module docstring; only with
+            ``use_support``).
         """
         grid = np.asarray(belief, dtype=float)
         pos, sc = self._inputs(found, grid, spec, observed)
-        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, belief=grid, spec=spec)
+        support = support if self.use_support else None
+        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, belief=grid, spec=spec, support=support)
         if self.people == "classified":
             return TrackedFrame(people=found, tracks=tracks, coasted=0)
         n = len(found.positions)
@@ -194,8 +231,11 @@ class PeopleTracker:
     def _coasting(
         self, alive: Sequence[Track], kept: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | None
     ) -> NDArray[np.float64]:
-        """Predicted positions (K, 2) of the confirmed tracks to report through a miss."""
-        pts = np.array([[t.x, t.y] for t in alive if 1 <= t.misses <= self.coast_frames]).reshape(-1, 2)
+        """Positions (K, 2) of the confirmed tracks to report through a miss (predicted) or continued by a
+        support position (updated)."""
+        pts = np.array(
+            [[t.x, t.y] for t in alive if 1 <= t.misses <= self.coast_frames or (t.misses == 0 and t.supported)]
+        ).reshape(-1, 2)
         if not len(pts):
             return pts
         pts = pts[spec.contains(pts[:, 0], pts[:, 1])]

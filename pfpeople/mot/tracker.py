@@ -34,6 +34,15 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    belief_support`` the belief-weighted centre of those cells of belief ``>= b / 2`` updates the track as a
    measurement of confidence ``b`` (a hit); with ``report_belief`` a coasting track is reported only while
    ``b >= report_belief``.
+
+   4c. **Support** (optional, ``support`` positions given to ``update``: weaker evidence than a position, such
+   as the laser detectors' unpaired single legs): the confirmed tracks still without a hit are assigned to the
+   support positions as in step 3 (same gates and cost, ``R = support_sigma^2 I``), leaving out support
+   positions within ``support_exclusion`` of a position of this frame (the other leg of a person found). An
+   assigned support position updates its track as a hit of confidence ``support_confidence``. Support never
+   starts or confirms a track: this is the second association stage of ByteTrack (Zhang et al. 2022), whose
+   low-score detections only continue tracks. A walking person whose far leg is hidden by the near one, or
+   whose legs the detector cannot pair at range, stays tracked while clutter is not started from single legs.
 5. **Existence score** ``r`` in [0, 1] (a confidence, not a calibrated probability): a hit with
    measurement confidence ``c`` (1 when ``scores`` is None) gives ``r <- r + hit_gain c (1 - r)``; a frame
    without a hit gives ``r <- r exp(-dt / score_tau)``. A new track starts at ``r = hit_gain c``.
@@ -152,6 +161,16 @@ class TrackerConfig:
     confirm_score : float or None
         A tentative track is confirmed at once by a measurement of confidence ``>= confirm_score`` (its birth
         included), besides the M-of-N rule. None (default): M of N only.
+    support_sigma : float
+        Standard deviation per axis (m) of a support position as a measurement of a person's centre (step 4c);
+        a single leg lies 0.1-0.2 m from it.
+    support_exclusion : float
+        Support positions within this distance (m) of a position of the same frame are left out (step 4c).
+    support_confidence : float
+        Confidence of a support hit in the existence score, in (0, 1].
+    support_min_speed : float
+        Only tracks whose speed estimate is at least this (m/s) take support positions (step 4c): a walker's far
+        leg hides behind the near one, a chair taken for a person does not move.
     prefer_confirmed : bool
         In the assignment a confirmed track has precedence over a tentative one: the cost of a tentative
         track's pairs is raised by a constant larger than any allowed pair's cost, so a measurement that a
@@ -193,6 +212,10 @@ class TrackerConfig:
     belief_radius: float = 0.45
     report_belief: float | None = None
     confirm_score: float | None = None
+    support_sigma: float = 0.2
+    support_exclusion: float = 0.4
+    support_confidence: float = 0.5
+    support_min_speed: float = 0.6
     prefer_confirmed: bool = True
 
     def __post_init__(self) -> None:
@@ -204,6 +227,8 @@ class TrackerConfig:
             "gate_distance",
             "max_coast_s",
             "score_tau",
+            "support_sigma",
+            "support_exclusion",
         ):
             object.__setattr__(self, name, _finite_positive(getattr(self, name), name))
         object.__setattr__(
@@ -213,6 +238,9 @@ class TrackerConfig:
             rc = _finite_positive(self.report_coast_s, "report_coast_s", allow_zero=True)
             object.__setattr__(self, "report_coast_s", rc)
         object.__setattr__(self, "belief_radius", _finite_positive(self.belief_radius, "belief_radius"))
+        object.__setattr__(
+            self, "support_min_speed", _finite_positive(self.support_min_speed, "support_min_speed", allow_zero=True)
+        )
         for name in ("belief_support", "confirm_score", "report_belief"):
             v = getattr(self, name)
             if v is not None:
@@ -224,6 +252,7 @@ class TrackerConfig:
             ("delete_score", False, True),
             ("hit_gain", True, False),
             ("birth_min_score", False, False),
+            ("support_confidence", True, False),
         ):
             v = _finite_positive(getattr(self, name), name, allow_zero=True)
             if v > 1 or (hi_open and v == 1) or (lo_open and v == 0):
@@ -276,7 +305,10 @@ class Track:
         Whether the track has passed the M-of-N confirmation.
     measurement : int
         Index (into this update's ``positions``) of the position assigned to the track in this frame, its
-        birth's included; -1 when none was (a coasting track, or one updated from the belief, step 4b).
+        birth's included; -1 when none was (a coasting track, or one updated from the belief, step 4b, or from a
+        support position, step 4c).
+    supported : bool
+        Whether a support position (step 4c) was this frame's hit.
     """
 
     id: int
@@ -291,6 +323,7 @@ class Track:
     age: int
     confirmed: bool
     measurement: int = -1
+    supported: bool = False
 
     @property
     def position(self) -> NDArray[np.float64]:
@@ -316,19 +349,20 @@ class _State:
     coast_s: float = 0.0
     support: float = 1.0
     measurement: int = -1
+    supported: bool = False
 
 
-def _check_positions(positions: ArrayLike) -> NDArray[np.float64]:
+def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[np.float64]:
     try:
         z = np.asarray(positions, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"positions must be an (M, 2) array of numbers: {exc}") from None
+        raise ValueError(f"{name} must be an (M, 2) array of numbers: {exc}") from None
     if z.size == 0:
         return np.zeros((0, 2))
     if z.ndim != 2 or z.shape[1] != 2:
-        raise ValueError(f"positions must have shape (M, 2), got {z.shape}")
+        raise ValueError(f"{name} must have shape (M, 2), got {z.shape}")
     if not np.all(np.isfinite(z)):
-        raise ValueError("positions contains NaN or infinite values")
+        raise ValueError(f"{name} contains NaN or infinite values")
     return z
 
 
@@ -442,6 +476,7 @@ class MultiPersonTracker:
                 age=m.age,
                 confirmed=m.confirmed,
                 measurement=m.measurement,
+                supported=m.supported,
             )
             out.append(t)
         return out
@@ -456,6 +491,7 @@ class MultiPersonTracker:
         ego: Pose2D | None = None,
         belief: ArrayLike | None = None,
         spec: GridSpec | None = None,
+        support: ArrayLike | None = None,
     ) -> list[Track]:
         """Advance the tracks by one frame.
 
@@ -476,6 +512,8 @@ class MultiPersonTracker:
             4b of the module docstring). Ignored when ``config.belief_support`` is None.
         spec : GridSpec, optional
             Geometry of ``belief`` (required with it).
+        support : array_like, shape (K, 2), optional
+            Support positions (m, current sensor frame) for confirmed tracks left without a hit (step 4c).
 
         Returns
         -------
@@ -485,13 +523,14 @@ class MultiPersonTracker:
         Raises
         ------
         ValueError
-            ``positions`` not (M, 2) or not finite; ``scores`` of the wrong shape or outside [0, 1];
+            ``positions`` or ``support`` not (M, 2) or not finite; ``scores`` of the wrong shape or outside [0, 1];
             ``dt`` not finite and positive; ``ego`` not finite.
         TypeError
             ``ego`` not a Pose2D, ``dt`` not a number, ``spec`` not a GridSpec.
         """
         z = _check_positions(positions)
         c = _check_scores(scores, z.shape[0])
+        sup = np.zeros((0, 2)) if support is None else _check_positions(support, "support")
         dt = _check_dt(dt)
         grid = None
         if belief is not None and (self.config.belief_support is not None or self.config.report_belief is not None):
@@ -522,10 +561,19 @@ class MultiPersonTracker:
                 self._correct(g_rows, np.arange(g_rows.size, dtype=np.intp), g_pos)
                 meas_of[g_rows] = n_old  # any value >= 0: a hit
                 conf[g_rows] = g_conf
+        supported = np.zeros(n_old, dtype=bool)
+        if sup.shape[0] and n_old:
+            s_rows, s_cols = self._support(sup, z, meas_of)
+            if s_rows.size:
+                self._correct(s_rows, s_cols, sup, sigma=cfg.support_sigma)
+                meas_of[s_rows] = n_old
+                conf[s_rows] = cfg.support_confidence
+                supported[s_rows] = True
         decay = math.exp(-dt / cfg.score_tau)
         for i, m in enumerate(self._meta):
             m.age += 1
             m.measurement = int(assigned[i])
+            m.supported = bool(supported[i])
             if meas_of[i] >= 0:
                 m.hits += 1
                 m.misses = 0
@@ -569,12 +617,33 @@ class MultiPersonTracker:
         self._s = self._s @ f.T
         self._p = f @ self._p @ f.T + self._q
 
-    def _associate(self, z: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    def _support(
+        self, sup: NDArray[np.float64], z: NDArray[np.float64], meas_of: NDArray[np.intp]
+    ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """Step 4c: (track rows, indices into ``sup``) of the support hits of confirmed tracks without a hit."""
+        cfg = self.config
+        tracks = np.array([m.confirmed for m in self._meta]) & (meas_of < 0)
+        if cfg.support_min_speed > 0:
+            tracks &= np.hypot(self._s[:, 2], self._s[:, 3]) >= cfg.support_min_speed
+        if not tracks.any():
+            return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+        cols = np.arange(sup.shape[0])
+        if z.shape[0]:
+            d2 = ((sup[:, None, :] - z[None, :, :]) ** 2).sum(axis=2).min(axis=1)
+            cols = cols[d2 > cfg.support_exclusion**2]
+        rows, cc = self._associate(sup[cols], sigma=cfg.support_sigma, rows=tracks)
+        return rows, cols[cc]
+
+    def _associate(
+        self, z: NDArray[np.float64], *, sigma: float | None = None, rows: NDArray[np.bool_] | None = None
+    ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """Step 3: the gated optimal assignment (track rows, measurement indices) of ``z``, with measurement
+        noise ``sigma`` (default ``measurement_sigma``), among the tracks ``rows`` (default all)."""
         n, m = len(self._meta), z.shape[0]
         if n == 0 or m == 0:
             return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
         cfg = self.config
-        r2 = cfg.measurement_sigma**2
+        r2 = (cfg.measurement_sigma if sigma is None else sigma) ** 2
         a = (self._p[:, 0, 0] + r2)[:, None]  # S = [[a, b], [b, c]] per track
         b = self._p[:, 0, 1][:, None]
         c = (self._p[:, 1, 1] + r2)[:, None]
@@ -584,6 +653,8 @@ class MultiPersonTracker:
         d2 = (c * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
         dist2 = y0 * y0 + y1 * y1
         allowed = (d2 <= cfg.gate_mahalanobis) & (dist2 <= cfg.gate_distance**2)
+        if rows is not None:
+            allowed &= rows[:, None]
         if not allowed.any():
             return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
         cost = d2 + np.log(det)
@@ -652,10 +723,12 @@ class MultiPersonTracker:
             np.array(out_conf, dtype=float),
         )
 
-    def _correct(self, rows: NDArray[np.intp], cols: NDArray[np.intp], z: NDArray[np.float64]) -> None:
+    def _correct(
+        self, rows: NDArray[np.intp], cols: NDArray[np.intp], z: NDArray[np.float64], *, sigma: float | None = None
+    ) -> None:
         if rows.size == 0:
             return
-        r2 = self.config.measurement_sigma**2
+        r2 = (self.config.measurement_sigma if sigma is None else sigma) ** 2
         p = self._p[rows]  # (k, 4, 4)
         a, b, c = p[:, 0, 0] + r2, p[:, 0, 1], p[:, 1, 1] + r2
         det = a * c - b * b
