@@ -36,6 +36,26 @@ def test_two_legs_give_one_person_at_the_midpoint(where: tuple[float, float]) ->
     assert np.hypot(*(people[0] - where)) < TOL
 
 
+@pytest.mark.parametrize("dist", [3.0, 3.5, 4.0, 4.5, 5.0, 6.0])
+def test_a_far_person_with_three_beams_per_leg(dist: float) -> None:
+    """At 0.5 deg per beam a 0.12 m leg gets about 0.12 / (r * 0.0087) beams (here 5, 4, 4, 3, 2, 3 at these ranges,
+    as the beams fall).
+    ``far_leg_width`` (0.10 m) lowers the point minimum to the beams a 0.10 m leg can give (never below 3) where
+    ``min_points`` (4) cannot be met: a person with 3 returns on each leg is found only with it, one with 4 or
+    more with or without it, one with 2 never."""
+    circles = _person(dist, 0.0)
+    scan = render_scan(circles=circles, angle_increment=math.radians(0.5))
+    pts = scan.points()
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    per_leg = [int(np.count_nonzero(np.hypot(pts[:, 0] - x, pts[:, 1] - y) <= r + 1e-6)) for x, y, r in circles]
+    found = LegDetector().detect(scan)
+    without = LegDetector(params=LegDetectorParams(far_leg_width=0.0)).detect(scan)
+    assert without.shape == ((1, 2) if min(per_leg) >= 4 else (0, 2))
+    assert found.shape == ((1, 2) if min(per_leg) >= 3 else (0, 2))
+    if len(found):
+        assert np.hypot(*(found[0] - (dist, 0.0))) < TOL
+
+
 def test_two_people_and_clutter() -> None:
     circles = _person(2.0, 1.0) + _person(3.0, -1.0)
     walls = [(6.0, -5.0, 6.0, 5.0), (1.0, -3.0, 5.0, -3.0)]  # a long wall and a side wall

@@ -21,10 +21,10 @@ from gridbridge.grid import GridSpec
 from pfpeople.bag.config import load_config
 from pfpeople.bag.reader import BagSource
 from pfpeople.detectors import LegDetector, PairingParams, people_and_single_legs, people_from_legs
+from pfpeople.detectors.synthetic import render_scan
 from pfpeople.mot import MultiPersonTracker, PeopleTracker, TrackerConfig
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
-from pfpeople.sensors import LaserScan
 
 DT = 0.1
 SPEC = GridSpec(nx=40, ny=40, resolution=0.25, x0=0.0, y0=-5.0)
@@ -45,22 +45,8 @@ def test_people_and_single_legs_by_hand() -> None:
 
 
 def test_detect_with_singles_agrees_with_detect() -> None:
-    """A scan of two legs 0.3 m apart at 2 m and one lone leg at 3 m: one person, one single leg."""
-    ang = np.linspace(-np.pi / 2, np.pi / 2, 721)
-    ranges = np.full(ang.size, 8.0)
-
-    def leg(cx: float, cy: float, r: float = 0.06) -> None:
-        dx, dy = np.cos(ang), np.sin(ang)
-        b = dx * cx + dy * cy
-        disc = b * b - (cx * cx + cy * cy - r * r)
-        hit = disc >= 0
-        t = b - np.sqrt(np.where(hit, disc, 0.0))
-        np.copyto(ranges, np.where(hit & (t > 0) & (t < ranges), t, ranges))
-
-    leg(2.0, 0.15)
-    leg(2.0, -0.15)
-    leg(3.0, 1.5)
-    scan = LaserScan(ranges=ranges, angle_min=float(ang[0]), angle_increment=float(ang[1] - ang[0]), range_max=30.0)
+    """Two legs 0.3 m apart at 2 m and one lone leg at 3 m: one person, one single leg."""
+    scan = render_scan(circles=[(2.0, 0.15, 0.06), (2.0, -0.15, 0.06), (3.0, 1.5, 0.06)])
     det = LegDetector()
     people, single = det.detect_with_singles(scan)
     np.testing.assert_allclose(det.detect(scan), people)

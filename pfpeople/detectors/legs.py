@@ -5,7 +5,9 @@ patterns: two separate legs (LA), two legs together (SL, one wider blob) and for
 scan is cut into segments (:mod:`pfpeople.detectors.segments`) and a segment is a **leg candidate** when its
 geometry is leg-like (all thresholds are :class:`LegDetectorParams` fields):
 
-* ``min_points <= n_points``, ``min_width <= width <= max_width`` (one leg or two legs together),
+* ``min_points <= n_points``, ``min_width <= width <= max_width`` (one leg or two legs together); where a leg
+  ``far_leg_width`` wide cannot give ``min_points`` returns (at range ``r`` a scan with beam spacing ``d_phi``
+  puts ``floor(far_leg_width / (r d_phi))`` beams on it), that count is the minimum, but never below 3,
 * a fitted circle radius in ``[min_radius, max_radius]`` and small residuals (``circularity``, ``linearity``),
 * convex towards the sensor: ``mean_curvature <= max_mean_curvature`` (negative = bulging towards the laser),
 * an inscribed-angle mean (Xavier et al. 2005) in ``[min_iav, max_iav]`` (an arc, not a corner or a line).
@@ -37,6 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -97,6 +100,7 @@ class LegDetectorParams:
     segmentation: SegmentationParams = field(default_factory=SegmentationParams)
     pairing: PairingParams = field(default_factory=PairingParams)
     min_points: int = 4
+    far_leg_width: float = 0.10
     min_width: float = 0.05
     max_width: float = 0.45
     min_radius: float = 0.03
@@ -110,7 +114,7 @@ class LegDetectorParams:
     def __post_init__(self) -> None:
         if isinstance(self.min_points, bool) or not isinstance(self.min_points, int) or self.min_points < 3:
             raise ValueError(f"LegDetectorParams.min_points must be an integer >= 3, got {self.min_points!r}")
-        for name in ("min_width", "min_radius", "max_linearity", "max_circularity", "min_iav"):
+        for name in ("far_leg_width", "min_width", "min_radius", "max_linearity", "max_circularity", "min_iav"):
             check_positive(getattr(self, name), f"LegDetectorParams.{name}", allow_zero=True)
         for name in ("max_width", "max_radius", "max_iav"):
             check_positive(getattr(self, name), f"LegDetectorParams.{name}")
@@ -227,15 +231,22 @@ class LegDetector:
         if not isinstance(self.model, DetectorModel):
             raise TypeError(f"model must be a DetectorModel, got {type(self.model).__name__}")
 
-    def leg_mask(self, features: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """True for rows of ``features`` (S, F) (see :data:`FEATURE_NAMES`) that are leg candidates."""
+    def leg_mask(self, features: NDArray[np.float64], angle_increment: float | None = None) -> NDArray[np.bool_]:
+        """True for rows of ``features`` (S, F) (see :data:`FEATURE_NAMES`) that are leg candidates.
+
+        ``angle_increment`` (rad): the scan's beam spacing, for ``far_leg_width``; None: ``min_points`` at every
+        range."""
         p = self.params
         f = np.asarray(features, dtype=float).reshape(-1, len(FEATURE_NAMES))
+        need: Any = p.min_points
+        if p.far_leg_width > 0 and angle_increment is not None and angle_increment > 0:
+            expected = np.floor(p.far_leg_width / (np.maximum(f[:, _F["distance"]], 1e-3) * angle_increment))
+            need = np.clip(expected, 3, p.min_points)
         w = f[:, _F["width"]]
         r = f[:, _F["radius"]]
         iav = f[:, _F["iav"]]
         return (
-            (f[:, _F["n_points"]] >= p.min_points)
+            (f[:, _F["n_points"]] >= need)
             & (w >= p.min_width)
             & (w <= p.max_width)
             & (r >= p.min_radius)
@@ -249,7 +260,7 @@ class LegDetector:
 
     def _legs(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         segs, feats = scan_segments(scan, params=self.params.segmentation)
-        keep = self.leg_mask(feats)
+        keep = self.leg_mask(feats, abs(scan.angle_increment))
         return segs.centroids[keep], feats[keep, _F["width"]]
 
     def detect_legs(self, scan: LaserScan) -> NDArray[np.float64]:
