@@ -442,9 +442,9 @@ def evaluate_run(
         inputs[f"{name} (raw)"] = (d, None)
         per_det.append(d)
         if run.support is not None:
-            s = run.support
-            ss = s["detector"] == name
-            sup_det.append(group_by_frame(s["frame"][ss], np.column_stack((s["x_m"][ss], s["y_m"][ss])), n))
+            sp = run.support
+            ss = sp["detector"] == name
+            sup_det.append(group_by_frame(sp["frame"][ss], np.column_stack((sp["x_m"][ss], sp["y_m"][ss])), n))
             support[f"{name} (raw)"] = sup_det[-1]
     if len(per_det) > 1:
         inputs["all detectors merged (raw)"] = ([merge_detections([d[k] for d in per_det]) for k in range(n)], None)
