@@ -9,6 +9,9 @@ $(BIN)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e ".[dev]"
+	# HOTA (evaluation.mot_metrics): TrackEval without its declared dependencies, which would replace the
+	# headless OpenCV build with the GUI one (its HOTA needs only numpy and scipy)
+	$(BIN)/pip install --quiet --no-deps "trackeval==1.3.0"
 	touch $@
 
 setup: $(BIN)/.installed

@@ -42,7 +42,7 @@ from scipy.optimize import linear_sum_assignment
 
 from evaluation.ab import FilterSpec
 from evaluation.gt_csv import GroundTruth
-from evaluation.mot_metrics import MotScores, clear_mot
+from evaluation.mot_metrics import MotScores, clear_mot, hota
 from evaluation.replay import ReplayLog
 from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
@@ -52,6 +52,7 @@ from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from pfpeople.mot import MultiPersonTracker, PeopleTracker, TrackerConfig
+from pfpeople.mot.people import point_like, support_positions
 from pfpeople.output import RunData
 
 __all__ = [
@@ -141,12 +142,21 @@ def run_tracker(
 
 @dataclass
 class MotRow:
-    """One row of the tracking table: a sequence, a source, its scores."""
+    """One row of the tracking table: a sequence, a source, its scores (``extra``: ``hota``, ``deta``, ``assa``
+    from :func:`evaluation.mot_metrics.hota`, and for some rows ``followed``)."""
 
     sequence: str
     source: str
     scores: MotScores
     extra: dict[str, Any] = field(default_factory=dict)
+
+
+def hota_extra(
+    gt: Sequence[tuple[Any, Any]], hyp: Sequence[tuple[Any, Any]], *, gate: float, **region: Any
+) -> dict[str, float]:
+    """``{"hota", "deta", "assa"}`` of :func:`evaluation.mot_metrics.hota` (NaN without trackeval)."""
+    h = hota(gt, hyp, gate=gate, **region)
+    return {"hota": h.hota, "deta": h.deta, "assa": h.assa}
 
 
 def _in_grid(spec: GridSpec, ids: NDArray[np.int64], pos: Positions) -> tuple[NDArray[np.int64], Positions]:
@@ -208,7 +218,7 @@ def evaluate_scenario(
 
     def score(source: str, hyp: HypFrames, **extra: Any) -> None:
         hyp = [_in_grid(spec, i, p) for i, p in hyp]
-        rows.append(MotRow(name, source, clear_mot(gt, hyp, gate=gate), dict(extra)))
+        rows.append(MotRow(name, source, clear_mot(gt, hyp, gate=gate), {**extra, **hota_extra(gt, hyp, gate=gate)}))
 
     models = scenario.config.detector_models
     for fs in filters:
@@ -262,7 +272,8 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
     rows: list[MotRow] = []
 
     def score(source: str, hyp: HypFrames) -> None:
-        rows.append(MotRow(log.name, source, clear_mot(gt, [_in_grid(spec, i, p) for i, p in hyp], gate=gate)))
+        hyp = [_in_grid(spec, i, p) for i, p in hyp]
+        rows.append(MotRow(log.name, source, clear_mot(gt, hyp, gate=gate), hota_extra(gt, hyp, gate=gate)))
 
     filt = build_filter(FilterConfig(), spec, log.models)
     classifier = build_classifier(ClassifierConfig())
@@ -272,7 +283,13 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         tcfg = replace(
             config, birth_min_score=max(config.birth_min_score, float(getattr(classifier, "threshold", 0.0)))
         )
-    tracker = PeopleTracker(classifier, config=tcfg, peak_threshold=tracking.peak_threshold, people="classified")
+    tracker = PeopleTracker(
+        classifier,
+        config=tcfg,
+        peak_threshold=tracking.peak_threshold,
+        people="classified",
+        snap_radius=tracking.snap_radius,
+    )
     hyp: HypFrames = []
     for k in range(n):
         dets = [np.zeros((0, 2)) if d is None else d for d in log.detections[k]]
@@ -280,7 +297,8 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         belief = np.asarray(out.posterior, dtype=float)
         observed = np.asarray(out.covered).any(axis=0)
         found = classify_frame(classifier, belief, spec, observed=observed, ego=egos[k])
-        tr = tracker.step(found, belief, spec, dts[k], observed=observed, ego=egos[k]).tracks
+        precise = support_positions([d for d, m in zip(dets, log.models, strict=True) if point_like(m)])
+        tr = tracker.step(found, belief, spec, dts[k], observed=observed, ego=egos[k], detections=precise).tracks
         hyp.append((np.array([t.id for t in tr], dtype=np.int64), np.array([[t.x, t.y] for t in tr]).reshape(-1, 2)))
     score("recommended (tracker)", hyp)
     for i, m in enumerate(log.models):
@@ -479,7 +497,7 @@ def evaluate_run(
         if hidden is not None:
             hyp = [_drop_matched(i, p, hidden[k], gate) for k, (i, p) in enumerate(hyp)]
         scores = clear_mot(truth, hyp, gate=gate, sector=sector, max_range=max_range)
-        extra: dict[str, Any] = {}
+        extra: dict[str, Any] = hota_extra(truth, hyp, gate=gate, sector=sector, max_range=max_range)
         if follow_id is not None:
             one = [(i[i == follow_id], p[i == follow_id]) for i, p in truth]
             fs = clear_mot(one, hyp, gate=gate, sector=sector, max_range=max_range)
@@ -548,14 +566,15 @@ def _f(v: float, digits: int = 3) -> str:
 
 
 def format_rows(rows: Sequence[MotRow]) -> str:
-    """The tracking table: sequence, source, MOTA, MOTP (m), IDSW, Frag, MT, ML, recall, precision."""
-    head = f"{'sequence':<26}{'source':<36}{'MOTA':>7}{'MOTP':>7}{'IDSW':>6}{'Frag':>6}{'MT':>5}{'ML':>5}"
+    """The tracking table: sequence, source, MOTA, HOTA, MOTP (m), IDSW, Frag, MT, ML, recall, precision."""
+    head = f"{'sequence':<26}{'source':<36}{'MOTA':>7}{'HOTA':>7}{'MOTP':>7}{'IDSW':>6}{'Frag':>6}{'MT':>5}{'ML':>5}"
     head += f"{'recall':>8}{'prec':>7}"
     lines = [head, "-" * len(head)]
     for r in rows:
         s = r.scores
+        h = float(r.extra.get("hota", math.nan))
         lines.append(
-            f"{r.sequence[:25]:<26}{r.source[:35]:<36}{_f(s.mota):>7}{_f(s.motp):>7}{s.id_switches:>6}"
+            f"{r.sequence[:25]:<26}{r.source[:35]:<36}{_f(s.mota):>7}{_f(h):>7}{_f(s.motp):>7}{s.id_switches:>6}"
             f"{s.fragmentations:>6}{s.mostly_tracked:>5}{s.mostly_lost:>5}{_f(s.recall):>8}{_f(s.precision):>7}"
         )
     for r in rows:

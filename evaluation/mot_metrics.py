@@ -22,10 +22,21 @@ distances (MOTP would be in m^2); neither is used, the Euclidean distances are c
 run without warnings (checked in ``tests/test_mot_metrics.py`` with warnings as errors). The scores are also
 recomputed from the accumulator's event table (:func:`scores_from_events`) as a check independent of
 motmetrics' metric code.
+
+HOTA (Luiten et al. 2021, :func:`hota`) is computed by TrackEval's ``HOTA`` metric (the ``trackeval`` package on
+PyPI, a packaging of Luiten's TrackEval). For people as points the localisation similarity of a pair is
+``max(0, 1 - d / gate)``: at threshold ``alpha`` a pair may match when ``d <= (1 - alpha) gate``, and HOTA is the
+mean of ``sqrt(DetA AssA)`` over ``alpha = 0.05 .. 0.95``. The set-up installs ``trackeval`` without its declared
+dependencies (``pip install --no-deps``): they pull the GUI build of OpenCV (``opencv-python``), which would
+replace the headless build the HOG detector needs; its HOTA metric uses only numpy and scipy. Without the package
+:func:`hota` returns NaN (and says why once, in the log).
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
@@ -34,7 +45,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["MotScores", "accumulate", "clear_mot", "distance_matrix", "scores_from_events"]
+__all__ = ["HotaScores", "MotScores", "accumulate", "clear_mot", "distance_matrix", "hota", "scores_from_events"]
+
+log = logging.getLogger(__name__)
 
 FrameData = tuple[ArrayLike, ArrayLike]
 
@@ -213,6 +226,83 @@ def clear_mot(
         num_misses=i("num_misses"),
         num_matches=i("num_matches") + i("num_switches"),
         num_gt_ids=i("num_unique_objects"),
+    )
+
+
+@dataclass(frozen=True)
+class HotaScores:
+    """HOTA and its detection / association parts (means over the localisation thresholds; NaN: not computed)."""
+
+    hota: float
+    deta: float
+    assa: float
+
+
+_NO_HOTA = HotaScores(math.nan, math.nan, math.nan)
+
+
+def _hota_metric() -> Any:
+    """TrackEval's HOTA metric, or None (logged) when ``trackeval`` is not installed."""
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):  # it prints about datasets it cannot import
+            from trackeval.metrics import HOTA
+    except ImportError as exc:
+        log.warning("HOTA is not computed: trackeval is not installed (%s); `make setup` installs it", exc)
+        return None
+    return HOTA()
+
+
+def hota(
+    gt_frames: Sequence[FrameData],
+    hyp_frames: Sequence[FrameData],
+    *,
+    gate: float = 0.75,
+    sector: tuple[float, float] | None = None,
+    max_range: float | None = None,
+) -> HotaScores:
+    """HOTA of hypotheses against ground truth (arguments as :func:`clear_mot`; see the module docstring).
+
+    Returns
+    -------
+    HotaScores
+        NaN when ``trackeval`` is missing; with no ground truth and no hypotheses, NaN too.
+    """
+    _check_args(gate, sector, max_range)
+    if len(gt_frames) != len(hyp_frames):
+        raise ValueError(f"gt_frames has {len(gt_frames)} frames but hyp_frames has {len(hyp_frames)}")
+    metric = _hota_metric()
+    if metric is None:
+        return _NO_HOTA
+    gt_index: dict[int, int] = {}
+    hyp_index: dict[int, int] = {}
+    gt_ids, hyp_ids, sims = [], [], []
+    n_gt = n_hyp = 0
+    for k, (g, h) in enumerate(zip(gt_frames, hyp_frames, strict=True)):
+        gid, gpos = _frame(g, "gt_frames", k)
+        hid, hpos = _frame(h, "hyp_frames", k)
+        kg, kh = _region(gpos, sector, max_range), _region(hpos, sector, max_range)
+        gid, gpos, hid, hpos = gid[kg], gpos[kg], hid[kh], hpos[kh]
+        gt_ids.append(np.array([gt_index.setdefault(int(i), len(gt_index)) for i in gid], dtype=int))
+        hyp_ids.append(np.array([hyp_index.setdefault(int(i), len(hyp_index)) for i in hid], dtype=int))
+        d = np.linalg.norm(gpos[:, None, :] - hpos[None, :, :], axis=2).reshape(len(gid), len(hid))
+        sims.append(np.clip(1.0 - d / gate, 0.0, 1.0))
+        n_gt += len(gid)
+        n_hyp += len(hid)
+    if n_gt == 0 and n_hyp == 0:
+        return _NO_HOTA
+    data = {
+        "gt_ids": gt_ids,
+        "tracker_ids": hyp_ids,
+        "similarity_scores": sims,
+        "num_gt_ids": len(gt_index),
+        "num_tracker_ids": len(hyp_index),
+        "num_gt_dets": n_gt,
+        "num_tracker_dets": n_hyp,
+        "num_timesteps": len(gt_frames),
+    }
+    res = metric.eval_sequence(data)
+    return HotaScores(
+        hota=float(np.mean(res["HOTA"])), deta=float(np.mean(res["DetA"])), assa=float(np.mean(res["AssA"]))
     )
 
 

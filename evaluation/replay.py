@@ -31,6 +31,7 @@ from gridbridge.classifiers import Classifier, People, classify_frame
 from gridbridge.ego_motion import Odometry, odometry_pose
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
+from pfpeople.mot.people import point_like, support_positions
 
 __all__ = [
     "ReplayLog",
@@ -196,7 +197,7 @@ def step_and_classify(filt: Any, classifier: Any, log: ReplayLog, k: int, *, tra
 
     ``tracker``: a :class:`pfpeople.mot.people.PeopleTracker` built on ``classifier`` (as the pipeline's
     ``[tracking]``, :func:`pfpeople.filters.build_people_tracker`); the people are then the ones it reports (it
-    gets the log's support positions, as the run's tracker did)."""
+    gets the log's support positions and its point-like detectors' detections, as the run's tracker did)."""
     dt = float(log.dt[k])
     out = filt.step(log.detections[k], log.odometry[k], dt)
     observed = np.asarray(out.covered).any(axis=0)
@@ -204,7 +205,10 @@ def step_and_classify(filt: Any, classifier: Any, log: ReplayLog, k: int, *, tra
     found = classify_frame(classifier, out.posterior, log.spec, observed=observed, ego=ego)
     if tracker is not None:
         support = None if log.support is None else log.support[k]
-        found = tracker.step(found, out.posterior, log.spec, dt, observed=observed, ego=ego, support=support).people
+        precise = support_positions([d for d, m in zip(log.detections[k], log.models, strict=True) if point_like(m)])
+        found = tracker.step(
+            found, out.posterior, log.spec, dt, observed=observed, ego=ego, support=support, detections=precise
+        ).people
     return out, found
 
 

@@ -142,13 +142,19 @@ def _paper_kernel(resolution: float, motion: PeopleMotion, dt: float) -> NDArray
     return kernel
 
 
+@lru_cache(maxsize=4)
+def _gauss_legendre(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gauss-Legendre nodes and weights on [-1, 1] (numpy's ``leggauss`` solves an eigenproblem: 10 ms)."""
+    return np.polynomial.legendre.leggauss(n)
+
+
 def _integrated_kernel(resolution: float, motion: PeopleMotion, dt: float) -> NDArray[np.float64]:
     reach_cells = motion.v_max * dt / resolution
     radius = math.ceil(reach_cells) + 1
     # Speed quadrature: Gauss-Legendre on sub-intervals of [0, v_max] of at most one cell of travel each,
     # since the integrand (products of tent functions) has kinks at whole-cell displacements.
     n_int = max(1, math.ceil(reach_cells))
-    xg, wg = np.polynomial.legendre.leggauss(_N_SPEED)
+    xg, wg = _gauss_legendre(_N_SPEED)
     edges = np.linspace(0.0, motion.v_max, n_int + 1)
     half = 0.5 * np.diff(edges)
     speeds = (edges[:-1, None] + half[:, None] * (xg[None, :] + 1.0)).ravel()

@@ -200,6 +200,7 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
         coast_frames=tracking.coast_frames,
         min_separation=float(getattr(base, "min_separation", 0.6)),
         use_support=tracking.single_legs,
+        snap_radius=float(tracking.snap_radius),
     )
 
 

@@ -71,7 +71,7 @@ from pfpeople.bag.reader import BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer
 from pfpeople.filters import build_classifier, build_people_tracker
-from pfpeople.mot.people import support_positions
+from pfpeople.mot.people import point_like, support_positions
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
@@ -304,7 +304,14 @@ class Pipeline:
                 support = [None if f is None else f.support for f in found]
                 kept_support = support_positions(support, sup_static)
             tracked = self.tracker.step(
-                people_found, belief, self.spec, motion.dt, observed=observed, ego=motion.motion, support=kept_support
+                people_found,
+                belief,
+                self.spec,
+                motion.dt,
+                observed=observed,
+                ego=motion.motion,
+                support=kept_support,
+                detections=support_positions([d for d, m in zip(dets, self.models, strict=True) if point_like(m)]),
             )
             people_found, tracks = tracked.people, tracked.tracks
         people = people_found.positions.reshape(-1, 2)

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pytest
 
-from evaluation.mot_metrics import accumulate, clear_mot, distance_matrix, scores_from_events
+from evaluation.mot_metrics import accumulate, clear_mot, distance_matrix, hota, scores_from_events
 
 
 def _f(ids: list[int], pos: list[list[float]]) -> tuple[np.ndarray, np.ndarray]:
@@ -108,3 +109,46 @@ def test_distance_matrix() -> None:
 def test_bad_input(gt: list, hyp: list, kwargs: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         clear_mot(gt, hyp, **kwargs)
+
+
+# --- HOTA (TrackEval) ---------------------------------------------------------------------------------------
+
+
+def _one(pos: tuple[float, float], pid: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    return np.array([pid]), np.array([pos], dtype=float)
+
+
+def test_hota_by_hand() -> None:
+    """One person for 10 frames. Similarity of a pair: 1 - d / gate (gate 0.75 m), matched at the thresholds
+    alpha = 0.05 .. 0.95 up to it. Exact: HOTA 1; 0.375 m off: matched at 10 of the 19 thresholds, 10/19;
+    the track's id changes half-way: DetA 1, AssA 5 / (5 + 5) = 0.5, HOTA sqrt(0.5)."""
+    gt = [_one((1.0, 0.0)) for _ in range(10)]
+    assert hota(gt, gt).hota == pytest.approx(1.0)
+    off = hota(gt, [_one((1.375, 0.0), 9) for _ in range(10)])
+    assert (off.hota, off.deta, off.assa) == pytest.approx((10 / 19, 10 / 19, 10 / 19))
+    switch = hota(gt, [_one((1.0, 0.0), 7 if k < 5 else 8) for k in range(10)])
+    assert (switch.hota, switch.deta, switch.assa) == pytest.approx((math.sqrt(0.5), 1.0, 0.5))
+    # a false track beside the person halves the detection precision: DetA = 10 / (10 + 10)
+    fp = hota(gt, [(np.array([1, 2]), np.array([[1.0, 0.0], [4.0, 0.0]])) for _ in range(10)])
+    assert fp.deta == pytest.approx(0.5) and fp.assa == pytest.approx(1.0)
+
+
+def test_hota_region_and_errors() -> None:
+    gt = [(np.array([1, 2]), np.array([[1.0, 0.0], [-1.0, 0.0]])) for _ in range(4)]
+    hyp = [_one((1.0, 0.0)) for _ in range(4)]
+    assert hota(gt, hyp).deta == pytest.approx(0.5)
+    assert hota(gt, hyp, sector=(-1.0, 1.0)).hota == pytest.approx(1.0)  # the person behind is out
+    assert math.isnan(hota([_one((1.0, 0.0))][:0], []).hota)
+    with pytest.raises(ValueError, match="frames"):
+        hota(gt, hyp[:2])
+    with pytest.raises(ValueError, match="gate"):
+        hota(gt, hyp, gate=0.0)
+
+
+def test_hota_without_trackeval_is_nan_and_logged(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setitem(sys.modules, "trackeval.metrics", None)  # the import fails
+    gt = [_one((1.0, 0.0)) for _ in range(3)]
+    assert math.isnan(hota(gt, gt).hota)
+    assert "trackeval is not installed" in caplog.text

@@ -176,3 +176,39 @@ def test_build_people_tracker_defaults_by_mode() -> None:
     assert build_people_tracker(TrackingConfig(enabled=False), cl) is None
     with pytest.raises(ValueError, match=r"\[tracking.params\]"):
         build_people_tracker(TrackingConfig(params={"no_such_field": 1}), cl)
+
+
+def test_snap_to_detections_by_hand() -> None:
+    from pfpeople.mot.people import snap_to_detections
+
+    people = np.array([[1.0, 0.0], [3.0, 0.0], [5.0, 5.0]])
+    dets = np.array([[1.1, 0.0], [0.9, 0.2], [3.5, 0.0]])
+    out = snap_to_detections(people, dets, 0.3)
+    np.testing.assert_allclose(out, [[1.0, 0.1], [3.0, 0.0], [5.0, 5.0]])  # mean of the two near the first
+    np.testing.assert_allclose(snap_to_detections(people, dets, 0.6)[1], [3.5, 0.0])
+    np.testing.assert_allclose(snap_to_detections(people, np.zeros((0, 2)), 0.3), people)
+
+
+def test_people_tracker_reports_snapped_positions() -> None:
+    """A person found by the grid at a cell centre 0.12 m from the laser's detection is reported and tracked at
+    the detection with ``snap_radius`` 0.3 m, at the cell centre without."""
+    for radius, expect in ((0.3, [2.12, 0.0]), (0.0, [2.0, 0.0])):
+        pt = make(snap_radius=radius)
+        for _ in range(4):
+            out = pt.step(people_at((2.0, 0.0)), belief(), SPEC, DT, detections=np.array([[2.12, 0.0]]))
+        np.testing.assert_allclose(out.people.positions, [expect], atol=1e-9)
+        assert out.tracks[0].x == pytest.approx(expect[0], abs=1e-6)
+    with pytest.raises(ValueError, match="snap_radius"):
+        make(snap_radius=-0.1)
+    with pytest.raises(ValueError, match="snap_radius"):
+        TrackingConfig(snap_radius=float("nan"))
+    cfg = config_from_mapping(
+        {
+            "frames": {"driver": "/scan"},
+            "detectors": [{"name": "legs", "kind": "leg", "topic": "/scan"}],
+            "tracking": {"snap_radius": 0.5, "single_legs": False},
+        }
+    )
+    assert cfg.tracking.snap_radius == 0.5 and cfg.tracking.single_legs is False
+    tracker = build_people_tracker(cfg.tracking, PeakClassifier(threshold=0.7))
+    assert tracker.snap_radius == 0.5 and tracker.use_support is False

@@ -49,6 +49,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     coast_frames = 1
     single_legs = true          # unpaired single legs of the laser detectors continue confirmed tracks (never
                                 #   start one; with people = "confirmed")
+    snap_radius = 0.3           # people with detections this close (m) are moved to their mean (0: never)
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
@@ -360,6 +361,10 @@ class TrackingConfig:
         With ``people = "confirmed"``: the laser detectors' unpaired single legs (static clutter removed) are
         given to the tracker as support positions: they continue confirmed tracks that no classified person
         continued, which are then reported, and never start a track (:mod:`pfpeople.mot.people`). Default True.
+    snap_radius : float
+        The classified people and weaker peaks with detections of point-like detectors (the laser ones, static
+        clutter removed) within this distance (m) are moved to their mean before tracking and reporting
+        (:mod:`pfpeople.mot.people`); 0: never. Default 0.3.
     params : mapping
         :class:`pfpeople.mot.TrackerConfig` fields overriding its defaults.
     """
@@ -369,6 +374,7 @@ class TrackingConfig:
     people: str | None = None
     coast_frames: int = 1
     single_legs: bool = True
+    snap_radius: float = 0.3
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -384,6 +390,9 @@ class TrackingConfig:
         cf = self.coast_frames
         if isinstance(cf, bool) or not isinstance(cf, int) or cf < 0:
             raise ValueError(f"TrackingConfig.coast_frames must be an integer >= 0, got {cf!r}")
+        sr = self.snap_radius
+        if isinstance(sr, bool) or not isinstance(sr, int | float) or not (math.isfinite(sr) and sr >= 0):
+            raise ValueError(f"TrackingConfig.snap_radius must be a number >= 0 (m), got {sr!r}")
         if not isinstance(self.single_legs, bool):
             raise ValueError(f"TrackingConfig.single_legs must be true or false, got {self.single_legs!r}")
         if not isinstance(self.params, Mapping):
@@ -509,6 +518,7 @@ class BagConfig:
                 "people": self.tracking.people,
                 "coast_frames": self.tracking.coast_frames,
                 "single_legs": self.tracking.single_legs,
+                "snap_radius": self.tracking.snap_radius,
                 "params": dict(self.tracking.params),
             },
             "clutter": {
@@ -598,7 +608,8 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     classifier = _table(data, "classifier")
     _only(classifier, {f.name for f in fields(ClassifierConfig)}, "classifier")
     tracking = _table(data, "tracking")
-    _only(tracking, {"enabled", "peak_threshold", "people", "coast_frames", "single_legs", "params"}, "tracking")
+    keys = {"enabled", "peak_threshold", "people", "coast_frames", "single_legs", "snap_radius", "params"}
+    _only(tracking, keys, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "keep_out", "params"}, "clutter")
     dets = data.get("detectors", [])

@@ -6,7 +6,11 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
    people and, with ``peak_threshold``, the weaker belief peaks above it (they update tracks through a dip of
    the belief; tracks start only from people: ``TrackerConfig.birth_min_score`` = the classifier's threshold).
    With a hysteresis classifier (:class:`gridbridge.classifiers.HysteresisPeaks`) the weaker peaks are its own
-   rejected candidates; otherwise :func:`pfpeople.mot.inputs.tracker_inputs` finds them.
+   rejected candidates; otherwise :func:`pfpeople.mot.inputs.tracker_inputs` finds them. With ``snap_radius``
+   and the frame's precise detections given (the laser detectors' people, static clutter removed), each of these
+   positions with detections within ``snap_radius`` is moved to their mean: the grid places a person on its
+   0.1-0.3 m cells, a laser detection to a few centimetres, and in a crowd the sharper positions keep tracks
+   on their people.
 2. **Reported people** (``people = "confirmed"``, the recommended mode's default):
 
    - a classified person is reported when the position assigned to a *confirmed* track in this frame is that
@@ -48,10 +52,41 @@ from pfpeople.mot.inputs import tracker_inputs
 from pfpeople.mot.tracker import MultiPersonTracker, Track, TrackerConfig
 from pfpeople.sensors import Pose2D
 
-__all__ = ["PEOPLE_MODES", "PeopleTracker", "TrackedFrame", "support_positions"]
+__all__ = ["PEOPLE_MODES", "PeopleTracker", "TrackedFrame", "point_like", "snap_to_detections", "support_positions"]
 
 #: What :class:`PeopleTracker` reports: the tracker-confirmed people, or every classified person.
 PEOPLE_MODES = ("confirmed", "classified")
+
+
+def snap_to_detections(positions: ArrayLike, detections: ArrayLike, radius: float) -> NDArray[np.float64]:
+    """``positions`` ``(P, 2)`` with each one that has detections within ``radius`` (m) moved to their mean.
+
+    Parameters
+    ----------
+    positions : array_like, shape (P, 2)
+        People (m).
+    detections : array_like, shape (D, 2)
+        Detections (m, same frame).
+    radius : float
+        Distance (m).
+    """
+    pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+    det = np.asarray(detections, dtype=float).reshape(-1, 2)
+    if not len(pos) or not len(det):
+        return pos
+    d = np.hypot(pos[:, None, 0] - det[None, :, 0], pos[:, None, 1] - det[None, :, 1])
+    w = (d <= radius).astype(float)
+    n = w.sum(axis=1)
+    out = pos.copy()
+    has = n > 0
+    out[has] = (w[has] @ det) / n[has, None]
+    return out
+
+
+def point_like(model: Any) -> bool:
+    """Whether a detector's positions are precise enough to snap people to (its model's ``uncertainty`` is
+    ``"point"``: the laser detectors; a camera's ``"gaussian"`` bearing-range error is not)."""
+    return getattr(model, "uncertainty", "point") == "point"
 
 
 def support_positions(
@@ -118,6 +153,9 @@ class PeopleTracker:
     use_support : bool
         With ``"confirmed"``: the ``support`` positions given to :meth:`step` continue confirmed tracks (module
         docstring); otherwise they are ignored.
+    snap_radius : float
+        Distance (m) within which the ``detections`` given to :meth:`step` move a person to their mean (module
+        docstring); 0: never.
 
     Raises
     ------
@@ -135,6 +173,7 @@ class PeopleTracker:
         coast_frames: int = 1,
         min_separation: float = 0.6,
         use_support: bool = True,
+        snap_radius: float = 0.0,
     ) -> None:
         if people not in PEOPLE_MODES:
             raise ValueError(f"people must be one of {PEOPLE_MODES}, got {people!r}")
@@ -142,6 +181,9 @@ class PeopleTracker:
             raise ValueError(f"coast_frames must be an integer >= 0, got {coast_frames!r}")
         if not (isinstance(min_separation, int | float) and math.isfinite(min_separation) and min_separation >= 0):
             raise ValueError(f"min_separation must be a finite number >= 0 m, got {min_separation!r}")
+        if not (isinstance(snap_radius, int | float) and math.isfinite(snap_radius) and snap_radius >= 0):
+            raise ValueError(f"snap_radius must be a finite number >= 0 m, got {snap_radius!r}")
+        self.snap_radius = float(snap_radius)
         self.classifier = classifier
         self.tracker = MultiPersonTracker(config)
         self.people, self.coast_frames, self.min_separation = people, int(coast_frames), float(min_separation)
@@ -186,6 +228,7 @@ class PeopleTracker:
         observed: ArrayLike | None = None,
         ego: Pose2D | None = None,
         support: ArrayLike | None = None,
+        detections: ArrayLike | None = None,
     ) -> TrackedFrame:
         """Track this frame's people and report the confirmed ones (module docstring).
 
@@ -205,9 +248,15 @@ class PeopleTracker:
         support : array_like, shape (K, 2), optional
             Support positions (m, grid frame) that may continue confirmed tracks (module docstring; only with
             ``use_support``).
+        detections : array_like, shape (D, 2), optional
+            The frame's precise detections (m, grid frame) for ``snap_radius``.
         """
         grid = np.asarray(belief, dtype=float)
         pos, sc = self._inputs(found, grid, spec, observed)
+        if self.snap_radius > 0 and detections is not None and len(pos):
+            pos = snap_to_detections(pos, detections, self.snap_radius)
+            n_found = len(found.positions)
+            found = replace(found, positions=pos[:n_found])
         support = support if self.use_support else None
         tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, belief=grid, spec=spec, support=support)
         if self.people == "classified":
