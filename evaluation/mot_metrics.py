@@ -38,7 +38,7 @@ import contextlib
 import io
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -141,17 +141,28 @@ def accumulate(
     """The ``motmetrics.MOTAccumulator`` of a sequence (arguments as :func:`clear_mot`)."""
     import motmetrics as mm
 
+    acc = mm.MOTAccumulator(auto_id=True)
+    for gid, gpos, hid, hpos in _frames_in_region(gt_frames, hyp_frames, gate, sector, max_range):
+        acc.update(gid.tolist(), hid.tolist(), distance_matrix(gpos, hpos, gate))
+    return acc
+
+
+def _frames_in_region(
+    gt_frames: Sequence[FrameData],
+    hyp_frames: Sequence[FrameData],
+    gate: float,
+    sector: tuple[float, float] | None,
+    max_range: float | None,
+) -> Iterator[tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]]:
+    """Checked frames ``(gt ids, gt positions, hyp ids, hyp positions)`` inside the region (arguments checked)."""
     _check_args(gate, sector, max_range)
     if len(gt_frames) != len(hyp_frames):
         raise ValueError(f"gt_frames has {len(gt_frames)} frames but hyp_frames has {len(hyp_frames)}")
-    acc = mm.MOTAccumulator(auto_id=True)
     for k, (g, h) in enumerate(zip(gt_frames, hyp_frames, strict=True)):
         gid, gpos = _frame(g, "gt_frames", k)
         hid, hpos = _frame(h, "hyp_frames", k)
         kg, kh = _region(gpos, sector, max_range), _region(hpos, sector, max_range)
-        gid, gpos, hid, hpos = gid[kg], gpos[kg], hid[kh], hpos[kh]
-        acc.update(gid.tolist(), hid.tolist(), distance_matrix(gpos, hpos, gate))
-    return acc
+        yield gid[kg], gpos[kg], hid[kh], hpos[kh]
 
 
 def clear_mot(
@@ -267,9 +278,7 @@ def hota(
     HotaScores
         NaN when ``trackeval`` is missing; with no ground truth and no hypotheses, NaN too.
     """
-    _check_args(gate, sector, max_range)
-    if len(gt_frames) != len(hyp_frames):
-        raise ValueError(f"gt_frames has {len(gt_frames)} frames but hyp_frames has {len(hyp_frames)}")
+    frames = list(_frames_in_region(gt_frames, hyp_frames, gate, sector, max_range))
     metric = _hota_metric()
     if metric is None:
         return _NO_HOTA
@@ -277,11 +286,7 @@ def hota(
     hyp_index: dict[int, int] = {}
     gt_ids, hyp_ids, sims = [], [], []
     n_gt = n_hyp = 0
-    for k, (g, h) in enumerate(zip(gt_frames, hyp_frames, strict=True)):
-        gid, gpos = _frame(g, "gt_frames", k)
-        hid, hpos = _frame(h, "hyp_frames", k)
-        kg, kh = _region(gpos, sector, max_range), _region(hpos, sector, max_range)
-        gid, gpos, hid, hpos = gid[kg], gpos[kg], hid[kh], hpos[kh]
+    for gid, gpos, hid, hpos in frames:
         gt_ids.append(np.array([gt_index.setdefault(int(i), len(gt_index)) for i in gid], dtype=int))
         hyp_ids.append(np.array([hyp_index.setdefault(int(i), len(hyp_index)) for i in hid], dtype=int))
         d = np.linalg.norm(gpos[:, None, :] - hpos[None, :, :], axis=2).reshape(len(gid), len(hid))
