@@ -201,6 +201,7 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
         min_separation=float(getattr(base, "min_separation", 0.6)),
         use_support=tracking.single_legs,
         snap_radius=float(tracking.snap_radius),
+        static_confirm_s=float(tracking.static_confirm_s),
     )
 
 

@@ -212,3 +212,43 @@ def test_people_tracker_reports_snapped_positions() -> None:
     assert cfg.tracking.snap_radius == 0.5 and cfg.tracking.single_legs is False
     tracker = build_people_tracker(cfg.tracking, PeakClassifier(threshold=0.7))
     assert tracker.snap_radius == 0.5 and tracker.use_support is False
+
+
+def test_track_moved_in_the_odometry_frame() -> None:
+    """``Track.moved``: 0.3 m from the birth position with the ego-motion taken out. A table leg the robot drives
+    towards at 1 m/s (it comes 0.1 m closer per scan in the sensor frame) has not moved; a walker has, for good."""
+    from pfpeople.sensors import Pose2D
+
+    table = MultiPersonTracker()
+    for k in range(10):
+        table.update(np.array([[3.0 - 0.1 * k, 0.5]]), DT, ego=Pose2D(x=0.1, y=0.0, yaw=0.0) if k else None)
+    (tr,) = table.tracks
+    assert tr.confirmed and not tr.moved and tr.age_s == pytest.approx(0.9)
+    walker = MultiPersonTracker()
+    moved = []
+    for k in range(6):  # 0.1 m per scan; the Kalman position lags: 0.3 m from its birth at the 5th scan
+        walker.update(np.array([[2.0 + 0.1 * k, 0.0]]), DT)
+        moved.append(walker.tracks[0].moved)
+    assert moved == [False, False, False, False, True, True]
+    for _ in range(3):  # back where it started: still "moved"
+        walker.update(np.array([[2.0, 0.0]]), DT)
+    assert walker.tracks[0].moved
+
+
+def test_a_standing_person_is_reported_after_static_confirm_s() -> None:
+    """10 Hz: a walker at 1 m/s is reported once its track has moved 0.3 m (5th scan: the Kalman position lags);
+    a person standing still from the scan where their track is 1.0 s old (11th), with ``static_confirm_s`` 1.0.
+    With 0 both are reported from their confirmation (3rd scan)."""
+    for wait, walker_first, standing_first in ((1.0, 4, 10), (0.0, 2, 2)):
+        pt = make(static_confirm_s=wait)
+        walker, stander = [], []
+        for k in range(14):
+            out = pt.step(people_at((1.0 + 0.1 * k, -2.0), (3.0, 2.0)), belief(), SPEC, DT).people.positions
+            walker.append(bool(np.any(np.hypot(out[:, 0] - (1.0 + 0.1 * k), out[:, 1] + 2.0) < 0.1)))
+            stander.append(bool(np.any(np.hypot(out[:, 0] - 3.0, out[:, 1] - 2.0) < 0.1)))
+        assert walker.index(True) == walker_first and all(walker[walker_first:])
+        assert stander.index(True) == standing_first and all(stander[standing_first:])
+    with pytest.raises(ValueError, match="static_confirm_s must be a finite number >= 0 s"):
+        make(static_confirm_s=-1.0)
+    with pytest.raises(ValueError, match="static_confirm_s"):
+        TrackingConfig(static_confirm_s=float("inf"))

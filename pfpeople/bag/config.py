@@ -50,6 +50,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     single_legs = true          # unpaired single legs of the laser detectors continue confirmed tracks (never
                                 #   start one; with people = "confirmed")
     snap_radius = 0.3           # people with detections this close (m) are moved to their mean (0: never)
+    static_confirm_s = 1.0      # a track that has not moved 0.3 m is reported once this old (s; 0: at once)
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
@@ -365,6 +366,10 @@ class TrackingConfig:
         The classified people and weaker peaks with detections of point-like detectors (the laser ones, static
         clutter removed) within this distance (m) are moved to their mean before tracking and reporting
         (:mod:`pfpeople.mot.people`); 0: never. Default 0.3.
+    static_confirm_s : float
+        With ``people = "confirmed"``: a track that has not moved (0.3 m from its birth position in the odometry
+        frame, ``TrackerConfig.moved_distance``) is reported only from this age (s) on; a walker as soon as it is
+        confirmed (:mod:`pfpeople.mot.people`). 0: any confirmed track. Default 1.0.
     params : mapping
         :class:`pfpeople.mot.TrackerConfig` fields overriding its defaults.
     """
@@ -375,6 +380,7 @@ class TrackingConfig:
     coast_frames: int = 1
     single_legs: bool = True
     snap_radius: float = 0.3
+    static_confirm_s: float = 1.0
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -393,6 +399,9 @@ class TrackingConfig:
         sr = self.snap_radius
         if isinstance(sr, bool) or not isinstance(sr, int | float) or not (math.isfinite(sr) and sr >= 0):
             raise ValueError(f"TrackingConfig.snap_radius must be a number >= 0 (m), got {sr!r}")
+        sc = self.static_confirm_s
+        if isinstance(sc, bool) or not isinstance(sc, int | float) or not (math.isfinite(sc) and sc >= 0):
+            raise ValueError(f"TrackingConfig.static_confirm_s must be a number >= 0 (s), got {sc!r}")
         if not isinstance(self.single_legs, bool):
             raise ValueError(f"TrackingConfig.single_legs must be true or false, got {self.single_legs!r}")
         if not isinstance(self.params, Mapping):
@@ -519,6 +528,7 @@ class BagConfig:
                 "coast_frames": self.tracking.coast_frames,
                 "single_legs": self.tracking.single_legs,
                 "snap_radius": self.tracking.snap_radius,
+                "static_confirm_s": self.tracking.static_confirm_s,
                 "params": dict(self.tracking.params),
             },
             "clutter": {
@@ -608,8 +618,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     classifier = _table(data, "classifier")
     _only(classifier, {f.name for f in fields(ClassifierConfig)}, "classifier")
     tracking = _table(data, "tracking")
-    keys = {"enabled", "peak_threshold", "people", "coast_frames", "single_legs", "snap_radius", "params"}
-    _only(tracking, keys, "tracking")
+    _only(tracking, {f.name for f in fields(TrackingConfig)}, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "keep_out", "params"}, "clutter")
     dets = data.get("detectors", [])

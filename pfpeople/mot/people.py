@@ -26,6 +26,11 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
      Single legs never start a person: clutter that looks like one leg stays out, a tracked walker whose far leg
      is hidden stays in.
 
+   - with ``static_confirm_s``, a track that has not moved (``Track.moved``: 0.3 m from its birth position, in
+     the odometry frame) is reported only once it is ``static_confirm_s`` old: a walker is reported as soon as
+     its track is confirmed, a person who stands still one second later, and a table leg that the robot drives
+     past (seen for about a second, too briefly for the static-clutter map) not at all.
+
    ``people = "classified"`` reports the classifier's people unchanged (the paper modes' behaviour).
 
 Why (``pfpeople-eval benchmark``, all scenes, the same detections; issue 9's note): on ``negative_2`` (nobody
@@ -156,6 +161,9 @@ class PeopleTracker:
     snap_radius : float
         Distance (m) within which the ``detections`` given to :meth:`step` move a person to their mean (module
         docstring); 0: never.
+    static_confirm_s : float
+        With ``"confirmed"``: age (s) from which a track that has not moved is reported (module docstring); 0:
+        any confirmed track.
 
     Raises
     ------
@@ -174,16 +182,21 @@ class PeopleTracker:
         min_separation: float = 0.6,
         use_support: bool = True,
         snap_radius: float = 0.0,
+        static_confirm_s: float = 0.0,
     ) -> None:
         if people not in PEOPLE_MODES:
             raise ValueError(f"people must be one of {PEOPLE_MODES}, got {people!r}")
         if isinstance(coast_frames, bool) or not isinstance(coast_frames, int | np.integer) or coast_frames < 0:
             raise ValueError(f"coast_frames must be an integer >= 0, got {coast_frames!r}")
-        if not (isinstance(min_separation, int | float) and math.isfinite(min_separation) and min_separation >= 0):
-            raise ValueError(f"min_separation must be a finite number >= 0 m, got {min_separation!r}")
-        if not (isinstance(snap_radius, int | float) and math.isfinite(snap_radius) and snap_radius >= 0):
-            raise ValueError(f"snap_radius must be a finite number >= 0 m, got {snap_radius!r}")
+        for name, value, unit in (
+            ("min_separation", min_separation, "m"),
+            ("snap_radius", snap_radius, "m"),
+            ("static_confirm_s", static_confirm_s, "s"),
+        ):
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0 {unit}, got {value!r}")
         self.snap_radius = float(snap_radius)
+        self.static_confirm_s = float(static_confirm_s)
         self.classifier = classifier
         self.tracker = MultiPersonTracker(config)
         self.people, self.coast_frames, self.min_separation = people, int(coast_frames), float(min_separation)
@@ -262,7 +275,8 @@ class PeopleTracker:
         if self.people == "classified":
             return TrackedFrame(people=found, tracks=tracks, coasted=0)
         n = len(found.positions)
-        alive = [t for t in self.tracker.tracks if t.confirmed]
+        wait = self.static_confirm_s - 1e-9
+        alive = [t for t in self.tracker.tracks if t.confirmed and (t.moved or t.age_s >= wait)]
         ok = np.zeros(n, dtype=bool)
         ok[[t.measurement for t in alive if t.misses == 0 and 0 <= t.measurement < n]] = True
         kept = np.asarray(found.positions, dtype=float).reshape(-1, 2)[ok]

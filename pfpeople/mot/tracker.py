@@ -53,6 +53,9 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    ``max_coast_s`` seconds without a hit, or when its score falls below ``delete_score``, or (with
    ``region``) when its position leaves the region by more than ``region_margin``. The output (the confirmed
    tracks) leaves out tracks coasting longer than ``report_coast_s``: they stay alive to keep their id.
+7. **Motion.** Each track keeps its birth position, moved with the ego-motion like its state; it has *moved*
+   (``Track.moved``, for good) once its position has been ``moved_distance`` or more from there. ``Track.age_s``
+   is the time since its birth.
 
 Time is the caller's: ``dt`` is the time since the previous update (s, > 0). Time going backwards is a
 ``dt <= 0`` and raises ``ValueError``; a caller that restarts (a gap, a rewound bag) calls :meth:`reset`.
@@ -168,6 +171,8 @@ class TrackerConfig:
         Support positions within this distance (m) of a position of the same frame are left out (step 4c).
     support_confidence : float
         Confidence of a support hit in the existence score, in (0, 1].
+    moved_distance : float
+        Distance (m) from its birth position (ego-motion compensated) at which a track has moved (step 7).
     support_min_speed : float
         Only tracks whose speed estimate is at least this (m/s) take support positions (step 4c): a walker's far
         leg hides behind the near one, a chair taken for a person does not move.
@@ -235,6 +240,7 @@ class TrackerConfig:
     support_exclusion: float = 0.4
     support_confidence: float = 0.5
     support_min_speed: float = 0.6
+    moved_distance: float = 0.3
     prefer_confirmed: bool = True
 
     def __post_init__(self) -> None:
@@ -248,6 +254,7 @@ class TrackerConfig:
             "score_tau",
             "support_sigma",
             "support_exclusion",
+            "moved_distance",
         ):
             object.__setattr__(self, name, _finite_positive(getattr(self, name), name))
         object.__setattr__(
@@ -328,6 +335,10 @@ class Track:
         support position, step 4c).
     supported : bool
         Whether a support position (step 4c) was this frame's hit.
+    age_s : float
+        Time since the track's birth (s; 0 in the birth frame).
+    moved : bool
+        Whether the track has been ``moved_distance`` or more from its birth position (step 7).
     """
 
     id: int
@@ -343,6 +354,8 @@ class Track:
     confirmed: bool
     measurement: int = -1
     supported: bool = False
+    age_s: float = 0.0
+    moved: bool = False
 
     @property
     def position(self) -> NDArray[np.float64]:
@@ -369,6 +382,8 @@ class _State:
     support: float = 1.0
     measurement: int = -1
     supported: bool = False
+    age_s: float = 0.0
+    moved: bool = False
 
 
 def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[np.float64]:
@@ -443,6 +458,7 @@ class MultiPersonTracker:
     def reset(self) -> None:
         """Forget every track (ids keep counting up: an id is never reused)."""
         self._s = np.zeros((0, 4))
+        self._origin = np.zeros((0, 2))  # birth positions, current sensor frame (step 7)
         self._p = np.zeros((0, 4, 4))
         self._meta: list[_State] = []
 
@@ -496,6 +512,8 @@ class MultiPersonTracker:
                 confirmed=m.confirmed,
                 measurement=m.measurement,
                 supported=m.supported,
+                age_s=m.age_s,
+                moved=m.moved,
             )
             out.append(t)
         return out
@@ -591,6 +609,7 @@ class MultiPersonTracker:
         decay = math.exp(-dt / cfg.score_tau)
         for i, m in enumerate(self._meta):
             m.age += 1
+            m.age_s += dt
             m.measurement = int(assigned[i])
             m.supported = bool(supported[i])
             if meas_of[i] >= 0:
@@ -606,6 +625,10 @@ class MultiPersonTracker:
                 m.score *= decay
             if not m.confirmed and m.age <= cfg.confirm_window and m.hits >= cfg.confirm_hits:
                 m.confirmed = True
+        if n_old:
+            far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= cfg.moved_distance
+            for j in np.flatnonzero(far).tolist():
+                self._meta[j].moved = True
         self._delete()
         self._birth(z, c, cols)
         return self.confirmed()
@@ -617,6 +640,7 @@ class MultiPersonTracker:
         self._s[:, 1] -= ego.y
         self._s[:, :2] = self._s[:, :2] @ rot.T
         self._s[:, 2:] = self._s[:, 2:] @ rot.T
+        self._origin = (self._origin - np.array([ego.x, ego.y])) @ rot.T
         b = np.zeros((4, 4))
         b[:2, :2] = rot
         b[2:, 2:] = rot
@@ -780,6 +804,7 @@ class MultiPersonTracker:
         if not keep.all():
             self._s = self._s[keep]
             self._p = self._p[keep]
+            self._origin = self._origin[keep]
             self._meta = [m for m, k in zip(self._meta, keep, strict=True) if k]
 
     def _birth(self, z: NDArray[np.float64], c: NDArray[np.float64], used: NDArray[np.intp]) -> None:
@@ -795,6 +820,7 @@ class MultiPersonTracker:
         p0 = np.diag([cfg.measurement_sigma**2] * 2 + [cfg.initial_velocity_sigma**2] * 2)
         self._s = np.concatenate([self._s, s0])
         self._p = np.concatenate([self._p, np.broadcast_to(p0, (new.size, 4, 4))])
+        self._origin = np.concatenate([self._origin, z[new]])
         cs = cfg.confirm_score
         for j in new:
             st = _State(id=self._next_id, score=cfg.hit_gain * float(c[j]), measurement=int(j))
