@@ -379,24 +379,28 @@ class StaticClutterMap:
         r = np.hypot(pts[:, 0], pts[:, 1])
         pts, r = pts[r <= c.max_range], r[r <= c.max_range]
         human = np.zeros(pts.shape[0], dtype=bool)
-        if people.shape[0] and pts.shape[0]:
-            d, _ = cKDTree(people).query(pts, k=1, distance_upper_bound=c.exclude_radius)
-            human = np.isfinite(d)
-        # free space: samples along every free_stride-th beam, up to free_margin before its end point
+        if people.shape[0] and pts.shape[0]:  # few people: a dense distance test beats a k-d tree
+            d2 = (pts[:, None, 0] - people[None, :, 0]) ** 2 + (pts[:, None, 1] - people[None, :, 1]) ** 2
+            human = d2.min(axis=1) <= c.exclude_radius**2
+        # free space: samples along every free_stride-th beam, up to free_margin before its end point, as map cells:
+        # sample k of a beam with unit direction u is pose(u * steps[k]) = R u steps[k] + t
         beams = np.arange(0, pts.shape[0], c.free_stride)
         n_free = np.searchsorted(self._steps, r[beams] - c.free_margin)
         total = int(n_free.sum())
-        beam = np.repeat(beams, n_free)
+        beam = np.repeat(np.arange(beams.size), n_free)
         k = np.arange(total) - np.repeat(np.cumsum(n_free) - n_free, n_free)
-        unit = pts / np.maximum(r, 1e-9)[:, None]
-        free_cells, ok = self.cell_of(self.pose.apply(unit[beam] * self._steps[k][:, None]))
+        inv = 1.0 / c.resolution
+        ru = self.pose.apply(pts[beams] / np.maximum(r[beams], 1e-9)[:, None]) - self.pose.apply(np.zeros(2))
+        origin = (np.array([self.pose.x, self.pose.y]) - self.origin) * inv
+        ru *= inv
+        fi = np.floor(ru[beam, 0] * self._steps[k] + origin[0]).astype(np.intp)
+        fj = np.floor(ru[beam, 1] * self._steps[k] + origin[1]).astype(np.intp)
+        ok = (fi >= 0) & (fi < self.n) & (fj >= 0) & (fj < self.n)
         cells, inside = self.cell_of(self.pose.apply(pts))
         ncell = self.n * self.n
-        hit = np.zeros(ncell, dtype=bool)
         hc = cells[inside & ~human]
-        hit[hc] = True
         free = np.zeros(ncell, dtype=bool)
-        free[free_cells[ok]] = True
+        free[fi[ok] * self.n + fj[ok]] = True
         free[cells[inside & human]] = True
         # cells next to a return are not carved free by the beams that pass beside it (thin objects)
         for off in self._neighbours:
@@ -406,12 +410,14 @@ class StaticClutterMap:
         s -= s0
         s *= math.exp(-step / c.forget_time)  # every cell relaxes towards unknown; observed ones change below
         s += s0
+        hit = np.unique(hc)
         s[hit] = np.minimum(s[hit] + step, c.s_max)
-        s[free] = np.maximum(s[free] - c.free_rate * step, c.s_min)
+        fr = np.flatnonzero(free)
+        s[fr] = np.maximum(s[fr] - c.free_rate * step, c.s_min)
         # the latest returns, for the queries (all returns, people's too: a query looks at what is there now)
         self._hit_cells = cells[inside]
         self._hit_xy = pts[inside]
-        self._hit_tree = cKDTree(self._hit_xy) if self._hit_xy.shape[0] else None
+        self._hit_tree = None  # built by the first query
         self._people = people
         self._scores = None
         self.updates += 1
@@ -439,8 +445,10 @@ class StaticClutterMap:
         """
         pos = _positions(positions, "positions")
         out = np.zeros(pos.shape[0])
-        if not pos.shape[0] or self._hit_tree is None:
+        if not pos.shape[0] or not self._hit_xy.shape[0]:
             return out
+        if self._hit_tree is None:
+            self._hit_tree = cKDTree(self._hit_xy)
         score = self._return_scores()
         for m, idx in enumerate(self._hit_tree.query_ball_point(pos, r=self.config.query_radius)):
             if idx:
