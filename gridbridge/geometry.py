@@ -101,6 +101,13 @@ def from_frame(points: ArrayLike, pose: PoseLike) -> NDArray[np.float64]:
     ``pose`` is one pose or an array ``(..., 3)`` broadcast against the points' leading axes.
     """
     pts = _points(points)
+    if pts.ndim == 2 and isinstance(pose, Pose2D):  # the common case, without the stacking (same arithmetic)
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        px, py = pts[:, 0], pts[:, 1]
+        out = np.empty(pts.shape)
+        out[:, 0] = pose.x + c * px - s * py
+        out[:, 1] = pose.y + s * px + c * py
+        return out
     return np.stack(from_frame_xy(pts[..., 0], pts[..., 1], pose), axis=-1)
 
 

@@ -454,8 +454,9 @@ class StaticClutterMap:
             if idx:
                 out[m] = float(score[idx].mean())
         if self._people.shape[0]:
-            d, _ = cKDTree(self._people).query(pos, k=1, distance_upper_bound=self.config.exclude_radius)
-            out[np.isfinite(d)] = 0.0
+            ppl = self._people
+            d2 = (pos[:, None, 0] - ppl[None, :, 0]) ** 2 + (pos[:, None, 1] - ppl[None, :, 1]) ** 2
+            out[d2.min(axis=1) <= self.config.exclude_radius**2] = 0.0
         return out
 
     def _return_scores(self) -> NDArray[np.float64]:
