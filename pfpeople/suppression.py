@@ -151,7 +151,7 @@ class ClutterStage:
                 kept[k] = d[keep] if d is not None and len(d) else d
                 count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
                 f = found[k]
-                if f is not None:
+                if f is not None and c.tracking.single_legs:  # only a tracker that takes single legs needs them
                     sst = sup.map.is_static(f.support_sensor) if len(f.support) else np.zeros(0, dtype=bool)
                     self.support_static[k] = sst
             if topic == c.driver and st.ego_ok and ego is None:

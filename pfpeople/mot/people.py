@@ -24,8 +24,7 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
      confirmed track that no classified person continued but a support position did (the tracker's step 4c,
      :class:`~pfpeople.mot.tracker.MultiPersonTracker`) is reported at its updated position on the same terms.
      Single legs never start a person: clutter that looks like one leg stays out, a tracked walker whose far leg
-     is hidden stays in.
-
+     is hidden stays in;
    - with ``static_confirm_s``, a track that has not moved (``Track.moved``: 0.3 m from its birth position, in
      the odometry frame) is reported only once it is ``static_confirm_s`` old: a walker is reported as soon as
      its track is confirmed, a person who stands still one second later, and a table leg that the robot drives
