@@ -14,8 +14,10 @@ For bags the pipeline runs once, as a user runs it (the README's configuration: 
 through every other mode, so every row of a scene sees the very same detections (the recommended mode the ones
 its static-clutter map kept, as in the run; the detectors alone and the paper's modes all of them). Scores:
 recall, precision, false people per scan (FP / frames) and FPCPF (false-positive cells per frame, where the
-truth is complete), all with the one-to-one matching of ``pfpeople-eval score`` (gate 0.5 m); ms per frame is
-the filter and classifier (replay) or the whole pipeline including detectors (``pipeline`` rows).
+truth is complete), all with the one-to-one matching of ``pfpeople-eval score`` (gate 0.5 m), against the true
+people inside the grid (the grid cannot show people outside it; every row's positions are inside it too: the
+detectors alone are clipped to it), in every scene as in the MOT table; ms per frame is the filter and
+classifier (replay) or the whole pipeline including detectors (``pipeline`` rows).
 """
 
 from __future__ import annotations
@@ -190,8 +192,9 @@ def _pipeline_log(
 
     with BagSource(bag) as src:
         summary, _ = Pipeline(config).run(src, out, max_frames=max_frames)
-    log = log_from_run(out, gt=gt, frame="laser", nobody=nobody, recall_only=recall_only, name=name)
-    seen = log_from_run(out, gt=gt, frame="laser", nobody=nobody, recall_only=recall_only, name=name, suppressed=True)
+    kw: dict[str, Any] = {"gt": gt, "frame": "laser", "nobody": nobody, "recall_only": recall_only, "name": name}
+    log = log_from_run(out, in_grid=True, **kw)
+    seen = log_from_run(out, in_grid=True, suppressed=True, **kw)
     _SEEN[id(log)] = seen
     run = load_run(out)
     n = run.n_frames

@@ -119,8 +119,12 @@ def log_from_run(
     recall_only: bool = False,
     name: str | None = None,
     suppressed: bool = False,
+    in_grid: bool = False,
 ) -> ReplayLog:
     """A log of a ``pfpeople run`` directory, with the truth of a GT CSV (or ``nobody``).
+
+    ``in_grid``: keep only the true people inside the run's grid (the grid cannot show people outside it; as
+    :func:`log_from_scenario` and the MOT scoring do); by default every annotated person.
 
     ``suppressed``: leave out the detections the run's static-clutter map suppressed (``static`` = 1), i.e. the
     detections its filter saw; by default every detection (each detector alone). The same holds for the
@@ -162,6 +166,9 @@ def log_from_run(
         support = [np.asarray(p, dtype=float).reshape(-1, 2) for p in sup]
     if gt is not None:
         truth, _, _ = truth_and_sources(run, read_gt_csv(gt), frame=frame)
+        if in_grid:
+            spec = run.spec
+            truth = [t[spec.contains(t[:, 0], t[:, 1])] if len(t) else t for t in truth]
     else:
         if not nobody:
             raise ValueError("log_from_run needs gt=CSV or nobody=True")

@@ -194,3 +194,21 @@ def test_single_legs_raise_recall_on_the_wheelchair_scene(wheelchair_runs: tuple
     with_dir, without_dir, gt = wheelchair_runs
     r_with, r_without = _recall(with_dir, gt), _recall(without_dir, gt)
     assert r_with >= r_without + 0.04
+
+
+def test_log_truth_inside_the_grid(wheelchair_runs: tuple[Path, Path, Path], tmp_path: Path) -> None:
+    """``log_from_run(in_grid=True)`` (the benchmark's scoring) drops true people outside the run's grid."""
+    with_dir, _, gt = wheelchair_runs
+    with gt.open() as fh:
+        rows = list(csv.DictReader(fh))
+    far = dict(rows[0], person_id="999", x_laser_m="50.0", y_laser_m="0.0")
+    gt2 = tmp_path / "gt_far.csv"
+    with gt2.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows([*rows, far])
+    every = log_from_run(with_dir, gt=gt2, frame="laser")
+    inside = log_from_run(with_dir, gt=gt2, frame="laser", in_grid=True)
+    assert sum(len(t) for t in every.truth) == sum(len(t) for t in inside.truth) + 1
+    spec = inside.spec
+    assert all(spec.contains(t[:, 0], t[:, 1]).all() for t in inside.truth if len(t))
