@@ -674,35 +674,41 @@ class MultiPersonTracker:
         if z.shape[0]:
             d2 = ((sup[:, None, :] - z[None, :, :]) ** 2).sum(axis=2).min(axis=1)
             cols = cols[d2 > cfg.support_exclusion**2]
-        rows, cc = self._associate(sup[cols], sigma=cfg.support_sigma, rows=tracks)
+        cand = np.flatnonzero(tracks)
+        # only the pairs within the distance gate can be assigned: most frames have none
+        near = ((self._s[cand, None, :2] - sup[None, cols, :]) ** 2).sum(axis=2) <= cfg.gate_distance**2
+        if not near.any():
+            return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+        cand, cols = cand[near.any(axis=1)], cols[near.any(axis=0)]
+        rows, cc = self._associate(sup[cols], sigma=cfg.support_sigma, rows=cand)
         return rows, cols[cc]
 
     def _associate(
-        self, z: NDArray[np.float64], *, sigma: float | None = None, rows: NDArray[np.bool_] | None = None
+        self, z: NDArray[np.float64], *, sigma: float | None = None, rows: NDArray[np.intp] | None = None
     ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         """Step 3: the gated optimal assignment (track rows, measurement indices) of ``z``, with measurement
-        noise ``sigma`` (default ``measurement_sigma``), among the tracks ``rows`` (default all)."""
-        n, m = len(self._meta), z.shape[0]
-        if n == 0 or m == 0:
+        noise ``sigma`` (default ``measurement_sigma``), among the track rows ``rows`` (default all)."""
+        m = z.shape[0]
+        s, p = (self._s, self._p) if rows is None else (self._s[rows], self._p[rows])
+        if s.shape[0] == 0 or m == 0:
             return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
         cfg = self.config
         r2 = (cfg.measurement_sigma if sigma is None else sigma) ** 2
-        a = (self._p[:, 0, 0] + r2)[:, None]  # S = [[a, b], [b, c]] per track
-        b = self._p[:, 0, 1][:, None]
-        c = (self._p[:, 1, 1] + r2)[:, None]
+        a = (p[:, 0, 0] + r2)[:, None]  # S = [[a, b], [b, c]] per track
+        b = p[:, 0, 1][:, None]
+        c = (p[:, 1, 1] + r2)[:, None]
         det = a * c - b * b
-        y0 = z[None, :, 0] - self._s[:, 0:1]  # (n, m)
-        y1 = z[None, :, 1] - self._s[:, 1:2]
+        y0 = z[None, :, 0] - s[:, 0:1]  # (n, m)
+        y1 = z[None, :, 1] - s[:, 1:2]
         d2 = (c * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
         dist2 = y0 * y0 + y1 * y1
         allowed = (d2 <= cfg.gate_mahalanobis) & (dist2 <= cfg.gate_distance**2)
-        if rows is not None:
-            allowed &= rows[:, None]
         if not allowed.any():
             return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
         cost = d2 + np.log(det)
         if cfg.prefer_confirmed:
-            cost = cost + np.array([0.0 if m.confirmed else _TENTATIVE for m in self._meta])[:, None]
+            meta = self._meta if rows is None else [self._meta[i] for i in rows]
+            cost = cost + np.array([0.0 if t.confirmed else _TENTATIVE for t in meta])[:, None]
         cost = np.where(allowed, cost, _INFEASIBLE)
         # Only rows/columns with an allowed pair take part (smaller problem, same optimum).
         r_idx = np.flatnonzero(allowed.any(axis=1))
@@ -710,7 +716,8 @@ class MultiPersonTracker:
         sub = cost[np.ix_(r_idx, c_idx)]
         rr, cc = linear_sum_assignment(sub)
         ok = allowed[r_idx[rr], c_idx[cc]]
-        return r_idx[rr[ok]].astype(np.intp), c_idx[cc[ok]].astype(np.intp)
+        out_rows = r_idx[rr[ok]] if rows is None else rows[r_idx[rr[ok]]]
+        return out_rows.astype(np.intp), c_idx[cc[ok]].astype(np.intp)
 
     def _belief_measurements(
         self, grid: NDArray[np.float64], spec: GridSpec, z: NDArray[np.float64], meas_of: NDArray[np.intp]
