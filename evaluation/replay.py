@@ -131,7 +131,7 @@ def log_from_run(
     support positions of ``support.csv`` (:attr:`ReplayLog.support`, when the run wrote it).
     """
     from evaluation.gt_csv import read_gt_csv
-    from evaluation.run_truth import truth_and_sources
+    from evaluation.run_truth import group_by_frame, truth_and_sources
     from pfpeople.output import load_run
 
     run = load_run(run_dir)
@@ -158,12 +158,9 @@ def log_from_run(
         detections.append(row)
     support = None
     if run.support is not None:
-        sup: list[list[tuple[float, float]]] = [[] for _ in range(n)]
         s = run.support
-        for f, x, y, st in zip(s["frame"], s["x_m"], s["y_m"], s["static"], strict=True):
-            if not (suppressed and int(st)):
-                sup[int(f)].append((float(x), float(y)))
-        support = [np.asarray(p, dtype=float).reshape(-1, 2) for p in sup]
+        keep = ~s["static"].astype(bool) if suppressed else np.ones(len(s["frame"]), dtype=bool)
+        support = group_by_frame(s["frame"][keep], np.column_stack((s["x_m"][keep], s["y_m"][keep])), n)
     if gt is not None:
         truth, _, _ = truth_and_sources(run, read_gt_csv(gt), frame=frame)
         if in_grid:
