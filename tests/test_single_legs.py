@@ -212,3 +212,23 @@ def test_log_truth_inside_the_grid(wheelchair_runs: tuple[Path, Path, Path], tmp
     assert sum(len(t) for t in every.truth) == sum(len(t) for t in inside.truth) + 1
     spec = inside.spec
     assert all(spec.contains(t[:, 0], t[:, 1]).all() for t in inside.truth if len(t))
+
+
+def test_score_in_grid(wheelchair_runs: tuple[Path, Path, Path], tmp_path: Path) -> None:
+    """``pfpeople-eval score --in-grid``: a true person outside the grid is no longer a miss of every source."""
+    from evaluation.commands.score import score_run
+    from evaluation.gt_csv import read_gt_csv
+
+    with_dir, _, gt = wheelchair_runs
+    with gt.open() as fh:
+        rows = list(csv.DictReader(fh))
+    gt2 = tmp_path / "gt_far.csv"
+    with gt2.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows([*rows, dict(rows[0], person_id="999", x_laser_m="50.0", y_laser_m="0.0")])
+    run = load_run(with_dir)
+    every = score_run(run, read_gt_csv(gt2), frame="laser")["scores"]
+    inside = score_run(run, read_gt_csv(gt2), frame="laser", in_grid=True)["scores"]
+    for name in ("filter", "laser-legs", "laser-boosted"):
+        assert every[name]["fn"] == inside[name]["fn"] + 1 and every[name]["tp"] == inside[name]["tp"]

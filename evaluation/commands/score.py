@@ -4,7 +4,8 @@ Each detector alone (its detections in ``detections.csv``) and the filter output
 ``people.csv``) are matched one-to-one to the ground truth of every frame with
 :func:`evaluation.metrics.match_people` (distance gate ``--gate``, default 0.5 m). Frames where a detector
 had no data count for it with no detections. Optional limits, applied to ground truth and detections alike
-in the grid frame: a bearing sector ``--sector DEG_MIN DEG_MAX`` and a range ``--max-range M``.
+in the grid frame: a bearing sector ``--sector DEG_MIN DEG_MAX``, a range ``--max-range M``, and ``--in-grid``
+(the run's grid, which is all a filter can report: the scoring of ``pfpeople-eval benchmark``).
 
 Metrics: recall = TP / (TP + FN); precision = TP / (TP + FP); FPCPF (filter only) = mean over frames of
 the cells classified as people (paper's blob classification of the stored belief) that are free in the
@@ -70,6 +71,7 @@ def score_run(
     recall_only: bool = False,
     person_radius: float = 0.3,
     tolerance_ns: int = 50_000_000,
+    in_grid: bool = False,
 ) -> dict[str, Any]:
     """Score every detector and the filter of ``run`` against ``gt`` (see the module docstring).
 
@@ -87,6 +89,13 @@ def score_run(
     )
     n = run.n_frames
     spec = run.spec
+    if in_grid:
+
+        def inside(per_frame: list[NDArray[np.float64]]) -> list[NDArray[np.float64]]:
+            return [p[spec.contains(p[:, 0], p[:, 1])] if len(p) else p for p in per_frame]
+
+        truth = inside(truth)
+        sources = {name: inside(per_frame) for name, per_frame in sources.items()}
     centres = spec.cell_centres()
     gx, gy = centres
     cell_region = in_region(np.column_stack((gx.ravel(), gy.ravel())), sector, max_range).reshape(spec.shape)
@@ -133,6 +142,7 @@ def _score(args: argparse.Namespace) -> int:
         gate=args.gate,
         recall_only=args.recall_only,
         person_radius=args.person_radius,
+        in_grid=args.in_grid,
     )
     status = run.meta.get("status")
     print(
@@ -169,6 +179,9 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--sector", nargs=2, type=float, metavar=("DEG_MIN", "DEG_MAX"), help="bearing sector (deg)")
     p.add_argument("--max-range", type=float, help="range limit (m)")
+    p.add_argument(
+        "--in-grid", action="store_true", help="score only inside the run's grid (as pfpeople-eval benchmark does)"
+    )
     p.add_argument("--gate", type=float, default=0.5, help="matching distance (m), default 0.5")
     p.add_argument("--recall-only", action="store_true", help="GT does not annotate everybody: recall only")
     p.add_argument("--person-radius", type=float, default=0.3, help="GT occupancy radius for FPCPF (m)")
