@@ -171,7 +171,8 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
 
     Tracks start only from the classifier's people (``birth_min_score`` = its threshold, unless
     ``tracking.params`` sets it) when ``peak_threshold`` feeds the tracker weaker peaks. ``people`` defaults by
-    ``mode``: ``"confirmed"`` in the recommended mode, ``"classified"`` in the paper mode.
+    ``mode``: ``"confirmed"`` in the recommended mode, ``"classified"`` in the paper mode; ``snap_radius`` applies
+    in the recommended mode only (the paper mode reports its classified people where they were classified).
 
     Raises
     ------
@@ -200,7 +201,7 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
         coast_frames=tracking.coast_frames,
         min_separation=float(getattr(base, "min_separation", 0.6)),
         use_support=tracking.single_legs,
-        snap_radius=float(tracking.snap_radius),
+        snap_radius=0.0 if mode == "paper" else float(tracking.snap_radius),
         static_confirm_s=float(tracking.static_confirm_s),
     )
 

@@ -174,6 +174,8 @@ def test_build_people_tracker_defaults_by_mode() -> None:
     assert build_people_tracker(TrackingConfig(), cl, "paper").people == "classified"
     assert build_people_tracker(TrackingConfig(people="confirmed"), cl, "paper").people == "confirmed"
     assert build_people_tracker(TrackingConfig(enabled=False), cl) is None
+    # snapping: the recommended mode only (the paper mode reports people where they were classified)
+    assert rec.snap_radius == 0.3 and build_people_tracker(TrackingConfig(), cl, "paper").snap_radius == 0.0
     with pytest.raises(ValueError, match=r"\[tracking.params\]"):
         build_people_tracker(TrackingConfig(params={"no_such_field": 1}), cl)
 

@@ -365,7 +365,7 @@ class TrackingConfig:
     snap_radius : float
         The classified people and weaker peaks with detections of point-like detectors (the laser ones, static
         clutter removed) within this distance (m) are moved to their mean before tracking and reporting
-        (:mod:`pfpeople.mot.people`); 0: never. Default 0.3.
+        (:mod:`pfpeople.mot.people`); 0: never. Default 0.3; the paper mode never snaps.
     static_confirm_s : float
         With ``people = "confirmed"``: a track that has not moved (0.3 m from its birth position in the odometry
         frame, ``TrackerConfig.moved_distance``) is reported only from this age (s) on; a walker as soon as it is
