@@ -79,7 +79,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from gridbridge.geometry import Pose2D
+from gridbridge.geometry import Pose2D, rotate
 from pfpeople.scanmatch import ScanOdometry
 
 __all__ = [
@@ -379,9 +379,8 @@ class StaticClutterMap:
         r = np.hypot(pts[:, 0], pts[:, 1])
         pts, r = pts[r <= c.max_range], r[r <= c.max_range]
         human = np.zeros(pts.shape[0], dtype=bool)
-        if people.shape[0] and pts.shape[0]:  # few people: a dense distance test beats a k-d tree
-            d2 = (pts[:, None, 0] - people[None, :, 0]) ** 2 + (pts[:, None, 1] - people[None, :, 1]) ** 2
-            human = d2.min(axis=1) <= c.exclude_radius**2
+        if people.shape[0] and pts.shape[0]:
+            human = _near(pts, people, c.exclude_radius)
         # free space: samples along every free_stride-th beam, up to free_margin before its end point, as map cells:
         # sample k of a beam with unit direction u is pose(u * steps[k]) = R u steps[k] + t
         beams = np.arange(0, pts.shape[0], c.free_stride)
@@ -390,7 +389,7 @@ class StaticClutterMap:
         beam = np.repeat(np.arange(beams.size), n_free)
         k = np.arange(total) - np.repeat(np.cumsum(n_free) - n_free, n_free)
         inv = 1.0 / c.resolution
-        ru = self.pose.apply(pts[beams] / np.maximum(r[beams], 1e-9)[:, None]) - self.pose.apply(np.zeros(2))
+        ru = rotate(pts[beams] / np.maximum(r[beams], 1e-9)[:, None], self.pose.yaw)
         origin = (np.array([self.pose.x, self.pose.y]) - self.origin) * inv
         ru *= inv
         fi = np.floor(ru[beam, 0] * self._steps[k] + origin[0]).astype(np.intp)
@@ -454,9 +453,7 @@ class StaticClutterMap:
             if idx:
                 out[m] = float(score[idx].mean())
         if self._people.shape[0]:
-            ppl = self._people
-            d2 = (pos[:, None, 0] - ppl[None, :, 0]) ** 2 + (pos[:, None, 1] - ppl[None, :, 1]) ** 2
-            out[d2.min(axis=1) <= self.config.exclude_radius**2] = 0.0
+            out[_near(pos, self._people, self.config.exclude_radius)] = 0.0
         return out
 
     def _return_scores(self) -> NDArray[np.float64]:
@@ -473,6 +470,13 @@ class StaticClutterMap:
     def is_static(self, positions: ArrayLike) -> NDArray[np.bool_]:
         """``static_score(positions) >= static_threshold``, shape (M,)."""
         return np.asarray(self.static_score(positions) >= self.config.static_threshold - 1e-9, dtype=bool)
+
+
+def _near(points: NDArray[np.float64], people: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
+    """``(N,)``: whether each of ``points`` ``(N, 2)`` lies within ``radius`` of one of ``people`` ``(K, 2)``,
+    ``K >= 1`` (a few people: a dense distance test beats building a k-d tree)."""
+    d2 = (points[:, None, 0] - people[None, :, 0]) ** 2 + (points[:, None, 1] - people[None, :, 1]) ** 2
+    return np.asarray(d2.min(axis=1) <= radius * radius, dtype=bool)
 
 
 class MovingPeople:
