@@ -53,14 +53,24 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    ``max_coast_s`` seconds without a hit, or when its score falls below ``delete_score``, or (with
    ``region``) when its position leaves the region by more than ``region_margin``. The output (the confirmed
    tracks) leaves out tracks coasting longer than ``report_coast_s``: they stay alive to keep their id.
+
+   6b. **Re-identification** (``reid_distance > 0``): a track confirmed in this frame takes the id of a *lost*
+   track, a confirmed one that has had no hit since the new track was born (two tracks seen at once are two
+   people), when their positions are within ``reid_distance`` and within the Mahalanobis gate of the two
+   position covariances summed (the lost track's grows while it coasts); the optimal assignment (cost ``d^2 +
+   ln det S``) pairs several. The new track keeps its state and takes the lost track's id, birth time and
+   ``moved``; the lost track is removed. The constant-velocity prediction of a coasting track runs on while the
+   person stops or turns behind an occluder, past the association gate: without this the person comes back
+   under a new id.
 7. **Motion.** Each track keeps its birth position, moved with the ego-motion like its state; it has *moved*
    (``Track.moved``, for good) once its position has been ``moved_distance`` or more from there. ``Track.age_s``
    is the time since its birth.
 
 Time is the caller's: ``dt`` is the time since the previous update (s, > 0). Time going backwards is a
 ``dt <= 0`` and raises ``ValueError``; a caller that restarts (a gap, a rewound bag) calls :meth:`reset`.
-Track ids are integers from 1, unique over the tracker's lifetime and never reused (not even after
-:meth:`reset`).
+Track ids are integers from 1, unique among the live tracks and never given to another person: a new track
+takes a new id (ids keep counting up after :meth:`reset`), and re-identification (step 6b) passes a lost
+track's id to the track that continues it as the lost track is removed.
 """
 
 from __future__ import annotations
@@ -176,6 +186,9 @@ class TrackerConfig:
     support_min_speed : float
         Only tracks whose speed estimate is at least this (m/s) take support positions (step 4c): a walker's far
         leg hides behind the near one, a chair taken for a person does not move.
+    reid_distance : float
+        Re-identification (step 6b): largest distance (m) between a newly confirmed track and a lost track that
+        gives it the lost track's id; 0: no re-identification. Default 2.5 (see Notes).
     prefer_confirmed : bool
         In the assignment a confirmed track has precedence over a tentative one: the cost of a tentative
         track's pairs is raised by a constant larger than any allowed pair's cost, so a measurement that a
@@ -224,7 +237,7 @@ class TrackerConfig:
     confirm_hits: int = 3
     confirm_window: int = 5
     tentative_max_misses: int = 2
-    max_coast_s: float = 5.0
+    max_coast_s: float = 8.0
     delete_score: float = 0.05
     hit_gain: float = 0.4
     score_tau: float = 2.0
@@ -241,6 +254,7 @@ class TrackerConfig:
     support_confidence: float = 0.5
     support_min_speed: float = 0.6
     moved_distance: float = 0.3
+    reid_distance: float = 2.5
     prefer_confirmed: bool = True
 
     def __post_init__(self) -> None:
@@ -257,9 +271,8 @@ class TrackerConfig:
             "moved_distance",
         ):
             object.__setattr__(self, name, _finite_positive(getattr(self, name), name))
-        object.__setattr__(
-            self, "region_margin", _finite_positive(self.region_margin, "region_margin", allow_zero=True)
-        )
+        for name in ("region_margin", "reid_distance"):
+            object.__setattr__(self, name, _finite_positive(getattr(self, name), name, allow_zero=True))
         if self.report_coast_s is not None:
             rc = _finite_positive(self.report_coast_s, "report_coast_s", allow_zero=True)
             object.__setattr__(self, "report_coast_s", rc)
@@ -312,7 +325,8 @@ class Track:
     Attributes
     ----------
     id : int
-        Unique over the tracker's lifetime, never reused.
+        Unique among the live tracks; a new track takes a new one, a re-identified track (step 6b) the id of the
+        lost track it continues.
     x, y : float
         Position (m).
     vx, vy : float
@@ -607,6 +621,7 @@ class MultiPersonTracker:
                 conf[s_rows] = cfg.support_confidence
                 supported[s_rows] = True
         decay = math.exp(-dt / cfg.score_tau)
+        was_confirmed = [m.confirmed for m in self._meta]
         for i, m in enumerate(self._meta):
             m.age += 1
             m.age_s += dt
@@ -629,9 +644,64 @@ class MultiPersonTracker:
             far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= cfg.moved_distance
             for j in np.flatnonzero(far).tolist():
                 self._meta[j].moved = True
+            if cfg.reid_distance > 0:
+                self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
         self._delete()
         self._birth(z, c, cols)
         return self.confirmed()
+
+    def _reidentify(self, new: list[int]) -> None:
+        """Step 6b: give the tracks ``new`` (rows confirmed in this frame) the ids of lost tracks.
+
+        A lost track is a confirmed one without a hit since the new track's birth (``misses >= age``). A pair
+        is allowed within ``reid_distance`` and the Mahalanobis gate of the two position covariances summed;
+        the optimal assignment (cost ``d^2 + ln det S``) pairs them. The new track takes the lost track's id,
+        birth time and ``moved``; the lost track is removed.
+        """
+        if not new:
+            return
+        cfg = self.config
+        meta = self._meta
+        lost = np.array(
+            [j for j, m in enumerate(meta) if m.confirmed and m.misses > 0 and j not in new], dtype=np.intp
+        )
+        if lost.size == 0:
+            return
+        rows = np.array(new, dtype=np.intp)
+        y = self._s[rows, None, :2] - self._s[None, lost, :2]  # (n, l, 2)
+        cov = self._p[rows, None, :2, :2] + self._p[None, lost, :2, :2]  # (n, l, 2, 2)
+        a, b, c = cov[..., 0, 0], cov[..., 0, 1], cov[..., 1, 1]
+        det = a * c - b * b
+        d2 = (c * y[..., 0] ** 2 - 2.0 * b * y[..., 0] * y[..., 1] + a * y[..., 1] ** 2) / det
+        ages = np.array([meta[i].age for i in new])
+        misses = np.array([meta[j].misses for j in lost])
+        allowed = (
+            (d2 <= cfg.gate_mahalanobis)
+            & ((y**2).sum(axis=2) <= cfg.reid_distance**2)
+            & (misses[None, :] >= ages[:, None])
+        )
+        if not allowed.any():
+            return
+        rr, cc = linear_sum_assignment(np.where(allowed, d2 + np.log(det), _INFEASIBLE))
+        gone = []
+        for r, k in zip(rr.tolist(), cc.tolist(), strict=True):
+            if not allowed[r, k]:
+                continue
+            m, old = meta[rows[r]], meta[lost[k]]
+            m.id, m.age_s, m.moved = old.id, max(m.age_s, old.age_s), m.moved or old.moved
+            gone.append(int(lost[k]))
+        self._drop(np.array(gone, dtype=np.intp))
+
+    def _drop(self, rows: NDArray[np.intp]) -> None:
+        """Remove the track rows ``rows``."""
+        if rows.size == 0:
+            return
+        keep = np.ones(len(self._meta), dtype=bool)
+        keep[rows] = False
+        self._s = self._s[keep]
+        self._p = self._p[keep]
+        self._origin = self._origin[keep]
+        self._meta = [m for m, k in zip(self._meta, keep, strict=True) if k]
 
     def _apply_ego(self, ego: Pose2D) -> None:
         c, sn = math.cos(ego.yaw), math.sin(ego.yaw)
@@ -808,11 +878,7 @@ class MultiPersonTracker:
                 can_confirm = m.hits + max(0, cfg.confirm_window - m.age) >= cfg.confirm_hits
                 gone = m.misses >= cfg.tentative_max_misses or not can_confirm or m.score < cfg.delete_score
             keep[i] = not gone
-        if not keep.all():
-            self._s = self._s[keep]
-            self._p = self._p[keep]
-            self._origin = self._origin[keep]
-            self._meta = [m for m, k in zip(self._meta, keep, strict=True) if k]
+        self._drop(np.flatnonzero(~keep))
 
     def _birth(self, z: NDArray[np.float64], c: NDArray[np.float64], used: NDArray[np.intp]) -> None:
         cfg = self.config
