@@ -1,11 +1,14 @@
 """Benchmark of the whole bag pipeline on the real person-following bag (7170 scans, 720 s).
 
-Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter, blob classification and the
-run directory output) for each filter and prints frames per second, the real-time factor (recorded seconds
-processed per wall-clock second) and the recall of each detector and of the filter against the ground truth
-(recall only: passers-by are not annotated)::
+Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter, classification, tracking and
+the run directory output) for each filter, in one process and with the front end in a second process
+(``Pipeline(front_process=...)``, :mod:`pfpeople.frontend`), and prints frames per second, the real-time factor
+(recorded seconds processed per wall-clock second), its ratio to the one-process run of the same filter measured
+just before, and the recall of each detector and of the filter against the ground truth (recall only: passers-by
+are not annotated; the two modes give the same)::
 
     python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
+        [--processes 1 2] [--repeat N]
 
 Wall-clock figures depend on the machine; tests never assert them.
 """
@@ -13,6 +16,7 @@ Wall-clock figures depend on the machine; tests never assert them.
 from __future__ import annotations
 
 import argparse
+import statistics
 import sys
 import tempfile
 from collections.abc import Sequence
@@ -37,6 +41,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--filters", nargs="+", default=["grid", "particle"], choices=("grid", "particle"))
     ap.add_argument("--max-frames", type=int, default=None, help="stop after N frames (default: the whole bag)")
     ap.add_argument("--particles", type=int, default=5000, help="particle count of the particle filter")
+    ap.add_argument(
+        "--processes",
+        nargs="+",
+        type=int,
+        default=[1, 2],
+        choices=(1, 2),
+        help="1: one process; 2: front end in a second process",
+    )
+    ap.add_argument(
+        "--repeat", type=int, default=1, help="runs per filter and mode, interleaved (the median is compared)"
+    )
     args = ap.parse_args(argv)
     data = Path(args.data)
     if not (data / BAG).is_file():
@@ -44,24 +59,40 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     gt = read_gt_csv(data / GT)
     cfg0 = load_config(builtin_config_path("person_following_outdoor_1"))
-    print(f"{'filter':<10}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}   recall per source")
+    print(
+        f"{'filter':<10}{'procs':>6}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}{'ratio':>7}"
+        "   recall per source"
+    )
     for kind in args.filters:
         cfg = replace(cfg0, filter=replace(cfg0.filter, kind=kind, n_particles=args.particles))
-        with tempfile.TemporaryDirectory() as tmp:
-            out = Path(tmp) / "run"
-            try:
-                with BagSource(data / BAG) as src:
-                    summary, _ = Pipeline(cfg).run(src, out, max_frames=args.max_frames)
-            except ResourceLimitError as exc:  # too large for this machine; any other error is a failure
-                print(f"{kind:<10} skipped: {exc}")
-                continue
-            run = load_run(out)
-            stamps = run.frames["stamp_ns"]
-            recorded = (stamps[-1] - stamps[0]) * 1e-9 + 0.1 if len(stamps) else 0.0
-            rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
-            scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
-            rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
-            print(f"{kind:<10}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}{rtf:>11.1f}   {rec}")
+        rtfs: dict[int, list[float]] = {n: [] for n in args.processes}
+        for _ in range(max(args.repeat, 1)):
+            for n in args.processes:
+                with tempfile.TemporaryDirectory() as tmp:
+                    out = Path(tmp) / "run"
+                    try:
+                        with BagSource(data / BAG) as src:
+                            pipe = Pipeline(cfg, front_process=n == 2)
+                            summary, _ = pipe.run(src, out, max_frames=args.max_frames)
+                    except ResourceLimitError as exc:  # too large for this machine; any other error is a failure
+                        print(f"{kind:<10} skipped: {exc}")
+                        break
+                    run = load_run(out)
+                    stamps = run.frames["stamp_ns"]
+                    recorded = (stamps[-1] - stamps[0]) * 1e-9 + 0.1 if len(stamps) else 0.0
+                    rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
+                    rtfs[n].append(rtf)
+                    scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
+                    rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
+                    base = rtfs[1][-1] if rtfs.get(1) else float("nan")
+                    print(
+                        f"{kind:<10}{n:>6}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}{rtf:>11.1f}"
+                        f"{rtf / base:>7.2f}   {rec}",
+                        flush=True,
+                    )
+        if len(rtfs.get(1, [])) > 1 and len(rtfs.get(2, [])) > 1:
+            m1, m2 = statistics.median(rtfs[1]), statistics.median(rtfs[2])
+            print(f"{kind:<10} median RT factor: 1 process {m1:.1f}, 2 processes {m2:.1f} (ratio {m2 / m1:.2f})")
     return 0
 
 

@@ -194,7 +194,8 @@ def run_bag(
     }
     try:
         with BagSource(bag) as src:
-            summary, _ = Pipeline(config).run(
+            # one process per bag: a batch runs its bags in parallel, one per core
+            summary, _ = Pipeline(config, front_process=False).run(
                 src, out, max_frames=max_frames, overwrite=overwrite, metadata={"command": "pfpeople batch"}
             )
         row.update(status="complete", frames=summary.frames, fps=summary.fps, people_per_frame=_people_per_frame(out))

@@ -71,6 +71,7 @@ from pfpeople.bag.reader import BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer
 from pfpeople.filters import build_classifier, build_people_tracker
+from pfpeople.frontend import FrontProcess, FrontResult, front_process_available
 from pfpeople.mot.people import point_like, support_positions
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import deferred_signals, interrupt_signals
@@ -151,6 +152,14 @@ class Pipeline:
         ``bag_out``, ``bag_format``, ``overwrite`` and ``progress``.
     sinks : sequence of Sink, optional
         Extra sinks every run writes to, after the standard ones.
+    front_process : bool or None, optional
+        Run the front end of each frame (ego-motion, detectors, static clutter) in a second process, a few frames
+        ahead of the back end (filter, classifier, tracker, outputs; :mod:`pfpeople.frontend`). Same results,
+        more frames per second on two or more cores. None (default): when :func:`pfpeople.frontend.
+        front_process_available` says it can and no front-end part (``detectors``, ``adapters``,
+        ``odometry_factory``) is given: the state of those would be in the child process, out of the caller's
+        sight. True: ask for it (one process, with a warning, where it cannot run); False: one process.
+        ``[clutter] keep_out = "tracks"`` feeds the tracks back into the clutter map: one process.
 
     Raises
     ------
@@ -169,8 +178,10 @@ class Pipeline:
         odometry_factory: OdometryFactory | None = None,
         sink_factory: SinkFactory | None = None,
         sinks: Sequence[Sink] = (),
+        front_process: bool | None = None,
     ) -> None:
         self.config = config
+        self.front_process = front_process
         self._given = dict(detectors or {})
         unknown = set(self._given) - {d.name for d in config.detectors}
         if unknown:
@@ -180,6 +191,8 @@ class Pipeline:
         self._setup_sensors: SetupSensors = sensor_setup or setup_sensors
         self._odometry_factory: OdometryFactory = odometry_factory or default_odometry
         self._sink_factory: SinkFactory = sink_factory or standard_sinks
+        # parts given by the caller run where the caller can see them, unless front_process=True asks otherwise
+        self._custom_front = bool(detectors or adapters or odometry_factory)
         self._extra_sinks = list(sinks)
         self.summary = RunSummary()
         self.grid_frame = config.grid_frame
@@ -273,21 +286,30 @@ class Pipeline:
             )
         return None
 
-    def _process(self, frame: Frame) -> FrameResult:
-        assert self.filter is not None and self.odometry is not None and self.clutter is not None
+    def _front(self, frame: Frame) -> FrontResult:
+        """The part of a frame that does not depend on the filter: ego-motion, detectors, static clutter."""
+        assert self.odometry is not None and self.clutter is not None
         motion = self.odometry.begin(frame)
         if motion.restarted:
-            self.filter.reset()
             self.clutter.reset()
         found = [self._detect(a, frame) for a in self.adapters]
-        raw: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
-        dets = raw
-        static: list[NDArray[np.bool_] | None] = [None] * len(raw)
-        sup_static: list[NDArray[np.bool_] | None] = [None] * len(raw)
+        dets: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
+        static: list[NDArray[np.bool_] | None] = [None] * len(found)
+        sup_static: list[NDArray[np.bool_] | None] = [None] * len(found)
         if self.clutter.active:
             dets, static, laser_ego = self.clutter.step(found, motion.ego, motion.dt, frame.stamp_ns)
-            sup_static = self.clutter.support_static
+            sup_static = list(self.clutter.support_static)
             motion = self.odometry.from_laser(motion, laser_ego)
+        self.odometry.end(frame, motion)
+        return FrontResult(motion=motion, found=found, dets=dets, static=static, support_static=sup_static)
+
+    def _back(self, frame: Frame, front: FrontResult) -> FrameResult:
+        """The filter, the classifier and the tracker on a frame's :meth:`_front` result."""
+        assert self.filter is not None and self.clutter is not None
+        motion, found, dets = front.motion, front.found, front.dets
+        if motion.restarted:
+            self.filter.reset()
+        raw: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         step = self.filter.step(dets, motion.odometry, motion.dt)
         belief = np.asarray(step.posterior, dtype=float)
         if motion.restarted and hasattr(self.classifier, "reset"):
@@ -302,7 +324,7 @@ class Pipeline:
             kept_support = None
             if self.tracker.use_support:
                 support = [None if f is None else f.support for f in found]
-                kept_support = support_positions(support, sup_static)
+                kept_support = support_positions(support, front.support_static)
             tracked = self.tracker.step(
                 people_found,
                 belief,
@@ -318,14 +340,13 @@ class Pipeline:
         # with [clutter] keep_out = "tracks": the confirmed tracks (else the classified people) are kept out of the
         # clutter map next frame (see pfpeople.bag.config.ClutterSuppression.keep_out for the trade-off)
         self.clutter.remember(np.array([[t.x, t.y] for t in tracks]).reshape(-1, 2) if tracks else people)
-        self.odometry.end(frame, motion)
         self.summary.frames += 1
         return FrameResult(
             frame=frame,
             dt=motion.dt,
             odometry=motion.odometry,
             detections=raw,
-            static=static,
+            static=front.static,
             belief=belief,
             people=people,
             people_size=[int(v) for v in people_found.sizes],
@@ -333,8 +354,12 @@ class Pipeline:
             step=step,
             tracks=tracks,
             support=support,
-            support_static=None if support is None else sup_static,
+            support_static=None if support is None else front.support_static,
         )
+
+    def _process(self, frame: Frame) -> FrameResult:
+        """One frame in this process: :meth:`_back` of :meth:`_front`."""
+        return self._back(frame, self._front(frame))
 
     def frames(self, bag: BagSource, *, max_frames: int | None = None) -> Generator[FrameResult, None, None]:
         """Process the bag frame by frame (call :meth:`prepare` first, or let this call it)."""
@@ -355,22 +380,59 @@ class Pipeline:
             policies[c.odometry] = "interpolate"
         else:
             log.info("no odometry topic configured: the robot is taken as standing in every frame")
-        sync = FrameAssembler(c.driver, policies, tolerance_ns=c.sync_tolerance_ns, max_pending=c.max_pending_frames)
         use_bag_time = c.time_source == "bag"
         self.odometry.reset()
 
-        def synced() -> Iterator[Frame]:
-            for m in bag.messages(self._topics()):
+        def synced(source: BagSource, sync: FrameAssembler) -> Iterator[Frame]:
+            for m in source.messages(self._topics()):
                 yield from sync.push(replace(m, stamp_ns=m.bag_time_ns) if use_bag_time else m)
             yield from sync.finish()
 
+        def assembler() -> FrameAssembler:
+            return FrameAssembler(
+                c.driver, policies, tolerance_ns=c.sync_tolerance_ns, max_pending=c.max_pending_frames
+            )
+
+        def child_frames() -> Iterator[Frame]:  # in the front-end process: its own reader of the same bag
+            with BagSource(bag.paths) as source:
+                yield from itertools.islice(synced(source, assembler()), max_frames)
+
+        sync = assembler()
         t0 = time.perf_counter()
         try:
-            for frame in itertools.islice(synced(), max_frames):
-                yield self._process(frame)
+            frames = itertools.islice(synced(bag, sync), max_frames)
+            if self._two_processes(bag):
+                front = FrontProcess(child_frames, self._front, self.summary)
+                try:
+                    for frame in frames:
+                        yield self._back(frame, front.take(frame))
+                finally:
+                    front.close()
+            else:
+                for frame in frames:
+                    yield self._process(frame)
         finally:
             self.summary.elapsed_s = time.perf_counter() - t0
             self.summary.sync = sync.stats
+
+    def _two_processes(self, bag: BagSource) -> bool:
+        """Whether this run's front end runs in a second process (``front_process``)."""
+        if self.front_process is False or (self.front_process is None and self._custom_front):
+            return False
+        why = ""
+        if not isinstance(bag, BagSource):
+            why = f"the source is a {type(bag).__name__}, not a BagSource the front-end process can open again"
+        elif self.config.clutter.keep_out == "tracks":
+            why = '[clutter] keep_out = "tracks" feeds the tracks back into the clutter map'
+        else:
+            _ok, why = front_process_available()
+        if why:
+            if self.front_process:
+                log.warning("front_process: one process (%s)", why)
+            else:
+                log.debug("one process: %s", why)
+            return False
+        return True
 
     def run(
         self,

@@ -78,7 +78,6 @@ def test_reid_distance_validation(value: float) -> None:
         TrackerConfig(reid_distance=value)
 
 
-
 _person = st.tuples(
     st.floats(min_value=-3.0, max_value=3.0),  # start x, y (m)
     st.floats(min_value=-3.0, max_value=3.0),
@@ -92,7 +91,9 @@ _person = st.tuples(
 
 @settings(max_examples=40, derandomize=True, deadline=None, database=None)
 @given(st.lists(_person, min_size=1, max_size=3))
-def test_ids_stay_unique_and_come_from_the_counter(people: list[tuple[float, float, float, float, int, int, int]]) -> None:
+def test_ids_stay_unique_and_come_from_the_counter(
+    people: list[tuple[float, float, float, float, int, int, int]],
+) -> None:
     """People walking, stopping and hidden at random: the live tracks' ids are distinct in every frame, and an
     id that was not live in the previous frame has never been seen (re-identification passes on only the id of
     a live track)."""

@@ -83,7 +83,7 @@ def _run_checked(args: argparse.Namespace) -> int:
     try:
         with BagSource(args.bag) as bag:
             args._out = out
-            summary, _ = Pipeline(cfg).run(
+            summary, _ = Pipeline(cfg, front_process=False if args.one_process else None).run(
                 bag,
                 out,
                 max_frames=args.max_frames,
@@ -143,4 +143,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--seed", type=int, help="particle filter seed")
     p.add_argument("--overwrite", action="store_true", help="replace an existing run in --out (and --bag-out)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--one-process",
+        action="store_true",
+        help="run everything in this process (default: with 2+ cores the detectors and the static-clutter map run in a "
+        "second process, ahead of the filter; same results)",
+    )
     p.set_defaults(func=_run)

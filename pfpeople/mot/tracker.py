@@ -662,9 +662,7 @@ class MultiPersonTracker:
             return
         cfg = self.config
         meta = self._meta
-        lost = np.array(
-            [j for j, m in enumerate(meta) if m.confirmed and m.misses > 0 and j not in new], dtype=np.intp
-        )
+        lost = np.array([j for j, m in enumerate(meta) if m.confirmed and m.misses > 0 and j not in new], dtype=np.intp)
         if lost.size == 0:
             return
         rows = np.array(new, dtype=np.intp)

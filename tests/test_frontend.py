@@ -1,0 +1,101 @@
+"""The front end in a second process (pfpeople.frontend, ``Pipeline(front_process=...)``): the same run, errors,
+logs and counters as in one process."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from test_pipeline_bags import config, write_bag
+from test_reliability_bags import legs_only, write_scan_bag
+
+from evaluation.scenarios.scan import write_scene_bag
+from pfpeople.adapters import LegAdapter
+from pfpeople.bag.config import load_config
+from pfpeople.bag.reader import BagSource
+from pfpeople.frontend import front_process_available
+from pfpeople.output import load_run
+from pfpeople.pipeline import Pipeline
+
+pytestmark = pytest.mark.skipif(not front_process_available()[0], reason=front_process_available()[1])
+
+RUN_FILES = ("frames.csv", "detections.csv", "people.csv", "tracks.csv", "support.csv")
+
+
+@pytest.fixture(scope="module")
+def wheelchair(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """60 frames of the scan-level wheelchair scene: odometry, a yawed laser, both laser detectors, clutter."""
+    return write_scene_bag("wheelchair", tmp_path_factory.mktemp("wheelchair"), frames=60)
+
+
+@pytest.mark.parametrize("kind", ["grid", "particle"])
+def test_two_processes_write_the_same_run_as_one(wheelchair: Any, tmp_path: Path, kind: str) -> None:
+    cfg = load_config(wheelchair.run_toml)
+    cfg = replace(cfg, filter=replace(cfg.filter, kind=kind, n_particles=5000))
+    summaries = {}
+    for n in (1, 2):
+        with BagSource(wheelchair.bag) as src:
+            summaries[n], _ = Pipeline(cfg, front_process=n == 2).run(src, tmp_path / str(n))
+    one, two = tmp_path / "1", tmp_path / "2"
+    for name in RUN_FILES:
+        assert (one / name).read_bytes() == (two / name).read_bytes(), name
+    assert np.array_equal(np.load(one / "grids.npy"), np.load(two / "grids.npy"))
+    a, b = summaries[1].as_dict(), summaries[2].as_dict()
+    a.pop("elapsed_s"), b.pop("elapsed_s"), a.pop("fps", None), b.pop("fps", None)
+    assert a == b and a["frames"] == 60 and sum(a["suppressed"].values()) > 0
+
+
+class _Boom(RuntimeError):
+    pass
+
+
+class _FailingLegAdapter(LegAdapter):
+    """The leg detector, with a bug at its fourth frame."""
+
+    def detect(self, msgs: Any) -> Any:
+        self.calls = getattr(self, "calls", 0) + 1
+        if self.calls == 4:
+            raise _Boom("leg detector bug at its 4th frame")
+        return super().detect(msgs)
+
+
+def test_an_error_in_the_front_end_ends_the_run_at_that_frame(tmp_path: Path) -> None:
+    bag = tmp_path / "scans.bag"
+    write_scan_bag(bag, 10)
+    pipe = Pipeline(legs_only(), adapters={"leg": _FailingLegAdapter}, front_process=True)
+    with BagSource(bag) as src, pytest.raises(_Boom, match="4th frame") as err:
+        pipe.run(src, tmp_path / "run")
+    assert any("front-end process" in note for note in getattr(err.value, "__notes__", []))
+    meta = load_run(tmp_path / "run").meta
+    assert meta["status"] == "failed" and meta["frames"] == 3  # the three frames before it are kept
+    assert meta["error"] == "_Boom: leg detector bug at its 4th frame"
+
+
+def test_front_end_warnings_and_counters_reach_this_process(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    def hook(k: int, stamp: int, ranges: np.ndarray) -> tuple[int, np.ndarray]:
+        return stamp, (np.full_like(ranges, np.nan) if k == 4 else ranges)
+
+    bag = tmp_path / "nan.bag"
+    write_bag(bag, n_scans=6, scan_hook=hook, odometry=False)
+    with caplog.at_level(logging.WARNING), BagSource(bag) as src:
+        summary, results = Pipeline(config(odometry=False), front_process=True).run(src, None, keep=True)
+    assert summary.bad_messages == {"laser-legs": 1} and summary.no_data == {"laser-legs": 1}
+    assert results[4].detections[0] is None
+    assert caplog.text.count("all 361 ranges are NaN") == 1
+
+
+def test_a_run_that_cannot_use_it_warns_and_runs_in_one_process(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    bag = tmp_path / "scans.bag"
+    write_scan_bag(bag, 5)
+    cfg = legs_only()
+    cfg = replace(cfg, clutter=replace(cfg.clutter, keep_out="tracks"))
+    with caplog.at_level(logging.WARNING), BagSource(bag) as src:
+        summary, _ = Pipeline(cfg, front_process=True).run(src, None)
+    assert summary.frames == 5
+    assert 'front_process: one process ([clutter] keep_out = "tracks"' in caplog.text
