@@ -46,8 +46,6 @@ from pfpeople.run_state import RunSummary
 
 __all__ = ["FRONT_COUNTERS", "FrontProcess", "FrontResult", "front_process_available"]
 
-log = logging.getLogger(__name__)
-
 #: The :class:`~pfpeople.run_state.RunSummary` fields the front end updates (the back end: ``frames``, ``sync``,
 #: ``elapsed_s``, ``error``).
 FRONT_COUNTERS = (

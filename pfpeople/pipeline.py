@@ -36,6 +36,11 @@ Per frame (driven by the config's ``driver`` topic, see :mod:`pfpeople.bag.sync`
 
 The first frame uses ``dt = 0.1 s`` (:data:`FIRST_DT_S`); a gap between frames longer than :data:`MAX_GAP_S`
 restarts the filter, the clutter maps and the tracker (counted).
+
+Steps 1-4 are the *front end* of a frame (:meth:`Pipeline._front`): they need only the frame and their own state.
+Step 5 is the *back end* (:meth:`Pipeline._back`). With two or more cores the front end runs in a second process,
+a few frames ahead of the back end (:mod:`pfpeople.frontend`, ``Pipeline(front_process=...)``): the same results,
+more frames per second.
 """
 
 from __future__ import annotations

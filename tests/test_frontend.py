@@ -99,3 +99,23 @@ def test_a_run_that_cannot_use_it_warns_and_runs_in_one_process(
         summary, _ = Pipeline(cfg, front_process=True).run(src, None)
     assert summary.frames == 5
     assert 'front_process: one process ([clutter] keep_out = "tracks"' in caplog.text
+
+
+def test_pfpeople_run_one_process_flag_gives_the_same_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from pfpeople.cli import main
+
+    bag = tmp_path / "scans.bag"
+    write_scan_bag(bag, 12)
+    used: list[bool | None] = []
+    real_init = Pipeline.__init__
+
+    def spy(self: Pipeline, *args: Any, **kwargs: Any) -> None:
+        used.append(kwargs.get("front_process"))
+        real_init(self, *args, **kwargs)
+
+    monkeypatch.setattr(Pipeline, "__init__", spy)
+    for name, extra in (("default", []), ("one", ["--one-process"])):
+        assert main(["run", str(bag), "--driver", "/scan", "--out", str(tmp_path / name), "--no-progress", *extra]) == 0
+    assert used == [None, False]
+    for name in RUN_FILES:
+        assert (tmp_path / "default" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name
