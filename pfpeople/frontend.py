@@ -139,40 +139,31 @@ def _child(
     """The child's loop: read the frames, send each one's front-end result, then ``("end", reason)``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the run's handler (an exception in the parent) is inherited
-    try:
-        _child_loop(frames, front, summary, outbox)
-    except (BrokenPipeError, ConnectionResetError):  # the parent stopped reading: the run is over
-        pass
-
-
-def _child_loop(
-    frames: Callable[[], Iterator[Frame]],
-    front: Callable[[Frame], FrontResult],
-    summary: RunSummary,
-    outbox: Connection,
-) -> None:
     root = logging.getLogger()
     for h in list(root.handlers):
         root.removeHandler(h)
     records = _Records()
     root.addHandler(records)
     it = iter(frames())
-    while True:
-        try:
-            frame = next(it)
-        except StopIteration:
-            outbox.send(("end", "the bag ended"))
-            return
-        except BaseException as exc:
-            outbox.send(("end", f"reading failed: {type(exc).__name__}: {exc}"))
-            return
-        records.records = []  # what the reading logged, the parent logs too: only the front end's records go
-        try:
-            result = front(frame)
-        except BaseException as exc:
-            outbox.send(("error", frame.index, frame.stamp_ns, _picklable(exc), records.records))
-            return
-        outbox.send(("ok", frame.index, frame.stamp_ns, result, _counters(summary), records.records))
+    try:
+        while True:
+            try:
+                frame = next(it)
+            except StopIteration:
+                outbox.send(("end", "the bag ended"))
+                return
+            except BaseException as exc:  # the parent's own reading meets the same error
+                outbox.send(("end", f"reading failed: {type(exc).__name__}: {exc}"))
+                return
+            records.records = []  # what the reading logged, the parent logs too: only the front end's records go
+            try:
+                result = front(frame)
+            except BaseException as exc:  # every error goes to the parent, which raises it at this frame
+                outbox.send(("error", frame.index, frame.stamp_ns, _picklable(exc), records.records))
+                return
+            outbox.send(("ok", frame.index, frame.stamp_ns, result, _counters(summary), records.records))
+    except (BrokenPipeError, ConnectionResetError):  # the parent stopped reading: the run is over
+        return
 
 
 class FrontProcess:

@@ -142,7 +142,9 @@ class TrackerConfig:
         Consecutive misses that delete a tentative track.
     max_coast_s : float
         Longest time (s) a confirmed track coasts without a hit before it is deleted (it keeps its id when
-        seen again within this time).
+        seen again within this time). With the default score settings, the score falls below ``delete_score``
+        after about 6 s of coasting (``score_tau ln(1 / delete_score)`` from a score near 1), which deletes it
+        first.
     delete_score : float
         A track whose existence score falls below this is deleted (in [0, 1)).
     hit_gain : float
@@ -200,7 +202,8 @@ class TrackerConfig:
     ``max_coast_s = 5`` with ``report_coast_s = 1`` was chosen on three sequences at once (the real
     ``person_following_outdoor_1`` run, the ``eth`` and ``complementary`` scenarios; 300 frames each):
     against 1.5 s / always reported it cut identity switches on the real run 4-6x (legs detector 17 -> 3) at
-    equal or better MOTA on every sequence and source; q and the gate (0.75-1.0 m) changed little.
+    equal or better MOTA on every sequence and source; q and the gate (0.75-1.0 m) changed little. It became 8 s
+    with re-identification (below).
 
     ``process_noise = 0.3`` (was 1.0) was chosen with the pipeline feeding the tracker the belief peaks above 0.5
     and starting tracks only from peaks above the classifier's 0.7 (``[tracking] peak_threshold``), on the
@@ -227,6 +230,31 @@ class TrackerConfig:
 
     Without the speed gate, confirmed clutter tracks (chairs) live on single chair legs. A limit of 3 support hits
     in a row instead (no speed gate) gave .520 / .391 with .060 / .090 / .138.
+
+    ``reid_distance = 2.5`` with ``max_coast_s = 8`` (was 0 and 5) was chosen with ``pfpeople run`` on the scan-level
+    scenes, the real ``person_following_outdoor_1`` and negative_2, and the ETH/UCY replays, one run per setting
+    (issue 10). Identity switches of the run's tracks on wheelchair / corridor / crowd, the followed person's
+    switches on person_following, switches on eth / hotel / zara01, false people per scan on negative_2's right
+    laser; everything else within 0.005:
+
+    ============================  ===========  ==============  ==========  ========  =========
+    setting                       scan scenes  person_follow.  ETH/UCY     hotel     negative_2
+                                                                           MOTA      right
+    ============================  ===========  ==============  ==========  ========  =========
+    neither (before)              28 / 2 / 19  5               0 / 1 / 1   .643      .025
+    max_coast_s 8 only            28 / 2 / 19  3               0 / 1 / 1   .643      .025
+    reid 1.5                      26 / 2 / 19  4               -           -         .025
+    reid 2.5                      23 / 2 / 17  4               0 / 1 / 2   .643      .025
+    reid 3.5                      23 / 2 / 17  4               0 / 1 / 2   .680      .025
+    **reid 2.5, max_coast_s 8**   23 / 2 / 17  2               0 / 1 / 2   .643      .025
+    reid 3.0, max_coast_s 8       23 / 2 / 17  2               0 / 1 / 2   .643      .030
+    reid 3.5, max_coast_s 8       23 / 2 / 17  2               0 / 1 / 2   .680      .030
+    ============================  ===========  ==============  ==========  ========  =========
+
+    HOTA moves both ways: wheelchair .372 -> .395, person_following .472 -> .490, crowd .541 -> .532, zara01 .666
+    -> .615 (one wrong re-identification joins two people's tracks: association accuracy .69 -> .59); with reid 1.5
+    and 8 s: .383, -, .540, .634, and 26 / 19 switches on wheelchair / crowd. The remaining switches on the
+    wheelchair scene are people lost for 6-11 s, and tracks that move over to another person of a group.
     """
 
     process_noise: float = 0.3
