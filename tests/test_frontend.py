@@ -119,3 +119,33 @@ def test_pfpeople_run_one_process_flag_gives_the_same_run(tmp_path: Path, monkey
     assert used == [None, False]
     for name in RUN_FILES:
         assert (tmp_path / "default" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name
+
+
+def test_a_bag_that_cannot_be_read_further_keeps_the_frames_before(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Reading fails after 7 scans (both processes' readers: the child is forked with the patched class): the run
+    fails with the reading error and keeps the same frames as in one process."""
+    from pfpeople.bag.reader import BagReadError
+
+    bag = tmp_path / "scans.bag"
+    write_scan_bag(bag, 12)
+    real = BagSource.messages
+
+    def cut(self: BagSource, topics: Any) -> Any:
+        for k, m in enumerate(real(self, topics)):
+            if k == 7:
+                raise BagReadError("truncated after message 7")
+            yield m
+
+    monkeypatch.setattr(BagSource, "messages", cut)
+    frames = {}
+    for n in (1, 2):
+        with BagSource(bag) as src, pytest.raises(BagReadError, match="truncated after message 7"):
+            Pipeline(legs_only(), front_process=n == 2).run(src, tmp_path / str(n))
+        meta = load_run(tmp_path / str(n)).meta
+        assert meta["status"] == "failed" and "truncated after message 7" in meta["error"]
+        frames[n] = meta["frames"]
+    assert frames[1] == frames[2] >= 6
+    for name in ("frames.csv", "people.csv", "detections.csv"):
+        assert (tmp_path / "1" / name).read_bytes() == (tmp_path / "2" / name).read_bytes(), name
