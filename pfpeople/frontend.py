@@ -209,6 +209,7 @@ class FrontProcess:
         try:
             msg = self._from_child.recv()
         except EOFError:
+            self._proc.join(timeout=5.0)  # reaped: its exit code is known
             raise RuntimeError(
                 f"the front-end process ended before frame {frame.index} (exit code {self._proc.exitcode})"
             ) from None

@@ -4,6 +4,7 @@ logs and counters as in one process."""
 from __future__ import annotations
 
 import logging
+import os
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -149,3 +150,26 @@ def test_a_bag_that_cannot_be_read_further_keeps_the_frames_before(
     assert frames[1] == frames[2] >= 6
     for name in ("frames.csv", "people.csv", "detections.csv"):
         assert (tmp_path / "1" / name).read_bytes() == (tmp_path / "2" / name).read_bytes(), name
+
+
+class _DyingLegAdapter(LegAdapter):
+    """The leg detector, whose process dies at its fourth frame (as if killed)."""
+
+    def detect(self, msgs: Any) -> Any:
+        self.calls = getattr(self, "calls", 0) + 1
+        if self.calls == 4:
+            os._exit(9)
+        return super().detect(msgs)
+
+
+def test_a_front_end_process_that_dies_ends_the_run_with_a_named_error(tmp_path: Path) -> None:
+    bag = tmp_path / "scans.bag"
+    write_scan_bag(bag, 10)
+    pipe = Pipeline(legs_only(), adapters={"leg": _DyingLegAdapter}, front_process=True)
+    with (
+        BagSource(bag) as src,
+        pytest.raises(RuntimeError, match=r"front-end process ended before frame 3 \(exit code 9\)"),
+    ):
+        pipe.run(src, tmp_path / "run")
+    meta = load_run(tmp_path / "run").meta
+    assert meta["status"] == "failed" and meta["frames"] == 3
