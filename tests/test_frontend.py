@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_pipeline_bags import config, write_bag
 from test_reliability_bags import legs_only, write_scan_bag
 
 from evaluation.scenarios.scan import write_scene_bag
@@ -74,19 +73,6 @@ def test_an_error_in_the_front_end_ends_the_run_at_that_frame(tmp_path: Path) ->
     meta = load_run(tmp_path / "run").meta
     assert meta["status"] == "failed" and meta["frames"] == 3  # the three frames before it are kept
     assert meta["error"] == "_Boom: leg detector bug at its 4th frame"
-
-
-def test_front_end_warnings_and_counters_reach_this_process(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
-    def hook(k: int, stamp: int, ranges: np.ndarray) -> tuple[int, np.ndarray]:
-        return stamp, (np.full_like(ranges, np.nan) if k == 4 else ranges)
-
-    bag = tmp_path / "nan.bag"
-    write_bag(bag, n_scans=6, scan_hook=hook, odometry=False)
-    with caplog.at_level(logging.WARNING), BagSource(bag) as src:
-        summary, results = Pipeline(config(odometry=False), front_process=True).run(src, None, keep=True)
-    assert summary.bad_messages == {"laser-legs": 1} and summary.no_data == {"laser-legs": 1}
-    assert results[4].detections[0] is None
-    assert caplog.text.count("all 361 ranges are NaN") == 1
 
 
 def test_a_run_that_cannot_use_it_warns_and_runs_in_one_process(

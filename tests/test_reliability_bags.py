@@ -198,17 +198,23 @@ def test_calibrated_zero_fnr_is_clamped_when_made_a_model(caplog: pytest.LogCapt
     assert "FNR = 0 clamped to 0.01" in caplog.text
 
 
-def test_all_nan_scan_is_warned_and_counted_as_no_data(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+@pytest.mark.parametrize("front_process", [False, True])
+def test_all_nan_scan_is_warned_and_counted_as_no_data(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, front_process: bool
+) -> None:
+    """In one process and with the front-end process (pfpeople.frontend), whose warnings and counters reach this
+    process: warned once, counted once."""
+
     def hook(k: int, stamp: int, ranges: np.ndarray) -> tuple[int, np.ndarray]:
         return stamp, (np.full_like(ranges, np.nan) if k == 4 else ranges)
 
     bag = tmp_path / "nan.bag"
     write_bag(bag, n_scans=6, scan_hook=hook, odometry=False)
     with caplog.at_level(logging.WARNING), BagSource(bag) as src:
-        summary, results = Pipeline(config(odometry=False)).run(src, None, keep=True)
+        summary, results = Pipeline(config(odometry=False), front_process=front_process).run(src, None, keep=True)
     assert summary.bad_messages == {"laser-legs": 1} and summary.no_data == {"laser-legs": 1}
     assert results[4].detections[0] is None  # no data (covers no cell), not "saw nobody"
-    assert "all 361 ranges are NaN" in caplog.text and "'/scan'" in caplog.text
+    assert caplog.text.count("all 361 ranges are NaN") == 1 and "'/scan'" in caplog.text
 
 
 @pytest.mark.parametrize(("rmin", "rmax"), [(20.0, 10.0), (0.05, math.nan)])
