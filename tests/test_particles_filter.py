@@ -46,6 +46,28 @@ def test_resampling_keeps_count_and_cell_mass() -> None:
         np.testing.assert_allclose(out.particles.rasterise(pf.spec), out.posterior, rtol=1e-12, atol=1e-15)
 
 
+def test_overflow_slack_lets_births_accumulate_up_to_the_bound() -> None:
+    """With ``max_overflow`` births accumulate: the count grows above N between resamplings, never above
+    (1 + max_overflow) N after a step, and a resampling restores exactly N; the mass stays the posterior."""
+    n, slack = 5000, 0.1
+    pf = ParticleFilter(n_particles=n, rng=np.random.default_rng(2), ess_threshold=0.0, max_overflow=slack)
+    sizes, resampled = [], []
+    for _ in range(12):
+        out = pf.step(DETS, Odometry(v=0.4, omega=-0.2), 0.1)
+        sizes.append(out.particles.size)
+        resampled.append(out.resampled)
+        np.testing.assert_allclose(out.particles.rasterise(pf.spec), out.posterior, rtol=1e-12, atol=1e-15)
+    assert max(sizes) <= (1 + slack) * n
+    assert any(s > n for s in sizes)  # births kept without a resampling
+    assert all(s == n for s, r in zip(sizes, resampled, strict=True) if r)
+    assert 0 < sum(resampled) < len(resampled)
+    # Without the slack every step whose births overflow resamples back to N.
+    pf0 = ParticleFilter(n_particles=n, rng=np.random.default_rng(2), ess_threshold=0.0)
+    for _ in range(4):
+        out = pf0.step(DETS, Odometry(v=0.4, omega=-0.2), 0.1)
+        assert out.particles.size <= n
+
+
 def test_same_seed_same_output() -> None:
     outs = []
     for _ in range(2):
@@ -133,6 +155,7 @@ def test_particle_state_checks() -> None:
         ({"motion_model": "teleport"}, "motion_model must be one of"),
         ({"ess_threshold": float("nan")}, "ess_threshold"),
         ({"n_birth": 0}, "n_birth"),
+        ({"max_overflow": -0.1}, "max_overflow"),
     ],
 )
 def test_bad_constructor_arguments(kwargs: dict, match: str) -> None:

@@ -55,6 +55,9 @@ def test_build_filter_composes_the_modes() -> None:
     assert (
         isinstance(pf, ParticleFilter) and pf.n_particles == 5000 and isinstance(pf.likelihood, IndependentLikelihood)
     )
+    assert pf.max_overflow == 0.1
+    assert build_filter(FilterConfig(kind="particle", mode="paper"), spec, PAPER_DETECTORS).max_overflow == 0.0
+    assert build_filter(FilterConfig(kind="particle", max_overflow=0.3), spec, PAPER_DETECTORS).max_overflow == 0.3
     with pytest.raises(ValueError, match="form must be 'linear'"):
         build_filter(FilterConfig(kind="particle", form="paper"), spec, CALIBRATED_LASER_DETECTORS)
 
@@ -82,6 +85,8 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
         config_from_mapping({**doc, "classifier": {"thresh": 0.6}})
     with pytest.raises(ValueError, match=r"FilterConfig\.mode must be one of"):
         FilterConfig(mode="fast")
+    with pytest.raises(ValueError, match=r"FilterConfig\.max_overflow must be a number in \[0, 10\]"):
+        FilterConfig(max_overflow=-0.5)
     with pytest.raises(ValueError, match=r"ClassifierConfig\.kind"):
         ClassifierConfig(kind="cnn")
     assert build_classifier(ClassifierConfig()).threshold == 0.7  # type: ignore[attr-defined]

@@ -30,8 +30,8 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [filter]
     kind = "grid"               # "grid" (gridbridge.GridFilter) or "particle" (pfpeople.ParticleFilter)
     mode = "recommended"        # "recommended" (the product's default) or "paper" (Batista & Pereira as written)
-    # form, initial, n_particles, seed, motion_model, base_rate, appearance_rate, belief_max, laser_footprint:
-    # see FilterConfig (unset = the mode's default)
+    # form, initial, n_particles, seed, motion_model, max_overflow, base_rate, appearance_rate, belief_max,
+    # laser_footprint: see FilterConfig (unset = the mode's default)
 
     [classifier]
     kind = "peaks"              # "peaks" (recommended mode's default), "blobs" (paper's), "threshold"
@@ -196,6 +196,10 @@ class FilterConfig:
         Seed of the particle filter's ``numpy.random.Generator``.
     motion_model : {"paper", "persistent"}
         Particle people-motion sampler.
+    max_overflow : float or None
+        Particle filter: births may push the count this fraction above ``n_particles`` before they trigger a
+        resampling (:class:`pfpeople.ParticleFilter`); None: 0.1 in the recommended mode (a step then resamples
+        about every fourth frame instead of every frame, same accuracy: README "Benchmarks"), 0 in the paper mode.
     base_rate : float
         Recommended mode: prior probability of a person per cell (appearance floor, calibration of the PPV).
     appearance_rate : float
@@ -214,6 +218,7 @@ class FilterConfig:
     n_particles: int | None = None
     seed: int = 0
     motion_model: str = "paper"
+    max_overflow: float | None = None
     base_rate: float = 0.02
     appearance_rate: float = 0.05
     belief_max: float = 0.99
@@ -237,6 +242,9 @@ class FilterConfig:
             raise ValueError(f"FilterConfig.seed must be an integer, got {self.seed!r}")
         if self.motion_model not in ("paper", "persistent"):
             raise ValueError(f"FilterConfig.motion_model must be 'paper' or 'persistent', got {self.motion_model!r}")
+        mo = self.max_overflow
+        if mo is not None and (isinstance(mo, bool) or not isinstance(mo, int | float) or not 0.0 <= mo <= 10.0):
+            raise ValueError(f"FilterConfig.max_overflow must be a number in [0, 10] or unset, got {mo!r}")
         for name, lo, hi in (("base_rate", 0.0, 1.0), ("belief_max", 0.0, 1.0)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not lo < v < hi:
