@@ -4,8 +4,9 @@ Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter
 the run directory output) for each filter, in one process and with the front end in a second process
 (``Pipeline(front_process=...)``, :mod:`pfpeople.frontend`), and prints frames per second, the real-time factor
 (recorded seconds processed per wall-clock second), its ratio to the first variant of the same filter measured
-just before (the first of ``--processes``, with the first of ``--max-overflow`` for particles), and the recall of each detector and of the filter against the ground truth (recall only: passers-by
-are not annotated; the two modes give the same)::
+just before (the first of ``--processes``, with the first of ``--max-overflow`` for particles), and the recall
+of each detector and of the filter against the ground truth (recall only: passers-by are not annotated; the two
+modes give the same)::
 
     python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
         [--processes 1 2] [--max-overflow 0 0.1] [--repeat N]

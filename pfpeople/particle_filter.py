@@ -474,7 +474,8 @@ class ParticleFilter:
         logs a warning and counts it in :attr:`resampling_skipped`.
         """
         n_target = self.n_particles
-        if not (st.size > n_target * (1.0 + self.max_overflow) or effective_sample_size(st.w) < self.ess_threshold * n_target):
+        overflow = st.size > n_target * (1.0 + self.max_overflow)
+        if not (overflow or effective_sample_size(st.w) < self.ess_threshold * n_target):
             return st, False
         total = float(st.w.sum())
         if not total > 0.0:
