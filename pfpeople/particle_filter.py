@@ -36,8 +36,8 @@ sensor-motion births the rest), so the count stays at or below ``n_particles`` u
 cells than free slots, which triggers a resampling. On the paper's grid 224 cells receive inflow in a 0.1 s step,
 more than a step usually frees, so with ``max_overflow = 0`` most steps resample whatever the ESS. With a slack
 (``max_overflow = 0.1``, the recommended mode's; about 3 % births per step on the person-following bag) the births
-of a few steps accumulate and a step resamples about every fourth frame; the ESS stays near 0.95 N between
-resamplings there, so the particles lose nothing by it while the step's cost falls by about a fifth.
+of a few steps accumulate: on the person-following bag 29 % of the steps resample (22 % for the count, 8 % for
+the ESS), with a median ESS of 0.93 N between resamplings, and the filter step costs about a fifth less.
 
 Equivalence (tested in ``tests/test_pf_equivalence.py``): with ``motion_model="paper"``,
 ``redraw_in_cell=True`` and a standing robot, the expected rasterised prior equals the linear grid filter's

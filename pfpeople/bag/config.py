@@ -198,8 +198,8 @@ class FilterConfig:
         Particle people-motion sampler.
     max_overflow : float or None
         Particle filter: births may push the count this fraction above ``n_particles`` before they trigger a
-        resampling (:class:`pfpeople.ParticleFilter`); None: 0.1 in the recommended mode (a step then resamples
-        about every fourth frame instead of every frame, same accuracy: README "Benchmarks"), 0 in the paper mode.
+        resampling (:class:`pfpeople.ParticleFilter`); None: 0.1 in the recommended mode (29 % of the steps
+        then resample instead of all, at the same accuracy: README "Benchmarks"), 0 in the paper mode.
     base_rate : float
         Recommended mode: prior probability of a person per cell (appearance floor, calibration of the PPV).
     appearance_rate : float
