@@ -319,6 +319,30 @@ def test_moving_people_measures_motion_over_a_window_so_odometry_drift_is_not_mo
         MovingPeople(window=0.0)
 
 
+def test_moving_track_that_stays_still_stops_being_moving_after_hold() -> None:
+    """A walker (0.05 m per 0.1 s) moving for 2 s, then still (a passer-by's track gone on onto a chair): with
+    ``hold = 5`` the track stops being moving 5 s after the last window in which it moved 0.6 m; with
+    ``hold = None`` it stays moving as long as it is matched."""
+    held, sticky = MovingPeople(hold=5.0), MovingPeople(hold=None)
+    last_moving_h: int | None = None
+    last_moving_s: int | None = None
+    moved_until = None
+    for k in range(200):
+        p = np.array([[1.0 + 0.05 * min(k, 20), -1.0]])
+        if held.update(p, dt=DT).shape[0]:
+            last_moving_h = k
+        if sticky.update(p, dt=DT).shape[0]:
+            last_moving_s = k
+        if np.hypot(*(held._pos[0] - held._anchor_a[0])) >= 0.6 - 1e-9:
+            moved_until = k
+    assert last_moving_s == 199
+    assert moved_until is not None and last_moving_h is not None
+    # moving for exactly hold = 5 s (50 updates) after the last update at which it had moved 0.6 m
+    assert last_moving_h == moved_until + 50
+    with pytest.raises(ValueError, match="hold"):
+        MovingPeople(hold=0.0)
+
+
 def test_clutter_keep_out_setting_is_read_checked_and_decides_what_the_stage_remembers(tmp_path: Path) -> None:
     from pfpeople.bag.config import load_config
     from pfpeople.run_state import RunSummary
