@@ -236,9 +236,12 @@ def _laser_config(topic: str, **changes: Any) -> BagConfig:
 
 
 def scene_logs(
-    scene: str, *, data: Path, work: Path, frames: int | None = None
+    scene: str, *, data: Path, work: Path, frames: int | None = None, scan_seed: int | None = None
 ) -> tuple[list[ReplayLog], list[BenchRow], str]:
-    """The logs of one scene, the rows of its pipeline runs, and a skip reason ("" when it ran)."""
+    """The logs of one scene, the rows of its pipeline runs, and a skip reason ("" when it ran).
+
+    ``scan_seed``: seed of the scan-level scenes' simulation (people, robot noise, laser noise; default the
+    scene's own, 0)."""
     leg = data / "leg_tracker"
     if scene in REPLAY_SCENES:
         from evaluation.scenarios.eth_ucy import DataNotFoundError
@@ -254,7 +257,7 @@ def scene_logs(
         from pfpeople.bag.config import load_config
 
         name = scene.split(":", 1)[1]
-        sb = write_scene_bag(name, work / name, frames=frames)
+        sb = write_scene_bag(name, work / name, frames=frames, seed=scan_seed)
         log, row = _pipeline_log(sb.bag, load_config(sb.run_toml), work / f"{name}_run", gt=sb.gt_csv, name=scene)
         return [log], [row], ""
     if scene == "person_following_outdoor_1":
@@ -337,18 +340,21 @@ def run_benchmark(
     work: Path | None = None,
     progress: Callable[[str], None] | None = None,
     mot: list[Any] | None = None,
+    scan_seed: int | None = None,
 ) -> list[BenchRow]:
     """Every scene x (each detector, each mode, the pipeline's own run). See the module docstring.
 
     ``mot``: when a list, the multi-person tracking rows of every scene (:func:`mot_rows`,
-    :class:`evaluation.mot_eval.MotRow`) are appended to it."""
+    :class:`evaluation.mot_eval.MotRow`) are appended to it. ``scan_seed``: simulation seed of the scan-level
+    scenes (default each scene's own): other seeds give other people, paths and noise in the same room, a check
+    that figures tuned on the default seed carry over."""
     rows: list[BenchRow] = []
     with tempfile.TemporaryDirectory(prefix="pfpeople-bench-") as tmp:
         base = Path(work) if work is not None else Path(tmp)
         for scene in scenes:
             if progress:
                 progress(scene)
-            logs, pipe_rows, skip = scene_logs(scene, data=data, work=base, frames=frames)
+            logs, pipe_rows, skip = scene_logs(scene, data=data, work=base, frames=frames, scan_seed=scan_seed)
             if skip:
                 rows.append(BenchRow(scene, "skipped", 0, note=skip))
                 continue

@@ -5,6 +5,7 @@ Examples::
 
     pfpeople-eval benchmark                                  # everything (several minutes on 2 cores)
     pfpeople-eval benchmark --scenes eth scan:wheelchair --frames 200 --json bench.json
+    pfpeople-eval benchmark --scenes scan:wheelchair scan:corridor scan:crowd --seed 1   # other people, same rooms
 """
 
 from __future__ import annotations
@@ -42,6 +43,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--work", type=Path, default=None, help="keep the written bags and runs in this folder")
     p.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON file")
     p.add_argument("--no-progress", action="store_true", help="no progress lines")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="simulation seed of the scan-level scenes (default: each scene's own, 0)",
+    )
     p.add_argument("--no-mot", action="store_true", help="no multi-person tracking table (CLEAR-MOT: MOTA, IDSW, ...)")
     p.set_defaults(func=run)
 
@@ -59,7 +66,11 @@ def run(args: argparse.Namespace) -> int:
     if args.work is not None:
         args.work.mkdir(parents=True, exist_ok=True)
     mot: list[MotRow] | None = None if args.no_mot else []
-    rows = run_benchmark(scenes, data=data, frames=args.frames, work=args.work, progress=progress, mot=mot)
+    rows = run_benchmark(
+        scenes, data=data, frames=args.frames, work=args.work, progress=progress, mot=mot, scan_seed=args.seed
+    )
+    if args.seed is not None:
+        print(f"scan-level scenes simulated with seed {args.seed}")
     print(format_rows(rows))
     if mot:
         print(
