@@ -3,7 +3,8 @@
 Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter, classification, tracking and
 the run directory output) for each filter, in one process and with the front end in a second process
 (``Pipeline(front_process=...)``, :mod:`pfpeople.frontend`), and prints frames per second, the real-time factor
-(recorded seconds processed per wall-clock second), its ratio to the first variant of the same filter measured
+(recorded seconds processed per wall-clock second), the CPU time of the filter's step alone (ms per frame; less
+sensitive to other load on the machine than the wall clock), its ratio to the first variant of the same filter measured
 just before (the first of ``--processes``, with the first of ``--max-overflow`` for particles), and the recall
 of each detector and of the filter against the ground truth (recall only: passers-by are not annotated; the two
 modes give the same)::
@@ -23,9 +24,11 @@ import argparse
 import statistics
 import sys
 import tempfile
+import time
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from evaluation.commands.score import score_run
 from evaluation.gt_csv import read_gt_csv
@@ -36,6 +39,30 @@ from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
 
 BAG = "leg_tracker/person_following_outdoor_1.bag.zip"
+
+
+class _TimedPipeline(Pipeline):
+    """A :class:`Pipeline` that adds the CPU time (``time.process_time``) of every filter step to ``filter_cpu_s``
+    (the filter runs in this process in both modes)."""
+
+    filter_cpu_s = 0.0
+
+    def prepare(self, bag: BagSource) -> Any:
+        out = super().prepare(bag)
+        assert self.filter is not None
+        step = self.filter.step
+
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            t0 = time.process_time()
+            try:
+                return step(*args, **kwargs)
+            finally:
+                self.filter_cpu_s += time.process_time() - t0
+
+        self.filter.step = timed  # type: ignore[method-assign]
+        return out
+
+
 GT = "leg_tracker/person_following_outdoor_1_gt.csv"
 
 
@@ -72,12 +99,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     cfg0 = load_config(builtin_config_path("person_following_outdoor_1"))
     print(
         f"{'filter':<10}{'procs':>6}{'ovf':>5}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}{'ratio':>7}"
+        f"{'filt CPU ms':>12}"
         "   recall per source"
     )
     for kind in args.filters:
         overflows = args.max_overflow if kind == "particle" else [None]
         variants = [(n, o) for n in args.processes for o in overflows]
         rtfs: dict[tuple[int, float | None], list[float]] = {v: [] for v in variants}
+        cpus: dict[tuple[int, float | None], list[float]] = {v: [] for v in variants}
         for _ in range(max(args.repeat, 1)):
             for n, ovf in variants:
                 filt = replace(cfg0.filter, kind=kind, n_particles=args.particles)
@@ -88,7 +117,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     out = Path(tmp) / "run"
                     try:
                         with BagSource(data / BAG) as src:
-                            pipe = Pipeline(cfg, front_process=n == 2)
+                            pipe = _TimedPipeline(cfg, front_process=n == 2)
                             summary, _ = pipe.run(src, out, max_frames=args.max_frames)
                     except ResourceLimitError as exc:  # too large for this machine; any other error is a failure
                         print(f"{kind:<10} skipped: {exc}")
@@ -98,13 +127,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                     recorded = (stamps[-1] - stamps[0]) * 1e-9 + 0.1 if len(stamps) else 0.0
                     rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
                     rtfs[(n, ovf)].append(rtf)
+                    cpu_ms = 1e3 * pipe.filter_cpu_s / max(summary.frames, 1)
+                    cpus[(n, ovf)].append(cpu_ms)
                     scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
                     rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
                     base = rtfs[variants[0]][-1] if rtfs[variants[0]] else float("nan")
                     shown = "-" if kind != "particle" else ("cfg" if ovf is None else f"{ovf:g}")
                     print(
                         f"{kind:<10}{n:>6}{shown:>5}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}"
-                        f"{rtf:>11.1f}{rtf / base:>7.2f}   {rec}",
+                        f"{rtf:>11.1f}{rtf / base:>7.2f}{cpu_ms:>12.3f}   {rec}",
                         flush=True,
                     )
         if len(variants) > 1 and all(len(v) > 1 for v in rtfs.values()):
@@ -116,6 +147,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                 for n, o in variants
             ]
             print(f"{kind:<10} median RT factor: " + ", ".join(parts))
+            c0 = statistics.median(cpus[variants[0]])
+            cparts = [
+                f"{n} process{'es' if n > 1 else ''}"
+                + ("" if kind != "particle" or o is None else f" ovf {o:g}")
+                + f" {statistics.median(cpus[(n, o)]):.3f} (ratio {c0 / statistics.median(cpus[(n, o)]):.2f})"
+                for n, o in variants
+            ]
+            print(f"{kind:<10} median filter CPU ms per frame (ratio: first variant / this): " + ", ".join(cparts))
     return 0
 
 
