@@ -517,7 +517,7 @@ class MovingPeople:
         Seconds a track stays moving after it last moved ``min_distance`` within ``window``; None: as long as
         it is matched (leg_tracker's rule). 5 s was chosen on ``pfpeople run`` over the scan-level scenes (three
         seeds of wheelchair and crowd), person_following_outdoor_1 and negative_2: on the wheelchair scene of
-        seed 1 a passer-by's track went on on a chair and kept it out of the map for 36 s (precision 0.83; 0.95
+        seed 1 a passer-by's track went on onto a chair and kept it out of the map for 36 s (precision 0.83; 0.95
         with ``hold = 5``, 0.92 with 10); every other run gave the same people with and without it.
     """
 

@@ -60,6 +60,7 @@ Use at least about 5 particles per cell.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
@@ -142,7 +143,8 @@ class ParticleFilter:
     noise : SensorMotionNoise, optional
         Odometry noise of the velocity motion model.
     n_particles : int
-        Particle count N kept by resampling; at least the number of grid cells.
+        Particle count N restored by every resampling (between resamplings up to ``(1 + max_overflow) N``); at
+        least the number of grid cells.
     rng : numpy.random.Generator
         The only source of randomness: same seed, same output.
     motion_model : {"paper", "persistent"}
@@ -203,8 +205,12 @@ class ParticleFilter:
     ) -> None:
         self.spec, self.detectors, self.motion, self.noise = filter_models(spec, detectors, motion, noise)
         self.n_particles = _check_count(n_particles, "n_particles")
+        self.max_overflow = check_positive(max_overflow, "max_overflow", allow_zero=True)
         check_grid_size(self.spec.nx, self.spec.ny, self.spec.resolution, v_max=self.motion.v_max, dt=self.motion.dt)
-        check_particles(self.n_particles, n_cells=self.spec.n_cells, n_detectors=len(self.detectors))
+        # the memory of the largest count between resamplings
+        most = math.ceil(self.n_particles * (1.0 + self.max_overflow))
+        where = "n_particles" if self.max_overflow == 0 else "n_particles x (1 + max_overflow)"
+        check_particles(most, n_cells=self.spec.n_cells, n_detectors=len(self.detectors), where=where)
         if self.n_particles < self.spec.n_cells:
             raise ValueError(
                 f"n_particles must be at least the number of grid cells ({self.spec.n_cells}), got {n_particles}"
@@ -220,7 +226,6 @@ class ParticleFilter:
             raise ValueError(f"resampler must be a name in {tuple(RESAMPLERS)} or a callable, got {resampler!r}")
         self.resampler = resampler
         self.ess_threshold = check_positive(ess_threshold, "ess_threshold", allow_zero=True)
-        self.max_overflow = check_positive(max_overflow, "max_overflow", allow_zero=True)
         self.redraw_in_cell = bool(redraw_in_cell)
         self.initial = check_probability(initial, "initial")
         self.outside = check_probability(outside, "outside")
@@ -468,7 +473,8 @@ class ParticleFilter:
         return st, cells, posterior
 
     def _resample(self, st: ParticleState, cells: NDArray[np.intp]) -> tuple[ParticleState, bool]:
-        """Phase 5: resample by cell when the ESS is low or births overflowed ``n_particles``.
+        """Phase 5: resample by cell when the ESS is low or births pushed the count above
+        ``(1 + max_overflow) * n_particles``.
 
         With a total weight of 0 (every posterior 0) there is nothing to resample: the step keeps the particles,
         logs a warning and counts it in :attr:`resampling_skipped`.

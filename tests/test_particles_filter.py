@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from gridbridge import FilterStep, GridFilter, GridSpec, Odometry, PeopleMotion, rasterise
+from gridbridge.limits import ResourceLimitError
 from pfpeople.particle_filter import ParticleFilter, ParticleStep
 from pfpeople.particles import ParticleState, uniform_in_cells
 
@@ -61,6 +62,9 @@ def test_overflow_slack_lets_births_accumulate_up_to_the_bound() -> None:
     assert any(s > n for s in sizes)  # births kept without a resampling
     assert all(s == n for s, r in zip(sizes, resampled, strict=True) if r)
     assert 0 < sum(resampled) < len(resampled)
+    # The memory limit counts the largest count between resamplings, and says so.
+    with pytest.raises(ResourceLimitError, match=r"n_particles x \(1 \+ max_overflow\) = 300000000"):
+        ParticleFilter(n_particles=150_000_000, rng=np.random.default_rng(0), max_overflow=1.0)
     # Without the slack every step whose births overflow resamples back to N.
     pf0 = ParticleFilter(n_particles=n, rng=np.random.default_rng(2), ess_threshold=0.0)
     for _ in range(4):
