@@ -10,10 +10,13 @@ of each detector and of the filter against the ground truth (recall only: passer
 modes give the same)::
 
     python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
-        [--processes 1 2] [--max-overflow 0 0.1] [--repeat N]
+        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000 2500] [--repeat N]
 
 ``--max-overflow``: the particle filter's ``FilterConfig.max_overflow`` values to compare (default: the
 configuration's, 0.1 in the recommended mode); 0 resamples whenever births overflow, as before it existed.
+``--particles``: particle counts to compare (default: the configuration's, 5 per cell and at least 2500: 2500 on
+this bag's 494-cell grid). Every combination of ``--processes``, ``--max-overflow`` and ``--particles`` is a
+variant; the first is the baseline of the ratios.
 
 Wall-clock figures depend on the machine; tests never assert them.
 """
@@ -41,8 +44,22 @@ from pfpeople.pipeline import Pipeline
 BAG = "leg_tracker/person_following_outdoor_1.bag.zip"
 
 
+#: (processes, max_overflow, particle count); None: the configuration's.
+Variant = tuple[int, float | None, int | None]
+
+
+def _label(v: Variant, particle: bool) -> str:
+    n, ovf, count = v
+    out = f"{n} process{'es' if n > 1 else ''}"
+    if particle and ovf is not None:
+        out += f" ovf {ovf:g}"
+    if particle and count is not None:
+        out += f" N {count}"
+    return out
+
+
 class _TimedPipeline(Pipeline):
-    """A :class:`Pipeline` that adds the CPU time (``time.process_time``) of every filter step to ``filter_cpu_s``
+    """A :class:`Pipeline` that adds the CPU time (``time.thread_time``) of every filter step to ``filter_cpu_s``
     (the filter runs in this process in both modes)."""
 
     filter_cpu_s = 0.0
@@ -53,11 +70,11 @@ class _TimedPipeline(Pipeline):
         step = self.filter.step
 
         def timed(*args: Any, **kwargs: Any) -> Any:
-            t0 = time.process_time()
+            t0 = time.thread_time()
             try:
                 return step(*args, **kwargs)
             finally:
-                self.filter_cpu_s += time.process_time() - t0
+                self.filter_cpu_s += time.thread_time() - t0
 
         self.filter.step = timed  # type: ignore[method-assign]
         return out
@@ -71,7 +88,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--data", default="../shared/data", help="the shared data folder")
     ap.add_argument("--filters", nargs="+", default=["grid", "particle"], choices=("grid", "particle"))
     ap.add_argument("--max-frames", type=int, default=None, help="stop after N frames (default: the whole bag)")
-    ap.add_argument("--particles", type=int, default=5000, help="particle count of the particle filter")
+    ap.add_argument(
+        "--particles",
+        nargs="+",
+        type=int,
+        default=[None],
+        help="particle counts of the particle filter to compare (default: the configuration's)",
+    )
     ap.add_argument(
         "--processes",
         nargs="+",
@@ -98,18 +121,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     gt = read_gt_csv(data / GT)
     cfg0 = load_config(builtin_config_path("person_following_outdoor_1"))
     print(
-        f"{'filter':<10}{'procs':>6}{'ovf':>5}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}{'ratio':>7}"
-        f"{'filt CPU ms':>12}"
-        "   recall per source"
+        f"{'filter':<10}{'procs':>6}{'ovf':>5}{'N':>6}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}"
+        f"{'ratio':>7}{'filt CPU ms':>12}   recall per source"
     )
     for kind in args.filters:
-        overflows = args.max_overflow if kind == "particle" else [None]
-        variants = [(n, o) for n in args.processes for o in overflows]
-        rtfs: dict[tuple[int, float | None], list[float]] = {v: [] for v in variants}
-        cpus: dict[tuple[int, float | None], list[float]] = {v: [] for v in variants}
+        particle = kind == "particle"
+        overflows = args.max_overflow if particle else [None]
+        counts = args.particles if particle else [None]
+        variants = [(n, o, c) for n in args.processes for o in overflows for c in counts]
+        rtfs: dict[Variant, list[float]] = {v: [] for v in variants}
+        cpus: dict[Variant, list[float]] = {v: [] for v in variants}
         for _ in range(max(args.repeat, 1)):
-            for n, ovf in variants:
-                filt = replace(cfg0.filter, kind=kind, n_particles=args.particles)
+            for v in variants:
+                n, ovf, count = v
+                filt = replace(cfg0.filter, kind=kind, n_particles=count)
                 if ovf is not None:
                     filt = replace(filt, max_overflow=ovf)
                 cfg = replace(cfg0, filter=filt)
@@ -126,34 +151,29 @@ def main(argv: Sequence[str] | None = None) -> int:
                     stamps = run.frames["stamp_ns"]
                     recorded = (stamps[-1] - stamps[0]) * 1e-9 + 0.1 if len(stamps) else 0.0
                     rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
-                    rtfs[(n, ovf)].append(rtf)
+                    rtfs[v].append(rtf)
                     cpu_ms = 1e3 * pipe.filter_cpu_s / max(summary.frames, 1)
-                    cpus[(n, ovf)].append(cpu_ms)
+                    cpus[v].append(cpu_ms)
                     scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
                     rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
                     base = rtfs[variants[0]][-1] if rtfs[variants[0]] else float("nan")
-                    shown = "-" if kind != "particle" else ("cfg" if ovf is None else f"{ovf:g}")
+                    shown_o = "-" if not particle else ("cfg" if ovf is None else f"{ovf:g}")
+                    n_used = getattr(pipe.filter, "n_particles", None)
+                    shown_c = "-" if n_used is None else str(n_used)
                     print(
-                        f"{kind:<10}{n:>6}{shown:>5}{summary.frames:>8}{summary.elapsed_s:>9.2f}{summary.fps:>9.1f}"
-                        f"{rtf:>11.1f}{rtf / base:>7.2f}{cpu_ms:>12.3f}   {rec}",
+                        f"{kind:<10}{n:>6}{shown_o:>5}{shown_c:>6}{summary.frames:>8}{summary.elapsed_s:>9.2f}"
+                        f"{summary.fps:>9.1f}{rtf:>11.1f}{rtf / base:>7.2f}{cpu_ms:>12.3f}   {rec}",
                         flush=True,
                     )
-        if len(variants) > 1 and all(len(v) > 1 for v in rtfs.values()):
-            m0 = statistics.median(rtfs[variants[0]])
-            parts = [
-                f"{n} process{'es' if n > 1 else ''}"
-                + ("" if kind != "particle" or o is None else f" ovf {o:g}")
-                + f" {statistics.median(rtfs[(n, o)]):.1f} (ratio {statistics.median(rtfs[(n, o)]) / m0:.2f})"
-                for n, o in variants
-            ]
+        if len(variants) > 1 and all(len(r) > 1 for r in rtfs.values()):
+            m0, c0 = statistics.median(rtfs[variants[0]]), statistics.median(cpus[variants[0]])
+            parts, cparts = [], []
+            for v in variants:
+                label = _label(v, particle)
+                m, c = statistics.median(rtfs[v]), statistics.median(cpus[v])
+                parts.append(f"{label} {m:.1f} (ratio {m / m0:.2f})")
+                cparts.append(f"{label} {c:.3f} (ratio {c0 / c:.2f})")
             print(f"{kind:<10} median RT factor: " + ", ".join(parts))
-            c0 = statistics.median(cpus[variants[0]])
-            cparts = [
-                f"{n} process{'es' if n > 1 else ''}"
-                + ("" if kind != "particle" or o is None else f" ovf {o:g}")
-                + f" {statistics.median(cpus[(n, o)]):.3f} (ratio {c0 / statistics.median(cpus[(n, o)]):.2f})"
-                for n, o in variants
-            ]
             print(f"{kind:<10} median filter CPU ms per frame (ratio: first variant / this): " + ", ".join(cparts))
     return 0
 
