@@ -14,7 +14,7 @@ modes give the same)::
 
 ``--max-overflow``: the particle filter's ``FilterConfig.max_overflow`` values to compare (default: the
 configuration's, 0.1 in the recommended mode); 0 resamples whenever births overflow, as before it existed.
-``--particles``: particle counts to compare (default: the configuration's, 5 per cell and at least 2500: 2500 on
+``--particles``: particle counts to compare (default: the configuration's, 5 per cell and at least 5000: 5000 on
 this bag's 494-cell grid). Every combination of ``--processes``, ``--max-overflow`` and ``--particles`` is a
 variant; the first is the baseline of the ratios.
 

@@ -53,7 +53,7 @@ def test_build_filter_composes_the_modes() -> None:
     assert all(m.footprint_radius == 0.3 for m in rec.detectors)  # laser detections fire the person's footprint
     pf = build_filter(FilterConfig(kind="particle"), spec, CALIBRATED_LASER_DETECTORS)
     assert (
-        isinstance(pf, ParticleFilter) and pf.n_particles == 4500 and isinstance(pf.likelihood, IndependentLikelihood)
+        isinstance(pf, ParticleFilter) and pf.n_particles == 5000 and isinstance(pf.likelihood, IndependentLikelihood)
     )
     assert pf.max_overflow == 0.1
     assert build_filter(FilterConfig(kind="particle", mode="paper"), spec, PAPER_DETECTORS).max_overflow == 0.0

@@ -191,8 +191,7 @@ class FilterConfig:
     initial : float or None
         Initial belief of every cell; None: the base rate (recommended) or 0.5 (paper).
     n_particles : int or None
-        Particle count (particle filter only); None: 5 per cell, at least 2500 (the particle filter's bias on
-        cells that are empty by chance is small from about 5 per cell on: :mod:`pfpeople.particle_filter`).
+        Particle count (particle filter only); None: 5 per cell, at least 5000.
     seed : int
         Seed of the particle filter's ``numpy.random.Generator``.
     motion_model : {"paper", "persistent"}
@@ -258,8 +257,8 @@ class FilterConfig:
             raise ValueError("FilterConfig: base_rate must be below belief_max")
 
     def particles_for(self, n_cells: int) -> int:
-        """The particle count for a grid of ``n_cells`` cells (``n_particles`` or 5 per cell, >= 2500)."""
-        return self.n_particles if self.n_particles is not None else max(2500, 5 * n_cells)
+        """The particle count for a grid of ``n_cells`` cells (``n_particles`` or 5 per cell, >= 5000)."""
+        return self.n_particles if self.n_particles is not None else max(5000, 5 * n_cells)
 
 
 @dataclass(frozen=True, kw_only=True)
