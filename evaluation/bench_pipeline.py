@@ -3,11 +3,10 @@
 Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter, classification, tracking and
 the run directory output) for each filter, in one process and with the front end in a second process
 (``Pipeline(front_process=...)``, :mod:`pfpeople.frontend`), and prints frames per second, the real-time factor
-(recorded seconds processed per wall-clock second), the CPU time of the filter's step alone (ms per frame; less
-sensitive to other load on the machine than the wall clock), its ratio to the first variant of the same filter measured
-just before (the first of ``--processes``, with the first of ``--max-overflow`` for particles), and the recall
-of each detector and of the filter against the ground truth (recall only: passers-by are not annotated; the two
-modes give the same)::
+(recorded seconds processed per wall-clock second), its ratio to the first variant of the same filter measured
+just before (the first value of each option), the CPU time of the filter's step alone (ms per frame, its thread;
+less sensitive to other load on the machine than the wall clock), and the recall of each detector and of the
+filter against the ground truth (recall only: passers-by are not annotated; the two modes give the same)::
 
     python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
         [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000 2500] [--repeat N]
@@ -42,6 +41,7 @@ from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
 
 BAG = "leg_tracker/person_following_outdoor_1.bag.zip"
+GT = "leg_tracker/person_following_outdoor_1_gt.csv"
 
 
 #: (processes, max_overflow, particle count); None: the configuration's.
@@ -78,9 +78,6 @@ class _TimedPipeline(Pipeline):
 
         self.filter.step = timed  # type: ignore[method-assign]
         return out
-
-
-GT = "leg_tracker/person_following_outdoor_1_gt.csv"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
