@@ -289,6 +289,7 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         peak_threshold=tracking.peak_threshold,
         people="classified",
         snap_radius=tracking.snap_radius,
+        observed_tracks_only=tracking.observed_tracks_only,
     )
     hyp: HypFrames = []
     for k in range(n):

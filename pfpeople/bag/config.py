@@ -51,6 +51,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
                                 #   start one; with people = "confirmed")
     snap_radius = 0.3           # people with detections this close (m) are moved to their mean (0: never)
     static_confirm_s = 1.0      # a track that has not moved 0.3 m is reported once this old (s; 0: at once)
+    observed_tracks_only = true # tracks.csv: a coasting track is left out where no detector observes
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
@@ -374,6 +375,10 @@ class TrackingConfig:
         The classified people and weaker peaks with detections of point-like detectors (the laser ones, static
         clutter removed) within this distance (m) are moved to their mean before tracking and reporting
         (:mod:`pfpeople.mot.people`); 0: never. Default 0.3; the paper mode never snaps.
+    observed_tracks_only : bool
+        Recommended mode: ``tracks.csv`` and the result bag's tracks leave out a confirmed track without a hit in
+        this frame while its predicted position lies in no cell a detector observes (it lives on and keeps its id;
+        :mod:`pfpeople.mot.people`). Default True; the paper mode never leaves tracks out.
     static_confirm_s : float
         With ``people = "confirmed"``: a track that has not moved (0.3 m from its birth position in the odometry
         frame, ``TrackerConfig.moved_distance``) is reported only from this age (s) on; a walker as soon as it is
@@ -389,6 +394,7 @@ class TrackingConfig:
     single_legs: bool = True
     snap_radius: float = 0.3
     static_confirm_s: float = 1.0
+    observed_tracks_only: bool = True
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -412,6 +418,10 @@ class TrackingConfig:
             raise ValueError(f"TrackingConfig.static_confirm_s must be a number >= 0 (s), got {sc!r}")
         if not isinstance(self.single_legs, bool):
             raise ValueError(f"TrackingConfig.single_legs must be true or false, got {self.single_legs!r}")
+        if not isinstance(self.observed_tracks_only, bool):
+            raise ValueError(
+                f"TrackingConfig.observed_tracks_only must be true or false, got {self.observed_tracks_only!r}"
+            )
         if not isinstance(self.params, Mapping):
             raise ValueError("TrackingConfig.params must be a table")
 
@@ -537,6 +547,7 @@ class BagConfig:
                 "single_legs": self.tracking.single_legs,
                 "snap_radius": self.tracking.snap_radius,
                 "static_confirm_s": self.tracking.static_confirm_s,
+                "observed_tracks_only": self.tracking.observed_tracks_only,
                 "params": dict(self.tracking.params),
             },
             "clutter": {
