@@ -254,3 +254,45 @@ def test_a_standing_person_is_reported_after_static_confirm_s() -> None:
         make(static_confirm_s=-1.0)
     with pytest.raises(ValueError, match="static_confirm_s"):
         TrackingConfig(static_confirm_s=float("inf"))
+
+
+@pytest.mark.parametrize("only", [True, False])
+def test_coasting_tracks_outside_the_observed_cells_are_not_reported(only: bool) -> None:
+    """A walker at 1 m/s along x, detected up to x = 2.9 m; the detectors observe x < 3 m only. Its track coasts
+    on to x ~ 3.1 m: with ``observed_tracks_only`` it is left out of the tracks (and stays alive with its id),
+    without it it is reported; a track with a hit is reported wherever it is."""
+    gx, _ = SPEC.cell_centres()
+    observed = gx < 3.0
+    pt = make(observed_tracks_only=only)
+    for k in range(20):
+        out = pt.step(people_at((1.0 + 0.1 * k, 0.0)), belief(), SPEC, DT, observed=observed)
+    assert len(out.tracks) == 1
+    tid = out.tracks[0].id
+    miss = pt.step(people_at(), belief(), SPEC, DT, observed=observed)
+    assert [t.id for t in pt.tracker.tracks if t.confirmed] == [tid]  # alive either way
+    assert len(miss.tracks) == (0 if only else 1)
+    # seen again (a hit) outside the observed cells: reported, with its id
+    again = pt.step(people_at((3.15, 0.0)), belief(), SPEC, DT, observed=observed)
+    assert [t.id for t in again.tracks] == [tid]
+    # without an observed mask nothing is left out
+    pt2 = make(observed_tracks_only=only)
+    for k in range(20):
+        pt2.step(people_at((1.0 + 0.1 * k, 0.0)), belief(), SPEC, DT)
+    assert len(pt2.step(people_at(), belief(), SPEC, DT).tracks) == 1
+
+
+def test_observed_tracks_only_setting() -> None:
+    rec = build_people_tracker(TrackingConfig(), PeakClassifier(threshold=0.7), "recommended")
+    paper = build_people_tracker(TrackingConfig(), PeakClassifier(threshold=0.7), "paper")
+    off = build_people_tracker(TrackingConfig(observed_tracks_only=False), PeakClassifier(threshold=0.7))
+    assert rec.observed_tracks_only and not paper.observed_tracks_only and not off.observed_tracks_only
+    cfg = config_from_mapping(
+        {
+            "frames": {"driver": "/scan"},
+            "tracking": {"observed_tracks_only": False},
+            "detectors": [{"name": "a", "kind": "leg", "topic": "/scan"}],
+        }
+    )
+    assert cfg.tracking.observed_tracks_only is False and config_from_mapping(cfg.to_dict()) == cfg
+    with pytest.raises(ValueError, match="observed_tracks_only must be true or false"):
+        TrackingConfig(observed_tracks_only="yes")  # type: ignore[arg-type]
