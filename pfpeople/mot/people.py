@@ -95,13 +95,17 @@ def snap_to_detections(positions: ArrayLike, detections: ArrayLike, radius: floa
     return out
 
 
+def _in_observed(xy: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | None) -> NDArray[np.bool_]:
+    """For positions ``(K, 2)`` (m, grid frame): inside the grid and, given ``observed``, in an observed cell."""
+    seen = spec.contains(xy[:, 0], xy[:, 1])
+    if observed is not None and seen.any():
+        seen[seen] = np.asarray(observed, dtype=bool).ravel()[spec.flat_index(xy[seen, 0], xy[seen, 1])]
+    return np.asarray(seen, dtype=bool)
+
+
 def _observed_or_hit(tracks: Sequence[Track], spec: GridSpec, observed: ArrayLike) -> list[Track]:
     """``tracks`` without the coasting ones (no hit in this frame) whose position is in no observed cell."""
-    obs = np.asarray(observed, dtype=bool).ravel()
-    xy = np.array([[t.x, t.y] for t in tracks], dtype=float).reshape(-1, 2)
-    inside = spec.contains(xy[:, 0], xy[:, 1])
-    seen = np.zeros(len(tracks), dtype=bool)
-    seen[inside] = obs[spec.flat_index(xy[inside, 0], xy[inside, 1])]
+    seen = _in_observed(np.array([[t.x, t.y] for t in tracks], dtype=float).reshape(-1, 2), spec, observed)
     return [t for t, s in zip(tracks, seen, strict=True) if t.misses == 0 or s]
 
 
@@ -324,9 +328,7 @@ class PeopleTracker:
         ).reshape(-1, 2)
         if not len(pts):
             return pts
-        pts = pts[spec.contains(pts[:, 0], pts[:, 1])]
-        if len(pts) and observed is not None:
-            pts = pts[np.asarray(observed, dtype=bool).ravel()[spec.flat_index(pts[:, 0], pts[:, 1])]]
+        pts = pts[_in_observed(pts, spec, observed)]
         if len(pts) and len(kept):
             d = np.hypot(pts[:, None, 0] - kept[None, :, 0], pts[:, None, 1] - kept[None, :, 1]).min(axis=1)
             pts = pts[d > self.min_separation]
