@@ -77,6 +77,24 @@ def test_far_header_stamps_choose_bag_time(tmp_path: Path) -> None:
     assert 'time_source = "bag"' in text and "129.997 s (median) from the record times" in text
 
 
+def test_burst_recorded_bag_keeps_header_time(tmp_path: Path) -> None:
+    """Header stamps 1 s apart (and ~9 h before), record times 0.1 s apart: a re-written bag (ratio 0.1 < 0.25)."""
+    bag = tmp_path / "burst.bag"
+    write_bag(bag, n_scans=6, scan_hook=lambda k, stamp, r: (T0_NS - 32_000 * 10**9 + k * 10**9, r))
+    report = inspect_path(bag)
+    (scan,) = [t for t in report.topics if t.topic == "/scan"]
+    assert scan.record_burst and scan.header_rate_hz == pytest.approx(1.0) and scan.rate_hz == pytest.approx(10.0)
+    assert report.time_source == "header"
+    assert any("recorded in a burst (10.00 Hz of record time, 1.00 Hz of header stamps)" in w for w in report.warnings)
+    text = starter_config(report)
+    assert 'time_source = "header"' in text and "# Recorded in a burst" in text
+    # the same stamps spread like the record times are a late clock, not a burst: bag time, as before
+    late = tmp_path / "late.bag"
+    write_bag(late, n_scans=6, scan_hook=lambda k, stamp, r: (T0_NS - 32_000 * 10**9 + k * 10**8, r))
+    report = inspect_path(late)
+    assert report.time_source == "bag" and not any(t.record_burst for t in report.topics)
+
+
 def test_no_tf_to_the_base_writes_a_flagged_mount(tmp_path: Path) -> None:
     bag = tmp_path / "b.bag"
     write_bag(bag, n_scans=3)
@@ -134,6 +152,9 @@ def test_every_real_bag(shared_data: Path, tmp_path_factory: pytest.TempPathFact
     assert model["max_range"] == pytest.approx(5.6)
     report, cfg, cfg_path = configs["demo_stationary_simple_environment.bag"]
     assert cfg.driver == "/scan" and cfg.time_source == "header" and report.lasers[0].beams == 512
+    for k in (1, 2, 3, 4, 6, 7):  # re-written training bags: record times within 0.5 s
+        report, cfg, _ = configs[f"positive_{k}_extracted.bag"]
+        assert cfg.time_source == "header" and report.warnings and "recorded in a burst" in report.warnings[0]
     report, cfg, _ = configs["negative_2.bag"]
     assert cfg.driver == "/left_scan" and "#   /right_scan: 434 msgs" in starter_config(report)
     with BagSource(shared_data / "leg_tracker" / "demo_stationary_simple_environment.bag") as src:

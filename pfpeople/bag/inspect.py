@@ -19,7 +19,9 @@ radians where a configuration needs them.
 - ``[frames] driver``: the LaserScan topic with the most messages (ties: the first by name); the others are
   listed in comments. ``time_source = "bag"`` when the driver's header stamps are more than
   :data:`TIME_SOURCE_THRESHOLD_S` (1 s, median) from its record times (e.g. leg_tracker's
-  person_following_outdoor_1, ~130 s), else ``"header"``.
+  person_following_outdoor_1, ~130 s), else ``"header"``; but ``"header"`` whenever the driver's messages were
+  recorded in a burst (:attr:`TopicInfo.record_burst`: a re-written bag whose record times carry no timing, as
+  leg_tracker's ``positive_*_extracted.bag``: 197 scans stamped over 52 s, recorded within 0.5 s).
 - ``[odometry] topic``: the ``nav_msgs/Odometry`` topic with the most messages, when one exists; then
   ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
   laser at the base origin (flagged in a comment and in the report's warnings: measure it).
@@ -44,6 +46,7 @@ from pfpeople.bag.tf import TfBuffer, TfLookupError, yaw_from_quaternion
 from pfpeople.jsonio import json_safe
 
 __all__ = [
+    "RECORD_BURST_RATIO",
     "TIME_SOURCE_THRESHOLD_S",
     "BagReport",
     "LaserInfo",
@@ -59,6 +62,10 @@ __all__ = [
 #: Median |header stamp - record time| (s) of the driver above which frames are synchronised on bag time.
 TIME_SOURCE_THRESHOLD_S = 1.0
 
+#: A topic's sampled messages were recorded in a burst when their record times span less than this fraction of
+#: the time their header stamps span (:attr:`TopicInfo.record_burst`).
+RECORD_BURST_RATIO = 0.25
+
 
 @dataclass(frozen=True, kw_only=True)
 class TopicInfo:
@@ -66,6 +73,10 @@ class TopicInfo:
 
     ``header_rate_hz`` is the rate of the header stamps of the sampled messages (None without headers); it
     differs from ``rate_hz`` in bags whose messages were re-recorded (e.g. leg_tracker's extracted bags).
+    ``record_burst`` is True when the sampled messages' record times span less than :data:`RECORD_BURST_RATIO`
+    of their header stamps' span (at least 3 stamped messages, header span above 0.1 s): the bag was written
+    after the fact and its record times do not time the messages (leg_tracker's ``positive_1_extracted.bag``:
+    /training_scan at 408.75 Hz of record time, 3.78 Hz of header stamps).
     """
 
     topic: str
@@ -77,6 +88,7 @@ class TopicInfo:
     first_ns: int
     last_ns: int
     header_rate_hz: float | None = None
+    record_burst: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -226,6 +238,10 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         stamps = [(bt, s) for bt, m in msgs if (s := header_stamp_ns(m)) is not None]
         offsets = [(s - bt) / 1e9 for bt, s in stamps]
         hs = sorted(s for _, s in stamps)
+        burst = False
+        if len(stamps) >= 3 and hs[-1] - hs[0] > 100_000_000:
+            bts = [bt for bt, _ in stamps]
+            burst = max(bts) - min(bts) < RECORD_BURST_RATIO * (hs[-1] - hs[0])
         topics.append(
             TopicInfo(
                 topic=topic,
@@ -237,6 +253,7 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
                 first_ns=t[0] if t else 0,
                 last_ns=t[-1] if t else 0,
                 header_rate_hz=_rate(len(hs), hs[0], hs[-1]) if hs else None,
+                record_burst=burst,
             )
         )
     by_topic = {i.topic: i for i in topics}
@@ -335,7 +352,13 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
     time_source = "header"
     if driver is not None:
         off = by_topic[driver].header_offset_s
-        if off is not None and abs(off) > TIME_SOURCE_THRESHOLD_S:
+        if by_topic[driver].record_burst:
+            warnings.append(
+                f"the driver {driver!r} was recorded in a burst ({_fmt(by_topic[driver].rate_hz)} Hz of record time, "
+                f"{_fmt(by_topic[driver].header_rate_hz)} Hz of header stamps): its record times carry no timing; "
+                "synchronise on header stamps (time_source = header)"
+            )
+        elif off is not None and abs(off) > TIME_SOURCE_THRESHOLD_S:
             time_source = "bag"
     storage = "ROS 1 bag" if all(p.suffix == ".bag" for p in bag.paths) else "ROS 2 bag"
     return BagReport(
@@ -455,7 +478,13 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
             out.append(f"#   {t}: {counts[t].count} msgs, {_fmt(counts[t].rate_hz)} Hz, frame {lasers[t].frame_id!r}")
     out.append(f"driver = {_q(driver)}")
     off = drv.header_offset_s
-    if report.time_source == "bag":
+    if drv.record_burst:
+        out.append(
+            f"# Recorded in a burst ({_fmt(drv.rate_hz)} Hz of record time, {_fmt(drv.header_rate_hz)} Hz of header "
+            "stamps): the record times carry no timing;"
+        )
+        out.append("# synchronise on header stamps.")
+    elif report.time_source == "bag":
         out.append(f"# Header stamps are {off:.3f} s (median) from the record times (> {TIME_SOURCE_THRESHOLD_S:g} s):")
         out.append("# synchronise on bag (record) time.")
     else:
