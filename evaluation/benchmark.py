@@ -7,7 +7,16 @@ Scenes (each skipped with a reason when its data is absent):
 * ``scan:wheelchair``, ``scan:corridor``, ``scan:crowd``: scan-level scenes (:mod:`evaluation.scenarios.scan`)
   written as ROS 1 bags and run through ``pfpeople run``'s pipeline (raw scans -> built-in detectors -> filter);
 * ``person_following_outdoor_1`` (real, the followed person annotated: recall only) and ``negative_2`` (real,
-  nobody there: false people per scan; each of its three lasers alone) from ``../shared/data/leg_tracker``.
+  nobody there: false people per scan; each of its three lasers alone) from ``../shared/data/leg_tracker``;
+* ``positive_bags``: leg_tracker's six labelled ``positive_*_extracted.bag`` (real, a 768-beam 270 deg laser at
+  7.5 Hz, the sensor of the issue's wheelchair; stationary, clips of people walking in front of it): recall of
+  the labelled people (:func:`write_labelled_people_csv`: the labelled legs paired, 0.1-0.6 m, closest first;
+  an unpaired leg is a person too). Recall only: legs are labelled only in a box in front of the laser (x
+  0.5-5 m, abs(y) < 0.75 m), so people elsewhere are not annotated. Each bag runs with the configuration
+  ``pfpeople inspect --write-config`` writes for it, as the README tells a user, except for the boosted
+  detector's model: the shipped one was trained on these six bags, so each bag runs with a model trained the
+  same way (:func:`pfpeople.detectors.training.train_from_directory`, default parameters) on the other five
+  and negative_2 (leave one bag out): the figures to expect on a recording the model has not seen.
 
 For bags the pipeline runs once, as a user runs it (the README's configuration: the recommended mode); its
 ``people.csv`` gives the row ``recommended (pipeline)`` and its detections are replayed (:mod:`evaluation.replay`)
@@ -23,6 +32,7 @@ classifier (replay) or the whole pipeline including detectors (``pipeline`` rows
 from __future__ import annotations
 
 import copy
+import csv
 import math
 import tempfile
 import time
@@ -42,11 +52,29 @@ from gridbridge.params import PAPER_DETECTORS, DetectorModel
 from pfpeople.bag.config import BagConfig, ClassifierConfig, DetectorConfig, FilterConfig, TrackingConfig
 from pfpeople.filters import build_classifier, build_filter, build_people_tracker
 
-__all__ = ["MODES", "SCENES", "BenchRow", "Mode", "format_rows", "run_benchmark"]
+__all__ = [
+    "MODES",
+    "POSITIVE_BAGS",
+    "SCENES",
+    "BenchRow",
+    "Mode",
+    "format_rows",
+    "pooled_rows",
+    "run_benchmark",
+    "write_labelled_people_csv",
+]
 
 REPLAY_SCENES = ("eth", "hotel", "zara01")
 SCAN_SCENES = ("wheelchair", "corridor", "crowd")
-SCENES = (*REPLAY_SCENES, *(f"scan:{s}" for s in SCAN_SCENES), "person_following_outdoor_1", "negative_2")
+SCENES = (
+    *REPLAY_SCENES,
+    *(f"scan:{s}" for s in SCAN_SCENES),
+    "person_following_outdoor_1",
+    "negative_2",
+    "positive_bags",
+)
+#: The labelled leg_tracker bags of scene ``positive_bags`` (``positive_<k>_extracted.bag``).
+POSITIVE_BAGS = (1, 2, 3, 4, 6, 7)
 
 
 _TABLE1 = {m.name: m for m in PAPER_DETECTORS}
@@ -133,6 +161,27 @@ def _score(
     }
     if log.nobody:
         out["fpcpf"] = float(np.mean([m.sum() for m in masks])) if masks is not None else math.nan
+    out["extra"] = {"tp": acc.tp, "fn": acc.fn, "fp": acc.fp}
+    return out
+
+
+def pooled_rows(rows: Sequence[BenchRow], scene: str) -> list[BenchRow]:
+    """One row per source pooling ``rows`` (several logs of one scene), named ``scene``: recall = matches / true
+    people over all of them; false people per scan = false people / frames where every pooled row has that
+    figure (else NaN); precision, FPCPF and ms per frame are left out (NaN)."""
+    by_source: dict[str, list[BenchRow]] = {}
+    for r in rows:
+        if "tp" in r.extra:
+            by_source.setdefault(r.source, []).append(r)
+    out = []
+    for source, group in by_source.items():
+        tp, fn, fp = (sum(int(r.extra[k]) for r in group) for k in ("tp", "fn", "fp"))
+        frames = sum(r.frames for r in group)
+        row = BenchRow(scene, source, frames, note=f"{len(group)} runs pooled", extra={"tp": tp, "fn": fn, "fp": fp})
+        row.recall = tp / (tp + fn) if tp + fn else math.nan
+        if not any(math.isnan(r.fp_per_frame) for r in group):
+            row.fp_per_frame = fp / max(frames, 1)
+        out.append(row)
     return out
 
 
@@ -235,6 +284,29 @@ def _laser_config(topic: str, **changes: Any) -> BagConfig:
     return replace(BagConfig(driver=topic, detectors=dets), **changes)
 
 
+def write_labelled_people_csv(bag: Path, out: Path) -> int:
+    """Ground-truth CSV of the people of a leg_tracker ``positive_*_extracted.bag``; returns its row count.
+
+    Per ``/training_scan`` message (``scan_index``: its index on the topic, the run's ``driver_index``) the
+    labelled legs of ``/leg_cluster_positions`` are paired into people (:func:`evaluation.bench_clutter.
+    labelled_people`: pairs 0.1-0.6 m apart, closest first, at their midpoint; an unpaired leg is a person at its
+    own position). Columns ``scan_index, person_id, x_laser_m, y_laser_m`` (the scan's frame; ``person_id`` is
+    the rank in the scan, 1 for the first: the labels carry no identities).
+    """
+    from evaluation.bench_clutter import labelled_people
+    from pfpeople.detectors._bags import load_labelled_scans
+
+    n = 0
+    with Path(out).open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["scan_index", "person_id", "x_laser_m", "y_laser_m"])
+        for k, scan in enumerate(load_labelled_scans(bag)):
+            for j, (x, y) in enumerate(labelled_people(scan.legs), start=1):
+                w.writerow([k, j, f"{x:.4f}", f"{y:.4f}"])
+                n += 1
+    return n
+
+
 def scene_logs(
     scene: str, *, data: Path, work: Path, frames: int | None = None, scan_seed: int | None = None
 ) -> tuple[list[ReplayLog], list[BenchRow], str]:
@@ -280,6 +352,43 @@ def scene_logs(
             log, row = _pipeline_log(bag, _laser_config(topic), out, nobody=True, name=nm, max_frames=frames)
             logs.append(log)
             rows.append(row)
+        return logs, rows, ""
+    if scene == "positive_bags":
+        from pfpeople.bag.config import load_config
+        from pfpeople.bag.inspect import inspect_path, starter_config
+        from pfpeople.detectors.training import train_from_directory
+
+        logs, rows = [], []
+        present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
+        for k in present:
+            bag = leg / f"positive_{k}_extracted.bag"
+            nm = f"positive_{k}"
+            work.mkdir(parents=True, exist_ok=True)
+            gt = work / f"{nm}_gt.csv"
+            write_labelled_people_csv(bag, gt)
+            others = [f"positive_{j}_extracted.bag" for j in present if j != k]
+            model = work / "models" / f"without_{nm}.yml"
+            train_from_directory(leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False)
+            cfg_path = work / f"{nm}.toml"  # as the README: pfpeople inspect BAG --write-config
+            cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
+            cfg = load_config(cfg_path)
+            dets = tuple(
+                replace(d, params={**dict(d.params), "model_path": str(model)}) if d.kind == "boosted" else d
+                for d in cfg.detectors
+            )
+            log, row = _pipeline_log(
+                bag,
+                replace(cfg, detectors=dets),
+                work / f"{nm}_run",
+                gt=gt,
+                recall_only=True,
+                name=nm,
+                max_frames=frames,
+            )
+            logs.append(log)
+            rows.append(row)
+        if not logs:
+            return [], [], f"no positive_*_extracted.bag in {leg}"
         return logs, rows, ""
     raise ValueError(f"unknown scene {scene!r}; scenes: {', '.join(SCENES)}")
 
@@ -358,6 +467,7 @@ def run_benchmark(
             if skip:
                 rows.append(BenchRow(scene, "skipped", 0, note=skip))
                 continue
+            first = len(rows)
             prows: list[BenchRow | None] = list(pipe_rows) if pipe_rows else [None] * len(logs)
             for log, prow in zip(logs, prows, strict=True):
                 rows.extend(detector_rows(log))
@@ -365,6 +475,8 @@ def run_benchmark(
                     rows.append(mode_row(log, mode))
                 if prow is not None:
                     rows.append(prow)
+            if scene == "positive_bags" and len(logs) > 1:
+                rows.extend(pooled_rows(rows[first:], "positive_bags (all)"))
             if mot is not None:
                 mot.extend(mot_rows(scene, data=data, work=base, frames=frames))
     return rows
