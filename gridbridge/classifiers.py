@@ -29,7 +29,7 @@ from scipy import ndimage
 from gridbridge.classify import BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
-from gridbridge.validation import check_positive, check_probability
+from gridbridge.validation import check_number, check_positive, check_probability
 
 __all__ = [
     "BlobClassifier",
@@ -118,11 +118,16 @@ def classify_peaks(
     threshold: float = 0.5,
     min_separation: float = 0.6,
     centroid_radius: float = 0.35,
+    smooth: float = 0.0,
 ) -> People:
     """People at local maxima of the belief, with non-maximum suppression.
 
     1. Candidates: cells with belief ``> threshold`` that are the maximum of the square window of half-width
-       ``ceil(min_separation / r)`` cells around them.
+       ``ceil(min_separation / r)`` cells around them. With ``smooth = s > 0`` the maxima are those of the
+       belief convolved with a Gaussian of ``s`` cells (``scipy.ndimage.gaussian_filter``, zero outside the
+       grid: a kernel density estimate of a noisy grid such as the particle filter's rasterised mass, whose
+       person is a ragged blob with several separate cells at the bound), and a candidate's belief is the
+       largest belief within one cell of it (the threshold keeps its meaning).
     2. Non-maximum suppression: candidates in decreasing belief order (ties: row-major cell order); a candidate
        closer than ``min_separation`` (centre to centre) to a kept one is dropped (plateaus give one person).
     3. Position: the belief-weighted mean of the cell centres within ``centroid_radius`` of the peak cell whose
@@ -139,6 +144,8 @@ def classify_peaks(
         Two people are at least this far apart (m).
     centroid_radius : float
         Radius (m) of the cells averaged into the position.
+    smooth : float
+        Standard deviation (cells) of the Gaussian the maxima are found on; 0: the belief itself.
 
     Returns
     -------
@@ -150,10 +157,16 @@ def classify_peaks(
     check_probability(threshold, "threshold")
     check_positive(min_separation, "min_separation")
     check_positive(centroid_radius, "centroid_radius", allow_zero=True)
+    smooth = check_positive(check_number(smooth, "smooth"), "smooth", allow_zero=True)
     r = spec.resolution
     half = max(1, math.ceil(min_separation / r - 1e-9))
-    local_max = ndimage.maximum_filter(grid, size=2 * half + 1, mode="constant", cval=0.0)
-    cand = np.argwhere((grid > threshold) & (grid >= local_max))
+    if smooth > 0:
+        found = ndimage.gaussian_filter(grid, smooth, mode="constant", cval=0.0)
+        value = ndimage.maximum_filter(grid, size=3, mode="constant", cval=0.0)
+    else:
+        found = value = grid
+    local_max = ndimage.maximum_filter(found, size=2 * half + 1, mode="constant", cval=0.0)
+    cand = np.argwhere((value > threshold) & (found >= local_max))
     empty = People(
         positions=np.zeros((0, 2)),
         scores=np.zeros(0),
@@ -162,7 +175,7 @@ def classify_peaks(
     )
     if len(cand) == 0:
         return empty
-    values = grid[cand[:, 0], cand[:, 1]]
+    values = value[cand[:, 0], cand[:, 1]]
     order = np.lexsort((cand[:, 1], cand[:, 0], -values))
     cand, values = cand[order], values[order]
     # Greedy non-maximum suppression on the grid: a kept peak blocks every cell centre within min_separation.
@@ -220,11 +233,13 @@ class PeakClassifier:
     min_separation: float = 0.6
     centroid_radius: float = 0.35
     only_observed: bool = True
+    smooth: float = 0.0
 
     def __post_init__(self) -> None:
         check_probability(self.threshold, "PeakClassifier.threshold")
         check_positive(self.min_separation, "PeakClassifier.min_separation")
         check_positive(self.centroid_radius, "PeakClassifier.centroid_radius", allow_zero=True)
+        check_positive(check_number(self.smooth, "PeakClassifier.smooth"), "PeakClassifier.smooth", allow_zero=True)
 
     def classify(self, belief: ArrayLike, spec: GridSpec, *, observed: ArrayLike | None = None) -> People:
         """People at the peaks of ``belief``; with ``only_observed``, cells outside ``observed`` (bool
@@ -237,6 +252,7 @@ class PeakClassifier:
             threshold=self.threshold,
             min_separation=self.min_separation,
             centroid_radius=self.centroid_radius,
+            smooth=self.smooth,
         )
 
 
@@ -259,7 +275,7 @@ class HysteresisPeaks:
         Thresholds on a peak's belief, ``0 <= keep <= threshold <= 1`` (strictly above, as :func:`classify_peaks`).
     gate : float
         Largest distance (m) from a person of the previous frame for a peak above ``keep`` to continue it.
-    min_separation, centroid_radius, only_observed
+    min_separation, centroid_radius, only_observed, smooth
         As :class:`PeakClassifier`.
     """
 
@@ -274,6 +290,7 @@ class HysteresisPeaks:
         min_separation: float = 0.6,
         centroid_radius: float = 0.35,
         only_observed: bool = True,
+        smooth: float = 0.0,
     ) -> None:
         check_probability(threshold, "HysteresisPeaks.threshold")
         check_probability(keep, "HysteresisPeaks.keep")
@@ -282,7 +299,11 @@ class HysteresisPeaks:
         self.threshold, self.keep = float(threshold), float(keep)
         self.gate = check_positive(gate, "HysteresisPeaks.gate", allow_zero=True)
         self.peaks = PeakClassifier(
-            threshold=keep, min_separation=min_separation, centroid_radius=centroid_radius, only_observed=only_observed
+            threshold=keep,
+            min_separation=min_separation,
+            centroid_radius=centroid_radius,
+            only_observed=only_observed,
+            smooth=smooth,
         )
         self.previous = np.zeros((0, 2))
         """People of the latest frame (m, its grid frame), shape (K, 2)."""

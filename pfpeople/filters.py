@@ -222,5 +222,5 @@ def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Cla
     thr = PEAK_THRESHOLD if config.threshold is None else config.threshold
     keep = min(PEAK_KEEP, thr) if config.keep is None else config.keep
     if keep >= thr:
-        return PeakClassifier(threshold=thr, min_separation=config.min_separation)
-    return HysteresisPeaks(threshold=thr, keep=keep, min_separation=config.min_separation)
+        return PeakClassifier(threshold=thr, min_separation=config.min_separation, smooth=config.smooth)
+    return HysteresisPeaks(threshold=thr, keep=keep, min_separation=config.min_separation, smooth=config.smooth)

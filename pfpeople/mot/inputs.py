@@ -51,8 +51,8 @@ def tracker_inputs(
     spec : GridSpec
     low : PeakClassifier
         The classifier with the lower threshold (``low.threshold < high``); its other settings should be the
-        people classifier's (only its threshold, ``min_separation``, ``centroid_radius`` and ``only_observed``
-        are used: it is not run).
+        people classifier's (only its threshold, ``min_separation``, ``centroid_radius``, ``only_observed`` and
+        ``smooth`` are used: it is not run).
     high : float
         The people classifier's threshold.
     observed : array_like of bool, shape (nx, ny), optional
@@ -73,12 +73,18 @@ def tracker_inputs(
     if low.only_observed and observed is not None:
         grid = np.where(np.asarray(observed, dtype=bool), grid, 0.0)
     half = max(1, math.ceil(low.min_separation / spec.resolution - 1e-9))  # as classify_peaks' window
-    local_max = ndimage.maximum_filter(grid, size=2 * half + 1, mode="constant", cval=0.0)
-    if not np.any((grid > low.threshold) & (grid <= high) & (grid >= local_max)):
+    if low.smooth > 0:  # as classify_peaks: maxima of the smoothed belief, valued by the belief around them
+        found = ndimage.gaussian_filter(grid, low.smooth, mode="constant", cval=0.0)
+        value = ndimage.maximum_filter(grid, size=3, mode="constant", cval=0.0)
+    else:
+        found = value = grid
+    local_max = ndimage.maximum_filter(found, size=2 * half + 1, mode="constant", cval=0.0)
+    sel = (value > low.threshold) & (value <= high) & (found >= local_max)
+    if not np.any(sel):
         return pos, sc
     r = spec.resolution
-    cand = np.argwhere((grid > low.threshold) & (grid <= high) & (grid >= local_max))
-    values = grid[cand[:, 0], cand[:, 1]]
+    cand = np.argwhere(sel)
+    values = value[cand[:, 0], cand[:, 1]]
     order = np.lexsort((cand[:, 1], cand[:, 0], -values))
     sep2 = (low.min_separation / r) ** 2 - 1e-9
     reach = math.floor(low.centroid_radius / r + 1e-9)
