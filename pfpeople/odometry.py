@@ -34,7 +34,15 @@ from pfpeople.bag.reader import MessageDataError, odometry_pose_from_msg
 from pfpeople.bag.sync import Frame
 from pfpeople.run_state import RunSummary, WarnOnce, count
 
-__all__ = ["FIRST_DT_S", "MAX_GAP_S", "EgoMotion", "OdometryIntegrator", "interpolate_pose", "odometry_between"]
+__all__ = [
+    "FIRST_DT_S",
+    "MAX_GAP_S",
+    "MIN_FRAME_DT_S",
+    "EgoMotion",
+    "OdometryIntegrator",
+    "interpolate_pose",
+    "odometry_between",
+]
 
 log = logging.getLogger(__name__)
 
@@ -42,6 +50,9 @@ log = logging.getLogger(__name__)
 FIRST_DT_S = 0.1
 #: A gap between frames longer than this (s) restarts the filter.
 MAX_GAP_S = 2.0
+#: Frames closer than this (s, 250 Hz) are faster than 2-D lasers scan: the run warns (once) that its clock
+#: does not time the scans (e.g. bag time of a bag written after the fact).
+MIN_FRAME_DT_S = 0.004
 
 
 def interpolate_pose(a: tuple[int, Pose2D], b: tuple[int, Pose2D], t: int) -> Pose2D:
@@ -190,6 +201,18 @@ class OdometryIntegrator:
             s.filter_restarts += 1
             log.warning("gap of %.3f s before frame %d: restarting the filter", dt, frame.index)
             dt, self.prev_pose = FIRST_DT_S, None
+        elif not first and dt < MIN_FRAME_DT_S:
+            self.warn(
+                "fast",
+                "frame %d comes %.2f ms after the previous one (%.0f Hz), faster than a laser scans: the frames' "
+                "clock does not time the scans, and the people motion model and the tracks' velocities are wrong. "
+                'If the bag was written after the fact (record times in a burst), set time_source = "header" '
+                "(pfpeople inspect chooses it for such bags)",
+                frame.index,
+                dt * 1e3,
+                1.0 / dt if dt > 0 else math.inf,
+                logger=log,
+            )
         pose = self.pose(frame)
         odo: Odometry | None = None
         ego: Pose2D | None = None

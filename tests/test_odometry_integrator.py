@@ -114,3 +114,20 @@ def test_laser_odometry_moves_the_grid_without_an_odometry_topic() -> None:
 def test_pipeline_module_still_exports_the_odometry_helpers() -> None:
     assert pipeline.odometry_between is odometry_between
     assert (pipeline.FIRST_DT_S, pipeline.MAX_GAP_S) == (0.1, 2.0)
+
+
+def test_frames_faster_than_a_laser_warn_once_about_the_clock(caplog: pytest.LogCaptureFixture) -> None:
+    # leg_tracker's positive_*_extracted.bag on bag time: 197 scans recorded within 0.5 s (2.4 ms apart)
+    integ = OdometryIntegrator(None, summary=RunSummary())
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        dts = [_step(integ, _frame(k, 0.0024 * k)).dt for k in range(5)]
+    fast = [r for r in caplog.records if "faster than a laser scans" in r.getMessage()]
+    assert len(fast) == 1 and "frame 1 comes 2.40 ms after the previous one (417 Hz)" in fast[0].getMessage()
+    assert 'time_source = "header"' in fast[0].getMessage()
+    assert dts[1:] == pytest.approx([0.0024] * 4)  # the run goes on with the clock it was given
+    caplog.clear()
+    integ = OdometryIntegrator(None, summary=RunSummary())
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        for k in range(5):
+            _step(integ, _frame(k, 0.025 * k))  # a 40 Hz laser: no warning
+    assert not [r for r in caplog.records if "faster than a laser" in r.getMessage()]
