@@ -360,10 +360,10 @@ def scene_logs(
 
         logs, rows = [], []
         present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
+        work.mkdir(parents=True, exist_ok=True)
         for k in present:
             bag = leg / f"positive_{k}_extracted.bag"
             nm = f"positive_{k}"
-            work.mkdir(parents=True, exist_ok=True)
             gt = work / f"{nm}_gt.csv"
             write_labelled_people_csv(bag, gt)
             others = [f"positive_{j}_extracted.bag" for j in present if j != k]

@@ -40,6 +40,7 @@ __all__ = [
     "ThresholdClassifier",
     "classify_frame",
     "classify_peaks",
+    "peak_maxima",
     "people_cells",
 ]
 
@@ -111,6 +112,38 @@ class ThresholdClassifier:
         return _from_blobs(classify_threshold(belief, self.threshold, spec=spec))
 
 
+def peak_maxima(
+    grid: NDArray[np.float64], spec: GridSpec, min_separation: float, smooth: float = 0.0
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Step 1 of :func:`classify_peaks` before the threshold: which cells are local maxima, and their values.
+
+    Parameters
+    ----------
+    grid : ndarray, shape (nx, ny)
+        A checked belief grid.
+    spec : GridSpec
+    min_separation : float
+        The window's half-width is ``ceil(min_separation / r)`` cells (at least 1).
+    smooth : float
+        Standard deviation (cells) of the Gaussian the maxima are found on; 0: the grid itself.
+
+    Returns
+    -------
+    is_max : ndarray of bool, shape (nx, ny)
+        Cells that are the maximum of their window (of the smoothed grid with ``smooth > 0``).
+    value : ndarray, shape (nx, ny)
+        Each cell's belief: the grid itself, or with ``smooth > 0`` the largest belief within one cell.
+    """
+    half = max(1, math.ceil(min_separation / spec.resolution - 1e-9))
+    if smooth > 0:
+        found = ndimage.gaussian_filter(grid, smooth, mode="constant", cval=0.0)
+        value = ndimage.maximum_filter(grid, size=3, mode="constant", cval=0.0)
+    else:
+        found = value = grid
+    local_max = ndimage.maximum_filter(found, size=2 * half + 1, mode="constant", cval=0.0)
+    return found >= local_max, value
+
+
 def classify_peaks(
     belief: ArrayLike,
     spec: GridSpec,
@@ -159,14 +192,8 @@ def classify_peaks(
     check_positive(centroid_radius, "centroid_radius", allow_zero=True)
     smooth = check_positive(check_number(smooth, "smooth"), "smooth", allow_zero=True)
     r = spec.resolution
-    half = max(1, math.ceil(min_separation / r - 1e-9))
-    if smooth > 0:
-        found = ndimage.gaussian_filter(grid, smooth, mode="constant", cval=0.0)
-        value = ndimage.maximum_filter(grid, size=3, mode="constant", cval=0.0)
-    else:
-        found = value = grid
-    local_max = ndimage.maximum_filter(found, size=2 * half + 1, mode="constant", cval=0.0)
-    cand = np.argwhere((value > threshold) & (found >= local_max))
+    is_max, value = peak_maxima(grid, spec, min_separation, smooth)
+    cand = np.argwhere((value > threshold) & is_max)
     empty = People(
         positions=np.zeros((0, 2)),
         scores=np.zeros(0),

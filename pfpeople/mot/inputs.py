@@ -23,9 +23,8 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 
-from gridbridge.classifiers import PeakClassifier, People
+from gridbridge.classifiers import PeakClassifier, People, peak_maxima
 from gridbridge.grid import GridSpec
 
 __all__ = ["tracker_inputs"]
@@ -72,14 +71,8 @@ def tracker_inputs(
     grid = spec.check_grid(belief, "belief")
     if low.only_observed and observed is not None:
         grid = np.where(np.asarray(observed, dtype=bool), grid, 0.0)
-    half = max(1, math.ceil(low.min_separation / spec.resolution - 1e-9))  # as classify_peaks' window
-    if low.smooth > 0:  # as classify_peaks: maxima of the smoothed belief, valued by the belief around them
-        found = ndimage.gaussian_filter(grid, low.smooth, mode="constant", cval=0.0)
-        value = ndimage.maximum_filter(grid, size=3, mode="constant", cval=0.0)
-    else:
-        found = value = grid
-    local_max = ndimage.maximum_filter(found, size=2 * half + 1, mode="constant", cval=0.0)
-    sel = (value > low.threshold) & (value <= high) & (found >= local_max)
+    is_max, value = peak_maxima(grid, spec, low.min_separation, low.smooth)  # as classify_peaks
+    sel = (value > low.threshold) & (value <= high) & is_max
     if not np.any(sel):
         return pos, sc
     r = spec.resolution
