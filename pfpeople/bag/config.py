@@ -286,8 +286,8 @@ class ClassifierConfig:
         (:func:`gridbridge.classifiers.classify_peaks`); 0 (default): none. For the particle filter, whose
         rasterised mass gives a person several separate cells at the bound: with 1.0 its pipeline's precision on
         the scan-level scenes goes from 0.79-0.82 to 0.89-0.96 and the MOTA of its tracks from 0.32-0.35 to
-        0.45-0.55, for 0.06-0.07 less recall (README, "Recommended mode"). The grid filter loses by it (recall
-        -0.02, MOTA -0.02 at 0.7).
+        0.45-0.55, for 0.06-0.07 less recall there and 0.13-0.15 less on the ETH/UCY replays (README,
+        "Recommended mode"). The grid filter loses by it (recall -0.02, MOTA -0.02 at 0.7).
     """
 
     kind: str | None = None
