@@ -42,14 +42,14 @@ def test_a_far_person_with_three_beams_per_leg(dist: float) -> None:
     as the beams fall).
     ``far_leg_width`` (0.10 m) lowers the point minimum to the beams a 0.10 m leg can give (never below 3) where
     ``min_points`` (4) cannot be met: a person with 3 returns on each leg is found only with it, one with 4 or
-    more with or without it, one with 2 never."""
+    more with or without it, one with 2 never (the far leg blobs off: ``tests/test_detectors_far_legs.py``)."""
     circles = _person(dist, 0.0)
     scan = render_scan(circles=circles, angle_increment=math.radians(0.5))
     pts = scan.points()
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     per_leg = [int(np.count_nonzero(np.hypot(pts[:, 0] - x, pts[:, 1] - y) <= r + 1e-6)) for x, y, r in circles]
-    found = LegDetector().detect(scan)
-    without = LegDetector(params=LegDetectorParams(far_leg_width=0.0)).detect(scan)
+    found = LegDetector(params=LegDetectorParams(far_from=math.inf)).detect(scan)
+    without = LegDetector(params=LegDetectorParams(far_leg_width=0.0, far_from=math.inf)).detect(scan)
     assert without.shape == ((1, 2) if min(per_leg) >= 4 else (0, 2))
     assert found.shape == ((1, 2) if min(per_leg) >= 3 else (0, 2))
     if len(found):

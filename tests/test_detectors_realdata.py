@@ -8,13 +8,14 @@ margin of 0.05 recall and 0.15 detections per scan, so a regression fails but a 
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pfpeople.detectors.boosted import BoostedSegmentDetector
-from pfpeople.detectors.legs import LegDetector
+from pfpeople.detectors.legs import LegDetector, LegDetectorParams
 from pfpeople.detectors.training import NEGATIVE_TOPICS, load_labelled_scans, load_scans
 
 pytestmark = pytest.mark.realdata
@@ -55,10 +56,12 @@ def test_leg_detector_recall_and_false_positives(leg_data: Path) -> None:
     det = LegDetector()
     r1 = leg_recall(det, leg_data / "positive_1_extracted.bag")  # measured 0.775 (324 labels)
     r4 = leg_recall(det, leg_data / "positive_4_extracted.bag")  # measured 0.675 (415 labels)
-    fp = false_people_per_scan(det, leg_data / "negative_2.bag")  # measured 0.96 per scan (1304 scans)
-    print(f"LegDetector: leg recall {r1:.3f} / {r4:.3f}, false people per negative scan {fp:.3f}")
+    fp = false_people_per_scan(det, leg_data / "negative_2.bag")  # measured 1.19 per scan (1304 scans)
+    near = LegDetector(params=LegDetectorParams(far_from=math.inf))
+    fp_near = false_people_per_scan(near, leg_data / "negative_2.bag")  # measured 1.02: far leg blobs give 0.17
+    print(f"LegDetector: leg recall {r1:.3f} / {r4:.3f}, false people per negative scan {fp:.3f} ({fp_near:.3f})")
     assert r1 >= 0.72 and r4 >= 0.62
-    assert fp <= 1.11
+    assert fp <= 1.25 and fp_near <= 1.11
 
 
 def test_boosted_detector_recall_and_false_positives(leg_data: Path) -> None:
