@@ -209,6 +209,7 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
         snap_radius=0.0 if mode == "paper" else float(tracking.snap_radius),
         static_confirm_s=float(tracking.static_confirm_s),
         observed_tracks_only=tracking.observed_tracks_only and mode != "paper",
+        see_through=tracking.see_through and mode != "paper",
     )
 
 

@@ -82,7 +82,7 @@ from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometr
 from pfpeople.output import deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
 from pfpeople.sensor_setup import TF_PRELOAD_S, SensorSetup, SetupSensors, run_topics, setup_sensors
-from pfpeople.sensors import Pose2D
+from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.sinks import RunInfo, RunOutcome, Sink, close_sinks, open_sinks, standard_sinks
 from pfpeople.suppression import ClutterStage
 
@@ -339,6 +339,7 @@ class Pipeline:
                 ego=motion.motion,
                 support=kept_support,
                 detections=support_positions([d for d, m in zip(dets, self.models, strict=True) if point_like(m)]),
+                views=self._laser_views(found) if self.tracker.see_through else None,
             )
             people_found, tracks = tracked.people, tracked.tracks
         people = people_found.positions.reshape(-1, 2)
@@ -361,6 +362,14 @@ class Pipeline:
             support=support,
             support_static=None if support is None else front.support_static,
         )
+
+    def _laser_views(self, found: list[Detections | None]) -> list[tuple[LaserScan, Pose2D]]:
+        """This frame's laser scans, each once, with the pose of its laser frame in the grid frame."""
+        views: dict[int, tuple[LaserScan, Pose2D]] = {}
+        for f, a in zip(found, self.adapters, strict=True):
+            if f is not None and f.scan is not None and not getattr(a, "self_mounted", False):
+                views.setdefault(id(f.scan), (f.scan, a.mount))
+        return list(views.values())
 
     def _process(self, frame: Frame) -> FrameResult:
         """One frame in this process: :meth:`_back` of :meth:`_front`."""

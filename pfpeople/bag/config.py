@@ -53,6 +53,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     snap_radius = 0.3           # people with detections this close (m) are moved to their mean (0: never)
     static_confirm_s = 1.0      # a track that has not moved 0.3 m is reported once this old (s; 0: at once)
     observed_tracks_only = true # tracks.csv: a coasting track is left out where no detector observes
+    see_through = true          # a coasting track / person is left out where a laser sees through it
     [tracking.params]           # pfpeople.mot.TrackerConfig fields
 
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
@@ -395,6 +396,11 @@ class TrackingConfig:
         With ``people = "confirmed"``: a track that has not moved (0.3 m from its birth position in the odometry
         frame, ``TrackerConfig.moved_distance``) is reported only from this age (s) on; a walker as soon as it is
         confirmed (:mod:`pfpeople.mot.people`). 0: any confirmed track. Default 1.0.
+    see_through : bool
+        Recommended mode: a track without a hit in this frame is left out of ``tracks.csv``, the result bag and
+        the people where a laser sees through its predicted position (every beam within 0.5 m of it returns 0.5 m
+        or more behind it: the person left, stopped or turned; :mod:`pfpeople.mot.freespace`). Default True; the
+        paper mode never does.
     params : mapping
         :class:`pfpeople.mot.TrackerConfig` fields overriding its defaults.
     """
@@ -407,6 +413,7 @@ class TrackingConfig:
     snap_radius: float = 0.3
     static_confirm_s: float = 1.0
     observed_tracks_only: bool = True
+    see_through: bool = True
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -434,6 +441,8 @@ class TrackingConfig:
             raise ValueError(
                 f"TrackingConfig.observed_tracks_only must be true or false, got {self.observed_tracks_only!r}"
             )
+        if not isinstance(self.see_through, bool):
+            raise ValueError(f"TrackingConfig.see_through must be true or false, got {self.see_through!r}")
         if not isinstance(self.params, Mapping):
             raise ValueError("TrackingConfig.params must be a table")
 
@@ -560,6 +569,7 @@ class BagConfig:
                 "snap_radius": self.tracking.snap_radius,
                 "static_confirm_s": self.tracking.static_confirm_s,
                 "observed_tracks_only": self.tracking.observed_tracks_only,
+                "see_through": self.tracking.see_through,
                 "params": dict(self.tracking.params),
             },
             "clutter": {

@@ -38,7 +38,9 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
    keeps its id. Without evidence there, its constant-velocity prediction was mostly wrong: ``pfpeople run``, the
    scan-level scenes, MOTA of ``tracks.csv`` on wheelchair / corridor / crowd 0.530 / 0.652 / 0.574 -> 0.572 /
    0.664 / 0.652 (wheelchair seeds 1 and 2: 0.586 -> 0.610, 0.496 -> 0.546), the followed person of
-   person_following 0.963 -> 0.962 of the scans, the ETH/UCY replays (every cell observed) unchanged.
+   person_following 0.963 -> 0.962 of the scans, the ETH/UCY replays (every cell observed) unchanged. With
+   ``see_through`` and the frame's laser scans (``views``), a track or a coasting person without a hit in this
+   frame is also left out where a laser sees through its predicted position (:mod:`pfpeople.mot.freespace`).
 
 Why (``pfpeople-eval benchmark``, all scenes, the same detections; issue 9's note): on ``negative_2`` (nobody
 there) the false people per scan fall by about half (0.09 / 0.10 / 0.15 -> 0.05 / 0.05 / 0.09) and the
@@ -60,6 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gridbridge.classifiers import PeakClassifier, People, people_cells
 from gridbridge.grid import GridSpec
+from pfpeople.mot.freespace import LaserView, seen_through
 from pfpeople.mot.inputs import tracker_inputs
 from pfpeople.mot.tracker import MultiPersonTracker, Track, TrackerConfig
 from pfpeople.sensors import Pose2D
@@ -185,6 +188,12 @@ class PeopleTracker:
     static_confirm_s : float
         With ``"confirmed"``: age (s) from which a track that has not moved is reported (module docstring); 0:
         any confirmed track.
+    observed_tracks_only : bool
+        Leave out of the tracks a coasting track whose predicted position lies in no observed cell (module
+        docstring).
+    see_through : bool
+        Leave out of the tracks and the people a track without a hit in this frame whose predicted position the
+        ``views`` given to :meth:`step` see through (:mod:`pfpeople.mot.freespace`).
 
     Raises
     ------
@@ -205,6 +214,7 @@ class PeopleTracker:
         snap_radius: float = 0.0,
         static_confirm_s: float = 0.0,
         observed_tracks_only: bool = False,
+        see_through: bool = False,
     ) -> None:
         if people not in PEOPLE_MODES:
             raise ValueError(f"people must be one of {PEOPLE_MODES}, got {people!r}")
@@ -221,6 +231,8 @@ class PeopleTracker:
         self.static_confirm_s = float(static_confirm_s)
         #: Whether :meth:`step` leaves coasting tracks outside the observed cells out of its tracks.
         self.observed_tracks_only = bool(observed_tracks_only)
+        #: Whether :meth:`step` leaves out coasting tracks and people whose place its laser ``views`` see through.
+        self.see_through = bool(see_through)
         self.classifier = classifier
         self.tracker = MultiPersonTracker(config)
         self.people, self.coast_frames, self.min_separation = people, int(coast_frames), float(min_separation)
@@ -266,6 +278,7 @@ class PeopleTracker:
         ego: Pose2D | None = None,
         support: ArrayLike | None = None,
         detections: ArrayLike | None = None,
+        views: Sequence[LaserView] | None = None,
     ) -> TrackedFrame:
         """Track this frame's people and report the confirmed ones (module docstring).
 
@@ -288,6 +301,10 @@ class PeopleTracker:
             ``use_support``).
         detections : array_like, shape (D, 2), optional
             The frame's precise detections (m, grid frame) for ``snap_radius``.
+        views : sequence of (LaserScan, Pose2D), optional
+            The frame's laser scans with their poses in the grid frame: with ``see_through``, a track or person
+            without a hit in this frame is not reported where a laser sees through its predicted position
+            (:func:`pfpeople.mot.freespace.seen_through`).
         """
         grid = np.asarray(belief, dtype=float)
         pos, sc = self._inputs(found, grid, spec, observed)
@@ -299,6 +316,13 @@ class PeopleTracker:
         tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, belief=grid, spec=spec, support=support)
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
+        views = views if self.see_through else None
+        if views and tracks:
+            coasting = [t for t in tracks if t.misses > 0]
+            if coasting:
+                free = seen_through(np.array([[t.x, t.y] for t in coasting]), views)
+                gone = {t.id for t, f in zip(coasting, free, strict=True) if f}
+                tracks = [t for t in tracks if t.id not in gone]
         if self.people == "classified":
             return TrackedFrame(people=found, tracks=tracks, coasted=0)
         n = len(found.positions)
@@ -307,7 +331,7 @@ class PeopleTracker:
         ok = np.zeros(n, dtype=bool)
         ok[[t.measurement for t in alive if t.misses == 0 and 0 <= t.measurement < n]] = True
         kept = np.asarray(found.positions, dtype=float).reshape(-1, 2)[ok]
-        coast = self._coasting(alive, kept, spec, observed)
+        coast = self._coasting(alive, kept, spec, observed, views)
         coast_scores = grid.ravel()[spec.flat_index(coast[:, 0], coast[:, 1])] if len(coast) else np.zeros(0)
         mask = found.mask if ok.all() else people_cells(found.mask, spec, found.positions, ok)
         people = People(
@@ -319,15 +343,24 @@ class PeopleTracker:
         return TrackedFrame(people=people, tracks=tracks, coasted=len(coast))
 
     def _coasting(
-        self, alive: Sequence[Track], kept: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | None
+        self,
+        alive: Sequence[Track],
+        kept: NDArray[np.float64],
+        spec: GridSpec,
+        observed: ArrayLike | None,
+        views: Sequence[LaserView] | None = None,
     ) -> NDArray[np.float64]:
         """Positions (K, 2) of the confirmed tracks to report through a miss (predicted) or continued by a
         support position (updated)."""
-        pts = np.array(
-            [[t.x, t.y] for t in alive if 1 <= t.misses <= self.coast_frames or (t.misses == 0 and t.supported)]
-        ).reshape(-1, 2)
+        sel = [t for t in alive if 1 <= t.misses <= self.coast_frames or (t.misses == 0 and t.supported)]
+        pts = np.array([[t.x, t.y] for t in sel]).reshape(-1, 2)
         if not len(pts):
             return pts
+        if views:
+            predicted = np.array([t.misses > 0 for t in sel], dtype=bool)
+            keep = ~predicted
+            keep[predicted] = ~seen_through(pts[predicted], views)
+            pts = pts[keep]
         pts = pts[_in_observed(pts, spec, observed)]
         if len(pts) and len(kept):
             d = np.hypot(pts[:, None, 0] - kept[None, :, 0], pts[:, None, 1] - kept[None, :, 1]).min(axis=1)
