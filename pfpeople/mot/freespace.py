@@ -72,7 +72,7 @@ def seen_through(
         if n == 0 or inc == 0.0:
             continue
         with np.errstate(invalid="ignore"):
-            far = np.isposinf(ranges) | (scan.valid & (ranges >= scan.range_min))
+            usable = np.isposinf(ranges) | (scan.valid & (ranges >= scan.range_min))
         for i in np.flatnonzero(~out & (r > 1e-6) & (r <= scan.range_max)).tolist():
             half = math.atan2(half_width, float(r[i]))
             # the bearing from the first beam, in the scan's direction (a 360 deg scan may start anywhere)
@@ -87,6 +87,5 @@ def seen_through(
             if lo < 0 or hi >= n or hi < lo:  # (partly) outside the field of view
                 continue
             window = ranges[lo : hi + 1]
-            ok = far[lo : hi + 1]
-            out[i] = bool(ok.all() and np.all(window >= r[i] + margin))
+            out[i] = bool(usable[lo : hi + 1].all() and np.all(window >= r[i] + margin))
     return out
