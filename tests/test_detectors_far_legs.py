@@ -9,6 +9,7 @@ import pytest
 
 from pfpeople.detectors.legs import LegDetector, LegDetectorParams, far_leg_blobs
 from pfpeople.detectors.synthetic import render_scan
+from pfpeople.sensors import LaserScan
 
 LEG_R = 0.06
 STEP = math.radians(0.5)  # 0.5 deg: a 0.12 m leg gets 1-2 beams at 8 m
@@ -101,3 +102,24 @@ def test_far_person_not_counted_twice() -> None:
 def test_far_params_validated(kwargs: dict[str, float], match: str) -> None:
     with pytest.raises(ValueError, match=match):
         LegDetectorParams(**kwargs)  # type: ignore[arg-type]
+
+
+def test_reversed_scan_and_invalid_beams_give_the_same_far_person() -> None:
+    scan = _scan(_person(8.0, 1.0))
+    found = LegDetector().detect(scan)
+    assert found.shape == (1, 2)
+    n = scan.ranges.size
+    reversed_scan = LaserScan(
+        ranges=scan.ranges[::-1].copy(),
+        angle_min=scan.angle_min + scan.angle_increment * (n - 1),
+        angle_increment=-scan.angle_increment,
+        range_max=scan.range_max,
+    )
+    assert np.allclose(LegDetector().detect(reversed_scan), found, atol=1e-9)
+    # NaN beams away from the person change nothing; a scan of NaN has no blobs
+    ranges = scan.ranges.copy()
+    ranges[:20] = np.nan
+    holes = LaserScan(ranges=ranges, angle_min=scan.angle_min, angle_increment=scan.angle_increment, range_max=20.0)
+    assert np.allclose(LegDetector().detect(holes), found, atol=1e-9)
+    empty = LaserScan(ranges=np.full(n, np.nan), angle_min=scan.angle_min, angle_increment=scan.angle_increment)
+    assert far_leg_blobs(empty, LegDetectorParams())[0].shape == (0, 2)
