@@ -119,3 +119,19 @@ def test_segmentation_params_validation(kwargs: dict[str, float], field: str) ->
 def test_segment_scan_rejects_non_scan() -> None:
     with pytest.raises(TypeError, match="scan"):
         segment_scan(np.ones(10))  # type: ignore[arg-type]
+
+
+def test_min_points_override_keeps_short_runs() -> None:
+    """``min_points=1`` keeps every run (the far leg blobs' 1-3 returns): the segments cover every valid beam."""
+    scan = render_scan(
+        circles=[(8.0, 0.0, 0.03), (8.0, 1.0, 0.03)],
+        segments=[(3.0, -2.0, 3.0, -1.0)],
+        angle_increment=math.radians(0.5),
+    )
+    default = segment_scan(scan)
+    every = segment_scan(scan, min_points=1)
+    assert every.points.shape[0] == int(np.count_nonzero(scan.valid))
+    assert len(every) == len(default) + default.n_dropped_small
+    assert default.n_dropped_small == 2 and every.n_dropped_small == 0  # the two thin posts: 1 return each
+    with pytest.raises(ValueError, match="min_points"):
+        segment_scan(scan, min_points=0)

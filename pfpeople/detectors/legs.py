@@ -89,6 +89,7 @@ from pfpeople.detectors.segments import (
     FEATURE_NAMES,
     SegmentationParams,
     scan_segments,
+    segment_scan,
 )
 from pfpeople.sensors import LaserScan
 
@@ -210,35 +211,25 @@ def far_leg_blobs(scan: LaserScan, params: LegDetectorParams) -> tuple[NDArray[n
     none = np.zeros((0, 2))
     if not math.isfinite(p.far_from):
         return none, none
-    valid = scan.valid
-    with np.errstate(invalid="ignore"):
-        valid &= scan.ranges <= p.segmentation.max_range
-    beams = np.flatnonzero(valid)
-    if beams.size == 0:
+    segs = segment_scan(scan, params=p.segmentation, min_points=1)  # every run: they cover every valid beam
+    if not len(segs):
         return none, none
-    r = scan.ranges[beams]
-    a = scan.angle_min + scan.angle_increment * beams
-    pts = np.column_stack((r * np.cos(a), r * np.sin(a)))
-    gaps = np.hypot(*np.diff(pts, axis=0).T)
-    starts = np.concatenate(([0], np.flatnonzero(gaps > p.segmentation.jump_distance) + 1))
-    counts = np.diff(np.concatenate((starts, [beams.size])))
+    starts, counts = segs.starts, segs.counts
     ends = starts + counts - 1
-    adjacent = np.diff(beams) == 1
-    before = np.full(starts.size, np.inf)
-    has = (starts > 0) & np.concatenate(([False], adjacent))[starts]
-    before[has] = r[starts[has] - 1]
-    after = np.full(starts.size, np.inf)
-    has = (ends < beams.size - 1) & np.concatenate((adjacent, [False]))[ends]
-    after[has] = r[ends[has] + 1]
+    r = np.hypot(segs.points[:, 0], segs.points[:, 1])
+    # a neighbouring run's range counts only when its beam is the adjacent one (else: no return there, far)
+    adjacent = np.abs(np.diff(segs.beams)) == 1
+    before = np.where(np.concatenate(([False], adjacent))[starts], segs.range_before, np.inf)
+    after = np.where(np.concatenate((adjacent, [False]))[ends], segs.range_after, np.inf)
     rmin = np.minimum.reduceat(r, starts)
     rmean = np.add.reduceat(r, starts) / counts
     small = (counts <= p.far_max_points) & (rmin >= p.far_from)
+    small &= (before - rmean >= p.far_min_jump) & (after - rmean >= p.far_min_jump)
     inc = abs(scan.angle_increment)
     need = np.maximum(np.floor(p.far_leg_width / (np.maximum(rmean, 1e-3) * max(inc, 1e-9))), 1)
-    width = np.hypot(*(pts[ends] - pts[starts]).T)
-    small &= (before - rmean >= p.far_min_jump) & (after - rmean >= p.far_min_jump)
+    width = np.hypot(*(segs.points[ends] - segs.points[starts]).T)
     keep = small & (counts >= need) & (width <= p.far_max_width)
-    centres = np.add.reduceat(pts, starts, axis=0) / counts[:, None]
+    centres = segs.centroids
     return centres[keep].reshape(-1, 2), centres[small].reshape(-1, 2)
 
 

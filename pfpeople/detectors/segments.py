@@ -168,7 +168,9 @@ class Segments:
         return self.points[self.starts[s] : self.starts[s] + self.counts[s]]
 
 
-def segment_scan(scan: LaserScan, *, params: SegmentationParams | None = None) -> Segments:
+def segment_scan(
+    scan: LaserScan, *, params: SegmentationParams | None = None, min_points: int | None = None
+) -> Segments:
     """Cut a scan into segments at range jumps.
 
     Parameters
@@ -177,6 +179,10 @@ def segment_scan(scan: LaserScan, *, params: SegmentationParams | None = None) -
         The scan; invalid beams are dropped (see the module docstring).
     params : SegmentationParams, optional
         Jump distance, minimum points and maximum range; defaults to ``SegmentationParams()``.
+    min_points : int, optional
+        Overrides ``params.min_points`` (>= 1): runs too short for the features, such as the far leg blobs of
+        :func:`pfpeople.detectors.legs.far_leg_blobs` (1 keeps every run, so the segments cover every valid
+        beam).
 
     Returns
     -------
@@ -186,6 +192,10 @@ def segment_scan(scan: LaserScan, *, params: SegmentationParams | None = None) -
     if not isinstance(scan, LaserScan):
         raise TypeError(f"scan must be a LaserScan, got {type(scan).__name__}")
     p = params if params is not None else SegmentationParams()
+    if min_points is None:
+        min_points = p.min_points
+    elif isinstance(min_points, bool) or not isinstance(min_points, int) or min_points < 1:
+        raise ValueError(f"min_points must be an integer >= 1, got {min_points!r}")
     valid = scan.valid
     with np.errstate(invalid="ignore"):
         valid &= scan.ranges <= p.max_range
@@ -210,7 +220,7 @@ def segment_scan(scan: LaserScan, *, params: SegmentationParams | None = None) -
     breaks = np.flatnonzero(gaps > p.jump_distance) + 1
     starts = np.concatenate(([0], breaks))
     counts = np.diff(np.concatenate((starts, [beams.size])))
-    keep = counts >= p.min_points
+    keep = counts >= min_points
     n_small = int(np.count_nonzero(~keep))
     keep_pt = np.repeat(keep, counts)
     ends = starts + counts - 1
