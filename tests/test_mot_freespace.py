@@ -9,7 +9,7 @@ import pytest
 
 from gridbridge.classifiers import People
 from gridbridge.grid import GridSpec
-from pfpeople.detectors.synthetic import render_scan
+from pfpeople.detectors.synthetic import render_scan, reversed_scan
 from pfpeople.mot import TrackerConfig
 from pfpeople.mot.freespace import seen_through
 from pfpeople.mot.people import PeopleTracker
@@ -60,12 +60,7 @@ def test_mounted_and_reversed_scans(flip: bool) -> None:
     ahead of the laser along its x axis is (1, 3) in the grid frame."""
     scan = _scan()
     if flip:
-        scan = LaserScan(
-            ranges=scan.ranges[::-1].copy(),
-            angle_min=scan.angle_min + scan.angle_increment * (scan.ranges.size - 1),
-            angle_increment=-scan.angle_increment,
-            range_max=scan.range_max,
-        )
+        scan = reversed_scan(scan)
     mount = Pose2D(x=1.0, y=0.0, yaw=math.pi / 2)
     assert seen_through([[1.0, 3.0], [1.0, 7.7]], [(scan, mount)]).tolist() == [True, False]
     # a 360 deg scan starting at 0 rad: bearings below 0 wrap round

@@ -25,7 +25,7 @@ from gridbridge.params import DetectorModel
 from pfpeople.bag import reader
 from pfpeople.bag.config import BagConfig, DetectorConfig, config_from_mapping, load_config
 from pfpeople.bag.reader import BagReadError, BagSource, laser_from_msg, odometry_pose_from_msg
-from pfpeople.detectors.synthetic import render_scan
+from pfpeople.detectors.synthetic import render_scan, reversed_scan
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
 from pfpeople.sensors import Pose2D
@@ -161,17 +161,9 @@ def test_negative_angle_increment_gives_the_same_people(tmp_path: Path) -> None:
 
 def test_boosted_detector_on_a_reversed_scan() -> None:
     from pfpeople.detectors import BoostedSegmentDetector, LegDetector
-    from pfpeople.sensors import LaserScan
 
     scan = render_scan(circles=_legs(PEOPLE), angle_increment=INC)
-    n = scan.ranges.size
-    rev = LaserScan(
-        ranges=scan.ranges[::-1].copy(),
-        angle_min=scan.angle_min + scan.angle_increment * (n - 1),
-        angle_increment=-scan.angle_increment,
-        range_min=scan.range_min,
-        range_max=scan.range_max,
-    )
+    rev = reversed_scan(scan)
     for det in (LegDetector(), BoostedSegmentDetector()):
         a, b = det.detect(scan), det.detect(rev)
         assert len(a) >= 1 and _close(a, b)

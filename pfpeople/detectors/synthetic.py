@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
 from pfpeople.sensors import LaserScan
 
-__all__ = ["render_scan"]
+__all__ = ["render_scan", "reversed_scan"]
 
 
 def render_scan(
@@ -68,3 +69,15 @@ def render_scan(
         r = r + rng.normal(0.0, noise_sd, size=n)
     r = np.where(r > range_max, np.inf, r)
     return LaserScan(ranges=r, angle_min=angle_min, angle_increment=angle_increment, range_min=0.0, range_max=range_max)
+
+
+def reversed_scan(scan: LaserScan) -> LaserScan:
+    """The same beams in the opposite order: as a laser turning the other way (a negative ``angle_increment``
+    for a counter-clockwise scan) reports them; every beam keeps its bearing and range."""
+    n = scan.ranges.size
+    return replace(
+        scan,
+        ranges=scan.ranges[::-1].copy(),
+        angle_min=scan.angle_min + scan.angle_increment * (n - 1),
+        angle_increment=-scan.angle_increment,
+    )
