@@ -112,6 +112,14 @@ def _observed_or_hit(tracks: Sequence[Track], spec: GridSpec, observed: ArrayLik
     return [t for t, s in zip(tracks, seen, strict=True) if t.misses == 0 or s]
 
 
+def _seen_through_ids(tracks: Sequence[Track], views: Sequence[LaserView]) -> set[int]:
+    """Ids of ``tracks`` whose position ``views`` see through (:func:`pfpeople.mot.freespace.seen_through`)."""
+    if not tracks:
+        return set()
+    free = seen_through(np.array([[t.x, t.y] for t in tracks]), views)
+    return {t.id for t, f in zip(tracks, free, strict=True) if f}
+
+
 def point_like(model: Any) -> bool:
     """Whether a detector's positions are precise enough to snap people to (its model's ``uncertainty`` is
     ``"point"``: the laser detectors; a camera's ``"gaussian"`` bearing-range error is not)."""
@@ -316,13 +324,14 @@ class PeopleTracker:
         tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, belief=grid, spec=spec, support=support)
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
-        views = views if self.see_through else None
-        if views and tracks:
-            coasting = [t for t in tracks if t.misses > 0]
-            if coasting:
-                free = seen_through(np.array([[t.x, t.y] for t in coasting]), views)
-                gone = {t.id for t, f in zip(coasting, free, strict=True) if f}
-                tracks = [t for t in tracks if t.id not in gone]
+        # the coasting tracks that may be reported (as tracks, or below as people) and whose place a laser sees
+        # through: each tested once
+        gone: set[int] = set()
+        if views and self.see_through:
+            may_show = [t for t in self.tracker.tracks if t.confirmed and 0 < t.misses]
+            shown = {t.id for t in tracks}
+            gone = _seen_through_ids([t for t in may_show if t.id in shown or t.misses <= self.coast_frames], views)
+            tracks = [t for t in tracks if t.id not in gone]
         if self.people == "classified":
             return TrackedFrame(people=found, tracks=tracks, coasted=0)
         n = len(found.positions)
@@ -331,7 +340,7 @@ class PeopleTracker:
         ok = np.zeros(n, dtype=bool)
         ok[[t.measurement for t in alive if t.misses == 0 and 0 <= t.measurement < n]] = True
         kept = np.asarray(found.positions, dtype=float).reshape(-1, 2)[ok]
-        coast = self._coasting(alive, kept, spec, observed, views)
+        coast = self._coasting([t for t in alive if t.id not in gone], kept, spec, observed)
         coast_scores = grid.ravel()[spec.flat_index(coast[:, 0], coast[:, 1])] if len(coast) else np.zeros(0)
         mask = found.mask if ok.all() else people_cells(found.mask, spec, found.positions, ok)
         people = People(
@@ -343,24 +352,15 @@ class PeopleTracker:
         return TrackedFrame(people=people, tracks=tracks, coasted=len(coast))
 
     def _coasting(
-        self,
-        alive: Sequence[Track],
-        kept: NDArray[np.float64],
-        spec: GridSpec,
-        observed: ArrayLike | None,
-        views: Sequence[LaserView] | None = None,
+        self, alive: Sequence[Track], kept: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | None
     ) -> NDArray[np.float64]:
         """Positions (K, 2) of the confirmed tracks to report through a miss (predicted) or continued by a
         support position (updated)."""
-        sel = [t for t in alive if 1 <= t.misses <= self.coast_frames or (t.misses == 0 and t.supported)]
-        pts = np.array([[t.x, t.y] for t in sel]).reshape(-1, 2)
+        pts = np.array(
+            [[t.x, t.y] for t in alive if 1 <= t.misses <= self.coast_frames or (t.misses == 0 and t.supported)]
+        ).reshape(-1, 2)
         if not len(pts):
             return pts
-        if views:
-            predicted = np.array([t.misses > 0 for t in sel], dtype=bool)
-            keep = ~predicted
-            keep[predicted] = ~seen_through(pts[predicted], views)
-            pts = pts[keep]
         pts = pts[_in_observed(pts, spec, observed)]
         if len(pts) and len(kept):
             d = np.hypot(pts[:, None, 0] - kept[None, :, 0], pts[:, None, 1] - kept[None, :, 1]).min(axis=1)
