@@ -284,6 +284,7 @@ def test_bad_scores_and_ego() -> None:
         ({"hit_gain": 0.0}, "hit_gain"),
         ({"region": (1.0, 0.0, -1.0, 1.0)}, "region"),
         ({"report_coast_s": -1.0}, "report_coast_s"),
+        ({"revive_after_s": math.inf}, "revive_after_s"),
     ],
 )
 def test_config_validation(kwargs: dict[str, object], match: str) -> None:
@@ -319,3 +320,28 @@ def test_report_coast_hides_long_coasting_but_keeps_id() -> None:
     assert reported == [1, 1, 1] + [0] * 7  # 0.1, 0.2, 0.3 s reported; then alive but hidden
     assert [t.id for t in tracker.tracks] == [1] and tracker.tracks[0].misses == 10
     assert [t.id for t in tracker.update([[2.0, 1.0]], DT)] == [1]
+
+
+@pytest.mark.parametrize(
+    ("coast_frames", "revive_after_s", "reported"),
+    [
+        (30, 2.5, [False, False, True]),  # lost after 3 s: the weak hits do not show it, a person-grade one does
+        (20, 2.5, [True, True, True]),  # 2 s is not lost: any hit shows it again
+        (30, None, [True, True, True]),  # None: any hit
+    ],
+)
+def test_lost_track_revived_only_by_a_birth_grade_hit(
+    coast_frames: int, revive_after_s: float | None, reported: list[bool]
+) -> None:
+    """A track coasting longer than revive_after_s is shown again only after a hit of confidence >=
+    birth_min_score (0.7 here); hits of 0.6 update it (it keeps its id and position) unreported."""
+    cfg = TrackerConfig(birth_min_score=0.7, revive_after_s=revive_after_s, max_coast_s=8.0, delete_score=0.01)
+    tracker = MultiPersonTracker(cfg)
+    for _ in range(5):
+        tracker.update([[2.0, 1.0]], DT, scores=[0.9])
+    for _ in range(coast_frames):
+        assert len(tracker.update(np.zeros((0, 2)), DT)) <= 1
+    shown = [bool(tracker.update([[2.0, 1.1]], DT, scores=[s])) for s in (0.6, 0.6, 0.9)]
+    assert shown == reported
+    (t,) = tracker.tracks
+    assert t.id == 1 and t.misses == 0 and t.hits == 8 and t.y == pytest.approx(1.1, abs=0.05)
