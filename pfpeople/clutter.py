@@ -81,6 +81,7 @@ from scipy.spatial import cKDTree
 
 from gridbridge.geometry import Pose2D, rotate
 from pfpeople.scanmatch import ScanOdometry
+from pfpeople.selfreturns import SelfReturns
 
 __all__ = [
     "ClutterConfig",
@@ -160,6 +161,13 @@ class ClutterConfig:
     default_dt, max_dt : float
         The time step used for the first scan or when no ``dt`` / ``stamp_ns`` is given, and the largest step
         applied at once (a gap in the data is not evidence).
+    self_range : float
+        :class:`ClutterSuppressor`: returns within this distance of the laser (m) that keep their place in the
+        laser frame while the robot moves are the robot's own body (:class:`pfpeople.selfreturns.SelfReturns`),
+        and detections on them are suppressed like static ones; 0 turns this off.
+    self_travel : float
+        The distance (m) a world-fixed point would have moved in the laser frame while such a return kept its
+        place, after which it is the robot's.
     """
 
     resolution: float = 0.1
@@ -181,6 +189,8 @@ class ClutterConfig:
     free_stride: int = 4
     unknown_evidence: float = 1.0
     query_cells: int = 1
+    self_range: float = 1.0
+    self_travel: float = 0.5
 
     def __post_init__(self) -> None:
         for name in (
@@ -194,9 +204,17 @@ class ClutterConfig:
             "static_threshold",
             "default_dt",
             "max_dt",
+            "self_travel",
         ):
             _check_number(getattr(self, name), f"ClutterConfig.{name}")
-        for name in ("recentre_distance", "free_margin", "exclude_radius", "free_rate", "unknown_evidence"):
+        for name in (
+            "recentre_distance",
+            "free_margin",
+            "exclude_radius",
+            "free_rate",
+            "unknown_evidence",
+            "self_range",
+        ):
             _check_number(getattr(self, name), f"ClutterConfig.{name}", allow_zero=True)
         for name, low in (("free_stride", 1), ("protect_cells", 0), ("query_cells", 0)):
             v = getattr(self, name)
@@ -647,7 +665,8 @@ class ClutterSuppressor:
 
         ego  = the given ego, else ScanOdometry.update(points).ego   (identity + forget() when the match fails)
         map.update(points, ego=ego, exclude=<moving people of the previous scan moved by ego>)
-        keep = ~map.is_static(detections)                             (for each detection array)
+        own.update(points, ego)                                       (the robot's own returns, SelfReturns)
+        keep = ~(map.is_static(detections) | own.is_self(detections)) (for each detection array)
         moving people <- union over arrays i of MovingPeople_i.update(detections[i], raw, ego=ego)
 
     Each detection array (detector) has its own :class:`MovingPeople`: two detectors that place one chair
@@ -678,6 +697,9 @@ class ClutterSuppressor:
         if moving is not None and not isinstance(moving, MovingPeople):
             raise TypeError(f"moving must be a MovingPeople, got {type(moving).__name__}")
         self.map = StaticClutterMap(config)
+        cfg = self.map.config
+        #: The robot's own returns (None with ``self_range = 0``).
+        self.own = SelfReturns(max_range=cfg.self_range, travel=cfg.self_travel) if cfg.self_range > 0 else None
         self.odometry = odometry or ScanOdometry()
         self.moving = moving or MovingPeople()
         self._moving_sets: list[MovingPeople] = [self.moving]
@@ -751,7 +773,9 @@ class ClutterSuppressor:
         prev = self._prev_moving
         excluded = np.concatenate((ego.inverse().apply(prev) if prev.shape[0] else prev, extra))
         self.map.update(points, ego=ego, exclude=excluded, stamp_ns=stamp_ns, dt=dt)
-        keep = [~self.map.is_static(d) if d.shape[0] else np.zeros(0, dtype=bool) for d in dets]
+        if self.own is not None:
+            self.own.update(points, ego if ok else None)
+        keep = [~self.is_clutter(d) if d.shape[0] else np.zeros(0, dtype=bool) for d in dets]
         while len(self._moving_sets) < len(dets):
             self._moving_sets.append(copy.deepcopy(self._moving_sets[0]))
         moving = [mp.update(d, ego=ego, dt=self.map.last_dt) for mp, d in zip(self._moving_sets, dets, strict=False)]
@@ -761,3 +785,11 @@ class ClutterSuppressor:
         self.odometry_s += t1 - t0
         self.map_s += t2 - t1
         return SuppressionStep(keep=keep, ego=ego, ego_ok=ok, excluded=excluded)
+
+    def is_clutter(self, positions: ArrayLike) -> NDArray[np.bool_]:
+        """``(M,)`` which positions (m, laser frame of the latest :meth:`step`) are static clutter: static in
+        the map, or on the robot's own returns."""
+        out = self.map.is_static(positions)
+        if self.own is not None and out.shape[0]:
+            out |= self.own.is_self(positions)
+        return out

@@ -152,7 +152,7 @@ class ClutterStage:
                 count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
                 f = found[k]
                 if f is not None and c.tracking.single_legs:  # only a tracker that takes single legs needs them
-                    sst = sup.map.is_static(f.support_sensor) if len(f.support) else np.zeros(0, dtype=bool)
+                    sst = sup.is_clutter(f.support_sensor) if len(f.support) else np.zeros(0, dtype=bool)
                     self.support_static[k] = sst
             if topic == c.driver and st.ego_ok and ego is None:
                 driver_ego = mount.compose(st.ego).compose(mount.inverse())

@@ -1,0 +1,126 @@
+"""The robot's own body in its laser scans: returns that keep their place in the laser frame while the robot moves.
+
+A laser mounted low on a robot often sees part of the robot (a bumper, a wheel, a caster, a bracket) a few
+tens of centimetres away. Those returns are fixed in the laser frame, so in the odometry frame they move with
+the robot: the static-clutter map (:mod:`pfpeople.clutter`) never calls them static, and a leg detector that
+takes them for a leg sees a leg walking at the robot's speed (on ``negative_2``'s right laser a return 0.32 m
+from the laser continued a false track for 4 s). leg_tracker's users remove them with a footprint filter
+configured by hand; :class:`SelfReturns` finds them from the scans and the ego-motion.
+
+Per beam ``i`` (laser frame, REP-103, m) it keeps the beam's return ``p_ref`` when its current *streak* began
+and the *travel* ``T_i`` of the streak: the sum over the scans since of ``|E^-1 p_i - p_i|``, how far a
+world-fixed point at the return would have moved in the laser frame with that scan's ego-motion ``E`` (the
+laser frame now in the previous one). A streak continues while the return is valid, within ``max_range`` of the
+laser and within ``tolerance`` of ``p_ref``; otherwise it restarts at the new return with ``T_i = 0``. The
+beam's return is the robot's own (*self*) once ``T_i >= travel``: a world-fixed object would have moved that
+far, the return did not. A person walking beside the robot keeps no streak (the legs swing by more than the
+tolerance within a step); while the robot stands still nothing accumulates (and the static-clutter map calls a
+return that keeps its place static anyway). A scan with an unknown ego-motion adds no travel; a scan with a
+different number of beams restarts every streak.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from gridbridge.geometry import Pose2D
+
+__all__ = ["SelfReturns"]
+
+
+def _positive(value: object, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"SelfReturns.{name} must be a number, got {type(value).__name__}")
+    v = float(value)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"SelfReturns.{name} must be finite and > 0, got {value!r}")
+    return v
+
+
+class SelfReturns:
+    """Which returns of a laser are the robot's own body (module docstring).
+
+    Parameters
+    ----------
+    max_range : float
+        Only returns within this distance of the laser (m) can be the robot's.
+    tolerance : float
+        Largest distance (m) between a beam's return and the return that began its streak.
+    travel : float
+        Travel (m) of a streak after which its return is the robot's.
+    radius : float
+        :meth:`is_self`: a position within this distance (m) of a self return is on the robot.
+    """
+
+    def __init__(
+        self, *, max_range: float = 1.0, tolerance: float = 0.05, travel: float = 0.5, radius: float = 0.2
+    ) -> None:
+        self.max_range = _positive(max_range, "max_range")
+        self.tolerance = _positive(tolerance, "tolerance")
+        self.travel = _positive(travel, "travel")
+        self.radius = _positive(radius, "radius")
+        self._ref = np.zeros((0, 2))
+        self._travel = np.zeros(0)
+        self._points = np.zeros((0, 2))
+
+    def reset(self) -> None:
+        """Forget every streak."""
+        self._ref = np.zeros((0, 2))
+        self._travel = np.zeros(0)
+        self._points = np.zeros((0, 2))
+
+    def update(self, points: ArrayLike, ego: Pose2D | None) -> NDArray[np.bool_]:
+        """Add one scan.
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 2)
+            The scan's end points in beam order, laser frame (m); NaN rows for beams without a return.
+        ego : Pose2D or None
+            The laser frame now in the laser frame of the previous scan; None when unknown (no travel is
+            added).
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            Which beams' returns are the robot's (:attr:`mask`).
+        """
+        p = np.asarray(points, dtype=float).reshape(-1, 2)
+        n = p.shape[0]
+        with np.errstate(invalid="ignore"):
+            valid = np.isfinite(p).all(axis=1) & (np.hypot(p[:, 0], p[:, 1]) <= self.max_range)
+        if self._ref.shape[0] != n:
+            self._ref = np.full((n, 2), np.nan)
+            self._travel = np.zeros(n)
+        with np.errstate(invalid="ignore"):
+            same = valid & (np.hypot(*(p - self._ref).T) <= self.tolerance)
+        if ego is not None and same.any():
+            moved = ego.inverse().apply(p[same])
+            self._travel[same] += np.hypot(*(moved - p[same]).T)
+        restart = ~same
+        self._ref[restart] = np.where(valid[restart, None], p[restart], np.nan)
+        self._travel[restart] = 0.0
+        self._points = p[same & (self._travel >= self.travel)]
+        return self.mask
+
+    @property
+    def mask(self) -> NDArray[np.bool_]:
+        """``(N,)`` which beams of the latest scan returned from the robot."""
+        return (self._travel >= self.travel) & np.isfinite(self._ref[:, 0])
+
+    @property
+    def points(self) -> NDArray[np.float64]:
+        """``(S, 2)`` the latest scan's returns from the robot (laser frame, m)."""
+        return self._points
+
+    def is_self(self, positions: ArrayLike) -> NDArray[np.bool_]:
+        """``(M,)`` which positions (laser frame, m) lie within ``radius`` of a return from the robot."""
+        q = np.asarray(positions, dtype=float).reshape(-1, 2)
+        s = self._points
+        if not len(q) or not len(s):
+            return np.zeros(len(q), dtype=bool)
+        d2 = (q[:, None, 0] - s[None, :, 0]) ** 2 + (q[:, None, 1] - s[None, :, 1]) ** 2
+        return np.asarray(d2.min(axis=1) <= self.radius**2)
