@@ -21,23 +21,17 @@ different number of beams restarts every streak.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge.geometry import Pose2D
+from gridbridge.validation import check_number, check_positive
 
 __all__ = ["SelfReturns"]
 
 
 def _positive(value: object, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"SelfReturns.{name} must be a number, got {type(value).__name__}")
-    v = float(value)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"SelfReturns.{name} must be finite and > 0, got {value!r}")
-    return v
+    return check_positive(check_number(value, f"SelfReturns.{name}"), f"SelfReturns.{name}")
 
 
 class SelfReturns:
