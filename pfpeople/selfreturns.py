@@ -16,7 +16,10 @@ beam's return is the robot's own (*self*) once ``T_i >= travel``: a world-fixed 
 far, the return did not. A person walking beside the robot keeps no streak (the legs swing by more than the
 tolerance within a step); while the robot stands still nothing accumulates (and the static-clutter map calls a
 return that keeps its place static anyway). A scan with an unknown ego-motion adds no travel; a scan with a
-different number of beams restarts every streak.
+different number of beams restarts every streak. A straight wall within ``max_range`` that the robot drives
+along also keeps its place in the laser frame and is called the robot's: it is no person either, and
+:meth:`SelfReturns.is_self` looks at the return nearest to a detection, so a leg beside it (whose own returns are
+nearer) is not affected.
 """
 
 from __future__ import annotations
@@ -59,12 +62,16 @@ class SelfReturns:
         self._ref = np.zeros((0, 2))
         self._travel = np.zeros(0)
         self._points = np.zeros((0, 2))
+        self._returns = np.zeros((0, 2))
+        self._returns_self = np.zeros(0, dtype=bool)
 
     def reset(self) -> None:
         """Forget every streak."""
         self._ref = np.zeros((0, 2))
         self._travel = np.zeros(0)
         self._points = np.zeros((0, 2))
+        self._returns = np.zeros((0, 2))
+        self._returns_self = np.zeros(0, dtype=bool)
 
     def update(self, points: ArrayLike, ego: Pose2D | None) -> NDArray[np.bool_]:
         """Add one scan.
@@ -97,7 +104,10 @@ class SelfReturns:
         restart = ~same
         self._ref[restart] = np.where(valid[restart, None], p[restart], np.nan)
         self._travel[restart] = 0.0
-        self._points = p[same & (self._travel >= self.travel)]
+        own = same & (self._travel >= self.travel)
+        self._points = p[own]
+        finite = np.isfinite(p).all(axis=1)
+        self._returns, self._returns_self = p[finite], own[finite]
         return self.mask
 
     @property
@@ -111,10 +121,16 @@ class SelfReturns:
         return self._points
 
     def is_self(self, positions: ArrayLike) -> NDArray[np.bool_]:
-        """``(M,)`` which positions (laser frame, m) lie within ``radius`` of a return from the robot."""
+        """``(M,)`` which positions (laser frame, m) are on the robot: the latest scan's return nearest to the
+        position is the robot's and lies within ``radius`` of it.
+
+        The nearest return, not any return within ``radius``: a leg beside a return of the robot (or of a wall
+        that a robot driving along it sees unchanged) has its own returns nearer.
+        """
         q = np.asarray(positions, dtype=float).reshape(-1, 2)
-        s = self._points
-        if not len(q) or not len(s):
+        r = self._returns
+        if not len(q) or not len(self._points):
             return np.zeros(len(q), dtype=bool)
-        d2 = (q[:, None, 0] - s[None, :, 0]) ** 2 + (q[:, None, 1] - s[None, :, 1]) ** 2
-        return np.asarray(d2.min(axis=1) <= self.radius**2)
+        d2 = (q[:, None, 0] - r[None, :, 0]) ** 2 + (q[:, None, 1] - r[None, :, 1]) ** 2
+        k = d2.argmin(axis=1)
+        return np.asarray(self._returns_self[k] & (d2[np.arange(len(q)), k] <= self.radius**2))

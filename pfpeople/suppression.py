@@ -6,10 +6,11 @@ the grid frame. Each map keeps the people its detectors saw moving out of itself
 (:class:`pfpeople.clutter.MovingPeople`); with ``[clutter] keep_out = "tracks"`` the previous frame's confirmed
 tracks (or else its classified people, grid frame at the previous frame) are kept out too, moved into the
 current laser frame by ``T^-1 E^-1``.
-A detection the map calls static is suppressed: the filter does not see it (it is still written, with
-``static = 1``, and counted in ``suppressed``). Without odometry, the driving laser's scan-matched motion is
+A detection the map calls static, or whose nearest return is the robot's own (:mod:`pfpeople.selfreturns`), is
+suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
+``suppressed``). Without odometry, the driving laser's scan-matched motion is
 returned in the grid frame (``T E_laser T^-1``) for laser odometry (:mod:`pfpeople.odometry`).
-The detectors' support positions (single legs, :class:`pfpeople.adapters.Detections`) that the map calls static
+The detectors' support positions (single legs, :class:`pfpeople.adapters.Detections`) that are suppressed so
 are dropped as well (:attr:`ClutterStage.support_static`); they never enter the map or its moving-people sets.
 """
 

@@ -105,3 +105,18 @@ def test_clutter_suppressor_drops_detections_on_the_robot() -> None:
     assert all(k == [True, True] for k in kept[0.0])
     with pytest.raises(ValueError, match="self_range"):
         ClutterConfig(self_range=-1.0)
+
+
+def test_leg_beside_a_wall_the_robot_drives_along_is_not_self() -> None:
+    """Driving along a wall 0.6 m to the left: the wall keeps its place in the laser frame and is called the
+    robot's. A leg centred 0.18 m from it (within ``radius``) is not: its own returns are nearer to its centre; a
+    detection on the wall is."""
+    own = SelfReturns(radius=0.2)
+    wall = np.column_stack((np.linspace(-0.5, 0.5, 21), np.full(21, 0.6)))
+    arc = np.linspace(0.0, np.pi, 5)
+    near_half = np.column_stack((0.05 * np.cos(arc), -0.05 * np.sin(arc)))  # the half of a 0.1 m leg facing the laser
+    for k in range(10):
+        centre = np.array([0.06 * (-1) ** k, 0.42])  # the leg swings 0.12 m every scan
+        mask = own.update(np.concatenate((wall, centre + near_half)), FORWARD)
+    assert mask[:21].all() and not mask[21:].any()
+    assert own.is_self([centre, [0.0, 0.6], [0.3, 0.62]]).tolist() == [False, True, True]
