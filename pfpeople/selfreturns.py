@@ -49,7 +49,8 @@ class SelfReturns:
     travel : float
         Travel (m) of a streak after which its return is the robot's.
     radius : float
-        :meth:`is_self`: a position within this distance (m) of a self return is on the robot.
+        :meth:`is_self`: a position whose nearest return is the robot's and lies within this distance (m) of it is
+        on the robot.
     """
 
     def __init__(
