@@ -285,6 +285,8 @@ def test_bad_scores_and_ego() -> None:
         ({"region": (1.0, 0.0, -1.0, 1.0)}, "region"),
         ({"report_coast_s": -1.0}, "report_coast_s"),
         ({"revive_after_s": math.inf}, "revive_after_s"),
+        ({"contest_gate": -1.0}, "contest_gate"),
+        ({"contest_radius": 0.0}, "contest_radius"),
     ],
 )
 def test_config_validation(kwargs: dict[str, object], match: str) -> None:
@@ -345,3 +347,26 @@ def test_lost_track_revived_only_by_a_birth_grade_hit(
     assert shown == reported
     (t,) = tracker.tracks
     assert t.id == 1 and t.misses == 0 and t.hits == 8 and t.y == pytest.approx(1.1, abs=0.05)
+
+
+@pytest.mark.parametrize(("contest_gate", "hop"), [(0.75, False), (None, True)])
+def test_coasting_track_does_not_take_a_contested_detection(contest_gate: float | None, hop: bool) -> None:
+    """A (confirmed, standing at (2, 0)) is missed for 0.6 s (its gate has grown past 0.95 m); B appears 1.1 m
+    away (outside A's 1 m gate: a tentative track) and steps to 0.95 m from A. With the contest rule A, coasting,
+    may not take B's detection (B's own track is 0.15 m from it) and B keeps its track; without it A, a confirmed
+    track, takes it from B's tentative track: A's id jumps onto B. (Without re-identification, which would give B
+    A's id when B is confirmed: that is a separate rule.)"""
+    tracker = MultiPersonTracker(TrackerConfig(contest_gate=contest_gate, reid_distance=0.0))
+    for _ in range(5):
+        tracker.update([[2.0, 0.0]], DT)
+    (a,) = tracker.confirmed()
+    for _ in range(5):
+        tracker.update(np.zeros((0, 2)), DT)  # A missed
+    tracker.update([[2.0, 1.1]], DT)  # A missed; B born (tentative)
+    for _ in range(4):
+        out = tracker.update([[2.0, 0.95]], DT)  # A missed again; B near its track
+    on_b = [t.id for t in tracker.tracks if math.hypot(t.x - 2.0, t.y - 0.95) < 0.2]
+    assert (a.id in on_b) is hop
+    if not hop:
+        (b,) = [t for t in out if t.id != a.id]
+        assert b.confirmed and b.hits == 5 and math.hypot(b.x - 2.0, b.y - 0.95) < 0.1
