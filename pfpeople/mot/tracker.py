@@ -911,8 +911,8 @@ class MultiPersonTracker:
         if not coasting.any():
             return np.zeros(dist2.shape, dtype=bool)
         every = self._s[:, :2]
-        near = (every[:, None, 0] - z[None, :, 0]) ** 2 + (every[:, None, 1] - z[None, :, 1]) ** 2
-        near = near <= cfg.contest_radius**2  # (all tracks, m)
+        d2 = (every[:, None, 0] - z[None, :, 0]) ** 2 + (every[:, None, 1] - z[None, :, 1]) ** 2
+        near = d2 <= cfg.contest_radius**2  # (all tracks, m)
         others = near.sum(axis=0)[None, :] - near[idx]  # other tracks near each measurement, per row
         return np.asarray(coasting[:, None] & (others > 0) & (dist2 > cfg.contest_gate**2))
 
