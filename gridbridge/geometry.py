@@ -33,6 +33,7 @@ __all__ = [
     "from_frame",
     "from_frame_xy",
     "inverse",
+    "near_any",
     "quaternion_from_yaw",
     "rotate",
     "to_frame",
@@ -198,3 +199,15 @@ def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
 def quaternion_from_yaw(yaw: float) -> tuple[float, float, float, float]:
     """The unit quaternion ``(x, y, z, w)`` of a rotation by ``yaw`` (rad) about z."""
     return 0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)
+
+
+def near_any(points: ArrayLike, others: ArrayLike, radius: float) -> NDArray[np.bool_]:
+    """``(N,)``: whether each of ``points`` ``(N, 2)`` lies within ``radius`` (inclusive) of some row of
+    ``others`` ``(K, 2)``; all False when ``others`` is empty. A dense ``N x K`` distance test: for the few
+    people or detections of a frame it beats building a k-d tree."""
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    o = np.asarray(others, dtype=float).reshape(-1, 2)
+    if not p.shape[0] or not o.shape[0]:
+        return np.zeros(p.shape[0], dtype=bool)
+    d2 = (p[:, None, 0] - o[None, :, 0]) ** 2 + (p[:, None, 1] - o[None, :, 1]) ** 2
+    return np.asarray(d2.min(axis=1) <= radius * radius, dtype=bool)

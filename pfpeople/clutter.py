@@ -79,7 +79,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from gridbridge.geometry import Pose2D, rotate
+from gridbridge.geometry import Pose2D, near_any, rotate
 from pfpeople.scanmatch import ScanOdometry
 from pfpeople.selfreturns import SelfReturns
 
@@ -398,7 +398,7 @@ class StaticClutterMap:
         pts, r = pts[r <= c.max_range], r[r <= c.max_range]
         human = np.zeros(pts.shape[0], dtype=bool)
         if people.shape[0] and pts.shape[0]:
-            human = _near(pts, people, c.exclude_radius)
+            human = near_any(pts, people, c.exclude_radius)
         # free space: samples along every free_stride-th beam, up to free_margin before its end point, as map cells:
         # sample k of a beam with unit direction u is pose(u * steps[k]) = R u steps[k] + t
         beams = np.arange(0, pts.shape[0], c.free_stride)
@@ -471,7 +471,7 @@ class StaticClutterMap:
             if idx:
                 out[m] = float(score[idx].mean())
         if self._people.shape[0]:
-            out[_near(pos, self._people, self.config.exclude_radius)] = 0.0
+            out[near_any(pos, self._people, self.config.exclude_radius)] = 0.0
         return out
 
     def _return_scores(self) -> NDArray[np.float64]:
@@ -488,13 +488,6 @@ class StaticClutterMap:
     def is_static(self, positions: ArrayLike) -> NDArray[np.bool_]:
         """``static_score(positions) >= static_threshold``, shape (M,)."""
         return np.asarray(self.static_score(positions) >= self.config.static_threshold - 1e-9, dtype=bool)
-
-
-def _near(points: NDArray[np.float64], people: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
-    """``(N,)``: whether each of ``points`` ``(N, 2)`` lies within ``radius`` of one of ``people`` ``(K, 2)``,
-    ``K >= 1`` (a few people: a dense distance test beats building a k-d tree)."""
-    d2 = (points[:, None, 0] - people[None, :, 0]) ** 2 + (points[:, None, 1] - people[None, :, 1]) ** 2
-    return np.asarray(d2.min(axis=1) <= radius * radius, dtype=bool)
 
 
 class MovingPeople:

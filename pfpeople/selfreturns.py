@@ -62,7 +62,7 @@ class SelfReturns:
         self.radius = _positive(radius, "radius")
         self._ref = np.zeros((0, 2))
         self._travel = np.zeros(0)
-        self._points = np.zeros((0, 2))
+        self._mask = np.zeros(0, dtype=bool)
         self._returns = np.zeros((0, 2))
         self._returns_self = np.zeros(0, dtype=bool)
 
@@ -70,7 +70,7 @@ class SelfReturns:
         """Forget every streak."""
         self._ref = np.zeros((0, 2))
         self._travel = np.zeros(0)
-        self._points = np.zeros((0, 2))
+        self._mask = np.zeros(0, dtype=bool)
         self._returns = np.zeros((0, 2))
         self._returns_self = np.zeros(0, dtype=bool)
 
@@ -92,8 +92,9 @@ class SelfReturns:
         """
         p = np.asarray(points, dtype=float).reshape(-1, 2)
         n = p.shape[0]
+        finite = np.isfinite(p).all(axis=1)
         with np.errstate(invalid="ignore"):
-            valid = np.isfinite(p).all(axis=1) & (np.hypot(p[:, 0], p[:, 1]) <= self.max_range)
+            valid = finite & (np.hypot(p[:, 0], p[:, 1]) <= self.max_range)
         if self._ref.shape[0] != n:
             self._ref = np.full((n, 2), np.nan)
             self._travel = np.zeros(n)
@@ -105,21 +106,19 @@ class SelfReturns:
         restart = ~same
         self._ref[restart] = np.where(valid[restart, None], p[restart], np.nan)
         self._travel[restart] = 0.0
-        own = same & (self._travel >= self.travel)
-        self._points = p[own]
-        finite = np.isfinite(p).all(axis=1)
-        self._returns, self._returns_self = p[finite], own[finite]
+        self._mask = same & (self._travel >= self.travel)
+        self._returns, self._returns_self = p[finite], self._mask[finite]
         return self.mask
 
     @property
     def mask(self) -> NDArray[np.bool_]:
         """``(N,)`` which beams of the latest scan returned from the robot."""
-        return (self._travel >= self.travel) & np.isfinite(self._ref[:, 0])
+        return self._mask
 
     @property
     def points(self) -> NDArray[np.float64]:
         """``(S, 2)`` the latest scan's returns from the robot (laser frame, m)."""
-        return self._points
+        return self._returns[self._returns_self]
 
     def is_self(self, positions: ArrayLike) -> NDArray[np.bool_]:
         """``(M,)`` which positions (laser frame, m) are on the robot: the latest scan's return nearest to the
@@ -130,7 +129,7 @@ class SelfReturns:
         """
         q = np.asarray(positions, dtype=float).reshape(-1, 2)
         r = self._returns
-        if not len(q) or not len(self._points):
+        if not len(q) or not self._returns_self.any():
             return np.zeros(len(q), dtype=bool)
         d2 = (q[:, None, 0] - r[None, :, 0]) ** 2 + (q[:, None, 1] - r[None, :, 1]) ** 2
         k = d2.argmin(axis=1)

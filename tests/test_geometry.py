@@ -12,6 +12,7 @@ from gridbridge.geometry import (
     compose,
     from_frame,
     inverse,
+    near_any,
     quaternion_from_yaw,
     rotate,
     to_frame,
@@ -60,3 +61,13 @@ def test_quaternion_yaw_round_trip_and_bad_shapes() -> None:
         to_frame(PTS, (1.0, 2.0))
     with pytest.raises(ValueError, match="points"):
         from_frame(np.zeros((3, 3)), Pose2D())
+
+
+def test_near_any_against_a_loop() -> None:
+    pts = RNG.uniform(-2, 2, size=(40, 2))
+    others = RNG.uniform(-2, 2, size=(7, 2))
+    want = [any(math.dist(p, o) <= 0.5 for o in others) for p in pts]
+    assert near_any(pts, others, 0.5).tolist() == want
+    assert near_any([[0.0, 0.0]], [[0.3, 0.4]], 0.5).tolist() == [True]  # the radius itself is near
+    assert near_any(pts, np.zeros((0, 2)), 1.0).tolist() == [False] * 40
+    assert near_any(np.zeros((0, 2)), others, 1.0).shape == (0,)

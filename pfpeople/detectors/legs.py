@@ -83,6 +83,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.geometry import near_any
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_positive
 from pfpeople.detectors.segments import (
@@ -233,14 +234,6 @@ def far_leg_blobs(scan: LaserScan, params: LegDetectorParams) -> tuple[NDArray[n
     return centres[keep].reshape(-1, 2), centres[small].reshape(-1, 2)
 
 
-def _farther_than(points: NDArray[np.float64], others: NDArray[np.float64], distance: float) -> NDArray[np.bool_]:
-    """Which ``points`` (N, 2) lie farther than ``distance`` from every row of ``others`` (K, 2)."""
-    if not others.shape[0] or not points.shape[0]:
-        return np.ones(points.shape[0], dtype=bool)
-    d2 = ((points[:, None, :] - others[None, :, :]) ** 2).sum(axis=2)
-    return np.asarray(d2.min(axis=1) > distance**2, dtype=bool)
-
-
 def far_people(
     scan: LaserScan, params: LegDetectorParams, *, legs: NDArray[np.float64], people: NDArray[np.float64]
 ) -> NDArray[np.float64]:
@@ -252,7 +245,7 @@ def far_people(
     leg, and a far person within ``FAR_DUPLICATE`` of a person already found ``people`` (M, 2) is that person.
     """
     blobs, small = far_leg_blobs(scan, params)
-    blobs = blobs[_farther_than(blobs, legs, FAR_DUPLICATE / 3)]
+    blobs = blobs[~near_any(blobs, legs, FAR_DUPLICATE / 3)]
     if blobs.shape[0] < 2:
         return np.zeros((0, 2))
     pr = params.pairing
@@ -261,7 +254,7 @@ def far_people(
     if far.shape[0] and params.far_isolation > 0:
         d2 = ((far[:, None, :] - small[None, :, :]) ** 2).sum(axis=2)
         far = far[(d2 < params.far_isolation**2).sum(axis=1) <= 2]
-    return far[_farther_than(far, people, FAR_DUPLICATE)].reshape(-1, 2)
+    return far[~near_any(far, people, FAR_DUPLICATE)].reshape(-1, 2)
 
 
 def pair_legs(

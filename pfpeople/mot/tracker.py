@@ -910,9 +910,12 @@ class MultiPersonTracker:
         coasting = np.array([self._meta[i].misses > 0 for i in idx], dtype=bool)
         if not coasting.any():
             return np.zeros(dist2.shape, dtype=bool)
-        every = self._s[:, :2]
-        d2 = (every[:, None, 0] - z[None, :, 0]) ** 2 + (every[:, None, 1] - z[None, :, 1]) ** 2
-        near = d2 <= cfg.contest_radius**2  # (all tracks, m)
+        if rows is None:  # dist2 holds every track already
+            near = dist2 <= cfg.contest_radius**2  # (all tracks, m)
+        else:
+            every = self._s[:, :2]
+            d2 = (every[:, None, 0] - z[None, :, 0]) ** 2 + (every[:, None, 1] - z[None, :, 1]) ** 2
+            near = d2 <= cfg.contest_radius**2
         others = near.sum(axis=0)[None, :] - near[idx]  # other tracks near each measurement, per row
         return np.asarray(coasting[:, None] & (others > 0) & (dist2 > cfg.contest_gate**2))
 
