@@ -396,17 +396,19 @@ def scene_logs(
 def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, gate: float = 0.75) -> list[Any]:
     """The multi-person tracking (CLEAR-MOT) rows of one scene, after :func:`scene_logs` ran it in ``work``.
 
-    Replay scenes: the recommended filter + tracker replayed as ``pfpeople run`` runs them, and the tracker on
-    each detector's raw detections and on all merged (tracking-by-detection), :func:`evaluation.mot_eval.
-    evaluate_log`. Bag scenes: the run's own ``tracks.csv`` (the shipped output) and the tracker on each
-    detector's detections and all merged (:func:`evaluation.mot_eval.evaluate_run`); the scan-level scenes
-    again scoring only people hit by >= 3 laser beams (``[hit_beams>=3]``: fully occluded people out).
-    ``person_following_outdoor_1`` annotates the followed person only: its figure is the followed-person line
-    (MOTA / precision there count passers-by as false). ``negative_2`` (nobody there) has no MOT rows.
-    Gate ``gate`` m (leg_tracker's 0.75).
+    Replay scenes: the recommended filters (grid, particles) + tracker replayed as ``pfpeople run`` runs them, and
+    the tracker on each detector's raw detections and on all merged (tracking-by-detection),
+    :func:`evaluation.mot_eval.evaluate_log`. Bag scenes: the run's own ``tracks.csv`` (the shipped output), the
+    ``tracks.csv`` of the same run with the particle filter (``FilterConfig.kind = "particle"``, run here into
+    ``<name>_prun``), and the tracker on each detector's detections and all merged
+    (:func:`evaluation.mot_eval.evaluate_run`); the scan-level scenes again scoring only people hit by >= 3 laser
+    beams (``[hit_beams>=3]``: fully occluded people out). ``person_following_outdoor_1`` annotates the followed
+    person only: its figure is the followed-person line (MOTA / precision there count passers-by as false).
+    ``negative_2`` (nobody there) has no MOT rows. Gate ``gate`` m (leg_tracker's 0.75).
     """
     from evaluation.gt_csv import read_gt_csv
     from evaluation.mot_eval import evaluate_log, evaluate_run
+    from pfpeople.bag.config import builtin_config_path, load_config
     from pfpeople.mot import TrackerConfig
     from pfpeople.output import load_run
 
@@ -417,27 +419,49 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     srcs = ["tracks", "laser-legs", "laser-boosted", "all detectors merged"]
     if scene.startswith("scan:"):
         name = scene.split(":", 1)[1]
-        run, gt = load_run(work / f"{name}_run"), read_gt_csv(work / name / f"{name}_gt.csv")
-        return [
-            row
-            for beams in (None, 3)
-            for row in evaluate_run(
-                run,
-                gt,
-                config=TrackerConfig(),
-                gate=gate,
-                sources=srcs,
-                classify=None,
-                min_hit_beams=beams,
-                followed=False,
-            )
-        ]
-    if scene == "person_following_outdoor_1":
-        gt = read_gt_csv(data / "leg_tracker" / "person_following_outdoor_1_gt.csv")
-        return evaluate_run(
-            load_run(work / "pf1_run"), gt, config=TrackerConfig(), gate=gate, sources=srcs, classify=None
+        bag, cfg, gt_csv = (
+            work / name / f"{name}.bag",
+            load_config(work / name / f"{name}.toml"),
+            work / name / f"{name}_gt.csv",
         )
-    return []
+        out, visible, followed, max_frames = work / f"{name}_run", (None, 3), False, None
+    elif scene == "person_following_outdoor_1":
+        name, bag = "pf1", data / "leg_tracker" / "person_following_outdoor_1.bag.zip"
+        cfg, gt_csv = (
+            load_config(builtin_config_path("person_following_outdoor_1")),
+            bag.parent / "person_following_outdoor_1_gt.csv",
+        )
+        out, visible, followed, max_frames = work / "pf1_run", (None,), True, frames
+    else:
+        return []
+    gt = read_gt_csv(gt_csv)
+    particle_out = work / f"{name}_prun"
+    _particle_run(bag, cfg, particle_out, max_frames=max_frames)
+    runs = ((load_run(out), srcs), (load_run(particle_out), ["tracks"]))
+    return [
+        row
+        for beams in visible
+        for run, sources in runs
+        for row in evaluate_run(
+            run,
+            gt,
+            config=TrackerConfig(),
+            gate=gate,
+            sources=sources,
+            classify=None,
+            min_hit_beams=beams,
+            followed=followed,
+        )
+    ]
+
+
+def _particle_run(bag: Path, config: BagConfig, out: Path, *, max_frames: int | None = None) -> None:
+    """Run the pipeline on ``bag`` with ``config``'s filter made the (recommended) particle filter, into ``out``."""
+    from pfpeople.bag.reader import BagSource
+    from pfpeople.pipeline import Pipeline
+
+    with BagSource(bag) as src:
+        Pipeline(replace(config, filter=replace(config.filter, kind="particle"))).run(src, out, max_frames=max_frames)
 
 
 def run_benchmark(

@@ -56,6 +56,7 @@ from pfpeople.mot.people import point_like, support_positions
 from pfpeople.output import RunData
 
 __all__ = [
+    "FUSED_SOURCES",
     "Classifier",
     "MotRow",
     "detector_config",
@@ -241,22 +242,34 @@ def evaluate_scenario(
     return rows
 
 
-def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | None = None) -> list[MotRow]:
+#: The fused sources of :func:`evaluate_log`: row label -> filter kind (the recommended mode of each).
+FUSED_SOURCES = {"recommended (tracker)": "grid", "recommended particles (tracker)": "particle"}
+
+
+def evaluate_log(
+    log: ReplayLog,
+    *,
+    gate: float = 0.75,
+    config: TrackerConfig | None = None,
+    fused: Sequence[str] = tuple(FUSED_SOURCES),
+) -> list[MotRow]:
     """CLEAR-MOT of a replay log with person ids (:func:`evaluation.replay.log_from_scenario`): the recommended
-    filter and tracker as ``pfpeople run`` runs them, and tracking-by-detection on each detector and all merged.
+    filters and tracker as ``pfpeople run`` runs them, and tracking-by-detection on each detector and all merged.
 
     Row ``"recommended (tracker)"``: the recommended grid filter (:func:`pfpeople.filters.build_filter` with the
     default :class:`~pfpeople.bag.config.FilterConfig`), its peaks classifier, and the tracker fed as the pipeline
     feeds it (:class:`~pfpeople.bag.config.TrackingConfig`: the peaks above ``peak_threshold`` update tracks,
-    those above the classifier's threshold start them; the belief grid passed along). Ego-motion: the log's
-    odometry controls. Detector rows as :func:`evaluate_scenario`. Truth and hypotheses inside the grid only.
-    ``config``: tracker parameters (default ``TrackerConfig()``, the pipeline's).
+    those above the classifier's threshold start them; the belief grid passed along). Row ``"recommended
+    particles (tracker)"``: the same with the recommended particle filter (``FilterConfig(kind="particle")``, its
+    seed 0). ``fused``: which of these rows (:data:`FUSED_SOURCES`). Ego-motion: the log's odometry controls.
+    Detector rows as :func:`evaluate_scenario`. Truth and hypotheses inside the grid only. ``config``: tracker
+    parameters (default ``TrackerConfig()``, the pipeline's).
     """
-    from pfpeople.bag.config import ClassifierConfig, FilterConfig, TrackingConfig
-    from pfpeople.filters import build_classifier, build_filter
-
     if log.truth_ids is None:
         raise ValueError(f"log {log.name!r} has no person ids (truth_ids): CLEAR-MOT needs them")
+    unknown = sorted(set(fused) - set(FUSED_SOURCES))
+    if unknown:
+        raise ValueError(f"fused sources {unknown} are none of {sorted(FUSED_SOURCES)}")
     spec = log.spec
     config = TrackerConfig() if config is None else config
     n = len(log)
@@ -275,7 +288,28 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         hyp = [_in_grid(spec, i, p) for i, p in hyp]
         rows.append(MotRow(log.name, source, clear_mot(gt, hyp, gate=gate), hota_extra(gt, hyp, gate=gate)))
 
-    filt = build_filter(FilterConfig(), spec, log.models)
+    for source in fused:
+        score(source, _fused_tracks(log, FUSED_SOURCES[source], config, dts, egos))
+    for i, m in enumerate(log.models):
+        det: list[Positions] = []
+        for k in range(n):
+            d = log.detections[k][i]
+            det.append(np.zeros((0, 2)) if d is None else d)
+        score(f"{m.name} (raw)", run_tracker(det, dts, egos=egos, config=detector_config(config, m)))
+    merged = [merge_detections([d for d in log.detections[k] if d is not None]) for k in range(n)]
+    score("all detectors merged (raw)", run_tracker(merged, dts, egos=egos, config=config))
+    return rows
+
+
+def _fused_tracks(
+    log: ReplayLog, kind: str, config: TrackerConfig, dts: Sequence[float], egos: Sequence[Pose2D | None]
+) -> HypFrames:
+    """The confirmed tracks per frame of the recommended ``kind`` filter + classifier + tracker over ``log``."""
+    from pfpeople.bag.config import ClassifierConfig, FilterConfig, TrackingConfig
+    from pfpeople.filters import build_classifier, build_filter
+
+    spec = log.spec
+    filt = build_filter(FilterConfig(kind=kind), spec, log.models)
     classifier = build_classifier(ClassifierConfig())
     tracking = TrackingConfig()
     tcfg = config
@@ -292,7 +326,7 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         observed_tracks_only=tracking.observed_tracks_only,
     )
     hyp: HypFrames = []
-    for k in range(n):
+    for k in range(len(log)):
         dets = [np.zeros((0, 2)) if d is None else d for d in log.detections[k]]
         out = filt.step(dets, log.odometry[k], dts[k])
         belief = np.asarray(out.posterior, dtype=float)
@@ -301,16 +335,7 @@ def evaluate_log(log: ReplayLog, *, gate: float = 0.75, config: TrackerConfig | 
         precise = support_positions([d for d, m in zip(dets, log.models, strict=True) if point_like(m)])
         tr = tracker.step(found, belief, spec, dts[k], observed=observed, ego=egos[k], detections=precise).tracks
         hyp.append((np.array([t.id for t in tr], dtype=np.int64), np.array([[t.x, t.y] for t in tr]).reshape(-1, 2)))
-    score("recommended (tracker)", hyp)
-    for i, m in enumerate(log.models):
-        det: list[Positions] = []
-        for k in range(n):
-            d = log.detections[k][i]
-            det.append(np.zeros((0, 2)) if d is None else d)
-        score(f"{m.name} (raw)", run_tracker(det, dts, egos=egos, config=detector_config(config, m)))
-    merged = [merge_detections([d for d in log.detections[k] if d is not None]) for k in range(n)]
-    score("all detectors merged (raw)", run_tracker(merged, dts, egos=egos, config=config))
-    return rows
+    return hyp
 
 
 def detector_config(config: TrackerConfig, model: DetectorModel) -> TrackerConfig:
@@ -410,7 +435,8 @@ def evaluate_run(
 
     Sources: ``"filter (people.csv)"`` (the run's people tracked here, births from any of them), ``"grid +
     NAME"``, ``"tracks.csv (pipeline)"`` (the tracks the run itself wrote: the shipped output; when the run
-    has a ``tracks.csv``), ``"NAME (raw)"`` per detector and ``"all detectors merged (raw)"``. When the run
+    has a ``tracks.csv``; ``"tracks.csv (particle pipeline)"`` for a run of the particle filter), ``"NAME
+    (raw)"`` per detector and ``"all detectors merged (raw)"``. When the run
     wrote ``support.csv`` (its tracker used single legs), each raw source's tracker gets its detectors' single
     legs as support too, as the run's tracker did.
 
@@ -487,7 +513,10 @@ def evaluate_run(
     hyps: dict[str, HypFrames] = {}
     shipped = run.path / "tracks.csv"
     if shipped.is_file() and (sources is None or {"tracks", "tracks.csv"} & set(sources)):
-        hyps["tracks.csv (pipeline)"] = read_tracks_csv(shipped, n)
+        kind = run.meta.get("config", {}).get("filter", {}).get("kind", "grid")
+        hyps["tracks.csv (particle pipeline)" if kind == "particle" else "tracks.csv (pipeline)"] = read_tracks_csv(
+            shipped, n
+        )
     for source, (pos, sc) in inputs.items():
         cfg = replace(config, birth_min_score=0.0) if source == "filter" else config
         hyps[source] = run_tracker(pos, dts, scores=sc, egos=egos, config=cfg, support=support.get(source))

@@ -57,6 +57,10 @@ PEAK_KEEP = 0.5
 #: mode the births of a few steps accumulate before a resampling (pipeline benchmark: the filter step ~20 % faster,
 #: accuracy unchanged); the paper mode resamples whenever births overflow, as in round one.
 DEFAULT_OVERFLOW = {"recommended": 0.1, "paper": 0.0}
+#: Default people-motion sampler of the particle filter per mode (see FilterConfig.motion_model): in the
+#: recommended mode walkers keep heading and speed (precision and tracks on every scene, README "Recommended
+#: particles"); the paper mode samples the paper's memoryless model, the grid filter's prediction.
+DEFAULT_MOTION_MODEL = {"recommended": "persistent", "paper": "paper"}
 #: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
 DEFAULT_GRID_RANGE_M = 10.0
 
@@ -164,7 +168,7 @@ def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detec
         detectors=models,
         n_particles=config.particles_for(spec.n_cells),
         rng=np.random.default_rng(config.seed),
-        motion_model=config.motion_model,  # type: ignore[arg-type]
+        motion_model=config.motion_model or DEFAULT_MOTION_MODEL[config.mode],  # type: ignore[arg-type]
         max_overflow=config.max_overflow if config.max_overflow is not None else DEFAULT_OVERFLOW[config.mode],
         **kwargs,
     )

@@ -69,13 +69,33 @@ class PersistentMotion:
         Probability per second that a walking person stops.
     p_start : float
         Probability per second that a standing person starts walking.
+
+    Notes
+    -----
+    ``heading_noise = 1.0`` (57 deg after 1 s, 18 deg per 0.1 s step) and ``p_stop = p_start = 0.5`` (were 0.5,
+    0.2, 0.2) were chosen with the recommended particle filter's tracks (``pfpeople run`` with ``[filter] kind =
+    "particle"`` on the scan-level scenes, the ETH/UCY replays as the benchmark replays them): MOTA of the tracks,
+    mean over the particle filter's seeds 0, 1, 2::
+
+        heading, p_stop = p_start   eth    hotel  zara01  wheelchair  corridor  crowd
+        0.5, 0.2                    .753   .524   .640    .542        .827      .716
+        1.0, 0.2                    .754   .576   .656    .558        .835      .718
+        1.5, 0.2                    .757   .538   .669    .545        .825      .714 (crowd: seeds 0, 1)
+        1.0, 0.3 (seed 1)           .789   .556   .672    .548        .846      .711
+        **1.0, 0.5**                .799   .612   .666    .573        .844      .729
+        1.0, 1.0 (seed 1)           .711   .597   .631    .559        .514      -
+
+    (seed 1 of 1.0, 0.5: .813, .597, .662, .587, .845, .733.) At 1.0 per second the corridor's people found
+    fall to a precision of 0.87 (0.99 at 0.5): too many particles change mode every step for a blob to stay
+    compact. With the paper's memoryless model instead (a new direction every step), the same filter's tracks
+    gave .478, .290, .442, .377, .479, .446 (seed 0).
     """
 
-    heading_noise: float = 0.5
+    heading_noise: float = 1.0
     speed_noise: float = 0.3
     speed_reversion: float = 0.5
-    p_stop: float = 0.2
-    p_start: float = 0.2
+    p_stop: float = 0.5
+    p_start: float = 0.5
 
     def __post_init__(self) -> None:
         check_positive(self.heading_noise, "PersistentMotion.heading_noise", allow_zero=True)

@@ -9,7 +9,16 @@ import numpy as np
 import pytest
 
 from evaluation.gt_csv import read_gt_csv
-from evaluation.mot_eval import evaluate_run, evaluate_scenario, format_rows, merge_detections, peak_classifier
+from evaluation.mot_eval import (
+    FUSED_SOURCES,
+    evaluate_log,
+    evaluate_run,
+    evaluate_scenario,
+    format_rows,
+    merge_detections,
+    peak_classifier,
+)
+from evaluation.replay import log_from_scenario
 from evaluation.scenarios.scenario import Scenario
 from gridbridge.grid import GridSpec
 from pfpeople.output import RunWriter, load_run
@@ -61,6 +70,25 @@ def test_evaluate_scenario_detectors_only() -> None:
     assert "MOTA" in format_rows(rows)
 
 
+def test_evaluate_log_tracks_both_recommended_filters() -> None:
+    """The replay table has a row per recommended filter (grid, particles) before the detectors' rows; each is
+    scored on the same truth; a wrong fused source is named."""
+    log = log_from_scenario(Scenario.from_name("default", n_frames=40))
+    rows = evaluate_log(log)
+    names = [r.source for r in rows]
+    assert names[:2] == ["recommended (tracker)", "recommended particles (tracker)"] == list(FUSED_SOURCES)
+    assert names[2:] == [f"{m.name} (raw)" for m in log.models] + ["all detectors merged (raw)"]
+    num_gt = {r.scores.num_gt for r in rows}
+    assert len(num_gt) == 1 and num_gt.pop() > 0
+    for r in rows[:2]:
+        assert r.scores.num_gt == r.scores.num_matches + r.scores.num_misses and 0.0 <= r.scores.recall <= 1.0
+    only = evaluate_log(log, fused=["recommended particles (tracker)"])
+    assert [r.source for r in only][0] == "recommended particles (tracker)"
+    assert only[0].scores == rows[1].scores  # seeded: the same particles, the same tracks
+    with pytest.raises(ValueError, match=r"fused sources \['particles'\] are none of"):
+        evaluate_log(log, fused=["particles"])
+
+
 def _write_run(path: Path, people: list[np.ndarray], dets: list[np.ndarray], dt: float = 0.1) -> None:
     with RunWriter(path, spec=SPEC, detector_names=["legs"], metadata={"provenance": {"bag": ["/x/synth.bag"]}}) as w:
         for k, (p, d) in enumerate(zip(people, dets, strict=True)):
@@ -106,6 +134,38 @@ def test_evaluate_run_followed_person(tmp_path: Path) -> None:
     assert d.extra["followed"]["matched_fraction"] > 0.9
     assert "followed person 7" in format_rows(rows) and rows[0].sequence == "synth"
     assert math.isfinite(d.scores.motp)
+
+
+@pytest.mark.parametrize(
+    ("kind", "label"), [("grid", "tracks.csv (pipeline)"), ("particle", "tracks.csv (particle pipeline)")]
+)
+def test_evaluate_run_labels_the_tracks_by_the_runs_filter(tmp_path: Path, kind: str, label: str) -> None:
+    n = 10
+    truth = [np.array([1.0 + 0.05 * k, 0.5]) for k in range(n)]
+    meta = {"provenance": {"bag": ["/x/synth.bag"]}, "config": {"filter": {"kind": kind}}}
+    with RunWriter(tmp_path / "run", spec=SPEC, detector_names=["legs"], metadata=meta) as w:
+        for k in range(n):
+            x, y = truth[k]
+            w.write_frame(
+                frame=k,
+                driver_index=k,
+                stamp_ns=int(k * 1e8),
+                bag_time_ns=int(k * 1e8),
+                dt_s=0.1,
+                odometry=None,
+                forced=False,
+                belief=np.zeros(SPEC.shape),
+                people=truth[k][None, :],
+                people_probability=[0.9],
+                detections=[truth[k][None, :]],
+                tracks=[(k, int(k * 1e8), 3, x, y, 0.5, 0.0, 0.01, 0.0, 0.01, 0.9)],
+            )
+    gt_path = tmp_path / "gt.csv"
+    gt_path.write_text(
+        "scan_index,person_id,x_laser_m,y_laser_m\n" + "".join(f"{k},7,{p[0]},{p[1]}\n" for k, p in enumerate(truth))
+    )
+    (row,) = evaluate_run(load_run(tmp_path / "run"), read_gt_csv(gt_path), sources=["tracks"], followed=False)
+    assert row.source == label and row.scores.num_matches == n and row.scores.mota == 1.0
 
 
 def test_track_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -55,8 +55,11 @@ def test_build_filter_composes_the_modes() -> None:
     assert (
         isinstance(pf, ParticleFilter) and pf.n_particles == 5000 and isinstance(pf.likelihood, IndependentLikelihood)
     )
-    assert pf.max_overflow == 0.1
-    assert build_filter(FilterConfig(kind="particle", mode="paper"), spec, PAPER_DETECTORS).max_overflow == 0.0
+    assert pf.max_overflow == 0.1 and pf.motion_model == "persistent"
+    paper_pf = build_filter(FilterConfig(kind="particle", mode="paper"), spec, PAPER_DETECTORS)
+    assert paper_pf.max_overflow == 0.0 and paper_pf.motion_model == "paper"  # the grid's prediction, sampled
+    explicit = FilterConfig(kind="particle", motion_model="paper")
+    assert build_filter(explicit, spec, CALIBRATED_LASER_DETECTORS).motion_model == "paper"
     assert build_filter(FilterConfig(kind="particle", max_overflow=0.3), spec, PAPER_DETECTORS).max_overflow == 0.3
     with pytest.raises(ValueError, match="form must be 'linear'"):
         build_filter(FilterConfig(kind="particle", form="paper"), spec, CALIBRATED_LASER_DETECTORS)
@@ -87,6 +90,9 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
         FilterConfig(mode="fast")
     with pytest.raises(ValueError, match=r"FilterConfig\.max_overflow must be a number in \[0, 10\]"):
         FilterConfig(max_overflow=-0.5)
+    with pytest.raises(ValueError, match=r"FilterConfig\.motion_model must be 'paper', 'persistent' or unset, got 'cv'"):
+        FilterConfig(motion_model="cv")
+    assert config_from_mapping({**doc, "filter": {"motion_model": "paper"}}).filter.motion_model == "paper"
     with pytest.raises(ValueError, match=r"ClassifierConfig\.kind"):
         ClassifierConfig(kind="cnn")
     assert build_classifier(ClassifierConfig()).threshold == 0.7  # type: ignore[attr-defined]

@@ -197,8 +197,10 @@ class FilterConfig:
         Particle count (particle filter only); None: 5 per cell, at least 5000.
     seed : int
         Seed of the particle filter's ``numpy.random.Generator``.
-    motion_model : {"paper", "persistent"}
-        Particle people-motion sampler.
+    motion_model : {"paper", "persistent"} or None
+        Particle people-motion sampler (:mod:`pfpeople.motion`); None: ``"persistent"`` in the recommended mode
+        (walkers keep their heading and speed: compact person blobs, README "Recommended particles"),
+        ``"paper"`` (the paper's memoryless model, what the grid filter predicts) in the paper mode.
     max_overflow : float or None
         Particle filter: births may push the count this fraction above ``n_particles`` before they trigger a
         resampling (:class:`pfpeople.ParticleFilter`); None: 0.1 in the recommended mode (29 % of the steps
@@ -220,7 +222,7 @@ class FilterConfig:
     initial: float | None = None
     n_particles: int | None = None
     seed: int = 0
-    motion_model: str = "paper"
+    motion_model: str | None = None
     max_overflow: float | None = None
     base_rate: float = 0.02
     appearance_rate: float = 0.05
@@ -243,8 +245,10 @@ class FilterConfig:
             raise ValueError(f"FilterConfig.n_particles must be a positive integer, got {n!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int):
             raise ValueError(f"FilterConfig.seed must be an integer, got {self.seed!r}")
-        if self.motion_model not in ("paper", "persistent"):
-            raise ValueError(f"FilterConfig.motion_model must be 'paper' or 'persistent', got {self.motion_model!r}")
+        if self.motion_model not in (None, "paper", "persistent"):
+            raise ValueError(
+                f"FilterConfig.motion_model must be 'paper', 'persistent' or unset, got {self.motion_model!r}"
+            )
         mo = self.max_overflow
         if mo is not None and (isinstance(mo, bool) or not isinstance(mo, int | float) or not 0.0 <= mo <= 10.0):
             raise ValueError(f"FilterConfig.max_overflow must be a number in [0, 10] or unset, got {mo!r}")
