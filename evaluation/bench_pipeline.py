@@ -9,13 +9,16 @@ less sensitive to other load on the machine than the wall clock), and the recall
 filter against the ground truth (recall only: passers-by are not annotated; the two modes give the same)::
 
     python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
-        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000 2500] [--repeat N]
+        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000 2500] [--motion-model paper persistent]
+        [--repeat N]
 
 ``--max-overflow``: the particle filter's ``FilterConfig.max_overflow`` values to compare (default: the
 configuration's, 0.1 in the recommended mode); 0 resamples whenever births overflow, as before it existed.
 ``--particles``: particle counts to compare (default: the configuration's, 5 per cell and at least 5000: 5000 on
-this bag's 494-cell grid). Every combination of ``--processes``, ``--max-overflow`` and ``--particles`` is a
-variant; the first is the baseline of the ratios.
+this bag's 494-cell grid). ``--motion-model``: the particle filter's people-motion samplers to compare (default:
+the configuration's, ``"persistent"`` in the recommended mode). Every combination of ``--processes``,
+``--max-overflow``, ``--particles`` and ``--motion-model`` is a variant; the first is the baseline of the
+ratios.
 
 Wall-clock figures depend on the machine; tests never assert them.
 """
@@ -44,17 +47,19 @@ BAG = "leg_tracker/person_following_outdoor_1.bag.zip"
 GT = "leg_tracker/person_following_outdoor_1_gt.csv"
 
 
-#: (processes, max_overflow, particle count); None: the configuration's.
-Variant = tuple[int, float | None, int | None]
+#: (processes, max_overflow, particle count, motion model); None: the configuration's.
+Variant = tuple[int, float | None, int | None, str | None]
 
 
 def _label(v: Variant, particle: bool) -> str:
-    n, ovf, count = v
+    n, ovf, count, model = v
     out = f"{n} process{'es' if n > 1 else ''}"
     if particle and ovf is not None:
         out += f" ovf {ovf:g}"
     if particle and count is not None:
         out += f" N {count}"
+    if particle and model is not None:
+        out += f" {model}"
     return out
 
 
@@ -108,6 +113,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="particle filter: FilterConfig.max_overflow values to compare (default: the configuration's)",
     )
     ap.add_argument(
+        "--motion-model",
+        nargs="+",
+        default=[None],
+        choices=("paper", "persistent"),
+        help="particle filter: people-motion samplers to compare (default: the configuration's)",
+    )
+    ap.add_argument(
         "--repeat", type=int, default=1, help="runs per filter and mode, interleaved (the median is compared)"
     )
     args = ap.parse_args(argv)
@@ -118,22 +130,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     gt = read_gt_csv(data / GT)
     cfg0 = load_config(builtin_config_path("person_following_outdoor_1"))
     print(
-        f"{'filter':<10}{'procs':>6}{'ovf':>5}{'N':>6}{'frames':>8}{'wall s':>9}{'fps':>9}{'RT factor':>11}"
+        f"{'filter':<10}{'procs':>6}{'ovf':>5}{'N':>6}{'motion':>11}{'frames':>8}{'wall s':>9}{'fps':>9}"
+        f"{'RT factor':>11}"
         f"{'ratio':>7}{'filt CPU ms':>12}   recall per source"
     )
     for kind in args.filters:
         particle = kind == "particle"
         overflows = args.max_overflow if particle else [None]
         counts = args.particles if particle else [None]
-        variants = [(n, o, c) for n in args.processes for o in overflows for c in counts]
+        models = args.motion_model if particle else [None]
+        variants = [(n, o, c, m) for n in args.processes for o in overflows for c in counts for m in models]
         rtfs: dict[Variant, list[float]] = {v: [] for v in variants}
         cpus: dict[Variant, list[float]] = {v: [] for v in variants}
         for _ in range(max(args.repeat, 1)):
             for v in variants:
-                n, ovf, count = v
+                n, ovf, count, model = v
                 filt = replace(cfg0.filter, kind=kind, n_particles=count)
                 if ovf is not None:
                     filt = replace(filt, max_overflow=ovf)
+                if model is not None:
+                    filt = replace(filt, motion_model=model)
                 cfg = replace(cfg0, filter=filt)
                 with tempfile.TemporaryDirectory() as tmp:
                     out = Path(tmp) / "run"
@@ -157,8 +173,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     shown_o = "-" if not particle else ("cfg" if ovf is None else f"{ovf:g}")
                     n_used = getattr(pipe.filter, "n_particles", None)
                     shown_c = "-" if n_used is None else str(n_used)
+                    shown_m = getattr(pipe.filter, "motion_model", "-")
                     print(
-                        f"{kind:<10}{n:>6}{shown_o:>5}{shown_c:>6}{summary.frames:>8}{summary.elapsed_s:>9.2f}"
+                        f"{kind:<10}{n:>6}{shown_o:>5}{shown_c:>6}{shown_m:>11}{summary.frames:>8}{summary.elapsed_s:>9.2f}"
                         f"{summary.fps:>9.1f}{rtf:>11.1f}{rtf / base:>7.2f}{cpu_ms:>12.3f}   {rec}",
                         flush=True,
                     )

@@ -419,40 +419,28 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     srcs = ["tracks", "laser-legs", "laser-boosted", "all detectors merged"]
     if scene.startswith("scan:"):
         name = scene.split(":", 1)[1]
-        bag, cfg, gt_csv = (
-            work / name / f"{name}.bag",
-            load_config(work / name / f"{name}.toml"),
-            work / name / f"{name}_gt.csv",
-        )
-        out, visible, followed, max_frames = work / f"{name}_run", (None, 3), False, None
+        bag, cfg = work / name / f"{name}.bag", load_config(work / name / f"{name}.toml")
+        gt_csv, out = work / name / f"{name}_gt.csv", work / f"{name}_run"
+        visible: tuple[int | None, ...] = (None, 3)
+        followed, max_frames = False, None  # the scene bag has the benchmark's frames only
     elif scene == "person_following_outdoor_1":
         name, bag = "pf1", data / "leg_tracker" / "person_following_outdoor_1.bag.zip"
-        cfg, gt_csv = (
-            load_config(builtin_config_path("person_following_outdoor_1")),
-            bag.parent / "person_following_outdoor_1_gt.csv",
-        )
-        out, visible, followed, max_frames = work / "pf1_run", (None,), True, frames
+        cfg = load_config(builtin_config_path("person_following_outdoor_1"))
+        gt_csv, out = bag.parent / "person_following_outdoor_1_gt.csv", work / "pf1_run"
+        visible, followed, max_frames = (None,), True, frames
     else:
         return []
     gt = read_gt_csv(gt_csv)
     particle_out = work / f"{name}_prun"
     _particle_run(bag, cfg, particle_out, max_frames=max_frames)
-    runs = ((load_run(out), srcs), (load_run(particle_out), ["tracks"]))
-    return [
-        row
-        for beams in visible
-        for run, sources in runs
-        for row in evaluate_run(
-            run,
-            gt,
-            config=TrackerConfig(),
-            gate=gate,
-            sources=sources,
-            classify=None,
-            min_hit_beams=beams,
-            followed=followed,
-        )
-    ]
+    grid_run, particle_run = load_run(out), load_run(particle_out)
+    rows: list[Any] = []
+    for beams in visible:
+        kw: dict[str, Any] = {"config": TrackerConfig(), "gate": gate, "classify": None, "min_hit_beams": beams}
+        grid_rows = evaluate_run(grid_run, gt, sources=srcs, followed=followed, **kw)
+        particle_rows = evaluate_run(particle_run, gt, sources=["tracks"], followed=followed, **kw)
+        rows += grid_rows[:1] + particle_rows + grid_rows[1:]  # the two filters' tracks first
+    return rows
 
 
 def _particle_run(bag: Path, config: BagConfig, out: Path, *, max_frames: int | None = None) -> None:

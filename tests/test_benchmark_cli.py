@@ -35,3 +35,21 @@ def test_benchmark_rows_and_seed(tmp_path: Path, capsys: pytest.CaptureFixture[s
     # another seed: other people in the same corridor (the ground-truth positions differ)
     assert len(gt0) > 0 and len(gt1) > 0
     assert not (gt0.xy.shape == gt1.xy.shape and np.allclose(gt0.xy, gt1.xy))
+
+
+def test_mot_rows_score_both_filters_tracks(tmp_path: Path) -> None:
+    """The MOT rows of a scan-level scene: the grid pipeline's tracks, then the same run's with the particle
+    filter (run into ``<name>_prun`` with the recommended particle filter), then tracking-by-detection; again
+    on the people a laser sees."""
+    from evaluation.benchmark import mot_rows, scene_logs
+
+    work = tmp_path / "work"
+    _, _, skip = scene_logs("scan:corridor", data=tmp_path, work=work, frames=24)
+    assert skip == ""
+    rows = mot_rows("scan:corridor", data=tmp_path, work=work, frames=24)
+    head = ["tracks.csv (pipeline)", "tracks.csv (particle pipeline)", "laser-legs (raw)"]
+    assert [r.source for r in rows[:3]] == head and [r.source for r in rows[5:8]] == head
+    assert [r.sequence for r in rows] == ["corridor"] * 5 + ["corridor [hit_beams>=3]"] * 5
+    meta = json.loads((work / "corridor_prun" / "run.json").read_text())
+    assert meta["config"]["filter"]["kind"] == "particle" and meta["frames"] == 24
+    assert all(r.scores.num_frames == 24 and r.scores.num_gt > 0 for r in rows)

@@ -83,7 +83,7 @@ def test_evaluate_log_tracks_both_recommended_filters() -> None:
     for r in rows[:2]:
         assert r.scores.num_gt == r.scores.num_matches + r.scores.num_misses and 0.0 <= r.scores.recall <= 1.0
     only = evaluate_log(log, fused=["recommended particles (tracker)"])
-    assert [r.source for r in only][0] == "recommended particles (tracker)"
+    assert [r.source for r in only] == ["recommended particles (tracker)", *names[2:]]
     assert only[0].scores == rows[1].scores  # seeded: the same particles, the same tracks
     with pytest.raises(ValueError, match=r"fused sources \['particles'\] are none of"):
         evaluate_log(log, fused=["particles"])

@@ -90,7 +90,9 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
         FilterConfig(mode="fast")
     with pytest.raises(ValueError, match=r"FilterConfig\.max_overflow must be a number in \[0, 10\]"):
         FilterConfig(max_overflow=-0.5)
-    with pytest.raises(ValueError, match=r"FilterConfig\.motion_model must be 'paper', 'persistent' or unset, got 'cv'"):
+    with pytest.raises(
+        ValueError, match=r"FilterConfig\.motion_model must be 'paper', 'persistent' or unset, got 'cv'"
+    ):
         FilterConfig(motion_model="cv")
     assert config_from_mapping({**doc, "filter": {"motion_model": "paper"}}).filter.motion_model == "paper"
     with pytest.raises(ValueError, match=r"ClassifierConfig\.kind"):
