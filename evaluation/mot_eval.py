@@ -435,10 +435,10 @@ def evaluate_run(
 
     Sources: ``"filter (people.csv)"`` (the run's people tracked here, births from any of them), ``"grid +
     NAME"``, ``"tracks.csv (pipeline)"`` (the tracks the run itself wrote: the shipped output; when the run
-    has a ``tracks.csv``; ``"tracks.csv (particle pipeline)"`` for a run of the particle filter), ``"NAME
-    (raw)"`` per detector and ``"all detectors merged (raw)"``. When the run
-    wrote ``support.csv`` (its tracker used single legs), each raw source's tracker gets its detectors' single
-    legs as support too, as the run's tracker did.
+    has a ``tracks.csv``; ``"tracks.csv (particle pipeline)"`` for a run of the particle filter),
+    ``"NAME (raw)"`` per detector and ``"all detectors merged (raw)"``. When the run wrote ``support.csv`` (its
+    tracker used single legs), each raw source's tracker gets its detectors' single legs as support too, as the
+    run's tracker did.
 
     Returns
     -------
