@@ -60,11 +60,7 @@ class SelfReturns:
         self.tolerance = _positive(tolerance, "tolerance")
         self.travel = _positive(travel, "travel")
         self.radius = _positive(radius, "radius")
-        self._ref = np.zeros((0, 2))
-        self._travel = np.zeros(0)
-        self._mask = np.zeros(0, dtype=bool)
-        self._returns = np.zeros((0, 2))
-        self._returns_self = np.zeros(0, dtype=bool)
+        self.reset()
 
     def reset(self) -> None:
         """Forget every streak."""
