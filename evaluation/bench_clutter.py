@@ -202,7 +202,7 @@ def run(seq: Sequence_, config: ClutterConfig, *, exclude: str = "moving", movin
     n_ok = 0
     for k, scan in enumerate(seq.scans):
         dets = [seq.detections[d][k] for d in DETECTORS]
-        st = sup.step(scan.points(), dets, stamp_ns=scan.stamp_ns)
+        st = sup.step(scan.points(), dets, stamp_ns=scan.stamp_ns, free=scan.free_rays(sup.map.config.max_range))
         n_ok += st.ego_ok and k > 0
         truth = None if seq.truth is None else seq.truth[k]
         for d, det, keep in zip(DETECTORS, dets, st.keep, strict=True):

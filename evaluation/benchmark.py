@@ -65,7 +65,7 @@ __all__ = [
 ]
 
 REPLAY_SCENES = ("eth", "hotel", "zara01")
-SCAN_SCENES = ("wheelchair", "corridor", "crowd")
+SCAN_SCENES = ("wheelchair", "corridor", "crowd", "lobby")
 SCENES = (
     *REPLAY_SCENES,
     *(f"scan:{s}" for s in SCAN_SCENES),

@@ -357,6 +357,7 @@ class StaticClutterMap:
         exclude: ArrayLike | None = None,
         dt: float | None = None,
         stamp_ns: int | None = None,
+        free: ArrayLike | None = None,
     ) -> None:
         """Add one scan.
 
@@ -376,6 +377,11 @@ class StaticClutterMap:
             Seconds since the previous update; else from ``stamp_ns``; else ``config.default_dt``.
         stamp_ns : int, optional
             The scan's stamp (ns), used for ``dt`` when ``dt`` is not given.
+        free : array_like, shape (F, 2), optional
+            End points (m, current sensor frame) of the beams that returned nothing within range
+            (:meth:`pfpeople.sensors.LaserScan.free_rays`): free space is traced along them up to the end point
+            (or ``max_range``), with no hit. Open floor that no beam returns from is then seen free, as
+            everywhere else, instead of keeping the unknown prior.
 
         Raises
         ------
@@ -395,33 +401,28 @@ class StaticClutterMap:
             self.pose = self.pose.compose(ego)
         self._recentre()
         r = np.hypot(pts[:, 0], pts[:, 1])
-        pts, r = pts[r <= c.max_range], r[r <= c.max_range]
+        far = r > c.max_range  # returns beyond the map: the beam crossed free space up to max_range
+        far_pts = pts[far] * (c.max_range / r[far])[:, None]
+        pts, r = pts[~far], r[~far]
+        free = far_pts if free is None else np.concatenate((_positions(free, "free", drop_nonfinite=True), far_pts))
         human = np.zeros(pts.shape[0], dtype=bool)
         if people.shape[0] and pts.shape[0]:
             human = near_any(pts, people, c.exclude_radius)
-        # free space: samples along every free_stride-th beam, up to free_margin before its end point, as map cells:
-        # sample k of a beam with unit direction u is pose(u * steps[k]) = R u steps[k] + t
         beams = np.arange(0, pts.shape[0], c.free_stride)
-        n_free = np.searchsorted(self._steps, r[beams] - c.free_margin)
-        total = int(n_free.sum())
-        beam = np.repeat(np.arange(beams.size), n_free)
-        k = np.arange(total) - np.repeat(np.cumsum(n_free) - n_free, n_free)
-        inv = 1.0 / c.resolution
-        ru = rotate(pts[beams] / np.maximum(r[beams], 1e-9)[:, None], self.pose.yaw)
-        origin = (np.array([self.pose.x, self.pose.y]) - self.origin) * inv
-        ru *= inv
-        fi = np.floor(ru[beam, 0] * self._steps[k] + origin[0]).astype(np.intp)
-        fj = np.floor(ru[beam, 1] * self._steps[k] + origin[1]).astype(np.intp)
-        ok = (fi >= 0) & (fi < self.n) & (fj >= 0) & (fj < self.n)
+        rays, lengths = pts[beams], r[beams] - c.free_margin
+        if free is not None:  # no-return beams: free all along, no margin (there is no end point)
+            fr_pts = _positions(free, "free", drop_nonfinite=True)[:: c.free_stride]
+            rays = np.concatenate((rays, fr_pts))
+            lengths = np.concatenate((lengths, np.minimum(np.hypot(fr_pts[:, 0], fr_pts[:, 1]), c.max_range)))
         cells, inside = self.cell_of(self.pose.apply(pts))
         ncell = self.n * self.n
         hc = cells[inside & ~human]
-        free = np.zeros(ncell, dtype=bool)
-        free[fi[ok] * self.n + fj[ok]] = True
-        free[cells[inside & human]] = True
+        free_mask = np.zeros(ncell, dtype=bool)
+        free_mask[self._ray_cells(rays, lengths)] = True
+        free_mask[cells[inside & human]] = True
         # cells next to a return are not carved free by the beams that pass beside it (thin objects)
         for off in self._neighbours:
-            free[(hc + off) % ncell] = False
+            free_mask[(hc + off) % ncell] = False
         s = self.evidence.reshape(-1)
         s0 = c.unknown_evidence
         s -= s0
@@ -429,7 +430,7 @@ class StaticClutterMap:
         s += s0
         hit = np.unique(hc)
         s[hit] = np.minimum(s[hit] + step, c.s_max)
-        fr = np.flatnonzero(free)
+        fr = np.flatnonzero(free_mask)
         s[fr] = np.maximum(s[fr] - c.free_rate * step, c.s_min)
         # the latest returns, for the queries (all returns, people's too: a query looks at what is there now)
         self._hit_cells = cells[inside]
@@ -438,6 +439,36 @@ class StaticClutterMap:
         self._people = people
         self._scores = None
         self.updates += 1
+
+    def _ray_cells(self, rays: NDArray[np.float64], lengths: NDArray[np.float64]) -> NDArray[np.intp]:
+        """Flat indices of the map cells sampled along rays from the sensor (one sample per cell length).
+
+        Parameters
+        ----------
+        rays : ndarray, shape (R, 2)
+            A point on each ray (m, current sensor frame; its direction is what counts).
+        lengths : ndarray, shape (R,)
+            How far (m) each ray is traced; samples at ``resolution * (k + 1/2)`` below it.
+
+        Returns
+        -------
+        ndarray of intp
+            Cells inside the window (with repeats); sample k of a ray with unit direction u is
+            ``pose(u * steps[k]) = R u steps[k] + t``.
+        """
+        c = self.config
+        r = np.hypot(rays[:, 0], rays[:, 1])
+        n_free = np.searchsorted(self._steps, lengths)
+        total = int(n_free.sum())
+        beam = np.repeat(np.arange(rays.shape[0]), n_free)
+        k = np.arange(total) - np.repeat(np.cumsum(n_free) - n_free, n_free)
+        inv = 1.0 / c.resolution
+        ru = rotate(rays / np.maximum(r, 1e-9)[:, None], self.pose.yaw) * inv
+        origin = (np.array([self.pose.x, self.pose.y]) - self.origin) * inv
+        fi = np.floor(ru[beam, 0] * self._steps[k] + origin[0]).astype(np.intp)
+        fj = np.floor(ru[beam, 1] * self._steps[k] + origin[1]).astype(np.intp)
+        ok = (fi >= 0) & (fi < self.n) & (fj >= 0) & (fj < self.n)
+        return np.asarray(fi[ok] * self.n + fj[ok], dtype=np.intp)
 
     # --- queries ----------------------------------------------------------------------------------------------
     def cell_score(self) -> NDArray[np.float64]:
@@ -718,6 +749,7 @@ class ClutterSuppressor:
         exclude: ArrayLike | None = None,
         stamp_ns: int | None = None,
         dt: float | None = None,
+        free: ArrayLike | None = None,
     ) -> SuppressionStep:
         """Add one scan and say which detections are not static clutter.
 
@@ -736,6 +768,9 @@ class ClutterSuppressor:
             tracker or of the filter's output, moved into this frame), besides the moving tracks.
         stamp_ns, dt : optional
             The scan's time, see :meth:`StaticClutterMap.update`.
+        free : array_like, shape (F, 2), optional
+            End points of the beams without a return (:meth:`pfpeople.sensors.LaserScan.free_rays`), traced as
+            free space (see :meth:`StaticClutterMap.update`).
 
         Returns
         -------
@@ -765,7 +800,7 @@ class ClutterSuppressor:
             self.map.forget()
         prev = self._prev_moving
         excluded = np.concatenate((ego.inverse().apply(prev) if prev.shape[0] else prev, extra))
-        self.map.update(points, ego=ego, exclude=excluded, stamp_ns=stamp_ns, dt=dt)
+        self.map.update(points, ego=ego, exclude=excluded, stamp_ns=stamp_ns, dt=dt, free=free)
         if self.own is not None:
             self.own.update(points, ego if ok else None)
         keep = [~self.is_clutter(d) if d.shape[0] else np.zeros(0, dtype=bool) for d in dets]

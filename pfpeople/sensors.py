@@ -64,6 +64,24 @@ class LaserScan:
         with np.errstate(invalid="ignore"):
             return np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
 
+    @property
+    def no_return(self) -> NDArray[np.bool_]:
+        """True for beams that saw nothing within range: ``+inf`` (REP-117) or above ``range_max`` (the drivers
+        that report "max range and more"), shape (B,). NaN (an erroneous reading) and values below
+        ``range_min`` (``-inf``: too close) are neither returns nor free space."""
+        r = self.ranges
+        with np.errstate(invalid="ignore"):
+            return np.asarray((r > self.range_max) | np.isposinf(r), dtype=bool)
+
+    def free_rays(self, max_range: float) -> NDArray[np.float64]:
+        """End points ``(F, 2)`` (m, scan frame) of the :attr:`no_return` beams, cut at ``min(range_max,
+        max_range)``: the beam saw nothing up to there, free-space evidence for a map."""
+        length = min(self.range_max, max_range)
+        if not math.isfinite(length) or length <= 0.0:
+            return np.zeros((0, 2))
+        a = self.angles[self.no_return]
+        return np.column_stack((length * np.cos(a), length * np.sin(a)))
+
     def points(self) -> NDArray[np.float64]:
         """Cartesian end points ``(B, 2)`` in the scan's frame (m); invalid beams give NaN rows."""
         r = np.where(self.valid, self.ranges, np.nan)

@@ -145,6 +145,7 @@ class ClutterStage:
                 exclude=exclude,
                 stamp_ns=stamp_ns,
                 dt=dt,
+                free=scan.free_rays(sup.map.config.max_range),
             )
             for k, keep in zip(idx, st.keep, strict=True):
                 static[k] = ~keep

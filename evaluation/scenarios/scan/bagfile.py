@@ -13,7 +13,7 @@ driver's bag would have them):
 - ``/ground_truth_people`` ``geometry_msgs/PoseArray``: the people of the first laser's ground truth, in its
   frame, header = the scan's stamp (person ids are in the CSV).
 
-Beside the bag: ``<name>_gt.csv`` (scan_index, stamp_ns, person_id, x_<frame>_m, y_<frame>_m, hit_beams; see
+Beside the bag: ``<name>_gt.csv`` (scan_index, stamp_ns, person_id, x_<frame>_m, y_<frame>_m, hit_beams, speed_mps; see
 :mod:`evaluation.gt_csv`) and ``<name>.toml``, a ``pfpeople run`` configuration (driver and detectors on the
 first laser, odometry ``/odom``, the laser's field of view and range in each detector's model).
 """
@@ -131,9 +131,10 @@ def write_gt_csv(sim: SceneSim, path: Path) -> None:
     f = las.laser.frame_id
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["scan_index", "stamp_ns", "person_id", f"x_{f}_m", f"y_{f}_m", "hit_beams"])
-        for k, pid, (x, y), b in zip(sim.gt_scan, sim.gt_person, sim.gt_xy, sim.gt_beams, strict=True):
-            w.writerow([int(k), int(las.stamps_ns[k]), int(pid), f"{x:.4f}", f"{y:.4f}", int(b)])
+        w.writerow(["scan_index", "stamp_ns", "person_id", f"x_{f}_m", f"y_{f}_m", "hit_beams", "speed_mps"])
+        rows = zip(sim.gt_scan, sim.gt_person, sim.gt_xy, sim.gt_beams, sim.gt_speed, strict=True)
+        for k, pid, (x, y), b, v in rows:
+            w.writerow([int(k), int(las.stamps_ns[k]), int(pid), f"{x:.4f}", f"{y:.4f}", int(b), f"{v:.3f}"])
 
 
 def run_config_text(cfg: SceneConfig) -> str:
@@ -191,8 +192,9 @@ def _messages(sim: SceneSim, m: _Msgs) -> list[tuple[int, str, str, Any]]:
     items.append((t0, TF_STATIC_TOPIC, "tf2_msgs/msg/TFMessage", T["tf2_msgs/msg/TFMessage"](transforms=statics)))
     vec = T["geometry_msgs/msg/Vector3"]
     cov = np.diag([1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3]).ravel()
+    lag_ns = round(cfg.odometry.latency_s * 1e9)
     for stamp, (x, y, yaw), vo, wo in zip(sim.step_stamps_ns, sim.odom, sim.v_odom, sim.omega_odom, strict=True):
-        s = int(stamp)
+        s = int(stamp) + lag_ns
         odom = T["nav_msgs/msg/Odometry"](
             header=m.header(s, cfg.odom_frame, ODOM_TOPIC),
             child_frame_id=cfg.base_frame,

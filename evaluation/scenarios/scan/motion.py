@@ -111,6 +111,10 @@ def odometry_from_controls(
     sd_w = np.sqrt(noise.alpha3 * v**2 + noise.alpha4 * w**2)
     v_o = v * (1.0 + e_v) + sd_v * rng.standard_normal(v.shape)
     w_o = w * (1.0 + e_w) + sd_w * rng.standard_normal(w.shape)
+    if noise.yaw_bias_sd > 0 or noise.slip > 0:  # drawn after the rest: scenes without them keep their streams
+        bias = rng.normal(0.0, noise.yaw_bias_sd) if noise.yaw_bias_sd > 0 else 0.0
+        w_o = w_o * (1.0 + noise.slip * np.minimum(np.abs(w), 1.0)) + bias
+        w_o[0] = 0.0
     return integrate_controls(v_o, w_o, dt, start=start), v_o, w_o
 
 

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from evaluation.scenarios.eth_ucy import load_tracks
 from evaluation.scenarios.robot import sensor_to_world
 from evaluation.scenarios.scan.scene import PeopleConfig
+from evaluation.scenarios.scan.standing import standing_tracks
 from evaluation.scenarios.tracks import Track
 from evaluation.scenarios.walkers import polyline_knots, walking_speed
 from gridbridge.geometry import rotate
@@ -201,6 +202,27 @@ def scene_tracks(
     list of Track
         Tracks that exist at some time in ``[0, duration]``; ids unique and stable for a seed.
     """
+    tracks = _source_tracks(pc, robot_poses, dt, duration, rng)
+    if pc.groups or pc.queues:
+        first = 1 + max((tr.person_id for tr in tracks), default=-1)
+        tracks += standing_tracks(
+            pc.groups,
+            pc.queues,
+            region=pc.region,
+            speed=pc.speed_mu,
+            duration=duration,
+            first_id=first,
+            shuffle_sd=pc.shuffle_sd,
+            step_rate=pc.shuffle_rate,
+            rng=rng,
+        )
+    return [tr for tr in tracks if tr.t_end >= 0.0 and tr.t_start <= duration]
+
+
+def _source_tracks(
+    pc: PeopleConfig, robot_poses: NDArray[np.float64], dt: float, duration: float, rng: np.random.Generator
+) -> list[Track]:
+    """The tracks of ``pc.source`` (walkers, corridor, ETH/UCY or none)."""
     if pc.source == "none":
         return []
     if pc.source == "walkers":
@@ -214,4 +236,4 @@ def scene_tracks(
             if tt[-1] < 0.0 or tt[0] > duration:
                 continue
             tracks.append(Track(tr.person_id, tt, tr.xy + np.asarray(pc.offset)))
-    return [tr for tr in tracks if tr.t_end >= 0.0 and tr.t_start <= duration]
+    return tracks

@@ -16,8 +16,13 @@ circles, 30 segments: 1.2-2 ms on the shared 2-core machine, about 5 ms without 
 
 Reported ranges (REP-117 conventions, which most ROS 1/2 laser drivers follow): a beam without a return
 (nothing hit, a hit beyond ``range_max`` or a random dropout) reads ``no_return``: ``"inf"`` (+Inf,
-REP-117's "no return"), ``"nan"`` or ``"above_max"`` (``range_max + 1`` m, as older drivers that report
-"max range + something"); a measured range below ``range_min`` reads ``-inf`` (REP-117's "too close").
+REP-117's "no return"), ``"nan"``, ``"above_max"`` (``range_max + 1`` m, as older drivers that report
+"max range + something") or ``"at_max"`` (exactly ``range_max``, as some drivers write); a measured range below
+``range_min`` reads ``-inf`` (REP-117's "too close").
+
+Mixed pixels: a beam's footprint has a width, so a beam at a depth edge (its neighbour's true range differs by
+more than ``MIXED_PIXEL_EDGE_M``) returns, with probability ``mixed_pixel``, a range between the two surfaces
+(``r + u (r_neighbour - r)``, ``u ~ U(0, 1)``): the "veiling" points real lasers show beside legs and furniture.
 """
 
 from __future__ import annotations
@@ -29,7 +34,9 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["NO_RETURN_KINDS", "beam_angles", "cast_rays", "measure_ranges", "no_return_value"]
 
-NO_RETURN_KINDS = ("inf", "nan", "above_max")
+NO_RETURN_KINDS = ("inf", "nan", "above_max", "at_max")
+#: Adjacent beams whose true ranges differ by more than this (m) straddle a depth edge (mixed pixels).
+MIXED_PIXEL_EDGE_M = 0.1
 
 
 def beam_angles(angle_min: float, angle_max: float, n_beams: int) -> NDArray[np.float64]:
@@ -197,7 +204,25 @@ def no_return_value(kind: str, range_max: float) -> float:
         return math.nan
     if kind == "above_max":
         return float(range_max) + 1.0
+    if kind == "at_max":
+        return float(range_max)
     raise ValueError(f"no_return must be one of {NO_RETURN_KINDS}, got {kind!r}")
+
+
+def _mix_edges(r: NDArray[np.float64], p: float, rng: np.random.Generator) -> NDArray[np.float64]:
+    """True ranges ``(N,)`` with mixed pixels: each beam whose finite neighbour (the farther-differing one) lies
+    more than ``MIXED_PIXEL_EDGE_M`` away in range takes, with probability ``p``, a range uniformly between its own
+    surface and the neighbour's. Beams without a hit stay so (a footprint half on nothing returns the near part)."""
+    left = np.concatenate(([np.nan], r[:-1]))
+    right = np.concatenate((r[1:], [np.nan]))
+    with np.errstate(invalid="ignore"):
+        dl = np.where(np.isfinite(left), left - r, 0.0)
+        dr = np.where(np.isfinite(right), right - r, 0.0)
+    other = np.where(np.abs(dl) >= np.abs(dr), dl, dr)
+    edge = np.isfinite(r) & (np.abs(other) > MIXED_PIXEL_EDGE_M) & (rng.random(r.size) < p)
+    out = r.copy()
+    out[edge] += rng.random(int(edge.sum())) * other[edge]
+    return out
 
 
 def measure_ranges(
@@ -208,6 +233,7 @@ def measure_ranges(
     noise_sd: float,
     dropout: float,
     no_return: str = "inf",
+    mixed_pixel: float = 0.0,
     rng: np.random.Generator,
 ) -> NDArray[np.float64]:
     """What the laser reports for the true ranges: Gaussian noise, dropouts and the out-of-range codes.
@@ -222,8 +248,10 @@ def measure_ranges(
         Standard deviation (m) of additive Gaussian range noise.
     dropout : float
         Probability that a beam returns nothing.
-    no_return : {"inf", "nan", "above_max"}
+    no_return : {"inf", "nan", "above_max", "at_max"}
         Value of a beam without a return.
+    mixed_pixel : float
+        Probability that a beam at a depth edge reports a range between the two surfaces (module docstring).
     rng : numpy.random.Generator
 
     Returns
@@ -232,6 +260,8 @@ def measure_ranges(
         Reported ranges (m).
     """
     r = np.asarray(true_ranges, dtype=float).reshape(-1)
+    if mixed_pixel > 0 and r.size > 1:
+        r = _mix_edges(r, mixed_pixel, rng)
     miss = no_return_value(no_return, range_max)
     noisy = r + rng.normal(0.0, noise_sd, size=r.size) if noise_sd > 0 else r.copy()
     lost = ~np.isfinite(r) | (noisy > range_max)

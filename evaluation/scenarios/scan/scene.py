@@ -92,10 +92,13 @@ class LaserConfig:
     range_min, range_max : float
         Measurable interval (m).
     noise_sd : float
-        Gaussian range noise (m).
+        Gaussian range noise (m); 2 cm by default, as common 2-D lasers are specified (1-3 cm).
     dropout : float
         Probability that a beam returns nothing.
-    no_return : {"inf", "nan", "above_max"}
+    mixed_pixel : float
+        Probability that a beam at a depth edge returns a range between the two surfaces (mixed pixels, see
+        :mod:`evaluation.scenarios.scan.raycast`).
+    no_return : {"inf", "nan", "above_max", "at_max"}
         Value of beams without a return (see :mod:`evaluation.scenarios.scan.raycast`).
     sweep : bool
         Beams are taken one after the other during a mirror revolution of ``1 / rate_hz`` s (beam ``i`` at
@@ -114,8 +117,9 @@ class LaserConfig:
     rate_hz: float = 15.0
     range_min: float = 0.05
     range_max: float = 25.0
-    noise_sd: float = 0.01
-    dropout: float = 0.0
+    noise_sd: float = 0.02
+    dropout: float = 0.002
+    mixed_pixel: float = 0.3
     no_return: str = "inf"
     sweep: bool = False
     sweep_blocks: int = 16
@@ -145,6 +149,8 @@ class LaserConfig:
         check_positive(self.noise_sd, "LaserConfig.noise_sd", allow_zero=True)
         if not 0.0 <= check_number(self.dropout, "LaserConfig.dropout") < 1.0:
             raise ValueError(f"LaserConfig.dropout must be in [0, 1), got {self.dropout!r}")
+        if not 0.0 <= check_number(self.mixed_pixel, "LaserConfig.mixed_pixel") <= 1.0:
+            raise ValueError(f"LaserConfig.mixed_pixel must be in [0, 1], got {self.mixed_pixel!r}")
         if self.no_return not in NO_RETURN_KINDS:
             raise ValueError(f"LaserConfig.no_return must be one of {NO_RETURN_KINDS}, got {self.no_return!r}")
         if not isinstance(self.sweep, bool):
@@ -215,7 +221,11 @@ class OdometryNoise:
     ``w_o = w (1 + e_w) + N(0, alpha3 v^2 + alpha4 w^2)`` (the velocity-model variances of
     :class:`gridbridge.params.SensorMotionNoise`, drawn independently every step) with systematic scale errors
     ``e_v ~ N(0, scale_sd_v^2)``, ``e_w ~ N(0, scale_sd_w^2)`` drawn once per run (wheel radius and track
-    width errors). The odometry pose integrates ``(v_o, w_o)``, so its error grows with the distance driven.
+    width errors). Two more errors of real wheel odometry: a yaw-rate bias ``b ~ N(0, yaw_bias_sd^2)`` (rad/s,
+    drawn once per run: ``w_o += b``, a heading drift while driving straight), and slip in turns, which wheels
+    report as rotation they did not make (``w_o *= 1 + slip min(|w| / 1 rad/s, 1)``). The odometry messages and
+    the ``odom -> base_link`` TF are stamped ``latency_s`` after the pose they carry (a driver that stamps at
+    publication). The odometry pose integrates ``(v_o, w_o)``, so its error grows with the distance driven.
     """
 
     rate_hz: float = 50.0
@@ -223,12 +233,25 @@ class OdometryNoise:
     alpha2: float = 0.0005
     alpha3: float = 0.0005
     alpha4: float = 0.0025
-    scale_sd_v: float = 0.01
-    scale_sd_w: float = 0.02
+    scale_sd_v: float = 0.02
+    scale_sd_w: float = 0.03
+    yaw_bias_sd: float = 0.005
+    slip: float = 0.05
+    latency_s: float = 0.02
 
     def __post_init__(self) -> None:
         check_positive(self.rate_hz, "OdometryNoise.rate_hz")
-        for name in ("alpha1", "alpha2", "alpha3", "alpha4", "scale_sd_v", "scale_sd_w"):
+        for name in (
+            "alpha1",
+            "alpha2",
+            "alpha3",
+            "alpha4",
+            "scale_sd_v",
+            "scale_sd_w",
+            "yaw_bias_sd",
+            "slip",
+            "latency_s",
+        ):
             check_positive(getattr(self, name), f"OdometryNoise.{name}", allow_zero=True)
 
 
@@ -269,6 +292,13 @@ class PeopleConfig:
         ``eth_ucy``: dataset time of the scene start (s).
     offset : (x, y)
         ``eth_ucy``: added to the dataset's positions (m).
+    groups : rows (x, y, n, t_start, t_end)
+        People standing in groups (world, m, s), besides ``source``'s people (see
+        :mod:`evaluation.scenarios.scan.standing`).
+    queues : rows (x, y, yaw, n, t_start, t_end)
+        People standing in a line (a queue, people waiting at a door).
+    shuffle_sd, shuffle_rate : float
+        Standing people sway around their spot (sd, m) and shift it by 0.1-0.4 m ``shuffle_rate`` times a second.
     gait : GaitParams
         Legs and gait.
     """
@@ -298,6 +328,10 @@ class PeopleConfig:
     sequence: str = "seq_eth"
     t_offset_s: float = 0.0
     offset: tuple[float, float] = (0.0, 0.0)
+    groups: tuple[tuple[float, ...], ...] = ()
+    queues: tuple[tuple[float, ...], ...] = ()
+    shuffle_sd: float = 0.08
+    shuffle_rate: float = 0.25
     gait: GaitParams = field(default_factory=GaitParams)
 
     def __post_init__(self) -> None:
@@ -336,6 +370,16 @@ class PeopleConfig:
         object.__setattr__(self, "offset", tuple(check_number(v, "PeopleConfig.offset") for v in self.offset))
         if not isinstance(self.gait, GaitParams):
             raise TypeError("PeopleConfig.gait must be a GaitParams")
+        object.__setattr__(self, "groups", _rows(self.groups, 5, "PeopleConfig.groups"))
+        object.__setattr__(self, "queues", _rows(self.queues, 6, "PeopleConfig.queues"))
+        for name, rows, n_col in (("groups", self.groups, 2), ("queues", self.queues, 3)):
+            for row in rows:
+                if row[n_col] < 1 or row[n_col] != int(row[n_col]):
+                    raise ValueError(f"PeopleConfig.{name}: the number of people must be a whole number >= 1, got {row}")
+                if row[-1] <= row[-2]:
+                    raise ValueError(f"PeopleConfig.{name}: t_end must exceed t_start, got {row}")
+        check_positive(self.shuffle_sd, "PeopleConfig.shuffle_sd", allow_zero=True)
+        check_positive(self.shuffle_rate, "PeopleConfig.shuffle_rate", allow_zero=True)
 
     def behaviour_weights(self) -> NDArray[np.float64]:
         return np.array([self.p_towards, self.p_cross, self.p_stop_and_go, self.p_pair, self.p_stand], dtype=float)

@@ -108,6 +108,9 @@ class SceneSim:
         Person centre in the first laser's frame (m).
     gt_beams : ndarray, shape (R,), int64
         Beams of that scan returned from the person's legs.
+    gt_speed : ndarray, shape (R,)
+        The person's walking speed (m/s, world) at the scan, over +-0.5 s (standing people shuffle at
+        0.0-0.2 m/s, walkers 0.5 m/s and more); NaN within 0.5 s of appearing or leaving.
     ms_per_scan : float
         Wall-clock time to simulate one scan of the first laser (people, ray casting, noise), ms.
     """
@@ -126,6 +129,7 @@ class SceneSim:
     gt_person: NDArray[np.int64]
     gt_xy: NDArray[np.float64]
     gt_beams: NDArray[np.int64]
+    gt_speed: NDArray[np.float64]
     ms_per_scan: float
 
     @property
@@ -210,6 +214,12 @@ def simulate_scene(
     gt_person: list[int] = []
     gt_xy: list[NDArray[np.float64]] = []
     gt_beams: list[int] = []
+    gt_speed: list[float] = []
+    half = max(1, round(0.5 / dt))  # speed over +-0.5 s
+    with np.errstate(invalid="ignore"):
+        shifted = np.concatenate((centres[half:], np.repeat(centres[-1:], half, axis=0)))
+        back = np.concatenate((np.repeat(centres[:1], half, axis=0), centres[:-half]))
+        speeds = np.hypot(*np.moveaxis(shifted - back, -1, 0)) / (2 * half * dt)  # (M, P); NaN at the ends
     elapsed = 0.0
     for li, las in enumerate(cfg.lasers):
         n_l = n_frames if li == 0 else max(1, math.floor((duration - FIRST_SCAN_S) * las.rate_hz) + 1)
@@ -261,6 +271,7 @@ def simulate_scene(
                 noise_sd=las.noise_sd,
                 dropout=las.dropout,
                 no_return=las.no_return,
+                mixed_pixel=las.mixed_pixel,
                 rng=r_laser,
             )
             ranges[k] = meas
@@ -276,6 +287,8 @@ def simulate_scene(
                     gt_person.append(int(ids[alive[j]]))
                     gt_xy.append(c_local[j])
                     gt_beams.append(int(beams[alive[j]]))
+                    sp = speeds[min(len(step_times) - 1, round(float(times[k]) / dt)), alive[j]]
+                    gt_speed.append(float(sp))  # NaN within 0.5 s of appearing or leaving
                 elapsed += time.perf_counter() - t_start
                 if progress is not None:
                     progress(1)
@@ -296,5 +309,6 @@ def simulate_scene(
         gt_person=np.array(gt_person, dtype=np.int64),
         gt_xy=np.array(gt_xy, dtype=float).reshape(-1, 2),
         gt_beams=np.array(gt_beams, dtype=np.int64),
+        gt_speed=np.array(gt_speed, dtype=float),
         ms_per_scan=1e3 * elapsed / n_frames,
     )
