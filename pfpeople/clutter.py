@@ -734,6 +734,8 @@ class ClutterSuppressor:
         #: After k consecutive failed matches the next min(2^(k-1), max_backoff) - 1 scans skip the matcher
         #: (the ego-motion is unknown there: the map restarts, as after a failure). Where matching does not work
         #: (outdoors with a short-range laser: 83 % of person_following_outdoor_1) this saves most of its cost.
+        #: A skipped scan becomes the matcher's keyframe (:meth:`ScanOdometry.skip`), so the next attempt matches
+        #: two scans one period apart: the back-off bounds the cost, it never turns matching off.
         self.max_backoff = 8
         self.odometry_s = 0.0
         """Wall-clock seconds spent in the scan matcher (all scans)."""
@@ -785,7 +787,7 @@ class ClutterSuppressor:
         if ego is None:
             if self._backoff > 0:  # the matcher failed lately: skip it (ego unknown, the map restarts)
                 self._backoff -= 1
-                self.odometry.reset()
+                self.odometry.skip(points)  # the next attempt is matched against this scan
                 ego, ok = Pose2D(), False
             else:
                 st = self.odometry.update(points)

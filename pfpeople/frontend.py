@@ -57,6 +57,7 @@ FRONT_COUNTERS = (
     "max_lateral_m",
     "suppressed",
     "laser_odometry_frames",
+    "ego_motion",
 )
 
 

@@ -136,7 +136,7 @@ class OdometryIntegrator:
         Without ``topic``, take the motion from scan matching (:meth:`from_laser`).
     summary : RunSummary, optional
         Where the counts go (``frames_without_odometry``, ``max_lateral_m``, ``laser_odometry_frames``,
-        ``filter_restarts``, ``bad_messages[topic]``); default a new one.
+        ``ego_motion``, ``filter_restarts``, ``bad_messages[topic]``); default a new one.
     warn : WarnOnce, optional
         Warn-once logger shared with the rest of the run; default a new one.
 
@@ -243,7 +243,12 @@ class OdometryIntegrator:
         return replace(motion, odometry=odo, laser_ego=laser_ego)
 
     def end(self, frame: Frame, motion: EgoMotion) -> None:
-        """Move on past ``frame``: a frame without odometry keeps the last pose, so its motion is not lost."""
+        """Move on past ``frame``: a frame without odometry keeps the last pose, so its motion is not lost.
+
+        The frame is counted in :attr:`RunSummary.ego_motion` by the source of ``motion.odometry``.
+        """
+        source = "none" if motion.odometry is None else "scan_matching" if motion.laser_ego is not None else "odometry"
+        count(self.summary.ego_motion, source)
         self.prev_stamp_ns = frame.stamp_ns
         if motion.pose is not None:
             self.prev_pose = motion.pose

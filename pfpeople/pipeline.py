@@ -392,6 +392,13 @@ class Pipeline:
             if c.odometry in policies or c.odometry == c.driver:
                 raise ValueError(f"odometry topic {c.odometry!r} is also a detector or driver topic")
             policies[c.odometry] = "interpolate"
+        elif self._scan_matched():
+            log.info(
+                "no odometry topic configured: the ego-motion comes from scan matching the driving laser %s where "
+                "its scans match; in the other frames the robot is taken as standing (counted: run.json stats "
+                "ego_motion)",
+                c.driver,
+            )
         else:
             log.info("no odometry topic configured: the robot is taken as standing in every frame")
         use_bag_time = c.time_source == "bag"
@@ -428,6 +435,45 @@ class Pipeline:
         finally:
             self.summary.elapsed_s = time.perf_counter() - t0
             self.summary.sync = sync.stats
+            self._log_ego_motion()
+
+    def _scan_matched(self) -> bool:
+        """Whether the run's ego-motion comes from scan matching the driving laser (no odometry topic)."""
+        c = self.config
+        return (
+            not c.odometry
+            and c.clutter.laser_odometry
+            and self.clutter is not None
+            and c.driver in self.clutter.suppressors
+        )
+
+    def _log_ego_motion(self) -> None:
+        """Log where the frames' ego-motion came from; warn when scan matching gave it in under half the frames
+        that could have had it (all but the first frame of the run and after each restart)."""
+        s = self.summary
+        e = s.ego_motion
+        total = sum(e.values())
+        if not total:
+            return
+        log.info(
+            "ego-motion of %d frames: %d from odometry, %d from scan matching, %d none (the robot stood)",
+            total,
+            e.get("odometry", 0),
+            e.get("scan_matching", 0),
+            e.get("none", 0),
+        )
+        possible = total - 1 - s.filter_restarts
+        matched = e.get("scan_matching", 0)
+        if self._scan_matched() and possible > 0 and matched < 0.5 * possible:
+            log.warning(
+                "scan matching of %s gave the ego-motion of only %d of %d frames (%.0f %%): the other frames had "
+                "none (for the filter the robot stood still), so wherever it moved then, the grid and the tracks "
+                "moved with it (an odometry topic would give the motion)",
+                self.config.driver,
+                matched,
+                possible,
+                100.0 * matched / possible,
+            )
 
     def _two_processes(self, bag: BagSource) -> bool:
         """Whether this run's front end runs in a second process (``front_process``)."""

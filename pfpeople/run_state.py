@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from gridbridge.ego_motion import Odometry
 from pfpeople.bag.sync import Frame
 
-__all__ = ["FrameResult", "RunSummary", "WarnOnce", "count"]
+__all__ = ["EGO_SOURCES", "FrameResult", "RunSummary", "WarnOnce", "count"]
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -72,9 +72,24 @@ class FrameResult:
     support_static: list[NDArray[np.bool_] | None] | None = None
 
 
+#: The keys of :attr:`RunSummary.ego_motion`: where a frame's ego-motion came from.
+EGO_SOURCES = ("odometry", "scan_matching", "none")
+
+
+def _ego_counts() -> dict[str, int]:
+    return dict.fromkeys(EGO_SOURCES, 0)
+
+
 @dataclass
 class RunSummary:
-    """Counts of a run (also written to ``run.json`` as ``stats``)."""
+    """Counts of a run (also written to ``run.json`` as ``stats``).
+
+    ``ego_motion`` counts the frames by where the filter's ego-motion came from: ``odometry`` (the odometry
+    topic), ``scan_matching`` (the driving laser's scan matcher, ``[clutter] laser_odometry``; the same frames
+    as ``laser_odometry_frames``) or ``none`` (the robot was taken as standing: no odometry in the frame, a
+    failed or skipped scan match, or the first frame of the run or after a restart, which have no previous
+    frame); the three add up to the frames processed.
+    """
 
     frames: int = 0
     elapsed_s: float = 0.0
@@ -86,6 +101,7 @@ class RunSummary:
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     laser_odometry_frames: int = 0
+    ego_motion: dict[str, int] = field(default_factory=_ego_counts)
     sync: dict[str, dict[str, int]] = field(default_factory=dict)
     error: str | None = None
 

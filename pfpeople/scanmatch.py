@@ -378,6 +378,8 @@ class ScanOdometry:
     velocity), giving ``T_KC``; the step is ``ego = T_KP^-1 * T_KC``. ``C`` becomes the keyframe when it is
     ``keyframe_distance`` / ``keyframe_angle`` away from ``K`` or overlaps it poorly. A poor match (see
     :attr:`MatchResult.ok`) returns the identity with ``ok=False`` and restarts from ``C`` as keyframe.
+    A scan that is not matched (to save time, :meth:`skip`) becomes the keyframe of the next :meth:`update`, so
+    that one is matched against the scan just before it, not against an older one or none.
 
     Parameters
     ----------
@@ -391,16 +393,38 @@ class ScanOdometry:
         self.reset()
 
     def reset(self) -> None:
-        """Forget the keyframe (the next scan starts over)."""
+        """Forget the keyframe (the next scan starts over) and the counts."""
         self._key: _Reference | None = None
+        self._pending: NDArray[np.float64] | None = None
         self._t_kp = Pose2D()
         self._velocity = Pose2D()
         self.poor_matches = 0
+        """Scans whose match was poor (``ok=False`` with a keyframe to match against)."""
         self.steps = 0
+        """Scans passed to :meth:`update`."""
+        self.skipped = 0
+        """Scans passed to :meth:`skip`."""
 
     def _set_key(self, points: NDArray[np.float64]) -> None:
         self._key = _reference(points, self.config.match)
         self._t_kp = Pose2D()
+
+    def skip(self, points: ArrayLike) -> None:
+        """Take a scan without matching it: it replaces the keyframe, and the motion into it is unknown.
+
+        The next :meth:`update` is matched against this scan (one scan period apart) from the identity, as after
+        a poor match. The keyframe's normals are only computed if that :meth:`update` comes, so a run of skipped
+        scans costs little more than copying their points.
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 2)
+            Scan end points in the sensor frame (m); non-finite rows are ignored.
+        """
+        self._pending = _points(points, "points")
+        self._key = None
+        self._velocity = Pose2D()
+        self.skipped += 1
 
     def update(self, points: ArrayLike) -> OdometryStep:
         """Match one scan and return the motion since the previous one.
@@ -417,6 +441,9 @@ class ScanOdometry:
         """
         pts = _points(points, "points")
         self.steps += 1
+        if self._pending is not None:  # the scan skipped just before is the keyframe
+            self._set_key(self._pending)
+            self._pending = None
         if self._key is None or self._key.points.shape[0] < 3:
             self._set_key(pts)
             self._velocity = Pose2D()

@@ -375,3 +375,24 @@ def test_suppressor_keeps_one_moving_set_per_detector_and_excludes_their_union()
     moving = sup._prev_moving
     assert moving.shape == (1, 2) and np.allclose(moving, [[1.0 + 0.06 * 29, -1.0]])
     assert st.excluded.shape == (1, 2)  # the walker of the previous scan
+
+
+def test_suppressor_backoff_skips_scans_but_matches_again_after_it(rng: np.random.Generator) -> None:
+    """Without a given ego, two unmatchable scans (random points) make the matcher back off for one scan; the
+    skipped scan is the next match's keyframe, so from then on every scan is matched and the ego-motion is
+    the true one (the old code dropped the keyframe on skipped scans and never matched again)."""
+    sup = ClutterSuppressor(CFG)
+    robot = [Pose2D(x=-1.0 + 0.03 * k, y=0.2, yaw=0.005 * k) for k in range(30)]
+    oks, egos = [], []
+    for k, pose in enumerate(robot):
+        pts = rng.uniform(-5.0, 5.0, (768, 2)) if k in (1, 2) else ray_cast(pose, post())
+        st = sup.step(pts, [np.zeros((0, 2))], dt=DT)
+        oks.append(st.ego_ok)
+        egos.append(st.ego)
+    assert oks[:5] == [True, False, False, False, True]  # scan 3 is skipped, scan 4 matched against it
+    assert all(oks[4:])
+    assert (sup.odometry.skipped, sup.odometry.poor_matches) == (1, 2)
+    for k in range(4, len(robot)):
+        true = robot[k - 1].inverse().compose(robot[k])
+        assert abs(egos[k].x - true.x) < 0.01 and abs(egos[k].y - true.y) < 0.01, k
+        assert abs(egos[k].yaw - true.yaw) < math.radians(0.3), k

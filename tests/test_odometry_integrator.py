@@ -111,6 +111,23 @@ def test_laser_odometry_moves_the_grid_without_an_odometry_topic() -> None:
         OdometryIntegrator("/odom")
 
 
+def test_frames_are_counted_by_the_source_of_their_ego_motion() -> None:
+    """``ego_motion``: odometry topic, scan matching, none (first frame, a frame without odometry, a failed
+    match); the counts add up to the frames."""
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), summary=summary)
+    for k, odom in enumerate([True, True, False, True]):
+        _step(integ, _frame(k, 0.1 * k, *([_odom(round(0.1 * k * S), 0.05 * k)] if odom else [])))
+    assert summary.ego_motion == {"odometry": 2, "scan_matching": 0, "none": 2}
+    laser = RunSummary()
+    integ = OdometryIntegrator(None, laser_odometry=True, summary=laser)
+    for k, ego in enumerate([Pose2D(x=0.1), Pose2D(x=0.1), None, Pose2D(x=0.1)]):
+        f = _frame(k, 0.1 * k)
+        integ.end(f, integ.from_laser(integ.begin(f), ego))
+    assert laser.ego_motion == {"odometry": 0, "scan_matching": 2, "none": 2} and laser.laser_odometry_frames == 2
+    assert sum(laser.ego_motion.values()) == 4 and RunSummary().as_dict()["ego_motion"]["none"] == 0
+
+
 def test_pipeline_module_still_exports_the_odometry_helpers() -> None:
     assert pipeline.odometry_between is odometry_between
     assert (pipeline.FIRST_DT_S, pipeline.MAX_GAP_S) == (0.1, 2.0)

@@ -642,3 +642,43 @@ def test_real_bag_recall_per_detector_and_filter(
     for name in ("laser-legs", "laser-boosted"):
         assert cal[name]["ppv"] is None
         assert cal[name]["fnr"] == pytest.approx(1.0 - s[name]["recall"], abs=1e-9)
+
+
+ROOM_ODOM = [(-2.0, -3.0, 6.0, -3.0), (6.0, -3.0, 6.0, 4.0), (6.0, 4.0, -2.0, 4.0), (-2.0, 4.0, -2.0, -3.0)]
+
+
+def _room_scan(k: int, stamp: int, ranges: Any) -> tuple[int, Any]:
+    """scan_hook: the people's legs of ``write_bag`` inside a room (walls fixed in the odom frame)."""
+    lp = laser_pose(0.1 * k)
+    walls = [(*lp.inverse().apply(np.array([[a, b], [c, d]])).ravel(),) for a, b, c, d in ROOM_ODOM]
+    circles = []
+    for x, y in people_in(lp):
+        b = math.atan2(y, x)
+        px, py = -math.sin(b) * 0.15, math.cos(b) * 0.15
+        circles += [(x + px, y + py, 0.06), (x - px, y - py, 0.06)]
+    return stamp, render_scan(circles=circles, segments=walls, angle_increment=math.radians(0.5)).ranges
+
+
+def test_run_json_says_where_the_ego_motion_came_from(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """``stats.ego_motion`` counts the frames by source and the log says it: odometry; scan matching in a room
+    (every frame after the first, no warning); scan matching of legs alone (never: a warning, not "standing in
+    every frame" nor silence)."""
+    cases = [("odom", True, None), ("room", False, _room_scan), ("legs", False, None)]
+    got: dict[str, tuple[dict[str, int], str]] = {}
+    for name, odometry, hook in cases:
+        bag = tmp_path / f"{name}.bag"
+        write_bag(bag, n_scans=20, odometry=odometry, scan_hook=hook)
+        caplog.clear()
+        with caplog.at_level(logging.INFO), BagSource(bag) as src:
+            summary, _ = Pipeline(config(odometry=odometry)).run(src, tmp_path / name)
+        stats = json.loads((tmp_path / name / "run.json").read_text())["stats"]
+        assert stats["ego_motion"] == summary.ego_motion
+        assert stats["ego_motion"]["scan_matching"] == stats["laser_odometry_frames"]
+        got[name] = (summary.ego_motion, caplog.text)
+    assert got["odom"][0] == {"odometry": 19, "scan_matching": 0, "none": 1}
+    assert got["room"][0] == {"odometry": 0, "scan_matching": 19, "none": 1}
+    assert got["legs"][0] == {"odometry": 0, "scan_matching": 0, "none": 20}
+    assert "0 from odometry, 19 from scan matching, 1 none" in got["room"][1]
+    assert "gave the ego-motion of only" not in got["room"][1] + got["odom"][1]
+    assert "scan matching of /scan gave the ego-motion of only 0 of 19 frames (0 %)" in got["legs"][1]
+    assert "standing in every frame" not in got["legs"][1]

@@ -184,3 +184,24 @@ def test_odometry_falls_back_to_identity_on_a_poor_match() -> None:
     assert not st.ok and st.match is not None and st.match.degenerate
     assert (st.ego.x, st.ego.y, st.ego.yaw) == (0.0, 0.0, 0.0)
     assert odo.poor_matches == 1
+
+
+def test_a_skipped_scan_becomes_the_keyframe_of_the_next_match() -> None:
+    """skip(B) then update(C): C is matched against B (one period apart), not against the older A nor against
+    nothing, so the step is B -> C; the counts say what happened."""
+    a, b = Pose2D(x=0.0, y=0.0, yaw=0.0), Pose2D(x=0.6, y=0.1, yaw=math.radians(20.0))
+    c = b.compose(Pose2D(x=0.05, y=0.0, yaw=math.radians(1.5)))
+    odo = ScanOdometry()
+    odo.update(ray_cast(a, ROOM, POSTS))
+    odo.skip(ray_cast(b, ROOM, POSTS))
+    st = odo.update(ray_cast(c, ROOM, POSTS))
+    assert st.ok and st.new_keyframe is False
+    dist, ang = pose_error(st.ego, relative(b, c))
+    assert dist <= 0.01 and ang <= 0.2, (dist, ang)
+    assert (odo.steps, odo.skipped, odo.poor_matches) == (2, 1, 0)
+    # a skip after a reset works the same: the next update has a keyframe
+    odo.reset()
+    odo.skip(ray_cast(b, ROOM, POSTS))
+    assert odo.update(ray_cast(c, ROOM, POSTS)).ok
+    with pytest.raises(ValueError, match="points"):
+        odo.skip(np.zeros((3, 3)))
