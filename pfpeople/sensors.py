@@ -66,12 +66,12 @@ class LaserScan:
 
     @property
     def no_return(self) -> NDArray[np.bool_]:
-        """True for beams that saw nothing within range: ``+inf`` (REP-117) or above ``range_max`` (the drivers
-        that report "max range and more"), shape (B,). NaN (an erroneous reading) and values below
+        """True for beams that saw nothing within range: ``+inf`` (REP-117), or ``range_max`` and above (the
+        drivers that write "max range" or "max range and more"), shape (B,). NaN (an erroneous reading) and values below
         ``range_min`` (``-inf``: too close) are neither returns nor free space."""
         r = self.ranges
         with np.errstate(invalid="ignore"):
-            return np.asarray((r > self.range_max) | np.isposinf(r), dtype=bool)
+            return np.asarray((r >= self.range_max) | np.isposinf(r), dtype=bool)
 
     def free_rays(self, max_range: float) -> NDArray[np.float64]:
         """End points ``(F, 2)`` (m, scan frame) of the :attr:`no_return` beams, cut at ``min(range_max,

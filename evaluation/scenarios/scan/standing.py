@@ -159,6 +159,9 @@ def standing_tracks(
     for rows, queue in ((groups, False), (queues, True)):
         for row in rows:
             spots, t0, t1 = _spots(row, queue=queue)
+            if t0 >= duration:  # arrives after the scene's end
+                pid += len(spots)
+                continue
             for spot in spots:
                 out.append(
                     _stander(
