@@ -15,6 +15,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from evaluation.scenarios.scan import builtin_scan_scenes, load_scene, write_scene_bag
+from gridbridge.cli_support import examples
 
 __all__ = ["add_parser", "register", "run"]
 
@@ -23,6 +24,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     """Add the ``simulate-bag`` subcommand."""
     p: argparse.ArgumentParser = subparsers.add_parser(
         "simulate-bag",
+        epilog=examples(
+            "pfpeople-eval simulate-bag corridor --out bags --frames 200",
+            "pfpeople-eval simulate-bag crowd --out bags --format ros2",
+        ),
         help="simulate a scan-level scene (raw laser scans, odometry, TF) and write it as a bag with ground truth",
         description=(
             "Ray-cast a scene of walls, furniture and walking people (two legs each) for a moving robot and "

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from evaluation.sweep import SWEEP_KEYS, columns_for, parse_param, run_sweep
+from gridbridge.cli_support import examples
 from pfpeople.batch import check_table_path, write_table
 
 
@@ -27,6 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     keys = "; ".join(f"{k}: {v.help}" for k, v in SWEEP_KEYS.items())
     p = subparsers.add_parser(
         "sweep",
+        epilog=examples(
+            "pfpeople-eval sweep --scenario complementary --seeds 0 1 --param particles=5000,50000 --out runs/sweep",
+        ),
         help="A/B evaluation over scenarios x seeds x parameter values, as Dask tasks; one metrics table",
         description="One Dask task per point of scenarios x seeds x values; each runs the A/B evaluation and "
         "returns recall, precision, FPCPF and ms/iteration per filter and classifier.",

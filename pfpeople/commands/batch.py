@@ -18,6 +18,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from gridbridge.cli_support import examples
 from pfpeople.bag.config import BagConfig, builtin_config_path, load_config
 from pfpeople.batch import check_table_path, run_batch, write_table
 
@@ -61,6 +62,10 @@ def _run(args: argparse.Namespace) -> int:
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "batch",
+        epilog=examples(
+            "pfpeople batch recordings/*.bag --config my.toml --out runs/fleet --workers 2",
+            "pfpeople batch a.bag b.bag --config my.toml --out runs/ab --scheduler tcp://host:8786",
+        ),
         help="run the pipeline over many bags as Dask tasks (local cluster or --scheduler); one results table",
         description="One task per bag on dask.distributed; each writes OUT/<bag stem> (a run directory); a bag "
         "that fails is recorded (table row and OUT/<stem>/batch_error.txt) and the others go on.",
