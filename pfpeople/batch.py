@@ -109,18 +109,20 @@ def run_tasks(
 ) -> list[Any]:
     """Run ``fn(*args[i])`` as one Dask task each; results in the order of ``args``.
 
-    Progress (tqdm) counts tasks as they complete. A task whose future fails (the function raised, or its
-    worker died) yields ``on_error(i, exception)`` instead of a result; the other tasks go on.
+    Progress (:func:`pfpeople.progress.progress_bar`) counts tasks as they complete. A task whose future fails
+    (the function raised, or its worker died) yields ``on_error(i, exception)`` instead of a result; the other
+    tasks go on.
     """
     from distributed import as_completed
-    from tqdm import tqdm
+
+    from pfpeople.progress import progress_bar
 
     if len(keys) != len(args) or len(set(keys)) != len(keys):
         raise ValueError("run_tasks: keys must be unique, one per task")
     futures = [client.submit(fn, *a, key=k, pure=False) for a, k in zip(args, keys, strict=True)]
     index = {f.key: i for i, f in enumerate(futures)}
     results: list[Any] = [None] * len(futures)
-    with tqdm(total=len(futures), desc=desc, unit="task", disable=not progress) as bar:
+    with progress_bar(total=len(futures), desc=desc, unit="task", disable=not progress) as bar:
         for fut in as_completed(futures):
             i = index[fut.key]
             try:
@@ -287,7 +289,7 @@ def run_batch(
     overwrite : bool
         Replace existing runs; without it, existing run directories are an error before anything runs.
     progress : bool
-        A tqdm bar over completed bags.
+        A progress bar over completed bags (:func:`pfpeople.progress.progress_bar`).
 
     Returns
     -------

@@ -16,6 +16,7 @@ from tqdm import tqdm
 
 from evaluation.scenarios.scan import builtin_scan_scenes, load_scene, write_scene_bag
 from gridbridge.cli_support import examples
+from pfpeople.progress import progress_bar
 
 __all__ = ["add_parser", "register", "run"]
 
@@ -68,10 +69,11 @@ def run(args: argparse.Namespace) -> int:
         if stage not in bars:
             for bar in bars.values():
                 bar.close()
-            bars[stage] = tqdm(
+            bars[stage] = progress_bar(
                 total=total if stage == "simulate" else None,
                 desc=stage,
                 unit=" scans" if stage == "simulate" else " msgs",
+                every=10_000,  # off a terminal, a line per 10k messages written (their total is not known)
             )
         bars[stage].update(n)
 
