@@ -13,7 +13,6 @@ completed, 1 when some failed (their errors are in the table), 2 on bad input.
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 from collections import defaultdict
 from pathlib import Path
@@ -21,7 +20,7 @@ from typing import Any
 
 from evaluation.sweep import SWEEP_KEYS, columns_for, parse_param, run_sweep
 from gridbridge.cli_support import examples
-from pfpeople.batch import check_table_path, write_table
+from pfpeople.batch import check_table_path, quiet_dask_logs, write_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -54,8 +53,7 @@ def _mean(values: list[Any]) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not getattr(args, "verbose", False):  # the cluster's start/stop messages only with -v
-        logging.getLogger("distributed").setLevel(logging.WARNING)
+    quiet_dask_logs(verbose=args.verbose)  # the cluster's start/stop messages only with -v
     params: dict[str, list[Any]] = {}
     for text in args.param:
         key, values = parse_param(text)

@@ -12,7 +12,6 @@ Exit status: 0 when every bag completed, 1 when some failed (their errors are in
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -20,7 +19,7 @@ from typing import Any
 
 from gridbridge.cli_support import examples
 from pfpeople.bag.config import BagConfig, builtin_config_path, load_config
-from pfpeople.batch import check_table_path, run_batch, write_table
+from pfpeople.batch import check_table_path, quiet_dask_logs, run_batch, write_table
 
 
 def _config(args: argparse.Namespace) -> BagConfig:
@@ -32,8 +31,7 @@ def _config(args: argparse.Namespace) -> BagConfig:
 
 
 def _run(args: argparse.Namespace) -> int:
-    if not getattr(args, "verbose", False):  # the cluster's start/stop messages only with -v
-        logging.getLogger("distributed").setLevel(logging.WARNING)
+    quiet_dask_logs(verbose=args.verbose)  # the cluster's start/stop messages only with -v
     cfg = _config(args)
     out = Path(args.out)
     table = check_table_path(args.table if args.table else out / "results.csv")
