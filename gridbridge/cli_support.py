@@ -132,10 +132,22 @@ def build_parser(prog: str, description: str, commands: ModuleType) -> argparse.
 
 
 def run(prog: str, description: str, commands: ModuleType, argv: Sequence[str] | None = None) -> int:
-    """Parse ``argv`` and run the chosen subcommand; returns its exit code.
+    """Parse ``argv`` and run the chosen subcommand.
 
     ``-q`` logs warnings and errors only and turns progress off (``args.no_progress``); ``-v`` logs debug
     messages; both together are an error.
+
+    Parameters
+    ----------
+    prog, description, commands
+        As :func:`build_parser`.
+    argv : sequence of str, optional
+        The arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The subcommand's exit code; 2 for bad input or files (a one-line message on stderr).
     """
     parser = build_parser(prog, description, commands)
     args = parser.parse_args(argv)

@@ -52,6 +52,8 @@ class LineStream:
         return False
 
     def __getattr__(self, name: str) -> Any:  # encoding, fileno ...: the wrapped stream's
+        if name == "stream":  # not set yet (copy, pickle): no recursion
+            raise AttributeError(name)
         return getattr(self.stream, name)
 
 
