@@ -360,7 +360,7 @@ def run_ab(
     noisy_odometry : bool
         Feed the filters the reported (noisy) odometry rather than the true controls.
     progress : bool
-        Show tqdm progress bars.
+        Show progress bars (:func:`pfpeople.progress.progress_bar`).
     """
     blob_params = BlobParams() if blob_params is None else blob_params
     spec = scenario.spec
@@ -421,9 +421,9 @@ def _slug(name: str) -> str:
 def _progress(it: Iterable[Frame], show: bool, desc: str, total: int) -> Iterable[Frame]:
     if not show:
         return it
-    from tqdm import tqdm
+    from pfpeople.progress import progress_bar
 
-    return tqdm(it, desc=desc, total=total, unit="frame", leave=False)
+    return progress_bar(it, desc=desc, total=total, unit="frame", leave=False)
 
 
 def write_record(

@@ -2,24 +2,127 @@
 
 Each module in the commands package defines ``register(subparsers) -> None``, which adds one subparser and
 sets ``func=callable(args) -> int`` as its default. Used by ``pfpeople`` and ``pfpeople-eval``.
+
+Every subparser is a :class:`SubcommandParser`: it inherits ``-q/--quiet`` and ``-v/--verbose`` from one
+parent parser (so they work before and after the subcommand) and keeps the "Examples:" epilog that
+:func:`examples` formats as written.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.metadata
 import logging
 import pkgutil
 import sys
+import tomllib
 from collections.abc import Sequence
+from pathlib import Path
 from types import ModuleType
+from typing import Any
+
+__all__ = ["SubcommandParser", "build_parser", "examples", "package_version", "run", "verbosity_parser"]
+
+
+def package_version() -> str:
+    """The installed ``pfpeople`` version; from ``pyproject.toml`` when running from an uninstalled checkout.
+
+    Returns
+    -------
+    str
+        The version (pyproject's ``[project] version`` is the one source of it), or ``"unknown"``.
+    """
+    try:
+        return importlib.metadata.version("pfpeople")
+    except importlib.metadata.PackageNotFoundError:
+        pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
+        try:
+            return str(tomllib.loads(pyproject.read_text())["project"]["version"])
+        except (OSError, KeyError, tomllib.TOMLDecodeError):
+            return "unknown"
+
+
+def verbosity_parser(*, suppress_defaults: bool) -> argparse.ArgumentParser:
+    """The parent parser of ``-q/--quiet`` and ``-v/--verbose``, shared by the command and each subcommand.
+
+    Parameters
+    ----------
+    suppress_defaults : bool
+        True for subcommands: an option not given there leaves the value given before the subcommand
+        (argparse would otherwise overwrite ``pfpeople -v run`` with the subparser's default False).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A parser without ``-h``, for ``parents=[...]``.
+    """
+    default: Any = argparse.SUPPRESS if suppress_defaults else False
+    parent = argparse.ArgumentParser(add_help=False)
+    group = parent.add_argument_group("output")
+    group.add_argument(
+        "-q", "--quiet", action="store_true", default=default, help="warnings and errors only; no progress bar"
+    )
+    group.add_argument("-v", "--verbose", action="store_true", default=default, help="log debug messages")
+    return parent
+
+
+class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Text with line breaks (the examples epilog, a module docstring) as written; one-line text wrapped."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text.strip("\n"):
+            return super()._fill_text(text, width, indent)
+        return argparse.HelpFormatter._fill_text(self, text, width, indent)
+
+
+class SubcommandParser(argparse.ArgumentParser):
+    """The parser class of every subcommand: the shared ``-q/-v`` options and the examples-keeping formatter."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs["parents"] = [*kwargs.get("parents", []), verbosity_parser(suppress_defaults=True)]
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
+def examples(*lines: str) -> str:
+    """An "Examples:" epilog for a subcommand's ``--help``, one command line per argument.
+
+    Parameters
+    ----------
+    *lines : str
+        Command lines, e.g. ``"pfpeople run my.bag --out runs/my"``.
+
+    Returns
+    -------
+    str
+        The epilog text.
+    """
+    return "Examples:\n" + "".join(f"  {line}\n" for line in lines)
 
 
 def build_parser(prog: str, description: str, commands: ModuleType) -> argparse.ArgumentParser:
-    """An argument parser with one subcommand per module of the ``commands`` package."""
-    parser = argparse.ArgumentParser(prog=prog, description=description)
-    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    """An argument parser with one subcommand per module of the ``commands`` package.
+
+    Parameters
+    ----------
+    prog : str
+        The command's name.
+    description : str
+        The first line of ``--help``.
+    commands : module
+        A package whose modules each define ``register(subparsers)``.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser, with ``--version`` and ``-q/-v`` before or after the subcommand.
+    """
+    parser = argparse.ArgumentParser(
+        prog=prog, description=description, parents=[verbosity_parser(suppress_defaults=False)]
+    )
+    parser.add_argument("--version", action="version", version=f"pfpeople {package_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, parser_class=SubcommandParser)
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
         if info.name.startswith("_"):
             continue
@@ -29,14 +132,31 @@ def build_parser(prog: str, description: str, commands: ModuleType) -> argparse.
 
 
 def run(prog: str, description: str, commands: ModuleType, argv: Sequence[str] | None = None) -> int:
-    """Parse ``argv`` and run the chosen subcommand; returns its exit code."""
+    """Parse ``argv`` and run the chosen subcommand.
+
+    ``-q`` logs warnings and errors only and turns progress off (``args.no_progress``); ``-v`` logs debug
+    messages; both together are an error.
+
+    Parameters
+    ----------
+    prog, description, commands
+        As :func:`build_parser`.
+    argv : sequence of str, optional
+        The arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The subcommand's exit code; 2 for bad input or files (a one-line message on stderr).
+    """
     parser = build_parser(prog, description, commands)
     args = parser.parse_args(argv)
-    logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.INFO,
-        format="%(levelname)s %(name)s: %(message)s",
-        stream=sys.stderr,
-    )
+    if args.quiet and args.verbose:
+        parser.error("-q/--quiet and -v/--verbose contradict each other")
+    if args.quiet:
+        args.no_progress = True
+    level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     try:
         return int(args.func(args) or 0)
     except (ValueError, OSError, KeyError) as exc:  # bad input or files: a message, not a traceback

@@ -27,7 +27,9 @@ under the same paths (shared file system), and pfpeople must be installed in the
 from __future__ import annotations
 
 import csv
+import importlib
 import json
+import logging
 import math
 import os
 import time
@@ -44,13 +46,17 @@ __all__ = [
     "TABLE_SUFFIXES",
     "check_cluster_args",
     "check_table_path",
+    "dashboard_available",
     "dask_client",
+    "quiet_dask_logs",
     "run_bag",
     "run_batch",
     "run_dir_names",
     "run_tasks",
     "write_table",
 ]
+
+log = logging.getLogger(__name__)
 
 #: Columns of a batch row.
 ROW_COLUMNS = ("bag", "run_dir", "status", "frames", "fps", "wall_s", "cpu_s", "people_per_frame", "error")
@@ -66,6 +72,45 @@ def check_cluster_args(scheduler: str | None, workers: int | None) -> None:
         raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
     if scheduler is not None and workers is not None:
         raise ValueError("workers sets the size of a local cluster; it cannot be combined with a scheduler address")
+
+
+def dashboard_available() -> bool:
+    """Whether the Dask dashboard can be served: it needs ``bokeh``, an optional dependency.
+
+    Without it the scheduler's dashboard address only answers that bokeh is missing, so none is advertised.
+    """
+    try:
+        importlib.import_module("bokeh")
+    except ImportError:
+        return False
+    return True
+
+
+class _NoDashboardLink(logging.Filter):
+    """Drops the scheduler's and workers' "dashboard at: URL" lines (dead links without bokeh)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "dashboard at" not in record.getMessage()
+
+
+def quiet_dask_logs(verbose: bool = False) -> None:
+    """The ``distributed`` loggers at WARNING (their start/stop INFO lines only with ``verbose``, at INFO).
+
+    ``distributed`` is imported first: its import sets its loggers' levels (INFO), which would undo a level
+    set before it.
+
+    Parameters
+    ----------
+    verbose : bool
+        Keep distributed's INFO messages (the ``-v`` of the commands).
+    """
+    import distributed  # noqa: F401
+
+    level = logging.INFO if verbose else logging.WARNING
+    logging.getLogger("distributed").setLevel(level)
+    for name, logger in list(logging.root.manager.loggerDict.items()):  # children given a level of their own
+        if name.startswith("distributed.") and isinstance(logger, logging.Logger) and logger.level != logging.NOTSET:
+            logger.setLevel(max(logger.level, level))
 
 
 @contextmanager
@@ -90,10 +135,23 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
             yield client
         return
     n = workers or os.cpu_count() or 1
+    dashboard = dashboard_available()
+    for name in ("distributed.scheduler", "distributed.worker"):  # they log their HTTP servers' links
+        logger = logging.getLogger(name)
+        if not dashboard and not any(isinstance(f, _NoDashboardLink) for f in logger.filters):
+            logger.addFilter(_NoDashboardLink())
     with (
-        LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0") as cluster,
+        LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=processes,
+            dashboard_address=":0",  # a free port (the HTTP server runs anyway: health checks, metrics)
+            scheduler_kwargs={"dashboard": dashboard},
+        ) as cluster,
         Client(cluster) as client,
     ):
+        if dashboard:
+            log.info("Dask dashboard: %s", client.dashboard_link)
         yield client
 
 
@@ -109,18 +167,20 @@ def run_tasks(
 ) -> list[Any]:
     """Run ``fn(*args[i])`` as one Dask task each; results in the order of ``args``.
 
-    Progress (tqdm) counts tasks as they complete. A task whose future fails (the function raised, or its
-    worker died) yields ``on_error(i, exception)`` instead of a result; the other tasks go on.
+    Progress (:func:`pfpeople.progress.progress_bar`) counts tasks as they complete. A task whose future fails
+    (the function raised, or its worker died) yields ``on_error(i, exception)`` instead of a result; the other
+    tasks go on.
     """
     from distributed import as_completed
-    from tqdm import tqdm
+
+    from pfpeople.progress import progress_bar
 
     if len(keys) != len(args) or len(set(keys)) != len(keys):
         raise ValueError("run_tasks: keys must be unique, one per task")
     futures = [client.submit(fn, *a, key=k, pure=False) for a, k in zip(args, keys, strict=True)]
     index = {f.key: i for i, f in enumerate(futures)}
     results: list[Any] = [None] * len(futures)
-    with tqdm(total=len(futures), desc=desc, unit="task", disable=not progress) as bar:
+    with progress_bar(total=len(futures), desc=desc, unit="task", disable=not progress) as bar:
         for fut in as_completed(futures):
             i = index[fut.key]
             try:
@@ -287,7 +347,7 @@ def run_batch(
     overwrite : bool
         Replace existing runs; without it, existing run directories are an error before anything runs.
     progress : bool
-        A tqdm bar over completed bags.
+        A progress bar over completed bags (:func:`pfpeople.progress.progress_bar`).
 
     Returns
     -------

@@ -10,7 +10,7 @@ sink                       output
 :class:`RunDirSink`        a run directory (:class:`pfpeople.output.RunWriter`: ``run.json``, ``grids.npy``,
                            CSVs), written frame by frame
 :class:`ResultBagSink`     a result bag, ROS 1 or rosbag2 (:class:`pfpeople.bag.writer.ResultBagWriter`)
-:class:`ProgressSink`      a ``tqdm`` progress bar
+:class:`ProgressSink`      a progress bar (sparse lines off a terminal)
 =========================  ===================================================================================
 
 :func:`standard_sinks` makes these from the arguments of :meth:`pfpeople.pipeline.Pipeline.run`; the
@@ -225,17 +225,17 @@ class ResultBagSink:
 
 
 class ProgressSink:
-    """A ``tqdm`` progress bar over the driver's messages (at most ``max_frames``)."""
+    """A progress bar over the driver's messages (at most ``max_frames``); sparse lines when not on a terminal."""
 
     def __init__(self) -> None:
         self.bar: Any = None
 
     def open(self, run: RunInfo) -> None:
-        from tqdm import tqdm
+        from pfpeople.progress import progress_bar
 
         total = run.bag.message_counts.get(run.config.driver)
         limit = run.max_frames
-        self.bar = tqdm(total=total if limit is None or total is None else min(total, limit), unit="frame")
+        self.bar = progress_bar(total=total if limit is None or total is None else min(total, limit), unit="frame")
 
     def write(self, result: FrameResult) -> None:
         self.bar.update(1)

@@ -7,7 +7,10 @@ processes) is shared by the module. Bags are small synthetic ROS 1 bags (:func:`
 from __future__ import annotations
 
 import csv
+import logging
 import math
+import sys
+import types
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,7 +21,15 @@ import pytest
 from rosbags.highlevel import AnyReader
 
 from evaluation.bench_batch import SYNTHETIC_CONFIG, write_synthetic_bag
-from pfpeople.batch import ROW_COLUMNS, dask_client, run_batch, run_dir_names, write_table
+from pfpeople.batch import (
+    ROW_COLUMNS,
+    dashboard_available,
+    dask_client,
+    quiet_dask_logs,
+    run_batch,
+    run_dir_names,
+    write_table,
+)
 from pfpeople.output import load_run
 
 N_SCANS = 8
@@ -109,3 +120,47 @@ def test_run_dir_names_are_unique() -> None:
     with pytest.raises(ValueError, match="workers must be a positive integer"):
         with dask_client(workers=0):
             pass
+
+
+class _Records(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__(logging.DEBUG)
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+
+@pytest.fixture
+def distributed_log() -> Iterator[_Records]:
+    """Records of the ``distributed`` loggers (they may not propagate to the root), levels restored after."""
+    import distributed  # noqa: F401  (its import configures its loggers)
+
+    root, handler = logging.getLogger("distributed"), _Records()
+    level = root.level
+    root.addHandler(handler)
+    try:
+        yield handler
+    finally:
+        root.removeHandler(handler)
+        root.setLevel(level)
+
+
+def test_dask_quiet_by_default_and_no_dashboard_link_without_bokeh(
+    distributed_log: _Records, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "bokeh", types.ModuleType("bokeh"))
+    assert dashboard_available()
+    monkeypatch.setitem(sys.modules, "bokeh", None)  # import bokeh -> ImportError
+    assert not dashboard_available()
+    quiet_dask_logs(verbose=False)
+    assert logging.getLogger("distributed.scheduler").getEffectiveLevel() == logging.WARNING
+    with dask_client(workers=1, processes=False):
+        pass
+    assert [r for r in distributed_log.records if r.levelno < logging.WARNING] == []
+    quiet_dask_logs(verbose=True)  # -v: the cluster's INFO lines, still without a dead dashboard link
+    with dask_client(workers=1, processes=False):
+        pass
+    messages = [r.getMessage() for r in distributed_log.records]
+    assert any("Scheduler at" in m for m in messages), messages
+    assert not any("dashboard" in m.lower() for m in messages), [m for m in messages if "dashboard" in m.lower()]

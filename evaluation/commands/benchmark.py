@@ -20,12 +20,17 @@ from evaluation.benchmark import SCENES, format_rows, run_benchmark
 from evaluation.mot_eval import MotRow
 from evaluation.mot_eval import format_rows as format_mot_rows
 from evaluation.scenarios.eth_ucy import default_data_root
+from gridbridge.cli_support import examples
 from pfpeople.jsonio import dumps
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "benchmark",
+        epilog=examples(
+            "pfpeople-eval benchmark",
+            "pfpeople-eval benchmark --scenes eth scan:wheelchair --frames 200 --json bench.json",
+        ),
         help="people-detection benchmark over every scene: detectors, paper modes, recommended mode",
         description="Run every built-in scene (ETH/UCY replays, scan-level scenes written as bags) and the real bags "
         "in the data folder; print recall, precision, false people per scan, FPCPF and ms per frame per source.",

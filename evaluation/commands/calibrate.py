@@ -37,6 +37,7 @@ from evaluation.calibration import (
 from evaluation.gt_csv import read_gt_csv
 from evaluation.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
+from gridbridge.cli_support import examples
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
 from pfpeople.jsonio import dumps
@@ -46,6 +47,10 @@ from pfpeople.output import load_run
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "calibrate",
+        epilog=examples(
+            "pfpeople-eval calibrate --scenario complementary",
+            "pfpeople-eval calibrate --run runs/pf1 --gt person_following_outdoor_1_gt.csv --recall-only",
+        ),
         help="estimate detectors' PPV and FNR from a scenario or from truth + detection CSV files",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,

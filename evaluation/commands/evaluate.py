@@ -7,11 +7,16 @@ from pathlib import Path
 
 from evaluation.ab import FilterSpec, default_filters, format_table, particles_label, run_ab
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
+from gridbridge.cli_support import examples
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "evaluate",
+        epilog=examples(
+            "pfpeople-eval evaluate --scenario complementary --out runs/evaluate",
+            "pfpeople-eval evaluate --scenario corridor --particles 5000 50000",
+        ),
         help="A/B evaluation of the grid and particle filters on a scenario with ground truth",
         description="Run the grid filter (paper and linear forms) and the particle filter on the same simulated "
         "detections; print the paper's Table 2 layout plus grid scores; write run.json and Fig. 6-style PNGs.",

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from evaluation.metrics import DetectionAccumulator
 from evaluation.run_truth import gt_coverage, in_region, truth_and_sources
 from gridbridge.classify import classify_blobs
+from gridbridge.cli_support import examples
 from gridbridge.grid import GridSpec
 from pfpeople.gt_csv import GroundTruth, read_gt_csv, resolve_gt_frame
 from pfpeople.jsonio import dumps
@@ -169,7 +170,13 @@ def _score(args: argparse.Namespace) -> int:
 
 
 def register(subparsers: Any) -> None:
-    p = subparsers.add_parser("score", help="score a pfpeople run directory against a ground-truth CSV")
+    p = subparsers.add_parser(
+        "score",
+        epilog=examples(
+            "pfpeople-eval score runs/pf1 --gt person_following_outdoor_1_gt.csv --recall-only",
+        ),
+        help="score a pfpeople run directory against a ground-truth CSV",
+    )
     p.add_argument("run_dir", help="run directory written by 'pfpeople run'")
     p.add_argument("--gt", required=True, help="ground-truth CSV (see evaluation.gt_csv)")
     p.add_argument(

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from evaluation.scenarios import Scenario, builtin_scenarios
+from gridbridge.cli_support import examples
 
 log = logging.getLogger(__name__)
 
@@ -18,6 +19,10 @@ log = logging.getLogger(__name__)
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "simulate",
+        epilog=examples(
+            "pfpeople-eval simulate corridor --out frames.npz",
+            "pfpeople-eval simulate complementary --csv-dir csv",
+        ),
         help="run a scenario (built-in name or TOML file) and dump truth, odometry and detections",
         description=(
             "Simulate a scenario and print a summary. Built-in scenarios: "

@@ -15,6 +15,8 @@ from pathlib import Path
 from tqdm import tqdm
 
 from evaluation.scenarios.scan import builtin_scan_scenes, load_scene, write_scene_bag
+from gridbridge.cli_support import examples
+from pfpeople.progress import progress_bar
 
 __all__ = ["add_parser", "register", "run"]
 
@@ -23,6 +25,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     """Add the ``simulate-bag`` subcommand."""
     p: argparse.ArgumentParser = subparsers.add_parser(
         "simulate-bag",
+        epilog=examples(
+            "pfpeople-eval simulate-bag corridor --out bags --frames 200",
+            "pfpeople-eval simulate-bag crowd --out bags --format ros2",
+        ),
         help="simulate a scan-level scene (raw laser scans, odometry, TF) and write it as a bag with ground truth",
         description=(
             "Ray-cast a scene of walls, furniture and walking people (two legs each) for a moving robot and "
@@ -63,10 +69,11 @@ def run(args: argparse.Namespace) -> int:
         if stage not in bars:
             for bar in bars.values():
                 bar.close()
-            bars[stage] = tqdm(
+            bars[stage] = progress_bar(
                 total=total if stage == "simulate" else None,
                 desc=stage,
                 unit=" scans" if stage == "simulate" else " msgs",
+                every=10_000,  # off a terminal, a line per 10k messages written (their total is not known)
             )
         bars[stage].update(n)
 

@@ -13,20 +13,23 @@ completed, 1 when some failed (their errors are in the table), 2 on bad input.
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
 from evaluation.sweep import SWEEP_KEYS, columns_for, parse_param, run_sweep
-from pfpeople.batch import check_table_path, write_table
+from gridbridge.cli_support import examples
+from pfpeople.batch import check_table_path, quiet_dask_logs, write_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     keys = "; ".join(f"{k}: {v.help}" for k, v in SWEEP_KEYS.items())
     p = subparsers.add_parser(
         "sweep",
+        epilog=examples(
+            "pfpeople-eval sweep --scenario complementary --seeds 0 1 --param particles=5000,50000 --out runs/sweep",
+        ),
         help="A/B evaluation over scenarios x seeds x parameter values, as Dask tasks; one metrics table",
         description="One Dask task per point of scenarios x seeds x values; each runs the A/B evaluation and "
         "returns recall, precision, FPCPF and ms/iteration per filter and classifier.",
@@ -50,8 +53,7 @@ def _mean(values: list[Any]) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not getattr(args, "verbose", False):  # the cluster's start/stop messages only with -v
-        logging.getLogger("distributed").setLevel(logging.WARNING)
+    quiet_dask_logs(verbose=args.verbose)  # the cluster's start/stop messages only with -v
     params: dict[str, list[Any]] = {}
     for text in args.param:
         key, values = parse_param(text)

@@ -22,6 +22,7 @@ from evaluation.ab import FilterSpec, particles_label
 from evaluation.gt_csv import read_gt_csv
 from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows, peak_classifier
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
+from gridbridge.cli_support import examples
 from pfpeople.bag.config import TrackingConfig
 from pfpeople.filters import PEAK_THRESHOLD
 from pfpeople.jsonio import dumps
@@ -34,6 +35,10 @@ __all__ = ["add_parser", "register", "run"]
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "track",
+        epilog=examples(
+            "pfpeople-eval track --scenario eth --no-paper",
+            "pfpeople-eval track --run runs/pf1 --gt person_following_outdoor_1_gt.csv",
+        ),
         help="multi-person tracking (CLEAR-MOT): tracker on fused filter output vs tracking-by-detection",
         description="Run the multi-person tracker on each filter's classified posterior and on each detector's raw "
         "detections (and all merged) of a scenario, and/or on a 'pfpeople run' directory against a GT CSV with "

@@ -12,14 +12,14 @@ Exit status: 0 when every bag completed, 1 when some failed (their errors are in
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from gridbridge.cli_support import examples
 from pfpeople.bag.config import BagConfig, builtin_config_path, load_config
-from pfpeople.batch import check_table_path, run_batch, write_table
+from pfpeople.batch import check_table_path, quiet_dask_logs, run_batch, write_table
 
 
 def _config(args: argparse.Namespace) -> BagConfig:
@@ -31,8 +31,7 @@ def _config(args: argparse.Namespace) -> BagConfig:
 
 
 def _run(args: argparse.Namespace) -> int:
-    if not getattr(args, "verbose", False):  # the cluster's start/stop messages only with -v
-        logging.getLogger("distributed").setLevel(logging.WARNING)
+    quiet_dask_logs(verbose=args.verbose)  # the cluster's start/stop messages only with -v
     cfg = _config(args)
     out = Path(args.out)
     table = check_table_path(args.table if args.table else out / "results.csv")
@@ -61,6 +60,10 @@ def _run(args: argparse.Namespace) -> int:
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "batch",
+        epilog=examples(
+            "pfpeople batch recordings/*.bag --config my.toml --out runs/fleet --workers 2",
+            "pfpeople batch a.bag b.bag --config my.toml --out runs/ab --scheduler tcp://host:8786",
+        ),
         help="run the pipeline over many bags as Dask tasks (local cluster or --scheduler); one results table",
         description="One task per bag on dask.distributed; each writes OUT/<bag stem> (a run directory); a bag "
         "that fails is recorded (table row and OUT/<stem>/batch_error.txt) and the others go on.",

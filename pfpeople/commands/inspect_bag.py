@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from gridbridge.cli_support import examples
 from pfpeople.bag.inspect import format_report, inspect_bag, starter_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.jsonio import dumps
@@ -44,6 +45,10 @@ def _run(args: argparse.Namespace) -> int:
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "inspect",
+        epilog=examples(
+            "pfpeople inspect my.bag --write-config my.toml",
+            "pfpeople inspect person_following_outdoor_1.bag.zip --json",
+        ),
         help="list a bag's topics, rates, TF tree, lasers and odometry; write a starter config",
         description=(
             "Inspect a ROS1 .bag, a ROS2 bag folder or a .zip of either: topics, types, counts, rates, header "

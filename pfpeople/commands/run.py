@@ -21,6 +21,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from gridbridge.cli_support import examples
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.bag.writer import BAG_FORMATS, check_bag_out
@@ -119,7 +120,14 @@ def _run_checked(args: argparse.Namespace) -> int:
 
 
 def register(subparsers: Any) -> None:
-    p = subparsers.add_parser("run", help="run detectors and the filter over a bag; write a run directory")
+    p = subparsers.add_parser(
+        "run",
+        epilog=examples(
+            "pfpeople run my.bag --config my.toml --out runs/my",
+            "pfpeople run outdoor_1.bag.zip --config person_following_outdoor_1 --out runs/pf1 --max-frames 600",
+        ),
+        help="run detectors and the filter over a bag; write a run directory",
+    )
     p.add_argument("bag", help="ROS1 .bag, ROS2 bag folder, or a .zip of either")
     p.add_argument("--config", help="TOML run config, or the name of a built-in one (pfpeople/bag/configs)")
     p.add_argument("--filter", choices=("grid", "particle"), help="filter (default: the config's, else grid)")

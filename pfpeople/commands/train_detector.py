@@ -7,6 +7,7 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
+from gridbridge.cli_support import examples
 from pfpeople.detectors.segments import SegmentationParams
 from pfpeople.detectors.training import POSITIVE_BAGS, BoostTrainingParams, train_from_directory
 
@@ -14,6 +15,9 @@ from pfpeople.detectors.training import POSITIVE_BAGS, BoostTrainingParams, trai
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "train-detector",
+        epilog=examples(
+            "pfpeople train-detector --data-dir ../shared/data/leg_tracker --out pfpeople/models/",
+        ),
         help="train the boosted laser segment classifier (detector 2) from labelled bags",
         description=(
             "Train cv2.ml.Boost on leg_tracker's positive_*_extracted.bag (labelled legs) and negative_2.bag "

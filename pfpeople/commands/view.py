@@ -18,6 +18,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from gridbridge.cli_support import examples
 from pfpeople.gt_csv import read_gt_csv, resolve_gt_frame, truth_per_frame
 from pfpeople.output import RunData, load_run
 
@@ -115,6 +116,10 @@ def _run(args: argparse.Namespace) -> int:
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "view",
+        epilog=examples(
+            "pfpeople view runs/my",
+            "pfpeople view runs/pf1 --gt person_following_outdoor_1_gt.csv --frames 0:100 --gif",
+        ),
         help="animate a run directory (MP4/GIF) and draw a summary page (PNG)",
         description=(
             "Animate a run written by 'pfpeople run': belief grid, each detector's detections, classified "

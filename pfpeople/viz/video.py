@@ -16,8 +16,8 @@ import imageio.v3 as iio
 import imageio_ffmpeg
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
+from pfpeople.progress import progress_bar
 from pfpeople.viz.run_view import RunFrameRenderer
 
 __all__ = ["GIF_MAX_FRAMES", "write_animation"]
@@ -47,7 +47,7 @@ def write_animation(
     mp4, gif : path, optional
         Output files (at least one).
     progress : bool
-        Show a tqdm progress bar.
+        Show a progress bar (:func:`pfpeople.progress.progress_bar`).
 
     Returns
     -------
@@ -79,7 +79,7 @@ def write_animation(
     gif_frames: list[NDArray[np.uint8]] = []
     n_mp4 = 0
     try:
-        for pos, k in enumerate(tqdm(frames, desc="view", unit="frame", disable=not progress)):
+        for pos, k in enumerate(progress_bar(frames, desc="view", unit="frame", disable=not progress)):
             image = renderer.render(k)
             if writer is not None:
                 writer.send(image)
