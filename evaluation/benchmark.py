@@ -263,6 +263,20 @@ def _pipeline_log(
     return log, row
 
 
+def _motion_columns(row: BenchRow, run: Path, gt: Path) -> None:
+    """Recall of standing and walking people and the suppressed true-person detections
+    (:func:`evaluation.motion_split.motion_split`) into ``row.extra`` and its note."""
+    from evaluation.motion_split import motion_split
+
+    m = motion_split(run, gt)
+    row.extra.update(
+        recall_standing=m.recall_standing, recall_walking=m.recall_walking, suppressed_true=m.suppressed_true
+    )
+    row.note += (
+        f"; standing {_f(m.recall_standing)} walking {_f(m.recall_walking)} suppressed {_f(m.suppressed_true, 3)}"
+    )
+
+
 def _reported_cells(
     classifier: Any, grid: NDArray[np.float64], spec: GridSpec, reported: NDArray[np.float64]
 ) -> NDArray[np.bool_]:
@@ -277,10 +291,9 @@ def _reported_cells(
 
 
 def _laser_config(topic: str, **changes: Any) -> BagConfig:
-    dets = (
-        DetectorConfig(name="laser-legs", kind="leg", topic=topic),
-        DetectorConfig(name="laser-boosted", kind="boosted", topic=topic),
-    )
+    from pfpeople.bag.inspect import LASER_DETECTORS
+
+    dets = tuple(DetectorConfig(name=name, kind=kind, topic=topic) for name, kind, _ in LASER_DETECTORS)
     return replace(BagConfig(driver=topic, detectors=dets), **changes)
 
 
@@ -327,10 +340,15 @@ def scene_logs(
     if scene.startswith("scan:"):
         from evaluation.scenarios.scan import write_scene_bag
         from pfpeople.bag.config import load_config
+        from pfpeople.bag.inspect import inspect_path, starter_config
 
         name = scene.split(":", 1)[1]
         sb = write_scene_bag(name, work / name, frames=frames, seed=scan_seed)
-        log, row = _pipeline_log(sb.bag, load_config(sb.run_toml), work / f"{name}_run", gt=sb.gt_csv, name=scene)
+        cfg_path = work / name / f"{name}_starter.toml"  # as the README: pfpeople inspect BAG --write-config
+        cfg_path.write_text(starter_config(inspect_path(sb.bag)), encoding="utf-8")
+        run = work / f"{name}_run"
+        log, row = _pipeline_log(sb.bag, load_config(cfg_path), run, gt=sb.gt_csv, name=scene)
+        _motion_columns(row, run, sb.gt_csv)
         return [log], [row], ""
     if scene == "person_following_outdoor_1":
         bag, gt = leg / "person_following_outdoor_1.bag.zip", leg / "person_following_outdoor_1_gt.csv"

@@ -118,7 +118,9 @@ def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5) 
             hits[name][1] += int(np.count_nonzero(sel))
         d = dets.get(k)
         if d is not None and d.shape[0]:
-            close = np.hypot(d[:, None, 0] - t[None, :, 0], d[:, None, 1] - t[None, :, 1]).min(axis=1) <= SUPPRESS_GATE_M
+            close = (
+                np.hypot(d[:, None, 0] - t[None, :, 0], d[:, None, 1] - t[None, :, 1]).min(axis=1) <= SUPPRESS_GATE_M
+            )
             near += int(np.count_nonzero(close))
             suppressed += int(np.count_nonzero(close & (d[:, 2] > 0.5)))
 

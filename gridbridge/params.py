@@ -187,6 +187,7 @@ PAPER_DETECTORS: tuple[DetectorModel, ...] = (
 CALIBRATED_LASER_DETECTORS: tuple[DetectorModel, ...] = (
     DetectorModel(name="laser-legs", ppv=0.80, fnr=0.60),
     DetectorModel(name="laser-boosted", ppv=0.90, fnr=0.55),
+    DetectorModel(name="laser-single-legs", ppv=0.5, fnr=0.8),
 )
 
 

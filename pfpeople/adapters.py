@@ -319,6 +319,12 @@ class BoostedAdapter(LaserAdapter):
     detector_class = "BoostedSegmentDetector"
 
 
+class SingleLegAdapter(LaserAdapter):
+    """``kind = "single-legs"``: :class:`pfpeople.detectors.SingleLegDetector` (unpaired single legs as people)."""
+
+    detector_class = "SingleLegDetector"
+
+
 class HogAdapter(BuiltinAdapter):
     """``kind = "hog"``: :class:`pfpeople.detectors.HogCameraDetector` on a (compressed) image.
 
@@ -387,6 +393,7 @@ class TopicAdapter:
 ADAPTERS: dict[str, AdapterFactory] = {
     "leg": LegAdapter,
     "boosted": BoostedAdapter,
+    "single-legs": SingleLegAdapter,
     "hog": HogAdapter,
     "topic": TopicAdapter,
 }

@@ -179,7 +179,8 @@ def test_returns_beyond_the_map_range_free_the_beam_up_to_it() -> None:
 def test_arc_convexity_survives_2_cm_of_range_noise() -> None:
     """A 5 cm leg at 2-4 m seen by a 0.35 deg laser with 2 cm range noise (200 draws, fixed seed): the circle-fit
     convexity test keeps >= 75 % of its segments (0.80 here), the Menger-curvature test of the previous version
-    (mean curvature <= -2 / m) at most 65 % (0.60); a concave arc (the inside of a 0.3 m pipe) is rejected without noise."""
+    (mean curvature <= -2 / m) at most 65 % (0.60); a concave arc (the inside of a 0.3 m pipe) is rejected without
+    noise."""
     rng = np.random.default_rng(11)
     kept, menger, n = 0, 0, 0
     k_curv = FEATURE_NAMES.index("mean_curvature")

@@ -25,8 +25,9 @@ radians where a configuration needs them.
 - ``[odometry] topic``: the ``nav_msgs/Odometry`` topic with the most messages, when one exists; then
   ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
   laser at the base origin (flagged in a comment and in the report's warnings: measure it).
-- two detectors on the driver: ``laser-legs`` (kind ``leg``) and ``laser-boosted`` (kind ``boosted``) with
-  ``[detectors.model] fov_min, fov_max, max_range`` from the scan (radians, metres).
+- three detectors on the driver (:data:`LASER_DETECTORS`): ``laser-legs`` (kind ``leg``), ``laser-boosted`` (kind
+  ``boosted``) and ``laser-single-legs`` (kind ``single-legs``), with ``[detectors.model] fov_min, fov_max,
+  max_range`` from the scan (radians, metres).
 - no ``[filter]`` and no ``[grid]`` table: the product's defaults apply.
 """
 
@@ -46,6 +47,7 @@ from pfpeople.bag.tf import TfBuffer, TfLookupError, yaw_from_quaternion
 from pfpeople.jsonio import json_safe
 
 __all__ = [
+    "LASER_DETECTORS",
     "RECORD_BURST_RATIO",
     "TIME_SOURCE_THRESHOLD_S",
     "BagReport",
@@ -437,6 +439,14 @@ def _q(s: str) -> str:
     return json.dumps(s)  # a TOML basic string for plain text
 
 
+#: The built-in detectors a starter configuration puts on a laser: (name, kind, what it is).
+LASER_DETECTORS: tuple[tuple[str, str, str], ...] = (
+    ("laser-legs", "leg", "leg detector (segments paired into people)"),
+    ("laser-boosted", "boosted", "boosted segment classifier (pfpeople/models/boosted_legs.yml)"),
+    ("laser-single-legs", "single-legs", "single legs the boosted classifier cannot pair, a detector of their own"),
+)
+
+
 def starter_config(report: BagReport, *, driver: str | None = None) -> str:
     """TOML text of a starter run configuration for the inspected bag (see the module docstring).
 
@@ -530,10 +540,7 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
         model += ["# The scan's range_max (m).", f"max_range = {round(li.range_max_m, 3)!r}"]
     else:
         model += [f"# range_max = {li.range_max_m} is not a usable range: no max_range (unbounded)."]
-    for name, kind, what in (
-        ("laser-legs", "leg", "leg detector (segments paired into people)"),
-        ("laser-boosted", "boosted", "boosted segment classifier (pfpeople/models/boosted_legs.yml)"),
-    ):
+    for name, kind, what in LASER_DETECTORS:
         out += [
             "",
             "[[detectors]]",

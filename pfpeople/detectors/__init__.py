@@ -33,6 +33,7 @@ from pfpeople.detectors.segments import (
     segment_features,
     segment_scan,
 )
+from pfpeople.detectors.single_legs import SingleLegDetector
 
 __all__ = [
     "FEATURE_NAMES",
@@ -44,6 +45,7 @@ __all__ = [
     "PairingParams",
     "SegmentationParams",
     "Segments",
+    "SingleLegDetector",
     "default_intrinsics",
     "default_model_path",
     "foot_points",

@@ -57,10 +57,10 @@ from pfpeople.sensors import LaserScan
 
 __all__ = [
     "FEATURE_NAMES",
-    "circle_centres",
     "RADIUS_CAP",
     "SegmentationParams",
     "Segments",
+    "circle_centres",
     "scan_segments",
     "segment_features",
     "segment_scan",

@@ -37,6 +37,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from evaluation.scenarios.scan.scene import SceneConfig, load_scene
 from evaluation.scenarios.scan.simulate import SceneSim, simulate_scene
 from gridbridge.geometry import quaternion_from_yaw
+from pfpeople.bag.inspect import LASER_DETECTORS
 
 __all__ = ["GT_TOPIC", "ODOM_TOPIC", "SceneBag", "run_config_text", "write_gt_csv", "write_scene_bag", "write_sim_bag"]
 
@@ -155,7 +156,7 @@ def run_config_text(cfg: SceneConfig) -> str:
         f'topic = "{ODOM_TOPIC}"',
         "",
     ]
-    for name, kind in (("laser-legs", "leg"), ("laser-boosted", "boosted")):
+    for name, kind, _ in LASER_DETECTORS:
         lines += [
             "[[detectors]]",
             f'name = "{name}"',

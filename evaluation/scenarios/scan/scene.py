@@ -375,7 +375,9 @@ class PeopleConfig:
         for name, rows, n_col in (("groups", self.groups, 2), ("queues", self.queues, 3)):
             for row in rows:
                 if row[n_col] < 1 or row[n_col] != int(row[n_col]):
-                    raise ValueError(f"PeopleConfig.{name}: the number of people must be a whole number >= 1, got {row}")
+                    raise ValueError(
+                        f"PeopleConfig.{name}: the number of people must be a whole number >= 1, got {row}"
+                    )
                 if row[-1] <= row[-2]:
                     raise ValueError(f"PeopleConfig.{name}: t_end must exceed t_start, got {row}")
         check_positive(self.shuffle_sd, "PeopleConfig.shuffle_sd", allow_zero=True)

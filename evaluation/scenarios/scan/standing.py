@@ -114,10 +114,14 @@ def _spots(row: tuple[float, ...], *, queue: bool) -> tuple[list[NDArray[np.floa
     x, y, n, t0, t1 = row
     m = int(n)
     radius = 0.0 if m == 1 else 0.5 * _GROUP_SPACING / math.sin(math.pi / m)
-    return [
-        np.array([x + radius * math.cos(2 * math.pi * k / m), y + radius * math.sin(2 * math.pi * k / m)])
-        for k in range(m)
-    ], t0, t1
+    return (
+        [
+            np.array([x + radius * math.cos(2 * math.pi * k / m), y + radius * math.sin(2 * math.pi * k / m)])
+            for k in range(m)
+        ],
+        t0,
+        t1,
+    )
 
 
 def standing_tracks(
