@@ -407,6 +407,31 @@ def test_implausible_odometry_is_named_and_counted(tmp_path: Path) -> None:
     assert odometry_pose_from_msg(m.odom(T0_NS, MOUNT), topic="/odom")[0].x == pytest.approx(MOUNT.x)
 
 
+def test_zero_quaternion_in_odometry_or_tf_is_refused_naming_the_topic() -> None:
+    from pfpeople.bag.tf import TfBuffer
+
+    m = _Msgs(_typestore(False), False)
+    msg = m.odom(T0_NS, MOUNT)
+    q = msg.pose.pose.orientation
+    q.x = q.y = q.z = q.w = 0.0
+    with pytest.raises(
+        ValueError, match=r"topic '/odom': odometry: orientation quaternion \(0\.0, 0\.0, 0\.0, 0\.0\) is zero"
+    ):
+        odometry_pose_from_msg(msg, topic="/odom")  # a MessageDataError: the run counts it and does not use it
+    tf = m.tf(T0_NS, "base_link", "laser", MOUNT)
+    rot = tf.transforms[0].transform.rotation
+    rot.x = rot.y = rot.z = rot.w = 0.0
+    buf = TfBuffer()
+    with pytest.raises(ValueError, match=r"topic '/tf_static': transform base_link -> laser: .* is zero \(never set\)"):
+        buf.add_message(tf, topic="/tf_static")
+    rot.w = math.nan
+    with pytest.raises(ValueError, match=r"topic '/tf': transform base_link -> laser: .* is not finite"):
+        buf.add_message(tf)
+    assert buf.frames == []  # nothing was added
+    ok = m.tf(T0_NS, "base_link", "laser", MOUNT)
+    assert buf.add_message(ok) == 1 and buf.lookup("base_link", "laser").yaw == pytest.approx(MOUNT.yaw)
+
+
 def test_laser_from_msg_nan_range_max_names_the_topic() -> None:
     m = _Msgs(_typestore(False), False)
     msg = m.scan(T0_NS, np.ones(10), -0.5, 0.1)
