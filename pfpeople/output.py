@@ -38,7 +38,8 @@ Safety against a second process and damage:
 - A run directory is locked while it is written (``fcntl.flock`` on ``RUN_DIR/.lock``, released by the
   operating system when the process dies; not kept by a forked child; taken over, with a warning, when the pid
   holding it is dead: :mod:`pfpeople.locks`): a second writer, also with ``overwrite``, is refused
-  (:class:`RunLockedError`). ``run.json`` is replaced atomically (a temporary file, fsync, ``os.replace``).
+  (:class:`RunLockedError`). ``run.json`` is replaced atomically (a temporary file, fsync, ``os.replace``), with
+  the permissions of the umask like every other file (0644 under umask 022).
 - A directory that holds files but no ``run.json`` is never written into (they are the user's files).
 - Writing errors (a full disk, ``ENOSPC``) are re-raised naming the file; the frames before stay readable:
   :func:`load_run` reads the frames that every file holds completely (a half-written last row is dropped).
@@ -153,6 +154,19 @@ def deferred_signals() -> Iterator[None]:
         if _SIGNALS.depth == 0 and _SIGNALS.pending is not None:
             signum, _SIGNALS.pending = _SIGNALS.pending, None
             raise RunInterrupted(signum)
+
+
+def _current_umask() -> int:
+    """The process's umask: from ``/proc/self/status`` (Linux), else set and restored at once."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def _named_os_error(exc: OSError, path: Path) -> OSError:
@@ -307,6 +321,7 @@ class RunWriter:
         }
         self._files: list[TextIO] = []
         self._closed = False
+        self._umask = _current_umask()
         try:
             self._write_json()
             self._grids: BinaryIO = (self.path / "grids.npy").open("wb")
@@ -342,6 +357,7 @@ class RunWriter:
         text = dumps(self._meta) + "\n"
         fd, tmp = tempfile.mkstemp(prefix=".run.json.", suffix=".tmp", dir=self.path)
         try:
+            os.fchmod(fd, 0o666 & ~self._umask)  # mkstemp makes it 0600: give it the mode open() would
             with os.fdopen(fd, "w") as fh:
                 fh.write(text)
                 fh.flush()

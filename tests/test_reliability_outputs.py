@@ -207,3 +207,16 @@ def test_kill_9_of_a_run_kills_its_front_end_and_the_rerun_succeeds(tmp_path: Pa
     rerun = ["--overwrite", "--no-progress", "--max-frames", "3", "--one-process"]
     assert main(["run", str(bag), "--driver", "/scan", "--out", str(out), *rerun]) == 0
     assert json.loads((out / "run.json").read_text())["frames"] == 3
+
+
+@pytest.mark.parametrize(("umask", "mode"), [(0o022, 0o644), (0o002, 0o664), (0o077, 0o600)])
+def test_run_json_respects_the_umask(tmp_path: Path, umask: int, mode: int) -> None:
+    old = os.umask(umask)
+    try:
+        w = RunWriter(tmp_path / "run", spec=GridSpec(nx=4, ny=4), detector_names=["d"])
+        w.update(note="rewritten")  # every rewrite keeps the mode
+        w.close()
+    finally:
+        os.umask(old)
+    assert (tmp_path / "run" / "run.json").stat().st_mode & 0o777 == mode
+    assert (tmp_path / "run" / "grids.npy").stat().st_mode & 0o777 == mode  # as every other file of the run
