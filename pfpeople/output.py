@@ -321,7 +321,6 @@ class RunWriter:
         }
         self._files: list[TextIO] = []
         self._closed = False
-        self._umask = _current_umask()
         try:
             self._write_json()
             self._grids: BinaryIO = (self.path / "grids.npy").open("wb")
@@ -357,7 +356,7 @@ class RunWriter:
         text = dumps(self._meta) + "\n"
         fd, tmp = tempfile.mkstemp(prefix=".run.json.", suffix=".tmp", dir=self.path)
         try:
-            os.fchmod(fd, 0o666 & ~self._umask)  # mkstemp makes it 0600: give it the mode open() would
+            os.fchmod(fd, 0o666 & ~_current_umask())  # mkstemp makes it 0600: give it the mode open() would
             with os.fdopen(fd, "w") as fh:
                 fh.write(text)
                 fh.flush()

@@ -127,6 +127,40 @@ def test_a_second_bag_writer_is_refused_and_the_bag_is_renamed_into_place(tmp_pa
     assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # no temporary folder, no lock file left
 
 
+def test_two_runs_on_the_same_bag_out_the_second_is_refused_before_its_run_directory(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = tmp_path / "long.bag"
+    write_scan_bag(bag, 3000)
+    bag_out = tmp_path / "out.bag"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cmd = [sys.executable, "-m", "pfpeople.cli", "run", str(bag), "--driver", "/scan", "--out", str(tmp_path / "a")]
+    cmd += ["--bag-out", str(bag_out), "--no-progress", "--one-process"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        frames_csv, t_end = tmp_path / "a" / "frames.csv", time.monotonic() + 30
+        while not (frames_csv.is_file() and frames_csv.read_text().count("\n") > 5):
+            assert proc.poll() is None and time.monotonic() < t_end
+            time.sleep(0.02)
+        assert _run(bag, tmp_path / "b", bag_out, "--overwrite", "--no-progress", "--one-process") == 2
+        err = capsys.readouterr().err
+        assert re.search(r"bag output '.*out\.bag' is being written by another process \(pid \d+\)", err)
+        assert not (tmp_path / "b").exists()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 143
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    n = json.loads((tmp_path / "a" / "run.json").read_text())["frames"]
+    with AnyReader([bag_out]) as r:  # the first run's bag, whole: one belief per frame on disk
+        assert {c.topic: c.msgcount for c in r.connections}["/pfpeople/belief"] == n
+    assert not lock_path(bag_out).exists() and sorted(p.name for p in tmp_path.iterdir()) == [
+        "a",
+        "long.bag",
+        "out.bag",
+    ]
+
+
 def test_a_lock_held_for_a_dead_pid_is_taken_over_with_a_warning(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
