@@ -32,9 +32,10 @@ from gridbridge.components import (
 from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import DetectionLikelihood, update_components
+from gridbridge.limits import check_dt
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
-from gridbridge.validation import check_choice, check_positive, check_probability
+from gridbridge.validation import check_choice, check_probability
 
 __all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models"]
 
@@ -256,7 +257,7 @@ class GridFilter:
         Prediction
             ``(people_prior, sensor_prior)``, ``(nx, ny)`` each; ``sensor_prior`` is the new ``belief``.
         """
-        dt = check_positive(dt, "dt")
+        dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
         odo = as_odometry(odometry)
         people = self.prediction.predict(self.belief, self.spec, dt)
         sensor = self.ego_motion.predict(people, self.spec, odo, dt)
@@ -313,7 +314,7 @@ class GridFilter:
         odometry : Odometry, (v, omega) or None
             Robot controls over the step (m/s, rad/s); None: standing.
         dt : float
-            Time since the previous frame (s), > 0.
+            Time since the previous frame (s), in (0, :data:`gridbridge.limits.MAX_DT_S`] (10 s).
 
         Returns
         -------
@@ -321,6 +322,7 @@ class GridFilter:
             All stages; ``self.belief`` becomes the posterior. On bad input nothing changes (the detections are
             checked before the prediction).
         """
+        check_dt(dt)  # before the likelihoods are computed
         lik = self.likelihood(self.spec, self.detectors, list(detections))
         self.predict(odometry, dt)
         return self._update(lik)

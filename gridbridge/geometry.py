@@ -38,6 +38,7 @@ __all__ = [
     "rotate",
     "to_frame",
     "to_frame_xy",
+    "yaw_from_orientation",
     "yaw_from_quaternion",
 ]
 
@@ -194,6 +195,28 @@ def inverse(pose: PoseLike) -> Pose2D | NDArray[np.float64]:
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
     """Yaw (rad, CCW about z) of a unit quaternion: ``atan2(2 (w z + x y), 1 - 2 (y^2 + z^2))`` (ZYX Euler)."""
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+#: A quaternion whose norm is below this has no orientation (an unset ``(0, 0, 0, 0)``).
+MIN_QUATERNION_NORM = 1e-6
+
+
+def yaw_from_orientation(x: float, y: float, z: float, w: float, where: str) -> float:
+    """:func:`yaw_from_quaternion` of a message's orientation, refusing a zero or non-finite quaternion.
+
+    A zero quaternion ``(0, 0, 0, 0)`` (an orientation never set) would read as yaw 0.
+
+    Raises
+    ------
+    ValueError
+        Naming ``where`` (e.g. the topic) and the quaternion.
+    """
+    q = (float(x), float(y), float(z), float(w))
+    if not all(math.isfinite(v) for v in q):
+        raise ValueError(f"{where}: orientation quaternion {q} is not finite")
+    if math.sqrt(sum(v * v for v in q)) < MIN_QUATERNION_NORM:
+        raise ValueError(f"{where}: orientation quaternion {q} is zero (never set): it has no yaw")
+    return yaw_from_quaternion(*q)
 
 
 def quaternion_from_yaw(yaw: float) -> tuple[float, float, float, float]:

@@ -9,25 +9,36 @@ with a raw ``_ArrayMemoryError``. The checks here are estimates with generous ma
   prediction costs ``n_cells * (2 R + 1)^2`` operations per frame (eqs. 8-9 sum over the neighbourhood); more
   than ``MAX_STEP_OPERATIONS`` (1e9, about a second per frame) is refused;
 - particles: ``n_particles <= MAX_PARTICLES``;
+- time step: ``0 < dt <= MAX_DT_S`` (10 s) in both filters' ``predict`` / ``step`` (:func:`check_dt`), a number
+  (not a string, a bool or a complex): a step in milliseconds passed as seconds (``dt = 100``) would ask for a
+  people-motion kernel of hundreds of cells radius (minutes and gigabytes per frame for the grid filter, hundreds
+  of GiB for the particle filter). Real frame gaps are a fraction of a second, and the pipeline restarts the
+  filter over gaps longer than 2 s (:data:`pfpeople.odometry.MAX_GAP_S`) instead of predicting across them;
 - memory: :func:`estimate_run_bytes` (``BYTES_PER_CELL`` per cell and detector, ``BYTES_PER_PARTICLE`` per
   particle) must fit in :func:`memory_budget_bytes`: half the physical memory, or
   ``$PFPEOPLE_MAX_MEMORY_BYTES``.
 
-Every check raises :class:`ResourceLimitError` (a ``ValueError``) naming the setting, the estimate and the limit.
+Every check raises :class:`ResourceLimitError` (a ``ValueError``) naming the setting, the estimate and the limit
+(:func:`check_dt`: ``TypeError`` for a value that is not a real number).
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 import os
+
+import numpy as np
 
 __all__ = [
     "BYTES_PER_CELL",
     "BYTES_PER_PARTICLE",
+    "MAX_DT_S",
     "MAX_GRID_CELLS",
     "MAX_PARTICLES",
     "MAX_STEP_OPERATIONS",
     "ResourceLimitError",
+    "check_dt",
     "check_grid_size",
     "check_particles",
     "estimate_run_bytes",
@@ -41,6 +52,8 @@ MAX_GRID_CELLS = 4_000_000
 MAX_STEP_OPERATIONS = 1.0e9
 #: Largest number of particles.
 MAX_PARTICLES = 200_000_000
+#: Largest filter time step (s): well above any real frame gap (the pipeline restarts the filter after 2 s).
+MAX_DT_S = 10.0
 #: Bytes per grid cell and per detector (float64 belief, priors, likelihood maps, warps, outputs; measured
 #: peaks of a GridFilter step are below half of this).
 BYTES_PER_CELL = 256
@@ -85,6 +98,29 @@ def kernel_reach_cells(resolution: float, *, v_max: float, dt: float) -> float:
 def estimate_run_bytes(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0) -> int:
     """Estimated peak memory (bytes) of a filter over ``n_cells`` cells with ``n_detectors`` and particles."""
     return int(BYTES_PER_CELL * n_cells * (2 + max(n_detectors, 1)) + BYTES_PER_PARTICLE * n_particles)
+
+
+def check_dt(dt: object, where: str = "dt") -> float:
+    """Check a filter time step: a real number (not a bool), finite, in ``(0, MAX_DT_S]``; returns it as a float.
+
+    Raises
+    ------
+    TypeError
+        ``dt`` is not a real number (a string, a complex, a bool, None).
+    ValueError
+        ``dt`` is not finite or not positive; :class:`ResourceLimitError` when above :data:`MAX_DT_S`.
+    """
+    if isinstance(dt, bool | np.bool_) or not isinstance(dt, numbers.Real):
+        raise TypeError(f"{where} must be a real number of seconds, got {type(dt).__name__} {dt!r}")
+    v = float(dt)
+    if not math.isfinite(v) or v <= 0.0:
+        raise ValueError(f"{where} must be a finite positive number of seconds, got {dt!r}")
+    if v > MAX_DT_S:
+        raise ResourceLimitError(
+            f"{where} = {v:g} s is more than the limit of {MAX_DT_S:g} s (a time in ms given as seconds?); "
+            "a longer gap between frames restarts the filter instead"
+        )
+    return v
 
 
 def check_grid_size(

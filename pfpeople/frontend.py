@@ -17,11 +17,16 @@ for that frame (re-emitted here, through this process's handlers). An exception 
 ``("error", index, stamp, exc, records)`` and raised here when the run reaches that frame: the frames before it
 are processed and written as in one process. A reading error ends the child quietly: this process's own reading
 meets it at the same frame and raises it there, as in one process. The child ignores SIGINT (the terminal's
-Ctrl-C goes to this process, which ends the run) and is terminated when the run ends, however it ends.
+Ctrl-C goes to this process, which ends the run) and is terminated when the run ends, however it ends: also when
+this process is killed (SIGKILL), as the child then gets SIGTERM (Linux ``PR_SET_PDEATHSIG``), sees its parent pid
+change (a watchdog thread, every :data:`WATCHDOG_PERIOD_S`) and meets a broken pipe (it keeps no copy of the
+reading end). It keeps none of this process's output locks either (:mod:`pfpeople.locks`), so a rerun is never
+refused for a dead run.
 """
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import multiprocessing
 import os
@@ -29,6 +34,7 @@ import pickle
 import signal
 import sys
 import threading
+import time
 import traceback
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -131,15 +137,58 @@ def _picklable(exc: BaseException) -> BaseException:
     return exc
 
 
+#: How often (s) the child checks that its parent is alive (the portable fallback of ``PR_SET_PDEATHSIG``).
+WATCHDOG_PERIOD_S = 0.5
+_PR_SET_PDEATHSIG = 1
+
+
+def _set_parent_death_signal() -> bool:
+    """Linux: have the kernel send SIGTERM to this process when its parent dies; whether that was set."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return int(libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _watch_parent(parent_pid: int) -> None:
+    """End this process (exit code 0) as soon as its parent is gone (it is then re-parented)."""
+    while os.getppid() == parent_pid:
+        time.sleep(WATCHDOG_PERIOD_S)
+    os._exit(0)
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    """Make the child end with its parent: ``PR_SET_PDEATHSIG`` (Linux), a parent-pid watchdog thread (anywhere).
+
+    A parent killed with SIGKILL runs no ``finally`` and never terminates its child; without this the child
+    would live on, blocked on its full pipe.
+    """
+    _set_parent_death_signal()
+    if os.getppid() != parent_pid:  # the parent died before the death signal was set
+        os._exit(0)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), name="pfpeople-front-watchdog", daemon=True).start()
+
+
 def _child(
     frames: Callable[[], Iterator[Frame]],
     front: Callable[[Frame], FrontResult],
     summary: RunSummary,
-    outbox: Connection,
+    pipes: tuple[Connection, Connection],
+    parent_pid: int,
 ) -> None:
-    """The child's loop: read the frames, send each one's front-end result, then ``("end", reason)``."""
+    """The child's loop: read the frames, send each one's front-end result, then ``("end", reason)``.
+
+    ``pipes`` is ``(the parent's reading end, the child's writing end)``: the child closes its copy of the reading
+    end, so the pipe breaks when the parent dies.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the run's handler (an exception in the parent) is inherited
+    inbox, outbox = pipes
+    inbox.close()
+    _die_with_parent(parent_pid)
     root = logging.getLogger()
     for h in list(root.handlers):
         root.removeHandler(h)
@@ -191,7 +240,10 @@ class FrontProcess:
         ctx = multiprocessing.get_context("fork")
         self._from_child, child_out = ctx.Pipe(duplex=False)
         self._proc = ctx.Process(
-            target=_child, args=(frames, front, summary, child_out), name="pfpeople-front", daemon=True
+            target=_child,
+            args=(frames, front, summary, (self._from_child, child_out), os.getpid()),
+            name="pfpeople-front",
+            daemon=True,
         )
         self._proc.start()
         child_out.close()

@@ -6,14 +6,15 @@ Columns (header row required, any order, extra columns ignored):
   ``driver_index``), ``stamp_ns`` (the frame stamp, matched to the nearest run frame within a tolerance) or
   ``bag_time_ns`` (a record time, assigned to the latest run frame recorded at or before it, as for the
   leg_tracker GT messages written after their scan). When several are present the first of this list is used.
-- ``person_id`` (integer);
+- ``person_id`` (integer); a (key, ``person_id``) pair appears once (a duplicate would count a person twice);
 - the position in metres: ``x``, ``y`` or ``x_<frame>_m``, ``y_<frame>_m`` (the frame name is then taken
   from the column names, e.g. ``x_laser_m`` -> ``laser``, ``x_base_link_m`` -> ``base_link``, and kept in
   :attr:`GroundTruth.frame`; :func:`resolve_gt_frame` checks it against the frame a caller asks for). A file
   naming several frames must be read with ``frame=`` choosing one.
 
-The file is read as UTF-8 with an optional byte-order mark (``utf-8-sig``): spreadsheet programs write one,
-and it would otherwise become part of the first column's name.
+Keys are non-negative; a file without data rows is refused (every score would be NaN). The file is read as
+UTF-8 with an optional byte-order mark (``utf-8-sig``): spreadsheet programs write one, and it would otherwise
+become part of the first column's name.
 
 Example: ``../shared/data/leg_tracker/person_following_outdoor_1_gt.csv`` (scan_index, bag_time_ns,
 person_id, x_laser_m, y_laser_m).
@@ -29,6 +30,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -175,6 +177,63 @@ def _mismatch(path: Path, have: str, requested: str) -> str:
     )
 
 
+def _position_columns(path: Path, cols: list[str], frame: str | None) -> tuple[str, str, str | None]:
+    """The position columns ``(x, y)`` of a header and the frame they name (None for plain ``x``/``y``)."""
+    if "x" in cols and "y" in cols:
+        return "x", "y", None
+    named = [m.group(1) for c in cols if (m := re.fullmatch(r"x_(.+)_m", c))]
+    named = [f for f in named if f"y_{f}_m" in cols]
+    if not named:
+        raise ValueError(f"{path}: needs position columns x, y or x_<frame>_m, y_<frame>_m; has {cols}")
+    if frame is not None and frame not in named:
+        if len(named) == 1:
+            raise ValueError(_mismatch(path, named[0], frame))
+        raise ValueError(f"{path}: has no columns x_{frame}_m, y_{frame}_m; its frames are {named}")
+    if frame is None and len(named) > 1:
+        raise ValueError(f"{path}: positions in several frames {named}; choose one (frame=, --frame)")
+    frame = frame or named[0]
+    return f"x_{frame}_m", f"y_{frame}_m", frame
+
+
+def _read_rows(
+    reader: Iterator[list[str]], path: Path, cols: list[str], key: str, xc: str, yc: str
+) -> tuple[list[int], list[int], list[tuple[float, float]]]:
+    """Keys, person ids and positions of the data rows; errors name the file and line.
+
+    A negative key, and a row repeating the key and person id of an earlier row (which would count that person
+    twice), are refused naming both lines.
+    """
+    ik, ip, ix, iy = (cols.index(c) for c in (key, "person_id", xc, yc))
+    keys: list[int] = []
+    ids: list[int] = []
+    xy: list[tuple[float, float]] = []
+    first_line: dict[tuple[int, int], int] = {}
+    for line, row in enumerate(reader, start=2):
+        if not row:
+            continue
+        if len(row) < len(cols):
+            raise ValueError(f"{path}: line {line} has {len(row)} fields, expected {len(cols)}")
+        k, pid = _int(row[ik], path, line, key), _int(row[ip], path, line, "person_id")
+        if k < 0:
+            raise ValueError(f"{path}: line {line}: {key} must be non-negative, got {k}")
+        if (k, pid) in first_line:
+            raise ValueError(
+                f"{path}: line {line} repeats {key} {k}, person_id {pid} of line {first_line[k, pid]} "
+                "(a person would be counted twice); remove the duplicate row"
+            )
+        first_line[k, pid] = line
+        try:
+            x, y = float(row[ix]), float(row[iy])
+        except ValueError:
+            raise ValueError(f"{path}: line {line}: {xc}/{yc} must be numbers, got {row[ix]!r}, {row[iy]!r}") from None
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"{path}: line {line}: position is not finite ({x}, {y})")
+        keys.append(k)
+        ids.append(pid)
+        xy.append((x, y))
+    return keys, ids, xy
+
+
 def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
     """Read a ground-truth CSV (see the module docstring); errors name the file, line and column.
 
@@ -185,6 +244,12 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
     frame : str, optional
         Which ``x_<frame>_m, y_<frame>_m`` pair to read when the file has several; a file naming another
         frame is an error naming both. Ignored for plain ``x``/``y`` columns (the caller says their frame).
+
+    Raises
+    ------
+    ValueError
+        Naming the file (and the line): no header (a zero-byte file), no data rows (a header only: every score
+        would be NaN), a missing column, a bad or negative key, a duplicated (key, person_id) row.
     """
     path = Path(path)
     if not path.is_file():
@@ -200,40 +265,10 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
             raise ValueError(f"{path}: needs one of the columns {list(KEY_COLUMNS)}; has {cols}")
         if "person_id" not in cols:
             raise ValueError(f"{path}: needs a person_id column; has {cols}")
-        if "x" in cols and "y" in cols:
-            frame = None
-            xc, yc = "x", "y"
-        else:
-            named = [m.group(1) for c in cols if (m := re.fullmatch(r"x_(.+)_m", c))]
-            named = [f for f in named if f"y_{f}_m" in cols]
-            if not named:
-                raise ValueError(f"{path}: needs position columns x, y or x_<frame>_m, y_<frame>_m; has {cols}")
-            if frame is not None and frame not in named:
-                if len(named) == 1:
-                    raise ValueError(_mismatch(path, named[0], frame))
-                raise ValueError(f"{path}: has no columns x_{frame}_m, y_{frame}_m; its frames are {named}")
-            if frame is None and len(named) > 1:
-                raise ValueError(f"{path}: positions in several frames {named}; choose one (frame=, --frame)")
-            frame = frame or named[0]
-            xc, yc = f"x_{frame}_m", f"y_{frame}_m"
-        ik, ip, ix, iy = (cols.index(c) for c in (key, "person_id", xc, yc))
-        keys, ids, xy = [], [], []
-        for line, row in enumerate(reader, start=2):
-            if not row:
-                continue
-            if len(row) < len(cols):
-                raise ValueError(f"{path}: line {line} has {len(row)} fields, expected {len(cols)}")
-            keys.append(_int(row[ik], path, line, key))
-            ids.append(_int(row[ip], path, line, "person_id"))
-            try:
-                x, y = float(row[ix]), float(row[iy])
-            except ValueError:
-                raise ValueError(
-                    f"{path}: line {line}: {xc}/{yc} must be numbers, got {row[ix]!r}, {row[iy]!r}"
-                ) from None
-            if not (math.isfinite(x) and math.isfinite(y)):
-                raise ValueError(f"{path}: line {line}: position is not finite ({x}, {y})")
-            xy.append((x, y))
+        xc, yc, frame = _position_columns(path, cols, frame)
+        keys, ids, xy = _read_rows(reader, path, cols, key, xc, yc)
+    if not keys:
+        raise ValueError(f"{path}: no ground-truth rows (only a header): nothing to score against")
     return GroundTruth(
         key=key,
         keys=np.array(keys, dtype=np.int64),

@@ -36,8 +36,10 @@ stay valid and ``frames`` is the number of frames on disk.
 Safety against a second process and damage:
 
 - A run directory is locked while it is written (``fcntl.flock`` on ``RUN_DIR/.lock``, released by the
-  operating system when the process dies): a second writer, also with ``overwrite``, is refused
-  (:class:`RunLockedError`). ``run.json`` is replaced atomically (a temporary file, fsync, ``os.replace``).
+  operating system when the process dies; not kept by a forked child; taken over, with a warning, when the pid
+  holding it is dead: :mod:`pfpeople.locks`): a second writer, also with ``overwrite``, is refused
+  (:class:`RunLockedError`). ``run.json`` is replaced atomically (a temporary file, fsync, ``os.replace``), with
+  the permissions of the umask like every other file (0644 under umask 022).
 - A directory that holds files but no ``run.json`` is never written into (they are the user's files).
 - Writing errors (a full disk, ``ENOSPC``) are re-raised naming the file; the frames before stay readable:
   :func:`load_run` reads the frames that every file holds completely (a half-written last row is dropped).
@@ -51,7 +53,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import errno
-import fcntl
 import json
 import math
 import os
@@ -70,6 +71,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.grid import GridSpec
+from pfpeople import locks
 from pfpeople.jsonio import dumps
 
 __all__ = [
@@ -80,6 +82,7 @@ __all__ = [
     "RunInterrupted",
     "RunLockedError",
     "RunWriter",
+    "check_output_paths",
     "deferred_signals",
     "interrupt_signals",
     "load_run",
@@ -93,7 +96,7 @@ LOCK_NAME = ".lock"
 RUN_FILES = ("run.json", "grids.npy", "frames.csv", "people.csv", "detections.csv")
 
 
-class RunLockedError(FileExistsError):
+class RunLockedError(locks.PathLockedError):
     """The run directory is being written by another process (its lock is held)."""
 
 
@@ -153,12 +156,75 @@ def deferred_signals() -> Iterator[None]:
             raise RunInterrupted(signum)
 
 
+def _current_umask() -> int:
+    """The process's umask: from ``/proc/self/status`` (Linux), else set and restored at once."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def _named_os_error(exc: OSError, path: Path) -> OSError:
     """``exc`` re-raised naming ``path`` (e.g. "[Errno 28] No space left on device: 'run/grids.npy'")."""
     if exc.filename:
         return exc
     code = exc.errno if exc.errno is not None else errno.EIO
     return OSError(code, exc.strerror or os.strerror(code), str(path))
+
+
+#: The names a run directory's writer creates, replaces or locks in it.
+RUN_OWNED = (*RUN_FILES, "tracks.csv", "support.csv", LOCK_NAME)
+
+
+def _overlaps(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` are the same file or folder, or one lies inside the other (symlinks resolved)."""
+    ra, rb = a.resolve(), b.resolve()
+    if ra == rb or ra in rb.parents or rb in ra.parents:
+        return True
+    try:
+        return os.path.samefile(a, b)  # hard links
+    except OSError:
+        return False
+
+
+def check_output_paths(
+    inputs: Sequence[str | Path], *, out_dir: str | Path | None = None, bag_out: str | Path | None = None
+) -> None:
+    """Refuse outputs that would write over an input or over each other, before anything is opened or created.
+
+    Every output (the run directory ``out_dir``, the result bag ``bag_out``) is compared with every input (bag
+    files, bag folders, configuration files): resolved, so symlinks count, and as folders, so a path inside an
+    input folder (or an output folder holding an input) counts as the input. ``bag_out`` must not be ``out_dir``,
+    hold it, or be one of the run directory's own files (:data:`RUN_OWNED`).
+
+    Raises
+    ------
+    ValueError
+        Naming both paths.
+    """
+    outputs = [(f"output directory {str(out_dir)!r}", Path(out_dir))] if out_dir is not None else []
+    if bag_out is not None:
+        outputs.append((f"bag output {str(bag_out)!r}", Path(bag_out)))
+    for label, out in outputs:
+        for given in inputs:
+            if _overlaps(out, Path(given)):
+                raise ValueError(
+                    f"{label} would write over the input {str(given)!r} (resolved: {str(out.resolve())!r} and "
+                    f"{str(Path(given).resolve())!r}); choose an output outside the inputs"
+                )
+    if out_dir is None or bag_out is None:
+        return
+    run, bag = Path(out_dir).resolve(), Path(bag_out).resolve()
+    if run == bag or bag in run.parents or (bag.parent == run and bag.name in RUN_OWNED):
+        raise ValueError(
+            f"bag output {str(bag_out)!r} conflicts with the output directory {str(out_dir)!r} "
+            f"(resolved: {str(bag)!r} and {str(run)!r}); give the bag another path"
+        )
 
 
 FRAME_COLUMNS = (
@@ -269,29 +335,13 @@ class RunWriter:
             raise _named_os_error(exc, self.path) from exc
 
     def _lock(self) -> IO[str]:
-        """Take the directory's lock (non-blocking); refuse when another process holds it."""
-        lock_path = self.path / LOCK_NAME
-        fh = lock_path.open("a+")
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.seek(0)
-            holder = fh.read().strip() or "unknown"
-            fh.close()
-            raise RunLockedError(
-                f"output directory {str(self.path)!r} is being written by another process (pid {holder}); "
-                "wait for it to finish or choose another directory"
-            ) from None
-        fh.seek(0)
-        fh.truncate()
-        fh.write(f"{os.getpid()}\n")
-        fh.flush()
-        return fh
+        """Take the directory's lock (non-blocking, :func:`pfpeople.locks.acquire`); refuse when a live process
+        holds it, take it over (with a warning) when the pid holding it is dead."""
+        return locks.acquire(self.path / LOCK_NAME, f"output directory {str(self.path)!r}", RunLockedError)
 
     def _unlock(self) -> None:
         if self._lock_fh is not None:
-            fcntl.flock(self._lock_fh.fileno(), fcntl.LOCK_UN)
-            self._lock_fh.close()
+            locks.release(self._lock_fh)
             self._lock_fh = None
 
     def _csv(self, name: str, columns: Sequence[str]) -> Any:
@@ -306,6 +356,7 @@ class RunWriter:
         text = dumps(self._meta) + "\n"
         fd, tmp = tempfile.mkstemp(prefix=".run.json.", suffix=".tmp", dir=self.path)
         try:
+            os.fchmod(fd, 0o666 & ~_current_umask())  # mkstemp makes it 0600: give it the mode open() would
             with os.fdopen(fd, "w") as fh:
                 fh.write(text)
                 fh.flush()

@@ -89,7 +89,7 @@ from gridbridge import (
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.filter import Prediction, filter_models
 from gridbridge.likelihoods import DetectionLikelihood, update_components
-from gridbridge.limits import check_grid_size, check_particles
+from gridbridge.limits import check_dt, check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
 from gridbridge.validation import check_choice, check_positive, check_probability
 from pfpeople.motion import (
@@ -314,7 +314,7 @@ class ParticleFilter:
             ``people_prior`` and ``sensor_prior``, ``(nx, ny)`` each, the rasterised mass after each prediction
             (``sensor_prior`` with the empty cells filled, before the clip and the appearances).
         """
-        dt = check_positive(dt, "dt")
+        dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
         odo = as_odometry(odometry)
         # The filter never writes into particle arrays in place, so a shallow copy protects self.state.
         moved = self._predict_people(self.state.shallow_copy(), dt)
@@ -352,6 +352,7 @@ class ParticleFilter:
         Returns a :class:`ParticleStep` (the stages rasterised into (nx, ny) grids, plus the particles);
         ``self.state`` becomes the new particles.
         """
+        check_dt(dt)  # before the likelihoods are computed
         lik = self.likelihood(self.spec, self.detectors, list(detections))
         self.predict(odometry, dt)
         return self._update(lik)

@@ -79,7 +79,7 @@ from pfpeople.filters import build_classifier, build_people_tracker
 from pfpeople.frontend import FrontProcess, FrontResult, front_process_available
 from pfpeople.mot.people import point_like, support_positions
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
-from pfpeople.output import deferred_signals, interrupt_signals
+from pfpeople.output import check_output_paths, deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
 from pfpeople.sensor_setup import TF_PRELOAD_S, SensorSetup, SetupSensors, run_topics, setup_sensors
 from pfpeople.sensors import LaserScan, Pose2D
@@ -519,8 +519,9 @@ class Pipeline:
         Returns the summary and (with ``keep=True``) every :class:`FrameResult`.
         ``bag_out`` is a ROS 1 ``.bag`` or a rosbag2 folder (``bag_format`` "ros1", "mcap" or "sqlite3"; default
         from the path, see :mod:`pfpeople.bag.writer`), checked before anything runs; ``overwrite`` also replaces
-        an existing one. The outputs are sinks (:mod:`pfpeople.sinks`), written in order with signals deferred,
-        so a frame goes to every output or to none.
+        an existing one. No output may write over an input bag (:func:`pfpeople.output.check_output_paths`).
+        The outputs are sinks (:mod:`pfpeople.sinks`), written in order with signals deferred, so a frame goes to
+        every output or to none.
         """
         with interrupt_signals():
             return self._run(
@@ -549,6 +550,7 @@ class Pipeline:
         bag_format: str | None,
     ) -> tuple[RunSummary, list[FrameResult]]:
         _check_max_frames(max_frames)
+        check_output_paths(getattr(bag, "paths", ()), out_dir=out_dir, bag_out=bag_out)
         sinks = [
             *self._sink_factory(
                 out_dir, bag_out=bag_out, bag_format=bag_format, overwrite=overwrite, progress=progress

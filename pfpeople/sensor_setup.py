@@ -127,7 +127,7 @@ def read_tf(config: BagConfig, bag: BagSource) -> TfBuffer:
         for m in bag.messages([topic]):
             if not static and m.bag_time_ns - bag.start_time_ns > TF_PRELOAD_S * 1e9:
                 break
-            tf.add_message(m.msg)
+            tf.add_message(m.msg, topic=topic)  # a zero quaternion is refused, naming the topic
     return tf
 
 

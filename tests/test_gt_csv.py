@@ -129,3 +129,35 @@ def test_beyond_by_stamp_and_bag_time(tmp_path: Path) -> None:
     idx, t = np.array([0, 1, 2]), np.array([100, 200, 300])
     assert gt.beyond(idx, t, t, tolerance_ns=50).tolist() == [False, False, True]
     assert gt.beyond(idx[:0], t[:0], t[:0]).tolist() == [True, True, True]
+
+
+HEADER = "scan_index,person_id,x_laser_m,y_laser_m\n"
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("", r"gt\.csv: empty file \(a header row is required\)"),
+        (HEADER, r"gt\.csv: no ground-truth rows \(only a header\)"),
+        (HEADER + "0,1,2.0,0.5\n-1,1,2.0,0.5\n", r"gt\.csv: line 3: scan_index must be non-negative, got -1"),
+        (
+            HEADER + "0,1,2.0,0.5\n1,1,2.0,0.5\n1,2,3.0,0.0\n1,1,2.1,0.5\n2,1,2.0,0.5\n2,1,2.0,0.5\n",
+            r"gt\.csv: line 5 repeats scan_index 1, person_id 1 of line 3 \(a person would be counted twice\)",
+        ),
+    ],
+    ids=["zero-bytes", "header-only", "negative-scan-index", "duplicate"],
+)
+def test_empty_negative_or_duplicated_ground_truth_is_refused_naming_the_file_and_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, match: str
+) -> None:
+    run_dir = write_run(tmp_path / "run", 3)
+    gt_path = tmp_path / "gt.csv"
+    gt_path.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        read_gt_csv(gt_path)
+    assert eval_main(["score", str(run_dir), "--gt", str(gt_path)]) == 2  # not 0 with NaN recall
+    err = capsys.readouterr().err
+    assert str(gt_path) in err and "Traceback" not in err
+    # The same rows without the fault score as expected.
+    gt_path.write_text(HEADER + "0,1,2.0,0.5\n1,1,2.0,0.5\n1,2,3.0,0.0\n")
+    assert score_run(load_run(run_dir), read_gt_csv(gt_path))["scores"]["legs"]["tp"] == 2

@@ -289,6 +289,37 @@ def test_resource_limits_are_checked_before_allocation(grid: dict, filt: dict, m
         config_from_mapping({**data, "grid": grid, "filter": filt})
 
 
+def _filters() -> list[Any]:
+    from gridbridge import GridFilter
+    from pfpeople.particle_filter import ParticleFilter
+
+    spec = GridSpec(nx=20, ny=20)
+    return [GridFilter(spec), ParticleFilter(spec, n_particles=2000, rng=np.random.default_rng(0))]
+
+
+@pytest.mark.parametrize("k", [0, 1], ids=["grid", "particle"])
+def test_dt_beyond_the_bound_or_not_a_number_is_refused_before_anything_is_allocated(k: int) -> None:
+    from gridbridge.limits import MAX_DT_S, check_dt
+
+    f = _filters()[k]
+    before = f.belief.copy()
+    dets = [np.zeros((0, 2))] * len(f.detectors)
+    with pytest.raises(ResourceLimitError, match=r"dt = 100 s is more than the limit of 10 s \(a time in ms"):
+        f.step(dets, None, dt=100)  # ms passed as seconds: minutes and gigabytes (grid), 555 GiB (particles)
+    with pytest.raises(ResourceLimitError, match=r"dt = 10\.5 s is more than the limit"):
+        f.predict(None, 10.5)
+    bad_types = (("0.1", "str"), (0.1 + 0j, "complex"), (True, "bool"), (np.bool_(True), "bool"), (None, "NoneType"))
+    for bad, name in bad_types:
+        with pytest.raises(TypeError, match=rf"dt must be a real number of seconds, got {name}"):
+            f.step(dets, None, dt=bad)
+    with pytest.raises(ValueError, match=r"dt must be a finite positive number of seconds, got nan"):
+        f.step(dets, None, dt=math.nan)
+    np.testing.assert_array_equal(f.belief, before)  # nothing changed
+    assert check_dt(MAX_DT_S) == 10.0 and check_dt(np.float32(0.1)) == pytest.approx(0.1)  # the bound is allowed
+    f.step(dets, None, dt=0.1)
+    assert np.all(np.isfinite(f.belief)) and not np.array_equal(f.belief, before)
+
+
 def test_particle_filter_checks_its_size_and_the_memory_budget(monkeypatch: pytest.MonkeyPatch) -> None:
     from gridbridge.grid import GridSpec
     from pfpeople.particle_filter import ParticleFilter
@@ -374,6 +405,31 @@ def test_implausible_odometry_is_named_and_counted(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"topic '/odom': odometry position \(1e\+200, 0\) m is beyond"):
         odometry_pose_from_msg(msg, topic="/odom")
     assert odometry_pose_from_msg(m.odom(T0_NS, MOUNT), topic="/odom")[0].x == pytest.approx(MOUNT.x)
+
+
+def test_zero_quaternion_in_odometry_or_tf_is_refused_naming_the_topic() -> None:
+    from pfpeople.bag.tf import TfBuffer
+
+    m = _Msgs(_typestore(False), False)
+    msg = m.odom(T0_NS, MOUNT)
+    q = msg.pose.pose.orientation
+    q.x = q.y = q.z = q.w = 0.0
+    with pytest.raises(
+        ValueError, match=r"topic '/odom': odometry: orientation quaternion \(0\.0, 0\.0, 0\.0, 0\.0\) is zero"
+    ):
+        odometry_pose_from_msg(msg, topic="/odom")  # a MessageDataError: the run counts it and does not use it
+    tf = m.tf(T0_NS, "base_link", "laser", MOUNT)
+    rot = tf.transforms[0].transform.rotation
+    rot.x = rot.y = rot.z = rot.w = 0.0
+    buf = TfBuffer()
+    with pytest.raises(ValueError, match=r"topic '/tf_static': transform base_link -> laser: .* is zero \(never set\)"):
+        buf.add_message(tf, topic="/tf_static")
+    rot.w = math.nan
+    with pytest.raises(ValueError, match=r"topic '/tf': transform base_link -> laser: .* is not finite"):
+        buf.add_message(tf)
+    assert buf.frames == []  # nothing was added
+    ok = m.tf(T0_NS, "base_link", "laser", MOUNT)
+    assert buf.add_message(ok) == 1 and buf.lookup("base_link", "laser").yaw == pytest.approx(MOUNT.yaw)
 
 
 def test_laser_from_msg_nan_range_max_names_the_topic() -> None:

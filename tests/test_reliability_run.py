@@ -138,8 +138,8 @@ def test_out_with_the_users_files_is_never_written(tmp_path: Path, capsys: pytes
     ("bag_out", "match"),
     [
         ("missing/dir/out.bag", r"parent folder '.*missing/dir' does not exist"),
-        (".", r"already exists"),
-        ("b.bag", r"'.*b\.bag' already exists"),
+        (".", r"bag output '.*' would write over the input '.*b\.bag'"),  # the folder holds the input
+        ("b.bag", r"bag output '.*b\.bag' would write over the input '.*b\.bag'"),
     ],
 )
 def test_bad_bag_out_is_refused_before_the_run_directory_exists(

@@ -265,7 +265,7 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
     for topic in sorted(tf_topics):
         static = topic.endswith("tf_static")
         for _, msg in decoded.get(topic, []):
-            tfbuf.add_message(msg)
+            tfbuf.add_message(msg, topic=topic)
             for tr in msg.transforms:
                 parent, child = str(tr.header.frame_id).lstrip("/"), str(tr.child_frame_id).lstrip("/")
                 stamp = int(tr.header.stamp.sec) * 1_000_000_000 + int(tr.header.stamp.nanosec)

@@ -59,10 +59,8 @@ from numpy.typing import NDArray
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
-from gridbridge.geometry import Pose2D
+from gridbridge.geometry import Pose2D, yaw_from_orientation
 from pfpeople.sensors import CameraImage, LaserScan
-
-from .tf import yaw_from_quaternion
 
 __all__ = [
     "BagMessage",
@@ -542,10 +540,13 @@ def odometry_pose_from_msg(msg: Any, *, topic: str = "") -> tuple[Pose2D, str]:
     """``nav_msgs/Odometry`` -> (pose of the child frame in the odom frame, child frame id)."""
     try:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        pose = Pose2D(x=float(p.x), y=float(p.y), yaw=yaw_from_quaternion(q.x, q.y, q.z, q.w))
+        yaw = yaw_from_orientation(q.x, q.y, q.z, q.w, f"topic {topic!r}: odometry")
+        pose = Pose2D(x=float(p.x), y=float(p.y), yaw=yaw)
         child = str(msg.child_frame_id).lstrip("/")
     except AttributeError:
         raise MessageDataError(f"topic {topic!r}: {type(msg).__name__} is not a nav_msgs/Odometry") from None
+    except ValueError as exc:  # a zero or non-finite orientation: this message is not used (counted)
+        raise MessageDataError(str(exc)) from None
     if not all(np.isfinite([pose.x, pose.y, pose.yaw])):
         raise MessageDataError(f"topic {topic!r}: odometry pose has NaN or infinite values")
     if max(abs(pose.x), abs(pose.y)) > MAX_ODOMETRY_COORD_M:

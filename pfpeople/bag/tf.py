@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from gridbridge.geometry import Pose2D, yaw_from_quaternion
+from gridbridge.geometry import Pose2D, yaw_from_orientation, yaw_from_quaternion
 
 __all__ = ["TfBuffer", "TfLookupError", "yaw_from_quaternion"]
 
@@ -53,15 +53,23 @@ class TfBuffer:
         if old is None or old[2] <= stamp_ns:
             self._parent[child] = (parent, pose, stamp_ns)
 
-    def add_message(self, msg: object) -> int:
-        """Add every transform of a ``tf2_msgs/TFMessage``; returns how many were added."""
+    def add_message(self, msg: object, *, topic: str = "/tf") -> int:
+        """Add every transform of a ``tf2_msgs/TFMessage`` read on ``topic``; returns how many were added.
+
+        Raises
+        ------
+        ValueError
+            Not a TFMessage, or a transform whose rotation is a zero (or non-finite) quaternion, which would
+            read as yaw 0: the message names the topic and the transform.
+        """
         transforms = getattr(msg, "transforms", None)
         if transforms is None:
-            raise ValueError(f"not a tf2_msgs/TFMessage: {type(msg).__name__} has no 'transforms'")
+            raise ValueError(f"topic {topic!r}: not a tf2_msgs/TFMessage: {type(msg).__name__} has no 'transforms'")
         for t in transforms:
             tr, q = t.transform.translation, t.transform.rotation
             stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
-            pose = Pose2D(x=float(tr.x), y=float(tr.y), yaw=yaw_from_quaternion(q.x, q.y, q.z, q.w))
+            where = f"topic {topic!r}: transform {t.header.frame_id!s} -> {t.child_frame_id!s}"
+            pose = Pose2D(x=float(tr.x), y=float(tr.y), yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, where))
             self.set_transform(t.header.frame_id, t.child_frame_id, pose, stamp)
         return len(transforms)
 

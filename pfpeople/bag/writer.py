@@ -5,6 +5,12 @@ sqlite3 storage plugin, metadata version 8); no ROS installation is needed. The 
 (:func:`bag_format_for`): ``*.bag`` is ROS 1, anything else a rosbag2 folder, MCAP unless ``sqlite3`` is asked
 for. ROS 1 messages use the Noetic definitions, ROS 2 messages the Humble ones (CDR).
 
+Safety: the bag is written under a temporary folder beside it (``.OUT.bag.XXXX.tmp/OUT.bag``) and renamed into
+place when it is closed (an old bag replaced with ``overwrite`` stays whole until then), and the path is locked
+while it is written (``OUT.bag.lock`` beside it, :mod:`pfpeople.locks`): a second writer is refused
+(:class:`BagLockedError`), not interleaved. :func:`pfpeople.output.check_output_paths` refuses an output that
+is, holds or lies inside an input.
+
 Topics (header frame: the grid frame; header stamps: the frame stamps; record time: the driver's bag time):
 
 - ``/pfpeople/belief`` ``nav_msgs/OccupancyGrid``: belief * 100 rounded to int8 (0..100). OccupancyGrid data
@@ -34,10 +40,11 @@ import math
 import os
 import re
 import shutil
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Literal
+from typing import IO, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +56,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from gridbridge.geometry import quaternion_from_yaw
 from gridbridge.grid import GridSpec
+from pfpeople import locks
 
 __all__ = [
     "BAG_FORMATS",
@@ -58,10 +66,12 @@ __all__ = [
     "TOPIC_TF_STATIC",
     "TOPIC_TRACKS",
     "TOPIC_TRACK_MARKERS",
+    "BagLockedError",
     "ResultBagWriter",
     "bag_format_for",
     "check_bag_out",
     "detection_topic",
+    "lock_path",
 ]
 
 #: The output formats: ROS 1 ``.bag`` file, rosbag2 folder with MCAP or sqlite3 storage.
@@ -85,6 +95,16 @@ MARKER_DELETEALL = 3
 
 _ROSBAG2_VERSION: Literal[8] = 8
 _TF_MSG = "geometry_msgs/TransformStamped[] transforms\n"
+
+
+class BagLockedError(locks.PathLockedError):
+    """The result bag is being written by another process (its lock ``OUT.lock`` is held)."""
+
+
+def lock_path(path: str | Path) -> Path:
+    """The lock file of the result bag ``path``: ``OUT.bag.lock`` (``OUT.lock`` for a rosbag2 folder), beside it."""
+    p = Path(path)
+    return p.parent / f"{p.name}.lock"
 
 
 def detection_topic(name: str) -> str:
@@ -113,8 +133,12 @@ def bag_format_for(path: str | Path, bag_format: str | None = None) -> str:
     return bag_format
 
 
-def check_bag_out(path: str | Path, bag_format: str | None = None, *, overwrite: bool = False) -> tuple[Path, str]:
+def check_bag_out(
+    path: str | Path, bag_format: str | None = None, *, overwrite: bool = False, check_lock: bool = True
+) -> tuple[Path, str]:
     """Check a result-bag path before a run starts; returns ``(path, format)``.
+
+    ``check_lock``: also refuse a bag another process is writing (false: the caller holds the lock).
 
     Raises
     ------
@@ -125,6 +149,8 @@ def check_bag_out(path: str | Path, bag_format: str | None = None, *, overwrite:
         The parent folder does not exist.
     FileExistsError
         The path exists and ``overwrite`` is false.
+    BagLockedError
+        Another live process is writing the bag (its lock, :func:`lock_path`, is held).
     """
     p = Path(path)
     fmt = bag_format_for(p, bag_format)
@@ -133,6 +159,8 @@ def check_bag_out(path: str | Path, bag_format: str | None = None, *, overwrite:
         raise FileNotFoundError(f"bag output {str(p)!r}: parent folder {str(parent)!r} does not exist")
     if not os.access(parent, os.W_OK):
         raise PermissionError(f"bag output {str(p)!r}: parent folder {str(parent)!r} is not writable")
+    if check_lock:
+        locks.check_free(lock_path(p), f"bag output {str(p)!r}", BagLockedError)
     if p.exists() or p.is_symlink():
         if not overwrite:
             raise FileExistsError(f"bag output {str(p)!r} already exists (use --overwrite to replace it)")
@@ -241,26 +269,20 @@ class ResultBagWriter:
         self._det_topics = [detection_topic(n) for n in detector_names]
         if len(set(self._det_topics)) != len(self._det_topics):
             raise ValueError(f"detector names {list(detector_names)} map to the same topic")
-        self.path, self.bag_format = check_bag_out(path, bag_format, overwrite=overwrite)
+        self.path, self.bag_format = Path(path), bag_format_for(path, bag_format)
+        self._tmp_dir: Path | None = None
+        self._lock_path = lock_path(self.path)
+        self._lock: IO[str] | None = locks.acquire(self._lock_path, f"bag output {str(self.path)!r}", BagLockedError)
+        try:
+            check_bag_out(self.path, self.bag_format, overwrite=overwrite, check_lock=False)
+            self._tmp_dir = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent))
+            self._writer: Any = self._open_writer(self._tmp_dir / self.path.name)
+        except BaseException:
+            self._discard()
+            raise
         self.spec = spec
         self.frame_id = frame_id
         self.arrow_time_s = float(arrow_time_s)
-        self.ros2 = self.bag_format != "ros1"
-        self.ts = get_typestore(Stores.ROS2_HUMBLE if self.ros2 else Stores.ROS1_NOETIC)
-        if "tf2_msgs/msg/TFMessage" not in self.ts.types:  # not in rosbags' ROS 1 Noetic store
-            self.ts.register(get_types_from_msg(_TF_MSG, "tf2_msgs/msg/TFMessage"))
-        if self.path.exists():  # overwrite was checked above
-            if self.path.is_dir():
-                shutil.rmtree(self.path)
-            else:
-                self.path.unlink()
-        self._writer: Any
-        if self.ros2:
-            plugin = StoragePlugin.MCAP if self.bag_format == "mcap" else StoragePlugin.SQLITE3
-            self._writer = Writer2(self.path, version=_ROSBAG2_VERSION, storage_plugin=plugin)
-        else:
-            self._writer = Writer1(self.path)
-        self._writer.open()
         self._closed = False
         self._conns: dict[str, Any] = {}
         self._add(TOPIC_TF_STATIC, "tf2_msgs/msg/TFMessage", static=True)
@@ -273,6 +295,42 @@ class ResultBagWriter:
         self._seq = 0
 
     # -- plumbing ------------------------------------------------------------------------------------------------
+
+    def _open_writer(self, target: Path) -> Any:
+        """The rosbags writer, writing ``target`` (in the temporary folder, under the final name)."""
+        self.ros2 = self.bag_format != "ros1"
+        self.ts = get_typestore(Stores.ROS2_HUMBLE if self.ros2 else Stores.ROS1_NOETIC)
+        if "tf2_msgs/msg/TFMessage" not in self.ts.types:  # not in rosbags' ROS 1 Noetic store
+            self.ts.register(get_types_from_msg(_TF_MSG, "tf2_msgs/msg/TFMessage"))
+        writer: Any
+        if self.ros2:
+            plugin = StoragePlugin.MCAP if self.bag_format == "mcap" else StoragePlugin.SQLITE3
+            writer = Writer2(target, version=_ROSBAG2_VERSION, storage_plugin=plugin)
+        else:
+            writer = Writer1(target)
+        writer.open()
+        return writer
+
+    def _publish(self) -> None:
+        """Rename the finished bag into place (replacing an old one, checked at the start), then unlock."""
+        assert self._tmp_dir is not None
+        try:
+            if self.path.is_symlink():  # the link is replaced, not what it points to
+                self.path.unlink()
+            elif self.path.is_dir():  # an old rosbag2: moved aside, then removed with the temporary folder
+                os.rename(self.path, self._tmp_dir / ".replaced")
+            os.replace(self._tmp_dir / self.path.name, self.path)
+        finally:
+            self._discard()
+
+    def _discard(self) -> None:
+        """Remove the temporary folder (whatever it still holds) and release the lock (idempotent)."""
+        if self._tmp_dir is not None:
+            shutil.rmtree(self._tmp_dir, ignore_errors=True)
+            self._tmp_dir = None
+        if self._lock is not None:
+            locks.release(self._lock, remove=self._lock_path)
+            self._lock = None
 
     def _add(self, topic: str, msgtype: str, *, static: bool = False) -> None:
         if self.ros2:
@@ -448,7 +506,12 @@ class ResultBagWriter:
         """Finish the bag (index / metadata.yaml); idempotent."""
         if not self._closed:
             self._closed = True
-            self._writer.close()
+            try:
+                self._writer.close()
+            except BaseException:
+                self._discard()
+                raise
+            self._publish()
 
     def __enter__(self) -> ResultBagWriter:
         return self

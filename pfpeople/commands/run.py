@@ -25,7 +25,7 @@ from gridbridge.cli_support import examples
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.bag.writer import BAG_FORMATS, check_bag_out
-from pfpeople.output import RunInterrupted, interrupt_signals
+from pfpeople.output import RunInterrupted, check_output_paths, interrupt_signals
 from pfpeople.pipeline import Pipeline
 
 
@@ -74,11 +74,13 @@ def _run(args: argparse.Namespace) -> int:
 
 def _run_checked(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
+    out = Path(args.out) if args.out else Path(f"{Path(args.bag).name.split('.')[0]}_{cfg.filter.kind}_run")
+    inputs = [Path(args.bag)] + ([Path(args.config)] if args.config and Path(args.config).is_file() else [])
+    check_output_paths(inputs, out_dir=out, bag_out=args.bag_out)  # no output writes over an input, or another
     if args.bag_out is not None:  # a bad --bag-out fails now, not after the run
         check_bag_out(args.bag_out, args.bag_format, overwrite=args.overwrite)
     elif args.bag_format is not None:
         raise ValueError("--bag-format needs --bag-out")
-    out = Path(args.out) if args.out else Path(f"{Path(args.bag).name.split('.')[0]}_{cfg.filter.kind}_run")
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r} exists and is not a directory")
     try:
