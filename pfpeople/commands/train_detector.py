@@ -41,6 +41,15 @@ def register(subparsers: Any) -> None:
     p.add_argument("--match-radius", type=float, default=d.match_radius, help="label match radius (m)")
     p.add_argument("--jump-distance", type=float, default=SegmentationParams().jump_distance, help="(m)")
     p.add_argument("--seed", type=int, default=d.seed)
+    p.add_argument(
+        "--augment-noise",
+        type=float,
+        nargs="*",
+        default=list(d.augment_noise),
+        metavar="SD",
+        help="train also on noisy copies of every scan, one per range-noise sd in m (default: %(default)s; "
+        "none: no copies)",
+    )
     p.add_argument("--scan-step", type=int, default=1, help="use every N-th scan (quick runs; default all)")
     p.add_argument("--no-leave-one-out", action="store_true", help="skip the leave-one-bag-out evaluation")
     p.set_defaults(func=_run)
@@ -55,6 +64,7 @@ def _run(args: argparse.Namespace) -> int:
         holdout_fraction=args.holdout_fraction,
         match_radius=args.match_radius,
         seed=args.seed,
+        augment_noise=tuple(args.augment_noise),
     )
     side = train_from_directory(
         args.data_dir,
