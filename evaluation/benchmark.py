@@ -391,7 +391,9 @@ def scene_logs(
             cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
             cfg = load_config(cfg_path)
             dets = tuple(
-                replace(d, params={**dict(d.params), "model_path": str(model)}) if d.kind == "boosted" else d
+                replace(d, params={**dict(d.params), "model_path": str(model)})
+                if d.kind in ("boosted", "single-legs")
+                else d
                 for d in cfg.detectors
             )
             log, row = _pipeline_log(

@@ -106,7 +106,7 @@ __all__ = [
 ]
 
 #: Detector kinds: the built-in detectors and detections read from a topic.
-DETECTOR_KINDS = ("leg", "boosted", "hog", "topic")
+DETECTOR_KINDS = ("leg", "boosted", "single-legs", "hog", "topic")
 _MODEL_FIELDS = {f.name for f in fields(DetectorModel)}
 
 
@@ -124,7 +124,7 @@ class DetectorConfig:
     ----------
     name : str
         Unique name (used in the outputs).
-    kind : {"leg", "boosted", "hog", "topic"}
+    kind : {"leg", "boosted", "single-legs", "hog", "topic"}
         Built-in detector run on the input topic, or ``"topic"``: positions read from the topic.
     topic : str
         Input topic.
