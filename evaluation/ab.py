@@ -302,7 +302,7 @@ def evaluate_tracking(
     transforms = []
     for fr in frames:
         odo = fr.odometry(noisy=noisy_odometry)
-        dx, dy, dth = velocity_displacement(odo.v, odo.omega, dt)
+        dx, dy, dth = velocity_displacement(odo.v, odo.omega, dt, vy=odo.vy)
         transforms.append((float(dx), float(dy), float(dth)))
     result = track_sequence(results=classified, spec=spec, params=params, transforms=transforms)
     tracked = result.tracked

@@ -8,14 +8,14 @@ Two harnesses, one tracker (:class:`pfpeople.mot.MultiPersonTracker`) and one sc
   particle filter) followed by a classifier ``classify(belief, spec) -> (positions (K, 2), scores (K,))``
   (default :func:`peak_classifier`), and the baseline: the tracker fed with each detector's raw detections and
   with all detectors' detections merged (:func:`merge_detections`). Ego-motion for the tracker: the reported
-  (noisy) odometry of the frame, ``velocity_displacement(v, omega, dt)``, as the filters get. Ground truth and
+  (noisy) odometry of the frame, ``odometry_pose(odometry, dt)``, as the filters get. Ground truth and
   hypotheses are restricted to the grid (the grid cannot show people outside it).
 - **Run directory** (:func:`evaluate_run`): a ``pfpeople run`` output (``people.csv``: the filter's people;
   ``detections.csv``: each detector) against a GT CSV with person ids (:mod:`evaluation.gt_csv`), with the
   followed-person figure: the fraction of the annotated frames of one person where a confirmed track lies
   within ``gate`` of it (CLEAR-MOT matching, so a matched track is one-to-one), and the identity switches on
-  that person. Ego-motion: ``frames.csv`` (``v_mps``, ``omega_radps``, ``dt_s``; frames without odometry
-  count as standing).
+  that person. Ego-motion: ``frames.csv`` (``v_mps``, ``omega_radps``, ``vy_mps``, ``dt_s``; frames without
+  odometry count as standing).
 
 - **Replay log** (:func:`evaluate_log`, the MOT table of ``pfpeople-eval benchmark``): a scenario's log, the
   recommended filter and the tracker fed exactly as ``pfpeople run`` feeds it (the people plus the weaker belief
@@ -47,7 +47,7 @@ from evaluation.replay import ReplayLog
 from evaluation.run_truth import group_by_frame, gt_to_grid
 from evaluation.scenarios.scenario import Frame, Scenario
 from gridbridge.classifiers import classify_frame, classify_peaks
-from gridbridge.ego_motion import velocity_displacement
+from gridbridge.ego_motion import Odometry, odometry_pose
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
@@ -166,9 +166,7 @@ def _in_grid(spec: GridSpec, ids: NDArray[np.int64], pos: Positions) -> tuple[ND
 
 
 def _ego(frame: Frame, dt: float) -> Pose2D:
-    odo = frame.odometry(noisy=True)
-    dx, dy, dth = velocity_displacement(odo.v, odo.omega, dt)
-    return Pose2D(x=float(dx), y=float(dy), yaw=float(dth))
+    return odometry_pose(frame.odometry(noisy=True), dt)
 
 
 def evaluate_scenario(
@@ -276,11 +274,7 @@ def evaluate_log(
     dts = [float(v) for v in log.dt]
     egos: list[Pose2D | None] = []
     for odo, dt in zip(log.odometry, dts, strict=True):
-        if odo is None:
-            egos.append(None)
-        else:
-            dx, dy, dth = velocity_displacement(odo.v, odo.omega, dt)
-            egos.append(Pose2D(x=float(dx), y=float(dy), yaw=float(dth)))
+        egos.append(None if odo is None else odometry_pose(odo, dt))
     gt = [_in_grid(spec, log.truth_ids[k], log.truth[k]) for k in range(n)]
     rows: list[MotRow] = []
 
@@ -360,8 +354,8 @@ def _run_egos(run: RunData) -> tuple[list[float], list[Pose2D | None]]:
         if int(fr["odometry"][k]) == 0:
             egos.append(None)
             continue
-        dx, dy, dth = velocity_displacement(float(fr["v_mps"][k]), float(fr["omega_radps"][k]), dts[k])
-        egos.append(Pose2D(x=float(dx), y=float(dy), yaw=float(dth)))
+        odo = Odometry(v=float(fr["v_mps"][k]), omega=float(fr["omega_radps"][k]), vy=float(fr["vy_mps"][k]))
+        egos.append(odometry_pose(odo, dts[k]))
     return dts, egos
 
 

@@ -110,6 +110,14 @@ def log_from_scenario(scenario: Any, *, noisy_odometry: bool = True, name: str |
     )
 
 
+def _model_from_json(fields: dict[str, Any]) -> DetectorModel:
+    """A :class:`DetectorModel` from ``run.json`` ``detector_models``: an unbounded ``max_range`` is stored as the
+    string ``"inf"`` (:mod:`pfpeople.jsonio`) and read back as a float."""
+    text = {"name", "uncertainty"}
+    values: dict[str, Any] = {k: float(v) if isinstance(v, str) and k not in text else v for k, v in fields.items()}
+    return DetectorModel(**values)
+
+
 def log_from_run(
     run_dir: str | Path,
     *,
@@ -137,11 +145,11 @@ def log_from_run(
     run = load_run(run_dir)
     n = run.n_frames
     names = list(run.meta["detectors"])
-    models = tuple(DetectorModel(**m) for m in run.meta["detector_models"])
+    models = tuple(_model_from_json(m) for m in run.meta["detector_models"])
     fr = run.frames
     odo: list[Odometry | None] = [
-        Odometry(v=float(v), omega=float(w)) if int(o) else None
-        for v, w, o in zip(fr["v_mps"], fr["omega_radps"], fr["odometry"], strict=True)
+        Odometry(v=float(v), omega=float(w), vy=float(vy)) if int(o) else None
+        for v, w, vy, o in zip(fr["v_mps"], fr["omega_radps"], fr["vy_mps"], fr["odometry"], strict=True)
     ]
     no_data = [set(str(s).split(";")) if str(s) else set() for s in fr["no_data"]]
     det = run.detections

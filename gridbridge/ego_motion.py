@@ -4,11 +4,16 @@ The grid is attached to the sensor frame, so when the robot moves by the rigid t
 ``(dx, dy, dtheta)`` (the new sensor frame expressed in the old one) a point fixed in the world moves, in
 sensor coordinates, from ``p_old`` to ``p_new = R(-dtheta) (p_old - t)``.
 
-Odometry (v, omega, dt) gives the displacement through Thrun's velocity motion model (Probabilistic
-Robotics, Table 5.3) with executed controls ``v_hat``, ``w_hat`` and final rotation ``gamma_hat``:
+Odometry (v, vy, omega, dt) gives the displacement through Thrun's velocity motion model (Probabilistic
+Robotics, Table 5.3) with executed controls ``v_hat``, ``w_hat`` and final rotation ``gamma_hat``, extended by a
+lateral velocity ``vy`` to the full SE(2) motion of the sensor frame (a frame mounted off the robot's rotation
+axis and yawed also moves sideways). A constant body-frame velocity ``(v, vy, w)`` over ``dt`` integrates to
 
-    dx = v_hat / w_hat * sin(w_hat dt),   dy = v_hat / w_hat * (1 - cos(w_hat dt)),
-    dtheta = (w_hat + gamma_hat) dt                                      (straight line when w_hat = 0).
+    dx = (v sin(w dt) - vy (1 - cos(w dt))) / w,   dy = (v (1 - cos(w dt)) + vy sin(w dt)) / w,
+    dtheta = (w_hat + gamma_hat) dt                  (straight line ``dx = v dt, dy = vy dt`` when w = 0),
+
+with ``v = v_hat``, ``w = w_hat``; ``vy = 0`` is Thrun's model. The noise stays on ``v_hat``, ``w_hat`` and
+``gamma_hat``; ``vy`` enters the mean only.
 
 Reading of eq. 10 ("P(p | v_sensors) can be found using eq. 8 with v_people replaced by v_sensors"): we do
 not apply eq. 8's colonisation form to ego-motion, because the robot's motion does not create or remove
@@ -54,46 +59,81 @@ _OMEGA_EPS = 1e-9
 
 @dataclass(frozen=True, kw_only=True)
 class Odometry:
-    """Robot controls over one step: forward speed ``v`` (m/s) and yaw rate ``omega`` (rad/s), sensor frame."""
+    """Motion of the sensor frame over one step, as a constant body-frame velocity (sensor frame).
+
+    Attributes
+    ----------
+    v : float
+        Forward speed (m/s, x of the moving sensor frame).
+    omega : float
+        Yaw rate (rad/s).
+    vy : float
+        Lateral speed (m/s, y of the moving sensor frame); 0 for a sensor on the robot's rotation axis
+        (Thrun's velocity model).
+    """
 
     v: float = 0.0
     omega: float = 0.0
+    vy: float = 0.0
 
     def __post_init__(self) -> None:
         check_finite(self.v, "Odometry.v")
         check_finite(self.omega, "Odometry.omega")
+        check_finite(self.vy, "Odometry.vy")
 
 
 def velocity_displacement(
-    v: ArrayLike, omega: ArrayLike, dt: float, gamma: ArrayLike = 0.0
+    v: ArrayLike, omega: ArrayLike, dt: float, gamma: ArrayLike = 0.0, vy: ArrayLike = 0.0
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Displacement ``(dx, dy, dtheta)`` of the sensor frame over ``dt`` (old sensor frame; m, m, rad).
+    """Displacement of the sensor frame over ``dt`` under a constant body-frame velocity (eqs. 10-11).
 
-    Vectorised over ``v``, ``omega``, ``gamma`` (executed controls of the velocity motion model).
+    Parameters
+    ----------
+    v, omega : array_like
+        Executed forward speed (m/s) and yaw rate (rad/s) of the velocity motion model, sensor frame.
+    dt : float
+        Time step (s).
+    gamma : array_like
+        Executed final rotation rate (rad/s; Thrun's ``gamma_hat``), added to ``dtheta`` only.
+    vy : array_like
+        Lateral speed (m/s, y of the moving sensor frame); see the module docstring for the closed form.
+
+    Returns
+    -------
+    dx, dy, dtheta : ndarray
+        The new sensor frame in the old one (m, m, rad), broadcast over the inputs.
     """
     v = np.asarray(v, dtype=float)
     w = np.asarray(omega, dtype=float)
     turning = np.abs(w) > _OMEGA_EPS
     w_safe = np.where(turning, w, 1.0)
+    # Thrun's terms first, the lateral ones added after: with vy = 0 the result is bit-identical to vy-free code.
     dx = np.where(turning, v / w_safe * np.sin(w * dt), v * dt)
     dy = np.where(turning, v / w_safe * (1.0 - np.cos(w * dt)), 0.0)
+    lat = np.asarray(vy, dtype=float)
+    if np.any(lat != 0.0):
+        dx = dx - np.where(turning, lat / w_safe * (1.0 - np.cos(w * dt)), 0.0)
+        dy = dy + np.where(turning, lat / w_safe * np.sin(w * dt), lat * dt)
     dtheta = (w + np.asarray(gamma, dtype=float)) * dt
     return dx, dy, np.broadcast_to(dtheta, np.broadcast(dx, dtheta).shape).copy()
 
 
 def odometry_pose(odometry: Odometry | None, dt: float) -> Pose2D:
-    """The sensor frame after ``dt`` s of ``odometry`` in the frame before (the mean motion, no noise);
-    identity for None."""
+    """The sensor frame after ``dt`` s of ``odometry`` in the frame before (the mean motion of eqs. 10-11, no
+    noise; m, m, rad); identity for None."""
     if odometry is None:
         return Pose2D()
-    dx, dy, dth = velocity_displacement(odometry.v, odometry.omega, dt)
+    dx, dy, dth = velocity_displacement(odometry.v, odometry.omega, dt, vy=odometry.vy)
     return Pose2D(x=float(dx), y=float(dy), yaw=float(dth))
 
 
 def ego_motion_sigma_points(
     odometry: Odometry | None, dt: float, noise: SensorMotionNoise
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Sigma-point displacements of the noisy velocity motion model.
+    """Sigma-point displacements of the noisy velocity motion model (eqs. 10-11).
+
+    The noise is on ``v``, ``omega`` and ``gamma`` (:meth:`SensorMotionNoise.variances`); the lateral speed
+    ``odometry.vy`` enters every sigma point as its mean.
 
     Returns
     -------
@@ -121,7 +161,7 @@ def ego_motion_sigma_points(
     w = np.array(weights)
     keep = w > 0.0
     controls, w = controls[keep], w[keep]
-    dx, dy, dth = velocity_displacement(controls[:, 0], controls[:, 1], dt, controls[:, 2])
+    dx, dy, dth = velocity_displacement(controls[:, 0], controls[:, 1], dt, controls[:, 2], vy=odo.vy)
     return np.column_stack((dx, dy, dth)), w / w.sum()
 
 

@@ -24,8 +24,9 @@ paper's prior. Standing is ``vx = vy = 0``.
 Sensor motion (eqs. 10-11): Thrun's ``sample_motion_model_velocity`` (Probabilistic Robotics, Table 5.3):
 executed controls ``v_hat = v + e1``, ``w_hat = w + e2`` and a final rotation ``gamma_hat = e3`` with the
 variances of :meth:`SensorMotionNoise.variances`, mapped to the displacement ``(dx, dy, dtheta)`` of the new
-sensor frame in the old one by :func:`gridbridge.velocity_displacement`. A point (and a velocity) moves into the
-new sensor frame as ``p_new = R(-dtheta) (p_old - t)``, ``v_new = R(-dtheta) v_old``.
+sensor frame in the old one by :func:`gridbridge.velocity_displacement`, with the odometry's lateral speed
+``vy`` (a sensor mounted off the rotation axis) in the mean of every draw (no noise on it). A point (and a
+velocity) moves into the new sensor frame as ``p_new = R(-dtheta) (p_old - t)``, ``v_new = R(-dtheta) v_old``.
 """
 
 from __future__ import annotations
@@ -206,7 +207,9 @@ def sample_ego_poses(
     *,
     rng: np.random.Generator,
 ) -> NDArray[np.float64]:
-    """``n`` displacements ``(dx, dy, dtheta)`` of the sensor frame from the noisy velocity motion model.
+    """``n`` displacements ``(dx, dy, dtheta)`` of the sensor frame from the noisy velocity motion model (eqs. 10-11).
+
+    The noise is on ``v``, ``omega`` and ``gamma``; ``odometry.vy`` (m/s, lateral) enters every draw unchanged.
 
     Returns
     -------
@@ -217,7 +220,7 @@ def sample_ego_poses(
     odo = Odometry() if odometry is None else odometry
     sd = np.sqrt(np.asarray(noise.variances(odo.v, odo.omega)))
     e = rng.standard_normal((3, n)) * sd[:, None]
-    dx, dy, dth = velocity_displacement(odo.v + e[0], odo.omega + e[1], dt, e[2])
+    dx, dy, dth = velocity_displacement(odo.v + e[0], odo.omega + e[1], dt, e[2], vy=odo.vy)
     return np.column_stack((dx, dy, dth))
 
 

@@ -2,16 +2,19 @@
 
 The odometry pose of the base frame is interpolated to the frame stamp (linear in x, y and the wrapped yaw)
 and composed with the grid frame's mount on the base (``P_grid = P_base * T_base_grid``). The relative motion
-``D = P_grid(t_{k-1})^-1 P_grid(t_k)`` is converted to the velocity motion model's controls over
-``dt = t_k - t_{k-1}`` (:func:`odometry_between`):
+``D = P_grid(t_{k-1})^-1 P_grid(t_k)`` is converted to the constant body-frame velocity ``(v, vy, omega)`` of
+the grid frame over ``dt = t_k - t_{k-1}`` that reproduces it exactly (:func:`odometry_between`; the motion
+model of :func:`gridbridge.velocity_displacement`, eqs. 10-11):
 
-    omega = dtheta / dt,   v = (dtheta/2) / sin(dtheta/2) * (dx cos(dtheta/2) + dy sin(dtheta/2)) / dt
+    omega = dtheta / dt,   arc = (dtheta/2) / sin(dtheta/2),
+    v  = arc * ( dx cos(dtheta/2) + dy sin(dtheta/2)) / dt,
+    vy = arc * (-dx sin(dtheta/2) + dy cos(dtheta/2)) / dt.
 
-(exact for motion on an arc; the lateral part ``-dx sin(dtheta/2) + dy cos(dtheta/2)``, which a sensor mounted
-off the rotation axis can have, is not representable by (v, omega); its largest magnitude is counted in
-:attr:`pfpeople.run_state.RunSummary.max_lateral_m`). Without odometry in a frame the robot is taken as
-standing (counted, logged once); the next frame with odometry moves the grid by the whole displacement since
-the last frame that had it, so no motion is lost.
+The lateral part ``vy`` is what a grid frame mounted off the robot's rotation axis (and yawed) has: it is
+applied by both filters; the largest lateral displacement of a step is reported in
+:attr:`pfpeople.run_state.RunSummary.max_lateral_m` (informative). Without odometry in a frame the robot is
+taken as standing (counted, logged once); the next frame with odometry moves the grid by the whole
+displacement since the last frame that had it, so no motion is lost.
 
 Without an odometry topic, the motion can come from the driving laser's scan matching
 (:mod:`pfpeople.clutter`, ``[clutter] laser_odometry``): :meth:`OdometryIntegrator.from_laser`.
@@ -66,21 +69,31 @@ def interpolate_pose(a: tuple[int, Pose2D], b: tuple[int, Pose2D], t: int) -> Po
 
 
 def odometry_between(p0: Pose2D, p1: Pose2D, dt: float) -> tuple[Odometry, float]:
-    """Velocity-model controls moving a frame from pose ``p0`` to ``p1`` in ``dt`` s (see module docstring).
+    """The constant body-frame velocity moving a frame from pose ``p0`` to ``p1`` in ``dt`` s (module docstring).
+
+    ``gridbridge.ego_motion.odometry_pose(odometry, dt)`` is ``p0^-1 p1`` (to rounding), sideways motion included.
+
+    Parameters
+    ----------
+    p0, p1 : Pose2D
+        The frame's poses at the start and the end of the step (any common fixed frame; m, rad).
+    dt : float
+        Duration of the step (s, > 0).
 
     Returns
     -------
     odometry : Odometry
-        ``v`` (m/s) and ``omega`` (rad/s) in the moving frame.
+        ``v``, ``vy`` (m/s, x and y of the moving frame) and ``omega`` (rad/s).
     lateral : float
-        The lateral displacement (m) the arc model cannot represent.
+        The lateral displacement (m): the chord of the step across the mean heading ``dtheta / 2``
+        (``vy dt / arc``; 0 for a frame on the rotation axis moving on an arc).
     """
     d = p0.inverse().compose(p1)
     half = 0.5 * d.yaw
     along = d.x * math.cos(half) + d.y * math.sin(half)
     lateral = -d.x * math.sin(half) + d.y * math.cos(half)
     arc = 1.0 if abs(half) < 1e-9 else half / math.sin(half)
-    return Odometry(v=arc * along / dt, omega=d.yaw / dt), lateral
+    return Odometry(v=arc * along / dt, omega=d.yaw / dt, vy=arc * lateral / dt), lateral
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -7,8 +7,8 @@ Format (``format = "pfpeople-run"``, ``version = 1``)::
       grids.npy       float32 array (N, nx, ny): the belief grid of every frame (grid frame, cell [i, j] as
                       GridSpec); a standard .npy whose header is rewritten after each frame, so
                       numpy.load(path, mmap_mode="r") reads the frames written so far at any time
-      frames.csv      frame, driver_index, stamp_ns, bag_time_ns, dt_s, v_mps, omega_radps, odometry,
-                      forced, n_people, no_data
+      frames.csv      frame, driver_index, stamp_ns, bag_time_ns, dt_s, v_mps, omega_radps, vy_mps,
+                      odometry, forced, n_people, no_data
       people.csv      frame, driver_index, stamp_ns, bag_time_ns, x_m, y_m, size_cells, mean_probability
       detections.csv  frame, driver_index, stamp_ns, bag_time_ns, detector, x_m, y_m, static
       tracks.csv      frame, stamp_ns, id, x, y, vx, vy, cov_xx, cov_xy, cov_yy, score   (when tracking is on)
@@ -19,7 +19,9 @@ Positions are metres in the grid frame (REP-103; the grid frame is named in ``ru
 the frames of the run (0, 1, ...); ``driver_index`` is the index of the driving message on its topic (the
 "scan index" of ground-truth files); ``stamp_ns`` the frame stamp used for synchronisation (header or bag
 time, see ``run.json`` ``config.frames.time_source``); ``bag_time_ns`` the driver's record time. In
-``frames.csv``, ``odometry`` is 1 when the step used odometry (0: the robot was taken as standing),
+``frames.csv``, ``v_mps``, ``omega_radps`` and ``vy_mps`` are the ego-motion the filters got (forward speed, yaw
+rate and lateral speed of the grid frame, :class:`gridbridge.Odometry`; runs written before ``vy_mps`` read
+as 0), ``odometry`` is 1 when the step used odometry (0: the robot was taken as standing),
 ``forced`` is 1 when the frame was finalised before every topic caught up, and ``no_data`` lists (``;``)
 the detectors that had no data in the frame (they covered no cell). In ``detections.csv`` every detection of
 every detector is listed (each detector alone); ``static`` is 1 for those the static-clutter map suppressed
@@ -70,6 +72,7 @@ from typing import IO, Any, BinaryIO, TextIO
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
 from pfpeople import locks
 from pfpeople.jsonio import dumps
@@ -235,15 +238,29 @@ FRAME_COLUMNS = (
     "dt_s",
     "v_mps",
     "omega_radps",
+    "vy_mps",
     "odometry",
     "forced",
     "n_people",
     "no_data",
 )
+#: The columns of run directories written before the ``vy_mps`` column (read with ``vy_mps = 0``).
+_FRAME_COLUMNS_V1 = tuple(c for c in FRAME_COLUMNS if c != "vy_mps")
 PEOPLE_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "x_m", "y_m", "size_cells", "mean_probability")
 DETECTION_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "detector", "x_m", "y_m", "static")
 #: The columns of run directories written before the ``static`` column (read with ``static = 0``).
 _DETECTION_COLUMNS_V1 = DETECTION_COLUMNS[:-1]
+
+
+def _odometry_row(odometry: Odometry | tuple[float, ...] | None) -> tuple[float, float, float]:
+    """``(v_mps, omega_radps, vy_mps)`` of a frame's ego-motion for ``frames.csv`` (zeros for None)."""
+    if odometry is None:
+        return 0.0, 0.0, 0.0
+    if isinstance(odometry, Odometry):
+        return odometry.v, odometry.omega, odometry.vy
+    if len(odometry) not in (2, 3):
+        raise ValueError(f"odometry must be Odometry, (v, omega) or (v, omega, vy), got {odometry!r}")
+    return float(odometry[0]), float(odometry[1]), float(odometry[2]) if len(odometry) == 3 else 0.0
 
 
 def _npy_header(n: int, nx: int, ny: int) -> bytes:
@@ -388,7 +405,7 @@ class RunWriter:
         stamp_ns: int,
         bag_time_ns: int,
         dt_s: float,
-        odometry: tuple[float, float] | None,
+        odometry: Odometry | tuple[float, float] | tuple[float, float, float] | None,
         forced: bool,
         belief: NDArray[np.float64],
         people: NDArray[np.float64],
@@ -401,6 +418,9 @@ class RunWriter:
         support_static: Sequence[NDArray[np.bool_] | None] | None = None,
     ) -> None:
         """Append one frame to every file and flush (see the module docstring for the columns).
+
+        ``odometry``: the frame's ego-motion, an :class:`gridbridge.Odometry` or ``(v, omega[, vy])`` (m/s, rad/s,
+        m/s; grid frame); None: the robot was taken as standing.
 
         ``static``: per detector, which of its detections the static-clutter map suppressed (column ``static``).
         ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.mot.TRACK_COLUMNS`), written when given (the file is
@@ -418,7 +438,7 @@ class RunWriter:
         probs = list(people_probability) or [math.nan] * len(people)
         key = (frame, driver_index, stamp_ns, bag_time_ns)
         no_data = [n for n, d in zip(self.detector_names, detections, strict=True) if d is None]
-        v, w = odometry if odometry is not None else (0.0, 0.0)
+        v, w, vy = _odometry_row(odometry)
         with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
             target = "frames.csv"
             try:
@@ -428,6 +448,7 @@ class RunWriter:
                         f"{dt_s:.9g}",
                         f"{v:.9g}",
                         f"{w:.9g}",
+                        f"{vy:.9g}",
                         int(odometry is not None),
                         int(forced),
                         len(people),
@@ -611,6 +632,19 @@ def _read_meta(meta_path: Path) -> dict[str, Any]:
     return meta
 
 
+def _read_frames(path: Path) -> dict[str, NDArray[Any]]:
+    """``frames.csv``; one written before the ``vy_mps`` column reads with ``vy_mps = 0``."""
+    try:
+        return _read_csv(path, FRAME_COLUMNS)
+    except ValueError as exc:  # a run written before vy_mps, or a bad table: then its own error
+        try:
+            frames = _read_csv(path, _FRAME_COLUMNS_V1)
+        except ValueError:
+            raise exc from None
+        frames["vy_mps"] = np.zeros(len(frames["frame"]))
+        return frames
+
+
 def load_run(path: str | Path) -> RunData:
     """Read a run directory (also one whose run failed part-way: the frames written are returned).
 
@@ -631,7 +665,7 @@ def load_run(path: str | Path) -> RunData:
     shape = (meta["grid"]["nx"], meta["grid"]["ny"])
     if grids.ndim != 3 or tuple(grids.shape[1:]) != shape:
         raise ValueError(f"run file {str(grids_path)!r}: shape {grids.shape}, expected (N, {shape[0]}, {shape[1]})")
-    frames = _read_csv(path / "frames.csv", FRAME_COLUMNS)
+    frames = _read_frames(path / "frames.csv")
     n = min(len(grids), len(frames["frame"]))
     frames = {k: v[:n] for k, v in frames.items()}
     people = _read_csv(path / "people.csv", PEOPLE_COLUMNS)

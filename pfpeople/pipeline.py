@@ -26,8 +26,9 @@ Per frame (driven by the config's ``driver`` topic, see :mod:`pfpeople.bag.sync`
    grid frame by the 2-D TF mount, which is also written into the detector's ``DetectorModel`` (``mount_x``,
    ``mount_y``, ``mount_yaw``) so its field of view is placed correctly.
 3. Ego-motion (:mod:`pfpeople.odometry`): the odometry pose of the grid frame, interpolated to the frame stamp,
-   gives the velocity-model controls ``(v, omega)`` over ``dt``; without odometry, the driving laser's scan
-   matching can (``[clutter] laser_odometry``); otherwise the robot is taken as standing.
+   gives the grid frame's body velocity ``(v, vy, omega)`` over ``dt`` (``vy``: the sideways motion of a laser
+   mounted off the rotation axis); without odometry, the driving laser's scan matching can (``[clutter]
+   laser_odometry``); otherwise the robot is taken as standing.
 4. Static clutter (:mod:`pfpeople.suppression`): laser detections the static-clutter map calls static are kept
    from the filter.
 5. Filter step (``GridFilter`` or ``ParticleFilter``, same ``step`` signature), the classification of the belief,

@@ -89,6 +89,11 @@ class RunSummary:
     as ``laser_odometry_frames``) or ``none`` (the robot was taken as standing: no odometry in the frame, a
     failed or skipped scan match, or the first frame of the run or after a restart, which have no previous
     frame); the three add up to the frames processed.
+
+    ``max_lateral_m`` is the largest sideways displacement (m) of the grid frame in one step (the chord across
+    the step's mean heading, :func:`pfpeople.odometry.odometry_between`), large for a driving laser mounted off
+    the robot's rotation axis and yawed. Informative: the filters apply it (``Odometry.vy``, ``vy_mps`` in
+    ``frames.csv``).
     """
 
     frames: int = 0

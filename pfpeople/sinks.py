@@ -154,7 +154,7 @@ class RunDirSink:
             stamp_ns=f.stamp_ns,
             bag_time_ns=f.bag_time_ns,
             dt_s=r.dt,
-            odometry=None if r.odometry is None else (r.odometry.v, r.odometry.omega),
+            odometry=r.odometry,
             forced=f.forced,
             belief=r.belief,
             people=r.people,

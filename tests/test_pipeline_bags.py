@@ -13,6 +13,7 @@ import csv
 import json
 import logging
 import math
+import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from evaluation.cli import main as eval_main
 from evaluation.commands.score import score_run
 from evaluation.gt_csv import read_gt_csv
+from gridbridge.ego_motion import odometry_pose
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
@@ -283,13 +285,16 @@ def _check_round_trip(results: list[Any], truth: Truth, spec: GridSpec) -> None:
         # Detections from the custom message, mapped through TF: exact up to float rounding.
         assert topic.shape == (2, 2)
         assert np.all(_nearest(topic, xy) < 1e-6)
-    # Ego-motion of the yawed, offset laser: omega exact; v the arc projection of the laser's displacement.
+    # Ego-motion of the yawed, offset laser: omega exact; v and the lateral vy reproduce the laser's displacement.
     dt = 0.1
     for r, k in zip(results[1:], range(1, len(results)), strict=True):
         assert r.odometry is not None
         expect, _ = odometry_between(laser_pose(0.1 * (k - 1)), laser_pose(0.1 * k), dt)
         assert r.odometry.omega == pytest.approx(W, abs=1e-6)
         assert r.odometry.v == pytest.approx(expect.v, abs=1e-6)
+        assert r.odometry.vy == pytest.approx(expect.vy, abs=1e-6) and abs(r.odometry.vy) > 0.1
+        d, got = laser_pose(0.1 * (k - 1)).inverse().compose(laser_pose(0.1 * k)), odometry_pose(r.odometry, dt)
+        assert (got.x, got.y, got.yaw) == pytest.approx((d.x, d.y, d.yaw), abs=1e-6)
     # Filter: high belief at the people's cells (mean over frames and people > 0.9); the reported people are
     # all within 0.3 m (one cell) of a true person. The two people stand still: they are reported once their
     # tracks are 1 s old ([tracking] static_confirm_s), in none of the first 9 frames (0.8 s) and both in
@@ -315,14 +320,46 @@ def test_ros1_round_trip_recovers_positions_and_motion(tmp_path: Path) -> None:
         summary, results = pipe.run(src, tmp_path / "run", keep=True)
     _check_round_trip(results, truth, pipe.spec)
     assert summary.frames == 20 and summary.frames_without_odometry == 0
-    # The laser's lateral velocity in its own frame is not representable by (v, omega): reported.
+    # The laser (0.2 m ahead, 0.1 m left, yawed 0.3 rad) moves sideways in its own frame: applied as vy, and its
+    # largest lateral step reported.
     lateral = max(abs(odometry_between(laser_pose(0.1 * k), laser_pose(0.1 * k + 0.1), 0.1)[1]) for k in range(19))
     assert summary.max_lateral_m == pytest.approx(lateral, rel=1e-3)
     run = load_run(tmp_path / "run")
+    vy = [r.odometry.vy for r in results[1:]]
+    np.testing.assert_allclose(run.frames["vy_mps"][1:], vy, rtol=1e-8)
+    assert run.frames["vy_mps"][0] == 0.0 and np.all(np.abs(run.frames["vy_mps"][1:]) > 0.1)
     assert run.meta["status"] == "complete" and run.grids.shape == (20, *pipe.spec.shape)
     assert run.meta["frames_in_grid"]["laser"] == [0.0, 0.0, 0.0]
     np.testing.assert_allclose(run.grids[-1], results[-1].belief, atol=1e-6)  # float32 storage
     assert list(run.frames["driver_index"]) == list(range(20))
+
+
+def test_off_axis_yawed_laser_moves_the_grid_sideways(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A driving laser 0.85 m ahead, 0.24 m left, yawed 42 deg (as on a real robot): driving on an arc, its
+    # frame moves sideways. The run's odometry carries that as vy, frames.csv records it and a replay of the
+    # run gives the filters the same motion.
+    from evaluation.replay import log_from_run
+
+    monkeypatch.setattr(sys.modules[__name__], "MOUNT", Pose2D(x=0.85, y=0.24, yaw=math.radians(42.0)), raising=True)
+    write_bag(tmp_path / "off_axis.bag", n_scans=8)
+    with BagSource(tmp_path / "off_axis.bag") as src:
+        summary, results = Pipeline(config()).run(src, tmp_path / "run", keep=True)
+    assert summary.frames == 8 and summary.ego_motion["odometry"] == 7
+    for k, r in enumerate(results[1:], start=1):
+        p0, p1 = laser_pose(0.1 * (k - 1)), laser_pose(0.1 * k)
+        expect, _ = odometry_between(p0, p1, 0.1)
+        assert r.odometry is not None and r.odometry.vy == pytest.approx(expect.vy, abs=1e-6)
+        # The laser's velocity in the base frame is (V - W y_mount, W x_mount); its y in the laser frame:
+        assert r.odometry.vy == pytest.approx(
+            -math.sin(math.radians(42.0)) * (V - W * 0.24) + math.cos(math.radians(42.0)) * W * 0.85, abs=1e-6
+        )
+        d, got = p0.inverse().compose(p1), odometry_pose(r.odometry, 0.1)
+        assert (got.x, got.y, got.yaw) == pytest.approx((d.x, d.y, d.yaw), abs=1e-6)
+    log = log_from_run(tmp_path / "run", nobody=True)
+    assert log.odometry[0] is None
+    for odo, r in zip(log.odometry[1:], results[1:], strict=True):
+        assert odo is not None and r.odometry is not None
+        assert (odo.v, odo.omega, odo.vy) == pytest.approx((r.odometry.v, r.odometry.omega, r.odometry.vy), rel=1e-8)
 
 
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])

@@ -13,9 +13,9 @@ One animation frame shows:
   (red circles), ground truth when given (green plus signs), tracks when the run has ``tracks.csv``
   (columns :data:`TRACK_COLUMNS`: id labels and velocity arrows showing one second of motion);
 - the frame counter (run frame, driver index), the time since the first frame (s), the odometry controls
-  (v in m/s, omega in deg/s, or "no odometry") and, in a side panel, the grid frame's path integrated from the
-  controls of ``frames.csv`` (exact arcs, in the frame of the first run frame, drawn with the same x-up
-  convention) with the current pose.
+  (v and the lateral vy in m/s, omega in deg/s, or "no odometry") and, in a side panel, the grid frame's path
+  integrated from the controls of ``frames.csv`` (exact constant-velocity motions, in the frame of the first run
+  frame, drawn with the same x-up convention) with the current pose.
 
 :func:`render_summary` draws a one-page summary PNG: people per frame, detections per detector per frame
 (and tracks per frame when present) over time, and the histogram of the belief over all frames and cells.
@@ -35,6 +35,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from gridbridge.ego_motion import velocity_displacement
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.validation import check_number
@@ -130,14 +131,21 @@ def frame_times_s(run: RunData) -> NDArray[np.float64]:
     return (stamps - stamps[0]).astype(float) / 1e9 if len(stamps) else np.zeros(0)
 
 
-def robot_path(v_mps: NDArray[np.float64], omega_radps: NDArray[np.float64], dt_s: NDArray[np.float64]) -> NDArray:
+def robot_path(
+    v_mps: NDArray[np.float64],
+    omega_radps: NDArray[np.float64],
+    dt_s: NDArray[np.float64],
+    vy_mps: NDArray[np.float64] | None = None,
+) -> NDArray:
     """Poses ``(N, 3)`` (x, y, yaw) of the grid frame integrated from the per-frame controls.
 
-    Frame ``k`` moved on an arc with speed ``v[k]`` and turn rate ``omega[k]`` for ``dt[k]`` s before its
-    stamp; the first frame is the origin (its own controls are not applied). Metres and radians in the frame
+    Frame ``k`` moved with the constant body-frame velocity ``(v[k], vy[k], omega[k])`` (forward m/s, lateral
+    m/s, rad/s; :func:`gridbridge.velocity_displacement`) for ``dt[k]`` s before its stamp; ``vy`` defaults to
+    0 (arcs). The first frame is the origin (its own controls are not applied). Metres and radians in the frame
     of the first run frame (REP-103).
     """
     n = len(v_mps)
+    lateral = np.zeros(n) if vy_mps is None else np.asarray(vy_mps, dtype=float)
     out = np.zeros((n, 3))
     pose = Pose2D()
     for k in range(1, n):
@@ -148,6 +156,9 @@ def robot_path(v_mps: NDArray[np.float64], omega_radps: NDArray[np.float64], dt_
         else:
             r = v / w
             step = Pose2D(x=r * math.sin(th), y=r * (1.0 - math.cos(th)), yaw=th)
+        if lateral[k] != 0.0:
+            dx, dy, _ = velocity_displacement(v, w, dt, vy=float(lateral[k]))
+            step = Pose2D(x=float(dx), y=float(dy), yaw=th)
         pose = pose.compose(step)
         out[k] = (pose.x, pose.y, pose.yaw)
     return out
@@ -195,7 +206,7 @@ class RunFrameRenderer:
         self.times_s = frame_times_s(run)
         fr = run.frames
         self.has_odometry = bool(np.any(fr["odometry"] == 1))
-        self.path = robot_path(fr["v_mps"], fr["omega_radps"], fr["dt_s"])
+        self.path = robot_path(fr["v_mps"], fr["omega_radps"], fr["dt_s"], fr["vy_mps"])
         self._det_order, self._det_frames = _by_frame(run.detections["frame"])
         self._ppl_order, self._ppl_frames = _by_frame(run.people["frame"])
         if tracks is not None:
@@ -390,7 +401,8 @@ class RunFrameRenderer:
             f"t = {self.times_s[k]:.2f} s"
         )
         odo = (
-            f"v     {fr['v_mps'][k]:+6.2f} m/s\nomega {math.degrees(fr['omega_radps'][k]):+6.1f} deg/s"
+            f"v     {fr['v_mps'][k]:+6.2f} m/s\nvy    {fr['vy_mps'][k]:+6.2f} m/s\n"
+            f"omega {math.degrees(fr['omega_radps'][k]):+6.1f} deg/s"
             if fr["odometry"][k]
             else "no odometry"
         )
