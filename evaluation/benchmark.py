@@ -7,7 +7,8 @@ Scenes (each skipped with a reason when its data is absent):
 * ``scan:wheelchair``, ``scan:corridor``, ``scan:crowd``: scan-level scenes (:mod:`evaluation.scenarios.scan`)
   written as ROS 1 bags and run through ``pfpeople run``'s pipeline (raw scans -> built-in detectors -> filter);
 * ``person_following_outdoor_1`` (real, the followed person annotated: recall only) and ``negative_2`` (real,
-  nobody there: false people per scan; each of its three lasers alone) from ``../shared/data/leg_tracker``;
+  nobody there: false people per scan; each of its three lasers alone, and ``negative_2:all``: the three in one
+  run configured by ``pfpeople inspect --write-config``, as a user would) from ``../shared/data/leg_tracker``;
 * ``positive_bags``: leg_tracker's six labelled ``positive_*_extracted.bag`` (real, a 768-beam 270 deg laser at
   7.5 Hz, the sensor of the issue's wheelchair; stationary, clips of people walking in front of it): recall of
   the labelled people (:func:`write_labelled_people_csv`: the labelled legs paired, 0.1-0.6 m, closest first;
@@ -313,6 +314,20 @@ def _laser_config(topic: str, **changes: Any) -> BagConfig:
     return replace(BagConfig(driver=topic, detectors=dets), **changes)
 
 
+def _negative_2_all(bag: Path, work: Path, frames: int | None) -> tuple[ReplayLog, BenchRow]:
+    """negative_2's three lasers in one run (``negative_2:all``), configured as a user would: ``pfpeople inspect
+    --write-config`` (:func:`pfpeople.bag.inspect.starter_config`: detectors on every laser; no TF in the bag,
+    so each laser is assumed at the base origin, facing forward)."""
+    from pfpeople.bag.config import load_config
+    from pfpeople.bag.inspect import inspect_path, starter_config
+
+    work.mkdir(parents=True, exist_ok=True)
+    cfg_path = work / "negative_2_starter.toml"
+    cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
+    out = work / "negative_2_all"
+    return _pipeline_log(bag, load_config(cfg_path), out, nobody=True, name="negative_2:all", max_frames=frames)
+
+
 def write_labelled_people_csv(bag: Path, out: Path) -> int:
     """Ground-truth CSV of the people of a leg_tracker ``positive_*_extracted.bag``; returns its row count.
 
@@ -386,7 +401,8 @@ def scene_logs(
             log, row = _pipeline_log(bag, _laser_config(topic), out, nobody=True, name=nm, max_frames=frames)
             logs.append(log)
             rows.append(row)
-        return logs, rows, ""
+        log, row = _negative_2_all(bag, work, frames)
+        return [*logs, log], [*rows, row], ""
     if scene == "positive_bags":
         from pfpeople.bag.config import load_config
         from pfpeople.bag.inspect import inspect_path, starter_config

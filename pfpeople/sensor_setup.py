@@ -11,8 +11,9 @@ Before the first frame, :func:`setup_sensors` reads what is fixed for the whole 
   grid frame's mount on the base frame (needed by odometry, :mod:`pfpeople.odometry`);
 - for a LaserScan detector, the field of view ``[fov_min, fov_max]`` (rad) and ``max_range`` (m) of its
   first scan where ``[detectors.model]`` leaves them out;
-- the grid: ``[grid]``, else the one covering the driving laser's field of view
-  (:func:`pfpeople.filters.grid_for_scan`), else the paper's 30 x 30 grid of 0.3 m.
+- the grid: ``[grid]``, else the one covering the fields of view of the driving laser and of every laser with a
+  detector, each at its mount (:func:`pfpeople.filters.grid_for_scan`, the union of their boxes), else the
+  paper's 30 x 30 grid of 0.3 m.
 """
 
 from __future__ import annotations
@@ -203,7 +204,7 @@ def setup_sensors(
         lasers = [c.driver, *(d.topic for d in c.detectors if d.kind in laser_kinds)]
         spec = default_grid(tf, grid_frame, first, lasers)
         check_run_limits(spec, c.filter, len(c.detectors))
-        log.info("grid from the driving laser's field of view: %s", spec)
+        log.info("grid from the lasers' fields of view: %s", spec)
     return SensorSetup(
         tf=tf,
         grid_frame=grid_frame,
@@ -217,16 +218,30 @@ def setup_sensors(
 
 
 def default_grid(tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage], lasers: Sequence[str]) -> GridSpec:
-    """The grid covering the first LaserScan topic of ``lasers`` (:func:`pfpeople.filters.grid_for_scan`) with a
-    first message, or the paper's grid when there is none."""
-    topic = next((t for t in lasers if t in first and first[t].msgtype in LASER_TYPES), None)
-    if topic is None:
+    """The grid covering every LaserScan topic of ``lasers`` with a first message (each laser's field of view by
+    :func:`pfpeople.filters.grid_for_scan` at its mount, the union of their boxes: several lasers fuse into one
+    grid), or the paper's grid when there is none."""
+    topics = [t for t in dict.fromkeys(lasers) if t in first and first[t].msgtype in LASER_TYPES]
+    if not topics:
         log.info("no [grid] and no LaserScan to size it: the paper's 30 x 30 grid of 0.3 m")
         return GridSpec()
-    m = first[topic]
-    try:
-        mount = tf.lookup(grid_frame, m.frame_id or grid_frame)
-    except TfLookupError as exc:
-        raise ValueError(f"grid from the laser {topic!r}: {exc}") from None
-    lo, hi = scan_bearings(m.msg)
-    return grid_for_scan(lo, hi, float(m.msg.range_max), mount=mount)
+    specs = []
+    for topic in topics:
+        m = first[topic]
+        try:
+            mount = tf.lookup(grid_frame, m.frame_id or grid_frame)
+        except TfLookupError as exc:
+            raise ValueError(f"grid from the laser {topic!r}: {exc}") from None
+        lo, hi = scan_bearings(m.msg)
+        specs.append(grid_for_scan(lo, hi, float(m.msg.range_max), mount=mount))
+    return _union(specs)
+
+
+def _union(specs: Sequence[GridSpec]) -> GridSpec:
+    """The smallest grid holding every one of ``specs`` (all of one resolution, corners on its lattice)."""
+    res = specs[0].resolution
+    x0 = min(g.x0 for g in specs)
+    y0 = min(g.y0 for g in specs)
+    nx = max(round((g.x0 - x0) / res) + g.nx for g in specs)
+    ny = max(round((g.y0 - y0) / res) + g.ny for g in specs)
+    return GridSpec(nx=nx, ny=ny, resolution=res, x0=x0, y0=y0)

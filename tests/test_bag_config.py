@@ -12,7 +12,7 @@ from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, 
 def test_config_round_trip_and_errors(tmp_path: Path) -> None:
     cfg = load_config(builtin_config_path("person_following_outdoor_1"))
     assert cfg.driver == "/scan_base2" and cfg.time_source == "bag"
-    assert [d.kind for d in cfg.detectors] == ["leg", "boosted"]
+    assert [d.kind for d in cfg.detectors] == ["leg", "boosted", "single-legs"]
     assert config_from_mapping(cfg.to_dict()) == cfg
     with pytest.raises(ValueError, match=r"unknown keys \['drivr'\] in \[frames\]"):
         config_from_mapping({"frames": {"drivr": "/scan"}})

@@ -58,6 +58,7 @@ def test_synthetic_bag_report_and_config_that_runs(tmp_path: Path, ros2: bool, s
     assert [(d.name, d.kind, d.topic) for d in cfg.detectors] == [
         ("laser-legs", "leg", "/scan"),
         ("laser-boosted", "boosted", "/scan"),
+        ("laser-single-legs", "single-legs", "/scan"),
     ]
     model = dict(cfg.detectors[0].model)
     assert model == pytest.approx({"fov_min": -math.pi / 2, "fov_max": math.pi / 2, "max_range": 10}, abs=1e-5)

@@ -20,8 +20,8 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [mounts]                    # static 2-D mounts used when the bag has no TF for a frame:
     laser = [0.1, 0.0, 0.0]     #   child frame = [x, y, yaw] in base_frame (m, m, rad)
 
-    [grid]                      # gridbridge.GridSpec fields; leave the table out to cover the driving
-    nx = 30                     #   laser's field of view out to min(range_max, 10 m) at 0.3 m cells
+    [grid]                      # gridbridge.GridSpec fields; leave the table out to cover the lasers'
+    nx = 30                     #   fields of view (each out to min(range_max, 10 m)) at 0.3 m cells
     ny = 30
     resolution = 0.3
     x0 = 0.0
@@ -64,8 +64,8 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
 
     [[detectors]]
     name = "laser-legs"
-    kind = "leg"                # "leg" | "boosted" | "hog" (built-in detectors) | "topic" (detections in the bag)
-    topic = "/scan"             # its input: LaserScan for leg/boosted, Image/CompressedImage for hog,
+    kind = "leg"                # "leg" | "boosted" | "single-legs" | "hog" (built-in) | "topic" (in the bag)
+    topic = "/scan"             # its input: LaserScan for leg/boosted/single-legs, Image/CompressedImage for hog,
                                 #   PoseArray or any message with a pose / poses field for "topic"
     frame = ""                  # frame of its output when the message has no header ("" = the message's)
     assign = "nearest"          # "nearest": the message closest to the frame stamp (within the tolerance);
@@ -478,8 +478,9 @@ class BagConfig:
     mounts : mapping of str to (x, y, yaw)
         Static mounts of frames in ``base_frame`` used when TF does not give them.
     grid : GridSpec or None
-        The local grid in the grid frame; None: the bounding box of the driving laser's field of view out to
-        ``min(range_max, 10 m)`` at 0.3 m cells (see :func:`pfpeople.filters.grid_for_scan`).
+        The local grid in the grid frame; None: the bounding box of the fields of view of the driving laser and
+        of every laser with a detector, each out to ``min(range_max, 10 m)``, at 0.3 m cells (see
+        :func:`pfpeople.filters.grid_for_scan` and :func:`pfpeople.sensor_setup.default_grid`).
     filter : FilterConfig
         The filter.
     classifier : ClassifierConfig

@@ -16,28 +16,37 @@ radians where a configuration needs them.
 :func:`starter_config` turns a report into the TOML text of a run configuration (format:
 :mod:`pfpeople.bag.config`) that ``pfpeople run BAG --config FILE`` accepts unchanged:
 
-- ``[frames] driver``: the LaserScan topic with the most messages (ties: the first by name); the others are
-  listed in comments. ``time_source = "bag"`` when the driver's header stamps are more than
-  :data:`TIME_SOURCE_THRESHOLD_S` (1 s, median) from its record times (e.g. leg_tracker's
+- ``[frames] driver``: the LaserScan topic with the most messages (ties: the first by name); it makes the frames
+  and the others' scans are assigned to them (``nearest``). ``time_source = "bag"`` when the driver's header
+  stamps are more than :data:`TIME_SOURCE_THRESHOLD_S` (1 s, median) from its record times (e.g. leg_tracker's
   person_following_outdoor_1, ~130 s), else ``"header"``; but ``"header"`` whenever the driver's messages were
   recorded in a burst (:attr:`TopicInfo.record_burst`: a re-written bag whose record times carry no timing, as
   leg_tracker's ``positive_*_extracted.bag``: 197 scans stamped over 52 s, recorded within 0.5 s).
+  ``sync_tolerance_s`` when another laser's scans lie further from the driver's than the default
+  :data:`SYNC_TOLERANCE_S` allows (1.25 x its :attr:`LaserInfo.sync_gap_s`, at most half the driver's period;
+  leg_tracker's negative_2: /right_scan ~47 ms from /left_scan, 0.06 s).
 - ``[odometry] topic``: the ``nav_msgs/Odometry`` topic with the most messages, when one exists; then
   ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
   laser at the base origin (flagged in a comment and in the report's warnings: measure it).
-- three detectors on the driver (:data:`LASER_DETECTORS`): ``laser-legs`` (kind ``leg``), ``laser-boosted`` (kind
-  ``boosted``) and ``laser-single-legs`` (kind ``single-legs``), with ``[detectors.model] fov_min, fov_max,
-  max_range`` from the scan (radians, metres).
+- on every LaserScan topic the three detectors of :data:`LASER_DETECTORS`: ``laser-legs`` (kind ``leg``),
+  ``laser-boosted`` (kind ``boosted``) and ``laser-single-legs`` (kind ``single-legs``), so named on the driver
+  and ``NAME:TOPIC`` on the others (:func:`laser_detector_name`: ``laser-legs:rear_scan``), each with
+  ``[detectors.model] fov_min, fov_max, max_range`` from its scan (radians, metres). The run places each laser
+  by TF (its mount in the grid frame, :mod:`pfpeople.sensor_setup`); a laser that TF does not connect to the
+  driver's frame gets a ``[mounts]`` entry at the base origin, facing forward (on the root of its TF tree, and
+  the driver's too unless TF connects that to the base frame), flagged "NO TF connects ...: measure it" in a
+  comment and in the report's warnings (leg_tracker's negative_2: three lasers, no TF).
 - no ``[filter]`` and no ``[grid]`` table: the product's defaults apply.
 """
 
 from __future__ import annotations
 
+import bisect
 import json
 import math
 import statistics
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +58,7 @@ from pfpeople.jsonio import json_safe
 __all__ = [
     "LASER_DETECTORS",
     "RECORD_BURST_RATIO",
+    "SYNC_TOLERANCE_S",
     "TIME_SOURCE_THRESHOLD_S",
     "BagReport",
     "LaserInfo",
@@ -58,11 +68,15 @@ __all__ = [
     "format_report",
     "inspect_bag",
     "inspect_path",
+    "laser_detector_name",
     "starter_config",
 ]
 
 #: Median |header stamp - record time| (s) of the driver above which frames are synchronised on bag time.
 TIME_SOURCE_THRESHOLD_S = 1.0
+
+#: A run's default ``[frames] sync_tolerance_s`` (s); a starter config raises it when another laser needs more.
+SYNC_TOLERANCE_S = 0.05
 
 #: A topic's sampled messages were recorded in a burst when their record times span less than this fraction of
 #: the time their header stamps span (:attr:`TopicInfo.record_burst`).
@@ -98,7 +112,12 @@ class LaserInfo:
     """Geometry of a ``sensor_msgs/LaserScan`` topic (from its first message; ``varies`` if it changes).
 
     Angles in the scan's frame (REP-103, CCW); ``fov_min_rad``/``fov_max_rad`` are the smallest and largest
-    beam angles whatever the sign of the increment.
+    beam angles whatever the sign of the increment. ``mount_in_base`` and ``mount_in_driver`` are the pose
+    (x, y, yaw) of the scan's frame in the base frame and in the driving laser's frame from TF (None when TF
+    does not connect them; the driver's own ``mount_in_driver`` is the identity). ``sync_gap_s`` (not for
+    the driver): over the sampled driver scans in this topic's sampled time span, the 95th percentile of the
+    time (s, on the report's time source) from a driver scan to this topic's nearest message, i.e. what a run's
+    ``sync_tolerance_s`` must cover for this laser to have data in (nearly) every frame.
     """
 
     topic: str
@@ -114,6 +133,8 @@ class LaserInfo:
     range_max_m: float
     varies: bool
     mount_in_base: tuple[float, float, float] | None = None
+    mount_in_driver: tuple[float, float, float] | None = None
+    sync_gap_s: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -362,6 +383,9 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
             )
         elif off is not None and abs(off) > TIME_SOURCE_THRESHOLD_S:
             time_source = "bag"
+    if driver is not None:
+        sync = {li.topic: _sync_stamps(decoded.get(li.topic, []), time_source) for li in lasers}
+        lasers = _relate_to_driver(lasers, driver, tfbuf, sync, base=base, odometry=bool(odometry), warnings=warnings)
     storage = "ROS 1 bag" if all(p.suffix == ".bag" for p in bag.paths) else "ROS 2 bag"
     return BagReport(
         bag=name or bag.name,
@@ -376,6 +400,67 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         time_source=time_source,
         warnings=tuple(warnings),
     )
+
+
+def _sync_stamps(msgs: Sequence[tuple[int, Any]], time_source: str) -> list[int]:
+    """Sorted stamps (ns) a run synchronises ``msgs`` (record time, message) on: header stamps (record time for
+    messages without a header) with ``time_source = "header"``, record times with ``"bag"``."""
+    if time_source == "bag":
+        return sorted(bt for bt, _ in msgs)
+    return sorted(bt if (s := header_stamp_ns(m)) is None else s for bt, m in msgs)
+
+
+def _sync_gap_s(driver: Sequence[int], other: Sequence[int]) -> float | None:
+    """95th percentile (s) of the time from each driver stamp inside ``other``'s span to the nearest of ``other``
+    (both sorted, ns); None when no driver stamp falls in that span."""
+    if not other:
+        return None
+    gaps = []
+    for t in driver:
+        if other[0] <= t <= other[-1]:
+            k = bisect.bisect_left(other, t)
+            gaps.append(min(abs(other[j] - t) for j in (k - 1, k) if 0 <= j < len(other)))
+    if not gaps:
+        return None
+    gaps.sort()
+    return gaps[round(0.95 * (len(gaps) - 1))] / 1e9
+
+
+def _relate_to_driver(
+    lasers: Sequence[LaserInfo],
+    driver: str,
+    tf: TfBuffer,
+    stamps: dict[str, list[int]],
+    *,
+    base: str,
+    odometry: bool,
+    warnings: list[str],
+) -> list[LaserInfo]:
+    """Each laser with its TF mount in the driver's frame and its sync gap to the driver (see :class:`LaserInfo`);
+    a warning per laser that TF does not connect to the driver (and, with odometry, the driver to ``base``)."""
+    drv = next(li for li in lasers if li.topic == driver)
+    out = []
+    for li in lasers:
+        mount: tuple[float, float, float] | None = None
+        if li.frame_id == drv.frame_id or not li.frame_id:
+            mount = (0.0, 0.0, 0.0)
+        elif drv.frame_id:
+            try:
+                p = tf.lookup(drv.frame_id, li.frame_id)
+                mount = (p.x, p.y, p.yaw)
+            except TfLookupError:
+                warnings.append(
+                    f"NO TF connects {li.topic} (frame {li.frame_id!r}) to the driver's frame {drv.frame_id!r}: "
+                    "the starter config assumes its mount in [mounts]; measure it"
+                )
+        gap = None if li.topic == driver else _sync_gap_s(stamps.get(driver, []), stamps.get(li.topic, []))
+        out.append(replace(li, mount_in_driver=mount, sync_gap_s=gap))
+    if odometry and drv.mount_in_base is None and drv.frame_id and drv.frame_id != base:
+        warnings.append(
+            f"NO TF connects the driver's frame {drv.frame_id!r} to the base frame {base!r}: the starter config "
+            "assumes its mount in [mounts]; measure it"
+        )
+    return out
 
 
 def _fmt(v: float | None, spec: str = ".2f") -> str:
@@ -413,6 +498,13 @@ def format_report(report: BagReport) -> str:
             if li.mount_in_base is not None
             else ""
         )
+        if li.topic != report.driver and li.mount_in_driver is not None:
+            x, y, yaw = li.mount_in_driver
+            mount += f"; in the driver's frame: x={x:.3f} y={y:.3f} yaw={math.degrees(yaw):.1f} deg"
+        elif li.topic != report.driver:
+            mount += "; NO TF to the driver's frame"
+        if li.sync_gap_s is not None:
+            mount += f"; {li.sync_gap_s:.3f} s from the driver's scans (95th percentile)"
         lines.append(
             f"LaserScan {li.topic} (frame {li.frame_id or '?'}): FOV {li.angle_min_deg:.1f} .. "
             f"{li.angle_max_deg:.1f} deg, {li.beams} beams, increment {li.angle_increment_deg:.4f} deg "
@@ -450,12 +542,22 @@ LASER_DETECTORS: tuple[tuple[str, str, str], ...] = (
 def starter_config(report: BagReport, *, driver: str | None = None) -> str:
     """TOML text of a starter run configuration for the inspected bag (see the module docstring).
 
+    Every LaserScan topic gets the detectors of :data:`LASER_DETECTORS`: the driver's named as listed, each
+    other laser's named ``NAME:TOPIC`` (``laser-legs:rear_scan``). A laser placed by TF (the pipeline looks its
+    mount up in the grid frame, :mod:`pfpeople.sensor_setup`) needs no entry; one that TF does not connect to the
+    driver's frame gets a ``[mounts]`` entry at the base origin, flagged "measure it".
+
     Parameters
     ----------
     report : BagReport
         From :func:`inspect_bag`.
     driver : str, optional
         LaserScan topic to drive the frames (default: ``report.driver``).
+
+    Returns
+    -------
+    str
+        The configuration (TOML), which :func:`pfpeople.bag.config.load_config` reads.
 
     Raises
     ------
@@ -470,22 +572,95 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
             f"bag {report.bag!r}: cannot write a config: driver {driver!r} is not a LaserScan topic; "
             f"LaserScan topics: {have}"
         )
-    li = lasers[driver]
-    counts = {t.topic: t for t in report.topics}
-    drv = counts[driver]
+    order = [lasers[driver], *(lasers[t] for t in sorted(lasers) if t != driver)]
+    tf = TfBuffer()
+    for e in report.tf:
+        tf.set_transform(e.parent, e.child, Pose2D(x=e.x, y=e.y, yaw=e.yaw))
+    mounts = _assumed_mounts(report, order, tf)
     out = [
         f"# Starter configuration written by `pfpeople inspect` for {report.bag}",
         "# (format: pfpeople/bag/config.py). Use it with: pfpeople run BAG --config THIS_FILE",
-        "# No [grid] and no [filter] table: the product's defaults apply.",
+        "# No [grid] and no [filter] table: the product's defaults apply (the grid covers every laser's view).",
         "",
+        *_frames_lines(report, order, mounts),
+        *_odometry_lines(report),
+        *_mounts_lines(report, mounts),
+    ]
+    for li in order:
+        out += _laser_detector_lines(report, li, order[0], tf, li.frame_id in mounts)
+    if report.warnings:
+        out += ["", "# Warnings from inspect:"] + [f"#   {w}" for w in report.warnings]
+    return "\n".join(out) + "\n"
+
+
+def _base_frame(report: BagReport) -> str:
+    """The robot's body frame of a starter config: the odometry's child frame, else ``base_link``."""
+    if report.odometry:
+        return max(report.odometry, key=lambda o: o.count).child_frame_id or "base_link"
+    return "base_link"
+
+
+def _tf_root(parents: dict[str, str], frame: str) -> str:
+    """The root of ``frame``'s TF tree (``parents``: child -> parent)."""
+    seen = {frame}
+    while frame in parents and parents[frame] not in seen:
+        frame = parents[frame]
+        seen.add(frame)
+    return frame
+
+
+def _assumed_mounts(report: BagReport, order: Sequence[LaserInfo], tf: TfBuffer) -> dict[str, str]:
+    """The frames a starter config must mount in ``[mounts]`` (frame -> why), ``order[0]`` the driver.
+
+    A ``[mounts]`` entry is a static parent (the base frame) for a frame without TF, so it goes on the root of
+    the frame's TF tree (a frame that has a TF parent would ignore it). Needed: with odometry, for the driver's
+    tree when TF does not connect it to the base frame; for each other laser that TF does not connect to the
+    driver's frame, for its tree and the driver's, whichever are not the base frame's.
+    """
+    parents = {e.child: e.parent for e in report.tf}
+    base = _base_frame(report)
+    base_root = _tf_root(parents, base)
+    drv = order[0]
+    if not drv.frame_id:
+        return {}  # the run needs [frames] grid_frame; nothing can be placed relative to the driver
+    drv_root = _tf_root(parents, drv.frame_id)
+    unplaced: list[LaserInfo] = []
+    for li in order[1:]:
+        if li.frame_id and li.frame_id != drv.frame_id:
+            try:
+                tf.lookup(drv.frame_id, li.frame_id)
+            except TfLookupError:
+                unplaced.append(li)
+    need: dict[str, str] = {}
+    if drv_root != base_root:
+        if report.odometry:
+            need[drv_root] = f"the laser to the base frame {base!r} (driver {drv.topic}, frame {drv.frame_id!r})"
+        elif unplaced:
+            need[drv_root] = (
+                f"the driver's frame {drv.frame_id!r} to the base frame {base!r}, through which the other lasers "
+                "are placed"
+            )
+    for li in unplaced:
+        root = _tf_root(parents, li.frame_id)
+        if root != base_root:
+            need.setdefault(root, f"{li.topic} (frame {li.frame_id!r}) to the driver's frame {drv.frame_id!r}")
+    return need
+
+
+def _frames_lines(report: BagReport, order: Sequence[LaserInfo], mounts: dict[str, str]) -> list[str]:
+    """The ``[frames]`` table: driver, time source, a sync tolerance covering the other lasers, base frame."""
+    counts = {t.topic: t for t in report.topics}
+    driver = order[0].topic
+    drv = counts[driver]
+    out = [
         "[frames]",
         f"# The LaserScan topic with the most messages ({drv.count}, {_fmt(drv.rate_hz)} Hz) makes the frames.",
     ]
-    others = [t for t in sorted(lasers) if t != driver]
-    if others:
-        out.append("# Other LaserScan topics in the bag (use one instead, or add detectors on them):")
-        for t in others:
-            out.append(f"#   {t}: {counts[t].count} msgs, {_fmt(counts[t].rate_hz)} Hz, frame {lasers[t].frame_id!r}")
+    if len(order) > 1:
+        out.append("# The other LaserScan topics, each with the same detectors (named NAME:TOPIC), join its frames:")
+        for li in order[1:]:
+            t = counts[li.topic]
+            out.append(f"#   {li.topic}: {t.count} msgs, {_fmt(t.rate_hz)} Hz, frame {li.frame_id!r}")
     out.append(f"driver = {_q(driver)}")
     off = drv.header_offset_s
     if drv.record_burst:
@@ -501,34 +676,72 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
         what = "no header stamps" if off is None else f"header stamps within {abs(off):.3f} s of the record times"
         out.append(f"# {what}: synchronise on header stamps.")
     out.append(f"time_source = {_q(report.time_source)}")
-    mounts: dict[str, tuple[float, float, float]] = {}
+    if driver == report.driver:
+        out += _sync_tolerance_lines(report, order)
+    base = _base_frame(report)
     if report.odometry:
         odom = max(report.odometry, key=lambda o: o.count)
-        base = odom.child_frame_id or "base_link"
         out.append(f"# The robot's body frame: the child frame of the odometry ({odom.topic}).")
         out.append(f"base_frame = {_q(base)}")
-        if li.mount_in_base is None and li.frame_id and li.frame_id != base:
-            mounts[li.frame_id] = (0.0, 0.0, 0.0)
+    elif mounts:
+        out.append("# The robot's body frame, in which the [mounts] below are given (no odometry moves it).")
+        out.append(f"base_frame = {_q(base)}")
+    return out
+
+
+def _sync_tolerance_lines(report: BagReport, order: Sequence[LaserInfo]) -> list[str]:
+    """``sync_tolerance_s`` when another laser's scans lie further from the driver's than the run's default:
+    1.25 x its sync gap (:attr:`LaserInfo.sync_gap_s`), rounded up to 1 ms, at most half the driver's period."""
+    gaps = [(li.sync_gap_s, li.topic) for li in order[1:] if li.sync_gap_s is not None]
+    if not gaps or max(gaps)[0] * 1.25 <= SYNC_TOLERANCE_S:
+        return []
+    gap, topic = max(gaps)
+    drv = {t.topic: t for t in report.topics}[order[0].topic]
+    rate = drv.header_rate_hz if report.time_source == "header" else drv.rate_hz
+    half = math.inf if not rate else 0.5 / rate
+    tol = min(math.ceil(gap * 1.25 * 1000) / 1000, math.floor(half * 1000) / 1000)
+    out = [
+        f"# {topic}'s scans are {gap:.3f} s (95th percentile) from the driver's, more than the default",
+        f"# tolerance ({SYNC_TOLERANCE_S:g} s) allows: a scan further than sync_tolerance_s from a frame is not used.",
+    ]
+    if gap > half:
+        out.append("# Half the driver's period is the most that pairs each frame with its own scan: some frames")
+        out.append(f"# will have no {topic} scan.")
+    return [*out, f"sync_tolerance_s = {tol!r}"]
+
+
+def _odometry_lines(report: BagReport) -> list[str]:
+    """The ``[odometry]`` table (the topic with the most messages), or a comment that there is none."""
+    if not report.odometry:
+        return ["", "# No nav_msgs/Odometry topic: the robot is taken as standing (no [odometry] table)."]
+    odom = max(report.odometry, key=lambda o: o.count)
+    out = [
+        "",
+        "[odometry]",
+        f"# nav_msgs/Odometry: {odom.count} msgs, {_fmt(odom.rate_hz)} Hz, {odom.frame_id} -> {odom.child_frame_id}.",
+    ]
+    if len(report.odometry) > 1:
+        out.append("# Other odometry topics: " + ", ".join(o.topic for o in report.odometry if o is not odom))
+    return [*out, f"topic = {_q(odom.topic)}"]
+
+
+def _mounts_lines(report: BagReport, mounts: dict[str, str]) -> list[str]:
+    """The ``[mounts]`` table of the frames TF does not place: each at the base origin, flagged."""
+    if not mounts:
+        return []
+    out = ["", "[mounts]"]
+    for frame, why in mounts.items():
         out += [
-            "",
-            "[odometry]",
-            f"# nav_msgs/Odometry: {odom.count} msgs, {_fmt(odom.rate_hz)} Hz, "
-            f"{odom.frame_id} -> {odom.child_frame_id}.",
+            f"# NO TF connects {why}: measure it.",
+            f"# {frame!r} is ASSUMED at the base origin, facing forward; edit to its [x, y, yaw] in base_frame",
+            f"# {_base_frame(report)!r} (m, m, rad).",
+            f"{_q(frame)} = [0.0, 0.0, 0.0]",
         ]
-        if len(report.odometry) > 1:
-            out.append("# Other odometry topics: " + ", ".join(o.topic for o in report.odometry if o is not odom))
-        out.append(f"topic = {_q(odom.topic)}")
-    else:
-        out += ["", "# No nav_msgs/Odometry topic: the robot is taken as standing (no [odometry] table)."]
-    if mounts:
-        out += [
-            "",
-            "[mounts]",
-            "# NO TF connects the laser to the base frame: the laser is ASSUMED at the base origin, facing forward.",
-            "# Measure the mount and edit it: [x, y, yaw] of the laser frame in base_frame (m, m, rad).",
-        ]
-        for frame, (x, y, yaw) in mounts.items():
-            out.append(f"{_q(frame)} = [{x}, {y}, {yaw}]")
+    return out
+
+
+def _model_lines(li: LaserInfo) -> list[str]:
+    """A laser detector's ``[detectors.model]``: the scan's field of view (rounded outwards) and range."""
     model = [
         "[detectors.model]",
         f"# Field of view (rad, laser frame, rounded outwards): beams from {math.degrees(li.fov_min_rad):.2f} to "
@@ -537,22 +750,48 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
         f"fov_max = {min(math.ceil(li.fov_max_rad * 1e5) / 1e5, math.pi)!r}",
     ]
     if math.isfinite(li.range_max_m) and li.range_max_m > 0:
-        model += ["# The scan's range_max (m).", f"max_range = {round(li.range_max_m, 3)!r}"]
+        return [*model, "# The scan's range_max (m).", f"max_range = {round(li.range_max_m, 3)!r}"]
+    return [*model, f"# range_max = {li.range_max_m} is not a usable range: no max_range (unbounded)."]
+
+
+def laser_detector_name(name: str, topic: str, driver: str) -> str:
+    """Name of detector ``name`` of :data:`LASER_DETECTORS` on ``topic`` in a starter config: ``name`` on the
+    driver, ``name:TOPIC`` (without the leading slash) on every other laser."""
+    return name if topic == driver else f"{name}:{topic.lstrip('/')}"
+
+
+def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: TfBuffer, assumed: bool) -> list[str]:
+    """The :data:`LASER_DETECTORS` of one laser, after a comment on where the run places it."""
+    out = [""]
+    if li.topic == drv.topic:
+        where = "on the driving scan"
     else:
-        model += [f"# range_max = {li.range_max_m} is not a usable range: no max_range (unbounded)."]
+        where = f"on {li.topic}"
+        head = f"# {li.topic} (frame {li.frame_id!r})"
+        try:
+            p = tf.lookup(drv.frame_id, li.frame_id) if li.frame_id and drv.frame_id else Pose2D()
+            out += [
+                f"{head}: placed by TF at x={p.x:.3f} m, y={p.y:.3f} m, yaw={math.degrees(p.yaw):.1f} deg",
+                f"# in the driver's frame {drv.frame_id!r}.",
+            ]
+        except TfLookupError:
+            what = "entry" if assumed else "entries"
+            out += [
+                f"{head}: NO TF connects it to the driver's frame {drv.frame_id!r};",
+                f"# placed by the [mounts] {what} above (measure it).",
+            ]
+    model = _model_lines(li)
     for name, kind, what in LASER_DETECTORS:
         out += [
-            "",
             "[[detectors]]",
-            f"# Built-in {what} on the driving scan.",
-            f"name = {_q(name)}",
+            f"# Built-in {what} {where}.",
+            f"name = {_q(laser_detector_name(name, li.topic, drv.topic))}",
             f"kind = {_q(kind)}",
-            f"topic = {_q(driver)}",
+            f"topic = {_q(li.topic)}",
             *model,
+            "",
         ]
-    if report.warnings:
-        out += ["", "# Warnings from inspect:"] + [f"#   {w}" for w in report.warnings]
-    return "\n".join(out) + "\n"
+    return out[:-1]
 
 
 def inspect_path(path: str | Path | Sequence[str | Path], *, sample: int = 200) -> BagReport:
