@@ -108,7 +108,8 @@ log = logging.getLogger(__name__)
 StepFilter: TypeAlias = BeliefFilter
 #: ``factory(config, base_to_grid, summary, warn)`` -> the run's :class:`~pfpeople.odometry.OdometryIntegrator`.
 OdometryFactory: TypeAlias = Callable[[BagConfig, Pose2D | None, RunSummary, WarnOnce], OdometryIntegrator]
-#: ``factory(out_dir, *, bag_out, bag_format, overwrite, progress)`` -> sinks (:func:`pfpeople.sinks.standard_sinks`).
+#: ``factory(out_dir, *, bag_out, bag_format, overwrite, progress, with_input)`` -> sinks
+#: (:func:`pfpeople.sinks.standard_sinks`).
 SinkFactory: TypeAlias = Callable[..., list[Sink]]
 
 
@@ -507,6 +508,7 @@ class Pipeline:
         bag_out: str | Path | None = None,
         keep: bool = False,
         bag_format: str | None = None,
+        bag_input: bool = True,
     ) -> tuple[RunSummary, list[FrameResult]]:
         """Run over ``bag``, writing ``out_dir`` (and ``bag_out``, and every extra sink) incrementally.
 
@@ -520,7 +522,8 @@ class Pipeline:
         Returns the summary and (with ``keep=True``) every :class:`FrameResult`.
         ``bag_out`` is a ROS 1 ``.bag`` or a rosbag2 folder (``bag_format`` "ros1", "mcap" or "sqlite3"; default
         from the path, see :mod:`pfpeople.bag.writer`), checked before anything runs; ``overwrite`` also replaces
-        an existing one. No output may write over an input bag (:func:`pfpeople.output.check_output_paths`).
+        an existing one; ``bag_input`` copies the input's LaserScan topics and ``/tf``, ``/tf_static`` into it.
+        No output may write over an input bag (:func:`pfpeople.output.check_output_paths`).
         The outputs are sinks (:mod:`pfpeople.sinks`), written in order with signals deferred, so a frame goes to
         every output or to none.
         """
@@ -535,6 +538,7 @@ class Pipeline:
                 bag_out=bag_out,
                 keep=keep,
                 bag_format=bag_format,
+                bag_input=bag_input,
             )
 
     def _run(
@@ -549,12 +553,18 @@ class Pipeline:
         bag_out: str | Path | None,
         keep: bool,
         bag_format: str | None,
+        bag_input: bool,
     ) -> tuple[RunSummary, list[FrameResult]]:
         _check_max_frames(max_frames)
         check_output_paths(getattr(bag, "paths", ()), out_dir=out_dir, bag_out=bag_out)
         sinks = [
             *self._sink_factory(
-                out_dir, bag_out=bag_out, bag_format=bag_format, overwrite=overwrite, progress=progress
+                out_dir,
+                bag_out=bag_out,
+                bag_format=bag_format,
+                overwrite=overwrite,
+                progress=progress,
+                with_input=bag_input,
             ),
             *self._extra_sinks,
         ]

@@ -123,11 +123,17 @@ class RunDirSink:
         The run directory.
     overwrite : bool
         Replace a run already in ``out_dir``.
+    result_bag : ResultBagSink, optional
+        The run's result bag: ``run.json`` gets ``result_bag`` (:meth:`ResultBagSink.describe`: its path,
+        format, topics and types, the detection topics and the detector names renamed for them).
     """
 
-    def __init__(self, out_dir: str | Path, *, overwrite: bool = False) -> None:
+    def __init__(
+        self, out_dir: str | Path, *, overwrite: bool = False, result_bag: ResultBagSink | None = None
+    ) -> None:
         self.out_dir = out_dir
         self.overwrite = overwrite
+        self.result_bag = result_bag
         self.writer: Any = None
         self._driver = ""
 
@@ -141,6 +147,8 @@ class RunDirSink:
             "detector_models": [dataclasses.asdict(m) for m in run.detector_models],
             "provenance": {"bag": [str(p) for p in run.bag.paths], "bag_topics": run.bag.topics, **dict(run.metadata)},
         }
+        if self.result_bag is not None:
+            meta["result_bag"] = self.result_bag.describe(run)
         self._driver = run.config.driver
         self.writer = RunWriter(
             self.out_dir, spec=run.spec, detector_names=run.detector_names, metadata=meta, overwrite=self.overwrite
@@ -180,8 +188,30 @@ class RunDirSink:
         self.writer.close(status=outcome.status, error=outcome.error, stats=s.as_dict(), skipped_frames=skipped)
 
 
+def input_topics(run: RunInfo) -> dict[str, str]:
+    """The input topics a result bag copies: the LaserScan topics the run reads and ``/tf``, ``/tf_static``.
+
+    Returns topic -> message type; empty when the input is not a bag that can be opened again (no ``paths``).
+    """
+    from pfpeople.bag.reader import LASER_TYPES, TF_TYPES
+    from pfpeople.sensor_setup import run_topics
+
+    if not getattr(run.bag, "paths", None):
+        return {}
+    have = run.bag.topics
+    out = {t: have[t] for t in run_topics(run.config) if have.get(t) in LASER_TYPES}
+    out.update({t: have[t] for t in ("/tf", "/tf_static") if have.get(t) in TF_TYPES})
+    return out
+
+
 class ResultBagSink:
-    """A result bag (:mod:`pfpeople.bag.writer`): belief, people, detections and tracks of every frame.
+    """A result bag (:mod:`pfpeople.bag.writer`): belief, people, detections and tracks of every frame, and the input.
+
+    Header stamps of the results are the source scan's header stamp (the driver message's, also with
+    ``time_source = "bag"``, where the frame stamps are record times); record times are the driver's. With
+    ``with_input`` the input topics (:func:`input_topics`) are copied from a second reader of the input bag,
+    each message up to the record time of the frame being written (so a run stopped early holds the input of
+    the frames it wrote).
 
     Parameters
     ----------
@@ -192,20 +222,46 @@ class ResultBagSink:
         Default from the path.
     overwrite : bool
         Replace an existing bag.
+    with_input : bool
+        Copy the input scans and TF into the bag.
     """
 
-    def __init__(self, path: str | Path, *, bag_format: str | None = None, overwrite: bool = False) -> None:
+    def __init__(
+        self, path: str | Path, *, bag_format: str | None = None, overwrite: bool = False, with_input: bool = True
+    ) -> None:
         from pfpeople.bag.writer import check_bag_out
 
         check_bag_out(path, bag_format, overwrite=overwrite)
         self.path = path
         self.bag_format = bag_format
         self.overwrite = overwrite
+        self.with_input = with_input
         self.writer: Any = None
+        self._source: Any = None
+        self._inputs: Any = None
+        self._next: Any = None
+
+    def describe(self, run: RunInfo) -> dict[str, Any]:
+        """What the bag will hold (for ``run.json`` ``result_bag``): path, format, topics and types, renames."""
+        from pfpeople.bag.writer import ROSBAG2_METADATA_VERSION, bag_format_for, detector_topics, output_topics
+
+        fmt = bag_format_for(self.path, self.bag_format)
+        inputs = input_topics(run) if self.with_input else {}
+        topics, renamed = detector_topics(run.detector_names)
+        return {
+            "path": str(self.path),
+            "format": fmt,
+            "rosbag2_metadata_version": None if fmt == "ros1" else ROSBAG2_METADATA_VERSION,
+            "topics": output_topics(run.detector_names, inputs),
+            "input_topics": sorted(inputs),
+            "detector_topics": topics,
+            "renamed_topics": renamed,
+        }
 
     def open(self, run: RunInfo) -> None:
         from pfpeople.bag.writer import ResultBagWriter
 
+        inputs = input_topics(run) if self.with_input else {}
         self.writer = ResultBagWriter(
             self.path,
             spec=run.spec,
@@ -213,15 +269,46 @@ class ResultBagSink:
             detector_names=run.detector_names,
             bag_format=self.bag_format,
             overwrite=self.overwrite,
+            input_topics=inputs,
         )
+        if inputs:
+            self._source = BagSource(run.bag.paths)
+            self._inputs = self._source.messages(inputs)
+            self._next = next(self._inputs, None)
+
+    def _copy_input(self, until_ns: int) -> None:
+        """Copy the input messages recorded at or before ``until_ns``."""
+        while self._next is not None and self._next.bag_time_ns <= until_ns:
+            m = self._next
+            self.writer.write_input(m.bag_time_ns, m.topic, m.msg)
+            self._next = next(self._inputs, None)
 
     def write(self, result: FrameResult) -> None:
+        from pfpeople.bag.reader import header_stamp_ns
+
         f = result.frame
-        self.writer.write(f.bag_time_ns, f.stamp_ns, result.belief, result.people, result.detections, result.tracks)
+        self._copy_input(f.bag_time_ns)
+        stamp = header_stamp_ns(f.driver.msg) or f.stamp_ns
+        self.writer.write(
+            f.bag_time_ns,
+            stamp,
+            result.belief,
+            result.people,
+            result.detections,
+            result.tracks,
+            people_reliability=result.people_probability
+            if len(result.people_probability) == len(result.people)
+            else None,
+        )
 
     def close(self, outcome: RunOutcome) -> None:
-        if self.writer is not None:
-            self.writer.close()
+        try:
+            if self.writer is not None:
+                self.writer.close()
+        finally:
+            if self._source is not None:
+                self._source.close()
+                self._source = None
 
 
 class ProgressSink:
@@ -252,13 +339,19 @@ def standard_sinks(
     bag_format: str | None = None,
     overwrite: bool = False,
     progress: bool = False,
+    with_input: bool = True,
 ) -> list[Sink]:
     """The sinks :meth:`pfpeople.pipeline.Pipeline.run` writes by default, in order: the run directory
-    (``out_dir``), the result bag (``bag_out``, checked now), the progress bar (``progress``)."""
+    (``out_dir``), the result bag (``bag_out``, checked now; ``with_input``: the input scans and TF copied in),
+    the progress bar (``progress``)."""
     sinks: list[Sink] = []
-    bag_sink = None if bag_out is None else ResultBagSink(bag_out, bag_format=bag_format, overwrite=overwrite)
+    bag_sink = (
+        None
+        if bag_out is None
+        else ResultBagSink(bag_out, bag_format=bag_format, overwrite=overwrite, with_input=with_input)
+    )
     if out_dir is not None:
-        sinks.append(RunDirSink(out_dir, overwrite=overwrite))
+        sinks.append(RunDirSink(out_dir, overwrite=overwrite, result_bag=bag_sink))
     if bag_sink is not None:
         sinks.append(bag_sink)
     if progress:

@@ -132,7 +132,14 @@ def test_a_replaced_sink_factory_decides_the_outputs(scan_bag: Path, tmp_path: P
     with BagSource(scan_bag) as src:
         Pipeline(legs_only(), sink_factory=factory).run(src, tmp_path / "run", max_frames=2, progress=True)
     assert calls == [
-        {"out_dir": tmp_path / "run", "bag_out": None, "bag_format": None, "overwrite": False, "progress": True}
+        {
+            "out_dir": tmp_path / "run",
+            "bag_out": None,
+            "bag_format": None,
+            "overwrite": False,
+            "progress": True,
+            "with_input": True,
+        }
     ]
     assert not (tmp_path / "run").exists() and len(sink.frames) == 2 and sink.opened[0].max_frames == 2
 

@@ -124,7 +124,8 @@ def test_a_second_bag_writer_is_refused_and_the_bag_is_renamed_into_place(tmp_pa
         first.close()
     with AnyReader([path]) as r:
         assert {c.topic: c.msgcount for c in r.connections}["/pfpeople/belief"] == 3
-    assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # no temporary folder, no lock file left
+    # no temporary folder, no lock file left; the Foxglove layout beside the bag
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name, f"{name}.foxglove-layout.json"]
 
 
 def test_two_runs_on_the_same_bag_out_the_second_is_refused_before_its_run_directory(
@@ -158,6 +159,7 @@ def test_two_runs_on_the_same_bag_out_the_second_is_refused_before_its_run_direc
         "a",
         "long.bag",
         "out.bag",
+        "out.bag.foxglove-layout.json",
     ]
 
 

@@ -1,8 +1,9 @@
 """Result bags (ROS 1, rosbag2 sqlite3, rosbag2 MCAP) written by ResultBagWriter and read back with AnyReader.
 
 Every topic is read back and compared with what was written: grid cells, people and detection positions,
-track poses and headings, marker ids, texts and arrow lengths, the static TF; then the checks of a bad
-``--bag-out`` before a run, and the pipeline writing tracks it is given.
+track ids, positions and velocities (people_msgs/People), marker ids, spheres, texts and arrow lengths, the
+static TF; then the checks of a bad ``--bag-out`` before a run, and the pipeline writing tracks it is given.
+The input copy, header stamps, metadata version and layout: ``tests/test_writer_share.py``.
 """
 
 from __future__ import annotations
@@ -25,9 +26,11 @@ from pfpeople.bag.writer import (
     GRID_ORIGIN_FRAME,
     MARKER_ARROW,
     MARKER_DELETEALL,
+    MARKER_SPHERE,
     MARKER_TEXT_VIEW_FACING,
     TOPIC_BELIEF,
     TOPIC_PEOPLE,
+    TOPIC_PEOPLE_MARKERS,
     TOPIC_TRACK_MARKERS,
     TOPIC_TRACKS,
     ResultBagWriter,
@@ -39,7 +42,7 @@ from pfpeople.pipeline import Pipeline
 
 SPEC = GridSpec()
 T0 = 1_700_000_000_000_000_000
-FORMATS = [("ros1", "out.bag", None), ("sqlite3", "out_db", "sqlite3"), ("mcap", "out_mcap", None)]
+FORMATS = [("ros1", "out.bag", None), ("sqlite3", "out_db", None), ("mcap", "out_mcap", "mcap")]
 
 
 @dataclass
@@ -49,6 +52,8 @@ class _Obj:
     y: float
     vx: float
     vy: float
+    covariance: Any = None
+    score: float = math.nan
 
 
 @dataclass
@@ -94,8 +99,8 @@ def _xy(pose_array: Any) -> NDArray[np.float64]:
     return np.array([[p.position.x, p.position.y] for p in pose_array.poses]).reshape(-1, 2)
 
 
-def _yaw(q: Any) -> float:
-    return 2.0 * math.atan2(q.z, q.w)
+def _pxy(people: Any) -> NDArray[np.float64]:
+    return np.array([[p.position.x, p.position.y] for p in people.people]).reshape(-1, 2)
 
 
 @pytest.mark.parametrize(("fmt", "name", "given"), FORMATS)
@@ -114,6 +119,7 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
         "/tf_static",
         TOPIC_BELIEF,
         TOPIC_PEOPLE,
+        TOPIC_PEOPLE_MARKERS,
         detection_topic("laser-legs"),
         "/pfpeople/detections/hog_cam",
         TOPIC_TRACKS,
@@ -143,23 +149,33 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
         assert data[4, 7] == round(100 * belief[7, 4])
     # People and detections: positions exact to float64; the detector without data has no message then.
     for (_, pa), people in zip(msgs[TOPIC_PEOPLE], w.people, strict=True):
-        np.testing.assert_allclose(_xy(pa), people, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(_pxy(pa), people, rtol=0, atol=1e-12)
+        assert [(p.name, p.reliability) for p in pa.people] == [("", 1.0)] * len(people)
+    for (_, ma), people in zip(msgs[TOPIC_PEOPLE_MARKERS], w.people, strict=True):
+        assert ma.markers[0].action == MARKER_DELETEALL
+        spheres = [(m.type, m.id, m.pose.position.x, m.pose.position.y) for m in ma.markers[1:]]
+        assert spheres == [(MARKER_SPHERE, k, x, y) for k, (x, y) in enumerate(people)]
     legs = [_xy(m) for _, m in msgs[detection_topic("laser-legs")]]
     cam = [_xy(m) for _, m in msgs["/pfpeople/detections/hog_cam"]]
     assert len(legs) == 3 and len(cam) == 2 and cam[0].shape == (0, 2)
     np.testing.assert_allclose(legs[2], np.asarray(w.dets[2][0]), atol=1e-12)
     np.testing.assert_allclose(cam[1], np.asarray(w.dets[2][1]), atol=1e-12)
-    # Tracks: two frames had them; positions, velocity heading (identity at rest).
+    # Tracks: two frames had them; ids in name, positions, velocities (zero at rest).
     tracks = msgs[TOPIC_TRACKS]
     assert len(tracks) == 2
     t0, t1 = (m for _, m in tracks)
-    np.testing.assert_allclose(_xy(t0), [[2.0, 1.0], [4.0, -1.5]], atol=1e-12)
-    yaws = [_yaw(p.orientation) for p in t0.poses]
-    assert yaws == pytest.approx([0.0, math.atan2(0.8, -0.6)], abs=1e-12)
-    assert (t1.poses[0].orientation.z, t1.poses[0].orientation.w) == (0.0, 1.0)
-    # Markers: DELETEALL first, then per track the id text and the velocity arrow (length = speed x 1 s).
+    assert [p.name for p in t0.people] == ["3", "7"] and [p.name for p in t1.people] == ["7"]
+    np.testing.assert_allclose(_pxy(t0), [[2.0, 1.0], [4.0, -1.5]], atol=1e-12)
+    assert [(p.velocity.x, p.velocity.y) for p in t0.people] == [(1.0, 0.0), (-0.6, 0.8)]
+    assert (t1.people[0].velocity.x, t1.people[0].velocity.y) == (0.0, 0.0)
+    assert all(p.reliability == 1.0 and list(p.tagnames) == [] for p in t0.people)  # no score, no covariance
+    # Markers: DELETEALL first, then per track a sphere, the id text and the velocity arrow (length = speed x 1 s).
     arrays = [m.markers for _, m in msgs[TOPIC_TRACK_MARKERS]]
-    assert [len(a) for a in arrays] == [5, 3]
+    assert [len(a) for a in arrays] == [7, 4]
+    assert [(m.id, m.ns) for m in arrays[0] if m.type == MARKER_SPHERE] == [
+        (3, "pfpeople/tracks"),
+        (7, "pfpeople/tracks"),
+    ]
     first = arrays[0]
     assert first[0].action == MARKER_DELETEALL
     texts = [m for m in first if m.type == MARKER_TEXT_VIEW_FACING]
@@ -176,7 +192,7 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
 
 def test_format_from_suffix_and_bad_outputs(tmp_path: Path) -> None:
     assert bag_format_for(tmp_path / "a.bag") == "ros1"
-    assert bag_format_for(tmp_path / "a") == "mcap"
+    assert bag_format_for(tmp_path / "a") == "sqlite3"
     assert bag_format_for(tmp_path / "a", "sqlite3") == "sqlite3"
     with pytest.raises(ValueError, match=r"'.*x': unknown format 'hdf5'"):
         check_bag_out(tmp_path / "x", "hdf5")
@@ -202,15 +218,19 @@ def test_format_from_suffix_and_bad_outputs(tmp_path: Path) -> None:
         w.write(T0, T0, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [])
     msgs, _ = _read(tmp_path / "r2")
     assert len(msgs[TOPIC_BELIEF]) == 1
-    # Track objects with id, x, y, vx, vy attributes are accepted as well as arrays; an empty frame of tracks
-    # writes an empty PoseArray and a lone DELETEALL.
+    # Track objects with id, x, y, vx, vy (and covariance, score) attributes are accepted as well as arrays; an
+    # empty frame of tracks writes an empty People and a lone DELETEALL.
     with ResultBagWriter(tmp_path / "obj.bag", spec=SPEC, frame_id="laser", detector_names=[]) as w:
-        w.write(T0, T0, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [], [_Obj(id=4, x=1.0, y=2.0, vx=0, vy=-2.0)])
+        obj = _Obj(id=4, x=1.0, y=2.0, vx=0, vy=-2.0, covariance=np.array([[0.1, 0.02], [0.02, 0.3]]), score=0.8)
+        w.write(T0, T0, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [], [obj])
         w.write(T0 + 1, T0 + 1, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [], [])
     msgs, _ = _read(tmp_path / "obj.bag")
-    assert [len(m.poses) for _, m in msgs[TOPIC_TRACKS]] == [1, 0]
-    assert _yaw(msgs[TOPIC_TRACKS][0][1].poses[0].orientation) == pytest.approx(-math.pi / 2, abs=1e-12)
-    assert [[k.action for k in m.markers] for _, m in msgs[TOPIC_TRACK_MARKERS]] == [[MARKER_DELETEALL, 0, 0], [3]]
+    assert [len(m.people) for _, m in msgs[TOPIC_TRACKS]] == [1, 0]
+    (p,) = msgs[TOPIC_TRACKS][0][1].people
+    assert (p.name, p.velocity.y, p.reliability) == ("4", -2.0, 0.8)
+    assert dict(zip(p.tagnames, map(float, p.tags), strict=True)) == {"cov_xx": 0.1, "cov_xy": 0.02, "cov_yy": 0.3}
+    actions = [[k.action for k in m.markers] for _, m in msgs[TOPIC_TRACK_MARKERS]]
+    assert actions == [[MARKER_DELETEALL, 0, 0, 0], [3]]
     with pytest.raises(ValueError, match=r"tracks must have shape \(K, 5\)"):
         with ResultBagWriter(tmp_path / "t.bag", spec=SPEC, frame_id="laser", detector_names=[]) as w:
             w.write(T0, T0, np.zeros((SPEC.nx, SPEC.ny)), np.zeros((0, 2)), [], np.zeros((2, 4)))
@@ -245,5 +265,5 @@ def test_pipeline_passes_tracks_to_the_bag(tmp_path: Path, monkeypatch: pytest.M
     with BagSource(bag) as src:
         Pipeline(SYNTHETIC_CONFIG).run(src, None, bag_out=tmp_path / "res_mcap")
     msgs, _ = _read(tmp_path / "res_mcap")
-    assert [_xy(m)[0, 1] for _, m in msgs[TOPIC_TRACKS]] == [0.0, 1.0, 2.0, 3.0]
-    assert [m.markers[1].text for _, m in msgs[TOPIC_TRACK_MARKERS]] == ["0", "1", "2", "3"]
+    assert [_pxy(m)[0, 1] for _, m in msgs[TOPIC_TRACKS]] == [0.0, 1.0, 2.0, 3.0]
+    assert [m.markers[2].text for _, m in msgs[TOPIC_TRACK_MARKERS]] == ["0", "1", "2", "3"]

@@ -4,8 +4,8 @@ Examples::
 
     pfpeople run person_following_outdoor_1.bag.zip --config person_following_outdoor_1 --out runs/pf1
     pfpeople run my.bag --driver /scan --odom /odom --filter particle --max-frames 500 --bag-out out.bag
-    pfpeople run my.bag --config my.toml --bag-out results_ros2              # rosbag2 folder, MCAP storage
-    pfpeople run my.bag --config my.toml --bag-out results_db --bag-format sqlite3
+    pfpeople run my.bag --config my.toml --bag-out results_ros2              # rosbag2 folder, sqlite3 storage
+    pfpeople run my.bag --config my.toml --bag-out results_mcap --bag-format mcap --no-input
 
 Exit codes: 0 done, 2 bad input (one line on stderr; the frames processed before a failure stay in ``--out``
 with ``status = "failed"``), 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM (``status = "interrupted"``,
@@ -95,6 +95,7 @@ def _run_checked(args: argparse.Namespace) -> int:
                 metadata={"command": "pfpeople run"},
                 bag_out=args.bag_out,
                 bag_format=args.bag_format,
+                bag_input=args.with_input,
             )
     except (BagReadError, FileExistsError, OSError) as exc:  # not caught by the shared CLI plumbing: no traceback
         print(f"pfpeople run: error: {exc}", file=sys.stderr)
@@ -138,12 +139,24 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--bag-out",
         help="also write the results as a bag: a ROS 1 .bag file, or a rosbag2 folder (any other name): "
-        "OccupancyGrid, PoseArrays, track MarkerArray, /tf_static",
+        "OccupancyGrid, people_msgs/People (people, tracks with ids and velocities), MarkerArrays, PoseArrays, "
+        "/tf_static, the input scans and TF; and a Foxglove layout OUT.foxglove-layout.json beside it",
     )
     p.add_argument(
         "--bag-format",
         choices=BAG_FORMATS,
-        help="format of --bag-out (default: ros1 for a .bag name, otherwise mcap)",
+        help="format of --bag-out (default: ros1 for a .bag name, otherwise sqlite3; rosbag2 metadata version 5, "
+        "which ROS 2 Humble and later read)",
+    )
+    p.add_argument(
+        "--with-input",
+        dest="with_input",
+        action="store_true",
+        default=True,
+        help="copy the LaserScan topics the run reads and /tf, /tf_static into --bag-out (default)",
+    )
+    p.add_argument(
+        "--no-input", dest="with_input", action="store_false", help="do not copy the input scans and TF into --bag-out"
     )
     p.add_argument("--driver", help="topic driving the frames (overrides the config)")
     p.add_argument("--odom", help="nav_msgs/Odometry topic ('' for none; overrides the config)")
