@@ -123,11 +123,15 @@ class RunDirSink:
         The run directory.
     overwrite : bool
         Replace a run already in ``out_dir``.
+    scans : bool
+        Write every laser scan (``scans.npy``, 10 bytes a return: about 7 kB a 720-beam scan) and, for particle
+        runs, a subsample of the particles (``particles.npy``, at most 16 kB a frame); False writes neither.
     """
 
-    def __init__(self, out_dir: str | Path, *, overwrite: bool = False) -> None:
+    def __init__(self, out_dir: str | Path, *, overwrite: bool = False, scans: bool = True) -> None:
         self.out_dir = out_dir
         self.overwrite = overwrite
+        self.scans = scans
         self.writer: Any = None
         self._driver = ""
 
@@ -148,6 +152,7 @@ class RunDirSink:
 
     def write(self, result: FrameResult) -> None:
         r, f = result, result.frame
+        parts = getattr(r.step, "particles", None) if self.scans else None
         self.writer.write_frame(
             frame=f.index,
             driver_index=f.driver.index,
@@ -165,6 +170,8 @@ class RunDirSink:
             static=r.static,
             support=r.support,
             support_static=r.support_static,
+            scans=r.scans if self.scans else None,
+            particles=None if parts is None else (parts.x, parts.y),
         )
 
     def close(self, outcome: RunOutcome) -> None:
@@ -252,13 +259,15 @@ def standard_sinks(
     bag_format: str | None = None,
     overwrite: bool = False,
     progress: bool = False,
+    scans: bool = True,
 ) -> list[Sink]:
     """The sinks :meth:`pfpeople.pipeline.Pipeline.run` writes by default, in order: the run directory
-    (``out_dir``), the result bag (``bag_out``, checked now), the progress bar (``progress``)."""
+    (``out_dir``; with the scans and particles unless ``scans`` is False, see :class:`RunDirSink`), the result bag
+    (``bag_out``, checked now), the progress bar (``progress``)."""
     sinks: list[Sink] = []
     bag_sink = None if bag_out is None else ResultBagSink(bag_out, bag_format=bag_format, overwrite=overwrite)
     if out_dir is not None:
-        sinks.append(RunDirSink(out_dir, overwrite=overwrite))
+        sinks.append(RunDirSink(out_dir, overwrite=overwrite, scans=scans))
     if bag_sink is not None:
         sinks.append(bag_sink)
     if progress:
