@@ -240,3 +240,6 @@ def test_a_run_writes_its_scans_unless_told_not_to(tmp_path: Path, monkeypatch: 
         Pipeline(cfg, front_process=False).run(src, tmp_path / "pf", max_frames=3)
     parts = load_run(tmp_path / "pf").particles
     assert parts is not None and np.bincount(parts["frame"]).max() <= MAX_PARTICLES_SAVED and len(parts) > 0
+    args = ["run", str(bag), "--driver", "/scan", "--max-frames", "2", "--no-progress", "--one-process"]
+    assert main([*args, "--out", str(tmp_path / "cli"), "--no-scans"]) == 0
+    assert not (tmp_path / "cli" / "scans.npy").exists() and load_run(tmp_path / "cli").n_frames == 2

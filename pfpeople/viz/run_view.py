@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import csv
 import math
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -653,8 +654,8 @@ def render_summary(
     a.set_ylabel("cells")
     a = axes[1, 1]
     a.axis("off")
-    text = "\n".join(_summary_lines(run, t, truth))
-    a.text(0.0, 1.0, text, va="top", fontsize=9, family="monospace", transform=a.transAxes)
+    wrapped = [w for line in _summary_lines(run, t, truth) for w in textwrap.wrap(line, 64, subsequent_indent="  ")]
+    a.text(0.0, 1.0, "\n".join(wrapped), va="top", fontsize=8, family="monospace", transform=a.transAxes)
     fig.suptitle(f"pfpeople run summary: {run.path.name}")
     fig.subplots_adjust(left=0.08, right=0.97, bottom=0.07, top=0.91, wspace=0.25, hspace=0.35)
     fig.savefig(path)
