@@ -8,6 +8,7 @@ particle run, 5000 particles in a 0.4 m square around (2, 0) m.
 
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -121,15 +122,18 @@ def test_scan_points_are_drawn_at_their_returns_in_png_and_mp4(tmp_path: Path) -
 
 
 def _ffmpeg_frames(path: Path, opts: ViewOptions) -> list[np.ndarray]:
-    """Decode with imageio's ffmpeg (imageio-ffmpeg) into RGB frames."""
-    reader = imageio_ffmpeg.read_frames(str(path), pix_fmt="rgb24")
-    try:
-        meta = next(reader)
-        assert tuple(meta["size"]) == (opts.width_px, opts.height_px)
-        shape = (opts.height_px, opts.width_px, 3)
-        return [np.frombuffer(b, dtype=np.uint8).reshape(shape) for b in reader]
-    finally:
-        reader.close()
+    """Decode with imageio-ffmpeg's ffmpeg into PNG files, read back by imageio (RGB frames).
+
+    ``subprocess.run`` rather than ``imageio_ffmpeg.read_frames``: read to the end, the latter leaves the pipes of
+    its finished ffmpeg open (a ResourceWarning, an error here).
+    """
+    out = path.parent / f"{path.stem}_frames"
+    out.mkdir()
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-i", str(path), str(out / "%03d.png")]
+    subprocess.run(cmd, check=True, capture_output=True)
+    frames = [iio.imread(f) for f in sorted(out.glob("*.png"))]
+    assert all(f.shape == (opts.height_px, opts.width_px, 3) for f in frames)
+    return frames
 
 
 def _video_meta(path: Path) -> dict[str, Any]:
