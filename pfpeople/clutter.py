@@ -475,6 +475,26 @@ class StaticClutterMap:
         """``clip(s / static_time, 0, 1)`` of every cell, shape (n, n)."""
         return np.asarray(np.clip(self.evidence / self.config.static_time, 0.0, 1.0), dtype=np.float64)
 
+    def static_points(self, points: ArrayLike) -> NDArray[np.bool_]:
+        """Which points lie in a cell the map calls static (``cell_score >= static_threshold``), shape (N,).
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 2)
+            Points (m) in the current sensor frame, e.g. the latest scan's end points; non-finite rows and points
+            outside the window are not static. One look-up per point (no neighbourhood, unlike
+            :meth:`static_score`): cheap enough for every return of every scan.
+        """
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = np.zeros(pts.shape[0], dtype=bool)
+        ok = np.isfinite(pts).all(axis=1)
+        if not ok.any():
+            return out
+        cells, inside = self.cell_of(self.pose.apply(pts[ok]))
+        score = self.evidence.reshape(-1)[cells] / self.config.static_time
+        out[ok] = inside & (score >= self.config.static_threshold - 1e-9)
+        return out
+
     def static_score(self, positions: ArrayLike) -> NDArray[np.float64]:
         """How long the returns at each position have been there, as a fraction of ``static_time``.
 

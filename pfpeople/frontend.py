@@ -37,7 +37,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from logging.handlers import QueueHandler
 from multiprocessing.connection import Connection
 from typing import Any
@@ -83,6 +83,9 @@ class FrontResult:
         Per detector, the detections the static-clutter map suppressed (None: no suppression).
     support_static : list of ndarray (S_k,) of bool or None
         Per detector, which support positions (single legs) the static-clutter map called static.
+    scan_static : dict of str to ndarray of bool
+        Per laser topic with a static-clutter map, which of its scan's end points lie in static cells
+        (:attr:`pfpeople.suppression.ClutterStage.scan_static`).
     """
 
     motion: EgoMotion
@@ -90,6 +93,7 @@ class FrontResult:
     dets: list[NDArray[np.float64] | None]
     static: list[NDArray[np.bool_] | None]
     support_static: list[NDArray[np.bool_] | None]
+    scan_static: dict[str, NDArray[np.bool_]] = field(default_factory=dict)
 
 
 def front_process_available() -> tuple[bool, str]:

@@ -14,6 +14,11 @@ Format (``format = "pfpeople-run"``, ``version = 1``)::
       tracks.csv      frame, stamp_ns, id, x, y, vx, vy, cov_xx, cov_xy, cov_yy, score   (when tracking is on)
       support.csv     frame, driver_index, stamp_ns, bag_time_ns, detector, x_m, y_m, static
                       (when the tracker is given support positions: the laser detectors' single legs)
+      scans.npy       the laser returns of every frame in the grid frame (:data:`SCAN_DTYPE` records: frame,
+                      laser, static, x, y; 10 bytes a return, about 7 kB a 720-beam scan); lasers named in
+                      ``run.json`` ``scans.topics`` (written unless the run is told not to: ``--no-scans``)
+      particles.npy   particle runs: at most :data:`MAX_PARTICLES_SAVED` particles a frame, a uniform subsample
+                      (:data:`PARTICLE_DTYPE` records: frame, x, y; 8 bytes a particle, at most 16 kB a frame)
 
 Positions are metres in the grid frame (REP-103; the grid frame is named in ``run.json``). ``frame`` counts
 the frames of the run (0, 1, ...); ``driver_index`` is the index of the driving message on its topic (the
@@ -33,7 +38,11 @@ the belief at its cell as ``mean_probability``. ``tracks.csv`` holds the confirm
 unpaired single legs, :class:`pfpeople.adapters.Detections`); the tracker got those with ``static`` 0.
 ``status`` in ``run.json`` is ``"running"`` while a run writes, then ``"complete"``, ``"failed"`` (with
 ``error``) or ``"interrupted"`` (SIGINT / SIGTERM, with ``error`` naming the signal); the frames written before
-stay valid and ``frames`` is the number of frames on disk.
+stay valid and ``frames`` is the number of frames on disk. ``scans.npy`` and ``particles.npy`` are standard
+``.npy`` files of structured records grown like ``grids.npy`` (the header counts the complete rows), rows in
+frame order; in ``scans.npy`` ``static`` is 1 for a return whose cell the laser's static-clutter map calls static
+(:meth:`pfpeople.clutter.StaticClutterMap.static_points`; 0 when the run has no map). Both are optional: run
+directories written before them, or with ``--no-scans``, read with ``scans`` / ``particles`` None.
 
 Safety against a second process and damage:
 
@@ -80,7 +89,10 @@ from pfpeople.jsonio import dumps
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
+    "MAX_PARTICLES_SAVED",
+    "PARTICLE_DTYPE",
     "RUN_FILES",
+    "SCAN_DTYPE",
     "RunData",
     "RunInterrupted",
     "RunLockedError",
@@ -89,6 +101,8 @@ __all__ = [
     "deferred_signals",
     "interrupt_signals",
     "load_run",
+    "particle_records",
+    "scan_records",
 ]
 
 FORMAT = "pfpeople-run"
@@ -96,7 +110,14 @@ FORMAT_VERSION = 1
 _HEADER_BYTES = 128
 LOCK_NAME = ".lock"
 #: The files a run directory holds (``--overwrite`` replaces exactly these).
-RUN_FILES = ("run.json", "grids.npy", "frames.csv", "people.csv", "detections.csv")
+RUN_FILES = ("run.json", "grids.npy", "frames.csv", "people.csv", "detections.csv", "scans.npy", "particles.npy")
+#: One laser return of ``scans.npy`` (grid frame, m; ``laser`` indexes ``run.json`` ``scans.topics``).
+SCAN_DTYPE = np.dtype([("frame", "<u4"), ("laser", "u1"), ("static", "u1"), ("x", "<f2"), ("y", "<f2")])
+#: One particle of ``particles.npy`` (grid frame, m).
+PARTICLE_DTYPE = np.dtype([("frame", "<u4"), ("x", "<f2"), ("y", "<f2")])
+#: Most particles ``particles.npy`` keeps a frame (a uniform subsample of the filter's particles).
+MAX_PARTICLES_SAVED = 2000
+_RECORD_HEADER_BYTES = 256
 
 
 class RunLockedError(locks.PathLockedError):
@@ -271,6 +292,76 @@ def _npy_header(n: int, nx: int, ny: int) -> bytes:
     return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(body)) + body.encode("latin1")
 
 
+class _RecordFile:
+    """A ``.npy`` file of structured records (shape ``(n,)``) grown row by row; the header counts the rows written.
+
+    Parameters
+    ----------
+    path : path
+        The file (created, replacing one there).
+    dtype : numpy.dtype
+        The record type.
+    """
+
+    def __init__(self, path: Path, dtype: np.dtype[Any]) -> None:
+        self.path, self.dtype, self.rows = path, dtype, 0
+        self.fh: BinaryIO = path.open("wb")
+        self.fh.write(self._header())
+
+    def _header(self) -> bytes:
+        descr = np.lib.format.dtype_to_descr(self.dtype)
+        body = f"{{'descr': {descr!r}, 'fortran_order': False, 'shape': ({self.rows},), }}"
+        body = body.ljust(_RECORD_HEADER_BYTES - 11) + "\n"
+        if len(body) != _RECORD_HEADER_BYTES - 10:
+            raise ValueError(f"{self.rows} records too many for the fixed .npy header of {self.path.name}")
+        return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(body)) + body.encode("latin1")
+
+    def append(self, records: NDArray[Any]) -> None:
+        """Write ``records`` (of :attr:`dtype`), then the header that counts them."""
+        if not len(records):
+            return
+        self.fh.write(np.ascontiguousarray(records, dtype=self.dtype).tobytes())
+        end = self.fh.tell()
+        self.fh.flush()
+        self.rows += len(records)
+        self.fh.seek(0)
+        self.fh.write(self._header())
+        self.fh.seek(end)
+        self.fh.flush()
+
+
+def scan_records(
+    frame: int, scans: Mapping[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]], topics: list[str]
+) -> NDArray[Any]:
+    """The :data:`SCAN_DTYPE` records of one frame's ``scans`` (topic -> (points (N, 2), static (N,) or None));
+    topics not in ``topics`` are appended to it (their ``laser`` index); non-finite points are dropped."""
+    parts = []
+    for topic, (pts, static) in scans.items():
+        if topic not in topics:
+            topics.append(topic)
+        pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+        ok = np.isfinite(pts).all(axis=1)
+        rec = np.zeros(int(np.count_nonzero(ok)), dtype=SCAN_DTYPE)
+        rec["frame"], rec["laser"] = frame, topics.index(topic)
+        rec["x"], rec["y"] = pts[ok, 0], pts[ok, 1]
+        if static is not None:
+            rec["static"] = np.asarray(static, dtype=bool)[ok]
+        parts.append(rec)
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=SCAN_DTYPE)
+
+
+def particle_records(frame: int, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[Any]:
+    """:data:`PARTICLE_DTYPE` records of at most :data:`MAX_PARTICLES_SAVED` of the particles ``(x, y)`` (a
+    uniform subsample without replacement, seeded by ``frame``: the same run writes the same file)."""
+    x, y = np.asarray(x, dtype=float).reshape(-1), np.asarray(y, dtype=float).reshape(-1)
+    idx = np.arange(len(x))
+    if len(x) > MAX_PARTICLES_SAVED:
+        idx = np.sort(np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False))
+    rec = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
+    rec["frame"], rec["x"], rec["y"] = frame, x[idx], y[idx]
+    return rec
+
+
 class RunWriter:
     """Write a run directory incrementally (see the module docstring).
 
@@ -347,6 +438,9 @@ class RunWriter:
             self._dets = self._csv("detections.csv", DETECTION_COLUMNS)
             self._tracks: Any = None
             self._support: Any = None
+            self._scans: _RecordFile | None = None
+            self._particles: _RecordFile | None = None
+            self._scan_topics: list[str] = []
         except OSError as exc:
             self._unlock()
             raise _named_os_error(exc, self.path) from exc
@@ -416,6 +510,8 @@ class RunWriter:
         static: Sequence[NDArray[np.bool_] | None] | None = None,
         support: Sequence[NDArray[np.float64] | None] | None = None,
         support_static: Sequence[NDArray[np.bool_] | None] | None = None,
+        scans: Mapping[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]] | None = None,
+        particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     ) -> None:
         """Append one frame to every file and flush (see the module docstring for the columns).
 
@@ -426,7 +522,10 @@ class RunWriter:
         ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.mot.TRACK_COLUMNS`), written when given (the file is
         created at the first frame that has them, with its header). ``support`` and ``support_static``: per
         detector, its support positions and which of them the static-clutter map called static (``support.csv``,
-        created like ``tracks.csv``).
+        created like ``tracks.csv``). ``scans``: per laser topic, its returns (m, grid frame) and which of them the
+        static-clutter map calls static (``scans.npy``, created at the first frame that has them; a new topic is
+        added to ``run.json`` ``scans.topics``). ``particles``: the filter's particles ``(x, y)`` (m, grid frame),
+        subsampled into ``particles.npy`` (:func:`particle_records`).
         """
         if self._closed:
             raise RuntimeError("RunWriter is closed")
@@ -476,6 +575,14 @@ class RunWriter:
                 for fh in self._files:
                     target = os.path.basename(fh.name)
                     fh.flush()
+                target = "scans.npy"
+                if scans is not None:
+                    self._write_scans(frame, scans)
+                target = "particles.npy"
+                if particles is not None:
+                    if self._particles is None:
+                        self._particles = _RecordFile(self.path / "particles.npy", PARTICLE_DTYPE)
+                    self._particles.append(particle_records(frame, *particles))
                 target = "grids.npy"
                 self._grids.write(belief.astype("<f4").tobytes())
                 end = self._grids.tell()
@@ -488,6 +595,21 @@ class RunWriter:
             except OSError as exc:
                 raise _named_os_error(exc, self.path / target) from exc  # names, not paths: per frame
             self.n_frames += 1
+
+    def _write_scans(
+        self, frame: int, scans: Mapping[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]]
+    ) -> None:
+        """Append a frame's returns to ``scans.npy`` (created now if need be); a new topic updates ``run.json``."""
+        if self._scans is None:
+            self._scans = _RecordFile(self.path / "scans.npy", SCAN_DTYPE)
+        known = len(self._scan_topics)
+        records = scan_records(frame, scans, self._scan_topics)
+        if len(self._scan_topics) > 255:
+            raise ValueError(f"scans.npy holds at most 256 lasers, got {len(self._scan_topics)}")
+        if len(self._scan_topics) != known or "scans" not in self._meta:
+            self._meta["scans"] = {"topics": list(self._scan_topics), "bytes_per_return": SCAN_DTYPE.itemsize}
+            self._write_json()
+        self._scans.append(records)
 
     def _positions(
         self,
@@ -526,6 +648,7 @@ class RunWriter:
         first: OSError | None = None
         with deferred_signals():
             handles: list[IO[Any]] = [self._grids, *self._files]
+            handles += [f.fh for f in (self._scans, self._particles) if f is not None]
             for fh in handles:
                 try:
                     fh.close()
@@ -558,6 +681,17 @@ class RunData:
     detections: dict[str, NDArray[Any]]
     #: ``support.csv`` (columns as ``detections``); None when the run wrote none.
     support: dict[str, NDArray[Any]] | None = None
+    #: ``scans.npy`` (:data:`SCAN_DTYPE` records of the frames on disk); None when the run wrote none.
+    scans: NDArray[Any] | None = None
+    #: ``particles.npy`` (:data:`PARTICLE_DTYPE` records of the frames on disk); None when the run wrote none.
+    particles: NDArray[Any] | None = None
+
+    @property
+    def scan_topics(self) -> list[str]:
+        """The lasers of :attr:`scans`, by their ``laser`` index (``run.json`` ``scans.topics``)."""
+        scans = self.meta.get("scans")
+        topics = scans.get("topics") if isinstance(scans, dict) else None
+        return [str(t) for t in topics] if isinstance(topics, list) else []
 
     @property
     def spec(self) -> GridSpec:
@@ -691,4 +825,21 @@ def load_run(path: str | Path) -> RunData:
         people={k: v[keep_p] for k, v in people.items()},
         detections={k: v[keep_d] for k, v in dets.items()},
         support=support,
+        scans=_read_records(path / "scans.npy", SCAN_DTYPE, n),
+        particles=_read_records(path / "particles.npy", PARTICLE_DTYPE, n),
     )
+
+
+def _read_records(path: Path, dtype: np.dtype[Any], n_frames: int) -> NDArray[Any] | None:
+    """The records of ``path`` (memory-mapped) of the frames below ``n_frames``; None when there is no file."""
+    if not path.is_file():
+        return None
+    try:
+        rec = np.load(path, mmap_mode="r")
+    except (OSError, ValueError, EOFError) as exc:
+        raise ValueError(f"run file {str(path)!r} cannot be read: {exc}") from None
+    if rec.ndim != 1 or rec.dtype != dtype:
+        raise ValueError(f"run file {str(path)!r}: records {rec.dtype} of shape {rec.shape}, expected {dtype}")
+    if not len(rec):
+        return rec
+    return rec[: int(np.searchsorted(rec["frame"], n_frames, "left"))]

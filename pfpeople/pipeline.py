@@ -303,12 +303,16 @@ class Pipeline:
         dets: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
         sup_static: list[NDArray[np.bool_] | None] = [None] * len(found)
+        scan_static: dict[str, NDArray[np.bool_]] = {}
         if self.clutter.active:
             dets, static, laser_ego = self.clutter.step(found, motion.ego, motion.dt, frame.stamp_ns)
             sup_static = list(self.clutter.support_static)
+            scan_static = dict(self.clutter.scan_static)
             motion = self.odometry.from_laser(motion, laser_ego)
         self.odometry.end(frame, motion)
-        return FrontResult(motion=motion, found=found, dets=dets, static=static, support_static=sup_static)
+        return FrontResult(
+            motion=motion, found=found, dets=dets, static=static, support_static=sup_static, scan_static=scan_static
+        )
 
     def _back(self, frame: Frame, front: FrontResult) -> FrameResult:
         """The filter, the classifier and the tracker on a frame's :meth:`_front` result."""
@@ -363,7 +367,21 @@ class Pipeline:
             tracks=tracks,
             support=support,
             support_static=None if support is None else front.support_static,
+            scans=self._scans(front),
         )
+
+    def _scans(self, front: FrontResult) -> dict[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]]:
+        """Each laser topic's scan of the frame, once: valid end points (m, grid frame) and static flags."""
+        out: dict[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]] = {}
+        for f, a in zip(front.found, self.adapters, strict=True):
+            topic = a.config.topic
+            if f is None or f.scan is None or topic in out or getattr(a, "self_mounted", False):
+                continue
+            pts = f.scan.points()
+            ok = np.isfinite(pts).all(axis=1)
+            static = front.scan_static.get(topic)
+            out[topic] = (a.mount.apply(pts[ok]), None if static is None else static[ok])
+        return out
 
     def _laser_views(self, found: list[Detections | None]) -> list[tuple[LaserScan, Pose2D]]:
         """This frame's laser scans, each once, with the pose of its laser frame in the grid frame."""

@@ -55,6 +55,9 @@ class FrameResult:
         was given support; None: it was not.
     support_static : list of ndarray (S_k,) of bool or None, or None
         Per detector, which support positions the static-clutter map called static (the tracker did not get them).
+    scans : dict of str to (ndarray (N, 2), ndarray (N,) of bool or None)
+        Per laser topic, its scan's valid end points (m, grid frame) and which of them lie in a cell its
+        static-clutter map calls static (None: the topic has no map); empty when the run has no laser.
     """
 
     frame: Frame
@@ -70,6 +73,7 @@ class FrameResult:
     static: list[NDArray[np.bool_] | None] | None = None
     support: list[NDArray[np.float64] | None] | None = None
     support_static: list[NDArray[np.bool_] | None] | None = None
+    scans: dict[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]] = field(default_factory=dict)
 
 
 #: The keys of :attr:`RunSummary.ego_motion`: where a frame's ego-motion came from.

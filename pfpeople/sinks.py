@@ -123,6 +123,7 @@ class RunDirSink:
         The run directory.
     overwrite : bool
         Replace a run already in ``out_dir``.
+<<<<<<< HEAD
     result_bag : ResultBagSink, optional
         The run's result bag: ``run.json`` gets ``result_bag`` (:meth:`ResultBagSink.describe`: its path,
         format, topics and types, the detection topics and the detector names renamed for them).
@@ -134,6 +135,17 @@ class RunDirSink:
         self.out_dir = out_dir
         self.overwrite = overwrite
         self.result_bag = result_bag
+=======
+    scans : bool
+        Write every laser scan (``scans.npy``, 10 bytes a return: about 7 kB a 720-beam scan) and, for particle
+        runs, a subsample of the particles (``particles.npy``, at most 16 kB a frame); False writes neither.
+    """
+
+    def __init__(self, out_dir: str | Path, *, overwrite: bool = False, scans: bool = True) -> None:
+        self.out_dir = out_dir
+        self.overwrite = overwrite
+        self.scans = scans
+>>>>>>> view
         self.writer: Any = None
         self._driver = ""
 
@@ -156,6 +168,7 @@ class RunDirSink:
 
     def write(self, result: FrameResult) -> None:
         r, f = result, result.frame
+        parts = getattr(r.step, "particles", None) if self.scans else None
         self.writer.write_frame(
             frame=f.index,
             driver_index=f.driver.index,
@@ -173,6 +186,8 @@ class RunDirSink:
             static=r.static,
             support=r.support,
             support_static=r.support_static,
+            scans=r.scans if self.scans else None,
+            particles=None if parts is None else (parts.x, parts.y),
         )
 
     def close(self, outcome: RunOutcome) -> None:
@@ -339,11 +354,19 @@ def standard_sinks(
     bag_format: str | None = None,
     overwrite: bool = False,
     progress: bool = False,
+<<<<<<< HEAD
     with_input: bool = True,
 ) -> list[Sink]:
     """The sinks :meth:`pfpeople.pipeline.Pipeline.run` writes by default, in order: the run directory
     (``out_dir``), the result bag (``bag_out``, checked now; ``with_input``: the input scans and TF copied in),
     the progress bar (``progress``)."""
+=======
+    scans: bool = True,
+) -> list[Sink]:
+    """The sinks :meth:`pfpeople.pipeline.Pipeline.run` writes by default, in order: the run directory
+    (``out_dir``; with the scans and particles unless ``scans`` is False, see :class:`RunDirSink`), the result bag
+    (``bag_out``, checked now), the progress bar (``progress``)."""
+>>>>>>> view
     sinks: list[Sink] = []
     bag_sink = (
         None
@@ -351,7 +374,11 @@ def standard_sinks(
         else ResultBagSink(bag_out, bag_format=bag_format, overwrite=overwrite, with_input=with_input)
     )
     if out_dir is not None:
+<<<<<<< HEAD
         sinks.append(RunDirSink(out_dir, overwrite=overwrite, result_bag=bag_sink))
+=======
+        sinks.append(RunDirSink(out_dir, overwrite=overwrite, scans=scans))
+>>>>>>> view
     if bag_sink is not None:
         sinks.append(bag_sink)
     if progress:

@@ -58,6 +58,9 @@ class ClutterStage:
         #: Per detector, after :meth:`step`: which of its support positions the map calls static (None: no data or
         #: no map).
         self.support_static: list[NDArray[np.bool_] | None] = []
+        #: Per laser topic with a map, after :meth:`step`: which of its scan's end points (``LaserScan.points()``
+        #: rows, NaN ones included) lie in a cell the map calls static (``StaticClutterMap.static_points``).
+        self.scan_static: dict[str, NDArray[np.bool_]] = {}
         c = config
         if c.clutter.on(c.filter.mode):
             from pfpeople.clutter import ClutterConfig, ClutterSuppressor
@@ -120,6 +123,7 @@ class ClutterStage:
         kept: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
         self.support_static = [None] * len(found)
+        self.scan_static = {}
         scans = {
             a.config.topic: f.scan
             for a, f in zip(self.adapters, found, strict=True)
@@ -147,6 +151,7 @@ class ClutterStage:
                 dt=dt,
                 free=scan.free_rays(sup.map.config.max_range),
             )
+            self.scan_static[topic] = sup.map.static_points(scan.points())
             for k, keep in zip(idx, st.keep, strict=True):
                 static[k] = ~keep
                 d = kept[k]

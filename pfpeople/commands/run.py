@@ -15,6 +15,7 @@ the frames on disk kept, the result bag closed).
 from __future__ import annotations
 
 import argparse
+import functools
 import signal
 import sys
 from dataclasses import replace
@@ -27,6 +28,7 @@ from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.bag.writer import BAG_FORMATS, check_bag_out
 from pfpeople.output import RunInterrupted, check_output_paths, interrupt_signals
 from pfpeople.pipeline import Pipeline
+from pfpeople.sinks import standard_sinks
 
 
 def config_from_args(args: argparse.Namespace) -> BagConfig:
@@ -86,7 +88,9 @@ def _run_checked(args: argparse.Namespace) -> int:
     try:
         with BagSource(args.bag) as bag:
             args._out = out
-            summary, _ = Pipeline(cfg, front_process=False if args.one_process else None).run(
+            factory = functools.partial(standard_sinks, scans=not args.no_scans)
+            pipeline = Pipeline(cfg, front_process=False if args.one_process else None, sink_factory=factory)
+            summary, _ = pipeline.run(
                 bag,
                 out,
                 max_frames=args.max_frames,
@@ -166,6 +170,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--seed", type=int, help="particle filter seed")
     p.add_argument("--overwrite", action="store_true", help="replace an existing run in --out (and --bag-out)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--no-scans",
+        action="store_true",
+        help="do not store the laser scans (scans.npy, 10 bytes a return: ~7 kB a 720-beam scan) nor the particles "
+        "(particles.npy, <= 16 kB a frame) that 'pfpeople view' draws",
+    )
     p.add_argument(
         "--one-process",
         action="store_true",

@@ -7,7 +7,10 @@ Examples::
     pfpeople view runs/pf1 --gt person_following_outdoor_1_gt.csv --gif
     pfpeople view runs/pf1 --out pf1.gif --size 640x480       # a GIF only
 
-What is drawn: see :mod:`pfpeople.viz.run_view`. Tracks are drawn when the run has a ``tracks.csv``. A GIF
+What is drawn: see :mod:`pfpeople.viz.run_view`: the belief, every laser's scan (``scans.npy``, static returns
+grey), the particles of a particle run, each detector's detections, people, tracks (when the run has a
+``tracks.csv``), ground truth (``--gt``, also counted per frame in the summary). The video plays in real time by
+default (the run's median frame rate); its frames are 640 pixels high and as wide as the grid needs. A GIF
 (half resolution) is written besides the MP4 with ``--gif``, and for short selections (at most
 :data:`SMALL_RUN_FRAMES` frames) unless ``--no-gif``.
 """
@@ -68,7 +71,7 @@ def _check_run(run: RunData) -> None:
 
 def _run(args: argparse.Namespace) -> int:
     # Drawing and encoding libraries are imported here, not when the CLI builds its parser for every command.
-    from pfpeople.viz.run_view import RunFrameRenderer, ViewOptions, read_tracks, render_summary
+    from pfpeople.viz.run_view import RunFrameRenderer, ViewOptions, default_fps, fit_size, read_tracks, render_summary
     from pfpeople.viz.video import write_animation
 
     run_dir = Path(args.run)
@@ -80,8 +83,8 @@ def _run(args: argparse.Namespace) -> int:
     frames = frames or range(run.n_frames)
     if args.fps is not None and not args.fps > 0:
         raise ValueError(f"--fps must be positive, got {args.fps}")
-    w, h = args.size
-    options = ViewOptions(width_px=w + w % 2, height_px=h + h % 2, dpi=args.dpi, fps=args.fps or 10.0)
+    w, h = args.size or fit_size(run.spec)
+    options = ViewOptions(width_px=w + w % 2, height_px=h + h % 2, dpi=args.dpi, fps=args.fps or default_fps(run))
     tracks_path = Path(args.tracks) if args.tracks else run_dir / "tracks.csv"
     if args.tracks and not tracks_path.is_file():
         raise FileNotFoundError(f"--tracks {str(tracks_path)!r} does not exist")
@@ -93,7 +96,8 @@ def _run(args: argparse.Namespace) -> int:
         truth, unassigned = truth_per_frame(run, gt, frame=frame)
         print(f"ground truth {args.gt}: {len(gt)} rows in frame {frame!r}, {unassigned} on no run frame")
     if not args.no_summary:
-        summary = render_summary(run, args.summary or run_dir / "summary.png", tracks=tracks, dpi=args.dpi)
+        out_png = args.summary or run_dir / "summary.png"
+        summary = render_summary(run, out_png, tracks=tracks, truth=truth, dpi=args.dpi)
         print(f"summary -> {summary}")
     if args.no_video:
         return 0
@@ -122,17 +126,23 @@ def register(subparsers: Any) -> None:
         ),
         help="animate a run directory (MP4/GIF) and draw a summary page (PNG)",
         description=(
-            "Animate a run written by 'pfpeople run': belief grid, each detector's detections, classified "
-            "people, tracks (tracks.csv), ground truth (--gt), odometry, frame counter and time. Also writes a "
-            "one-page summary PNG (people and detections over time, belief histogram)."
+            "Animate a run written by 'pfpeople run': belief grid, every laser's scan (static returns grey), "
+            "particles (particle runs), each detector's detections, classified people, tracks (tracks.csv), "
+            "ground truth (--gt), the ego-motion source (odometry, scan matching or none), frame counter and "
+            "time. Also writes a one-page summary PNG (people, true people with --gt, and detections over time, "
+            "belief histogram)."
         ),
     )
     p.add_argument("run", help="run directory (run.json, grids.npy, frames.csv, ...)")
     p.add_argument("--out", help="video file, .mp4 or .gif (default: RUN/view.mp4)")
     p.add_argument("--frames", metavar="A:B", help="run frames A (included) to B (excluded); A: or :B")
-    p.add_argument("--fps", type=float, help="frames per second of the video (default 10, the paper's step)")
+    p.add_argument(
+        "--fps", type=float, help="frames per second of the video (default: the run's median frame rate, real time)"
+    )
     p.add_argument("--dpi", type=float, default=100.0, help="drawing resolution (default: %(default)s)")
-    p.add_argument("--size", type=_size, default=(960, 640), metavar="WxH", help="frame size in pixels (960x640)")
+    p.add_argument(
+        "--size", type=_size, metavar="WxH", help="frame size in pixels (default: 640 high, as wide as the grid needs)"
+    )
     p.add_argument("--gt", help="ground-truth CSV to draw (see pfpeople.gt_csv)")
     p.add_argument("--gt-frame", help="frame of the --gt positions (default: its columns' x_<frame>_m, else grid)")
     p.add_argument("--tracks", help="tracks CSV (default: RUN/tracks.csv when present)")
