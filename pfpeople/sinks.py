@@ -123,29 +123,26 @@ class RunDirSink:
         The run directory.
     overwrite : bool
         Replace a run already in ``out_dir``.
-<<<<<<< HEAD
     result_bag : ResultBagSink, optional
         The run's result bag: ``run.json`` gets ``result_bag`` (:meth:`ResultBagSink.describe`: its path,
         format, topics and types, the detection topics and the detector names renamed for them).
-    """
-
-    def __init__(
-        self, out_dir: str | Path, *, overwrite: bool = False, result_bag: ResultBagSink | None = None
-    ) -> None:
-        self.out_dir = out_dir
-        self.overwrite = overwrite
-        self.result_bag = result_bag
-=======
     scans : bool
         Write every laser scan (``scans.npy``, 10 bytes a return: about 7 kB a 720-beam scan) and, for particle
         runs, a subsample of the particles (``particles.npy``, at most 16 kB a frame); False writes neither.
     """
 
-    def __init__(self, out_dir: str | Path, *, overwrite: bool = False, scans: bool = True) -> None:
+    def __init__(
+        self,
+        out_dir: str | Path,
+        *,
+        overwrite: bool = False,
+        result_bag: ResultBagSink | None = None,
+        scans: bool = True,
+    ) -> None:
         self.out_dir = out_dir
         self.overwrite = overwrite
+        self.result_bag = result_bag
         self.scans = scans
->>>>>>> view
         self.writer: Any = None
         self._driver = ""
 
@@ -354,19 +351,13 @@ def standard_sinks(
     bag_format: str | None = None,
     overwrite: bool = False,
     progress: bool = False,
-<<<<<<< HEAD
     with_input: bool = True,
-) -> list[Sink]:
-    """The sinks :meth:`pfpeople.pipeline.Pipeline.run` writes by default, in order: the run directory
-    (``out_dir``), the result bag (``bag_out``, checked now; ``with_input``: the input scans and TF copied in),
-    the progress bar (``progress``)."""
-=======
     scans: bool = True,
 ) -> list[Sink]:
     """The sinks :meth:`pfpeople.pipeline.Pipeline.run` writes by default, in order: the run directory
     (``out_dir``; with the scans and particles unless ``scans`` is False, see :class:`RunDirSink`), the result bag
-    (``bag_out``, checked now), the progress bar (``progress``)."""
->>>>>>> view
+    (``bag_out``, checked now; ``with_input``: the input scans and TF copied in), the progress bar
+    (``progress``)."""
     sinks: list[Sink] = []
     bag_sink = (
         None
@@ -374,11 +365,7 @@ def standard_sinks(
         else ResultBagSink(bag_out, bag_format=bag_format, overwrite=overwrite, with_input=with_input)
     )
     if out_dir is not None:
-<<<<<<< HEAD
-        sinks.append(RunDirSink(out_dir, overwrite=overwrite, result_bag=bag_sink))
-=======
-        sinks.append(RunDirSink(out_dir, overwrite=overwrite, scans=scans))
->>>>>>> view
+        sinks.append(RunDirSink(out_dir, overwrite=overwrite, result_bag=bag_sink, scans=scans))
     if bag_sink is not None:
         sinks.append(bag_sink)
     if progress:

@@ -19,9 +19,9 @@ One animation frame shows, bottom to top:
   ``tracks.csv`` (columns :data:`TRACK_COLUMNS`: id labels and velocity arrows showing one second of motion);
 - in the side panel: the legend, the frame counter (run frame, driver index), the time since the first frame
   (s), the frame's ego-motion source (odometry, scan matching or none: :func:`ego_sources`) with its controls (v
-  and the lateral vy in m/s, omega in deg/s), the detections per detector, and the grid frame's path integrated from the controls
-  of ``frames.csv`` (exact arcs, in the frame of the first run frame, drawn with the same x-up convention) with
-  the current pose.
+  and the lateral vy in m/s, omega in deg/s), the detections per detector, and the grid frame's path integrated
+  from the controls of ``frames.csv`` (exact constant-velocity motions, in the frame of the first run frame,
+  drawn with the same x-up convention) with the current pose.
 
 Runs written before ``scans.npy`` / ``particles.npy`` existed draw without them.
 
