@@ -85,7 +85,7 @@ def test_positive_bags_scene_runs_each_bag_with_a_model_that_has_not_seen_it(
         side = (tmp_path / "models" / f"without_positive_{k}.json").read_text()
         assert f"positive_{other}_extracted.bag" in side and f"positive_{k}_extracted.bag" not in side
         cfg = load_config(tmp_path / f"positive_{k}.toml")
-        assert cfg.time_source == "header" and [d.kind for d in cfg.detectors] == ["leg", "boosted"]
+        assert cfg.time_source == "header" and [d.kind for d in cfg.detectors] == ["leg", "boosted", "single-legs"]
         ran = json.loads((tmp_path / f"positive_{k}_run" / "run.json").read_text())["config"]["detectors"]
         assert ran[1]["params"]["model_path"] == str(tmp_path / "models" / f"without_positive_{k}.yml")
     monkeypatch.setattr(bench, "POSITIVE_BAGS", ())

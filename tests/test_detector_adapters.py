@@ -20,6 +20,7 @@ from pfpeople.adapters import (
     EmptyInputError,
     HogAdapter,
     LegAdapter,
+    SingleLegAdapter,
     TopicAdapter,
     adapter_factory,
     build_detector,
@@ -75,12 +76,18 @@ def _poses_msg(xy: Any) -> BagMessage:
 
 
 def test_registry_has_one_adapter_per_builtin_kind() -> None:
-    assert ADAPTERS == {"leg": LegAdapter, "boosted": BoostedAdapter, "hog": HogAdapter, "topic": TopicAdapter}
-    assert (LegAdapter.laser, BoostedAdapter.laser, HogAdapter.laser, TopicAdapter.laser) == (True, True, False, False)
+    assert ADAPTERS == {
+        "leg": LegAdapter,
+        "boosted": BoostedAdapter,
+        "single-legs": SingleLegAdapter,
+        "hog": HogAdapter,
+        "topic": TopicAdapter,
+    }
+    lasers = (LegAdapter.laser, BoostedAdapter.laser, SingleLegAdapter.laser, HogAdapter.laser, TopicAdapter.laser)
+    assert lasers == (True, True, True, False, False)
     assert adapter_factory("leg", {"leg": TopicAdapter}) is TopicAdapter
-    with pytest.raises(
-        ValueError, match=r"no detector adapter for kind 'radar'; registered: \['boosted', 'hog', 'leg', 'topic'\]"
-    ):
+    registered = r"\['boosted', 'hog', 'leg', 'single-legs', 'topic'\]"
+    with pytest.raises(ValueError, match=r"no detector adapter for kind 'radar'; registered: " + registered):
         adapter_factory("radar")
 
 

@@ -1,6 +1,6 @@
 """Real-laser realism of the simulator (issue 24) and what the front end does with it: mixed pixels, the
 no-return codes, standing people who shuffle, odometry drift; free space along no-return beams in the
-static-clutter map; the leg detector's convexity test at 2 cm of range noise."""
+static-clutter map."""
 
 from __future__ import annotations
 
@@ -16,8 +16,6 @@ from evaluation.scenarios.scan.scene import OdometryNoise, PeopleConfig, load_sc
 from evaluation.scenarios.scan.simulate import simulate_scene
 from evaluation.scenarios.scan.standing import standing_tracks
 from pfpeople.clutter import ClutterConfig, StaticClutterMap
-from pfpeople.detectors.legs import faces_sensor
-from pfpeople.detectors.segments import FEATURE_NAMES, scan_segments
 from pfpeople.detectors.synthetic import render_scan
 from pfpeople.sensors import LaserScan
 
@@ -171,40 +169,3 @@ def test_open_floor_seen_through_no_return_beams_is_free() -> None:
 def test_returns_beyond_the_map_range_free_the_beam_up_to_it() -> None:
     """A wall at 15 m (beyond ``max_range`` = 10 m): its beams cross free floor up to 10 m."""
     assert not _object_after_open_floor(False, far_wall=True)
-
-
-# -- leg detector: convexity at the range noise of real lasers -----------------------------------------------
-
-
-def test_arc_convexity_survives_2_cm_of_range_noise() -> None:
-    """A 5 cm leg at 2-4 m seen by a 0.35 deg laser with 2 cm range noise (200 draws, fixed seed): the circle-fit
-    convexity test keeps >= 75 % of its segments (0.80 here), the Menger-curvature test of the previous version
-    (mean curvature <= -2 / m) at most 65 % (0.60); a concave arc (the inside of a 0.3 m pipe) is rejected without
-    noise."""
-    rng = np.random.default_rng(11)
-    kept, menger, n = 0, 0, 0
-    k_curv = FEATURE_NAMES.index("mean_curvature")
-    for _ in range(200):
-        d = rng.uniform(2.0, 4.0)
-        scan = render_scan(
-            circles=[(d, rng.uniform(-0.5, 0.5), 0.05)], angle_increment=math.radians(0.35), noise_sd=0.02, rng=rng
-        )
-        segs, feats = scan_segments(scan)
-        if not len(segs):
-            continue
-        k = int(np.argmin(np.hypot(*(segs.centroids - [d, 0.0]).T)))
-        n += 1
-        kept += bool(faces_sensor(segs, np.array([k]))[0])
-        menger += bool(feats[k, k_curv] <= -2.0)
-    assert n >= 190
-    assert kept / n >= 0.75  # 0.80 with this seed
-    assert menger / n <= 0.65  # 0.60
-    assert kept / n - menger / n >= 0.15
-    # the inside of a pipe of radius 0.3 m centred at the laser + 2.3 m: the arc bulges away from the laser
-    a = np.linspace(-0.12, 0.12, 30)
-    r_in = 2.3 * np.cos(a) - np.sqrt(0.3**2 - (2.3 * np.sin(a)) ** 2)  # near wall of a circle seen from outside
-    r_out = 2.3 * np.cos(a) + np.sqrt(0.3**2 - (2.3 * np.sin(a)) ** 2)  # far wall: concave towards the laser
-    for ranges, expect in ((r_in, True), (r_out, False)):
-        scan = LaserScan(ranges=ranges, angle_min=float(a[0]), angle_increment=float(a[1] - a[0]), range_max=10.0)
-        segs, _ = scan_segments(scan)
-        assert faces_sensor(segs, np.arange(len(segs))).tolist() == [expect]

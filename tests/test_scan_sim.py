@@ -331,6 +331,7 @@ def test_bag_round_trip(tmp_path: Path, fmt: str, storage: str) -> None:
     assert [(d.name, d.kind, d.topic) for d in cfg.detectors] == [
         ("laser-legs", "leg", "/scan"),
         ("laser-boosted", "boosted", "/scan"),
+        ("laser-single-legs", "single-legs", "/scan"),
     ]
     assert cfg.detectors[0].model["fov_min"] == pytest.approx(las.angle_min)
     assert cfg.detectors[1].model["max_range"] == 25.0

@@ -9,12 +9,7 @@ geometry is leg-like (all thresholds are :class:`LegDetectorParams` fields):
   ``far_leg_width`` wide cannot give ``min_points`` returns (at range ``r`` a scan with beam spacing ``d_phi``
   puts ``floor(far_leg_width / (r d_phi))`` beams on it), that count is the minimum, but never below 3,
 * a fitted circle radius in ``[min_radius, max_radius]`` and small residuals (``circularity``, ``linearity``),
-* convex towards the sensor: the centre of the fitted circle lies farther from the laser than the segment's
-  centroid (the arc bulges towards the laser; a concave corner or the inside of a curve does not). The fit uses
-  every point of the segment; the Menger curvature of consecutive triples (``mean_curvature``, the test before)
-  is dominated by range noise once the beam spacing is below the noise (2 cm of noise, 1 cm between returns at
-  3 m on a 0.35 deg laser): at the 2 cm that common lasers are specified at it rejected 47 % of the segments on
-  people in the scan-level scenes (14 % at 0.5 cm), see ``docs/ablations.md``,
+* convex towards the sensor: ``mean_curvature <= max_mean_curvature`` (negative = bulging towards the laser),
 * an inscribed-angle mean (Xavier et al. 2005) in ``[min_iav, max_iav]`` (an arc, not a corner or a line).
 
 People are formed from the candidates by :func:`people_from_legs`: a candidate wider than
@@ -94,8 +89,6 @@ from gridbridge.validation import check_positive
 from pfpeople.detectors.segments import (
     FEATURE_NAMES,
     SegmentationParams,
-    Segments,
-    circle_centres,
     scan_segments,
     segment_scan,
 )
@@ -105,7 +98,6 @@ __all__ = [
     "LegDetector",
     "LegDetectorParams",
     "PairingParams",
-    "faces_sensor",
     "far_leg_blobs",
     "far_people",
     "pair_legs",
@@ -168,6 +160,7 @@ class LegDetectorParams:
     max_radius: float = 0.25
     max_linearity: float = 0.03
     max_circularity: float = 0.05
+    max_mean_curvature: float = -2.0
     min_iav: float = 1.5
     max_iav: float = 3.2
     far_from: float = 5.0
@@ -190,21 +183,11 @@ class LegDetectorParams:
             check_positive(getattr(self, name), f"LegDetectorParams.{name}", allow_zero=True)
         for name in ("max_width", "max_radius", "max_iav"):
             check_positive(getattr(self, name), f"LegDetectorParams.{name}")
+        if not math.isfinite(self.max_mean_curvature):
+            raise ValueError("LegDetectorParams.max_mean_curvature must be finite")
         for lo, hi in (("min_width", "max_width"), ("min_radius", "max_radius"), ("min_iav", "max_iav")):
             if getattr(self, lo) >= getattr(self, hi):
                 raise ValueError(f"LegDetectorParams.{lo} must be below {hi}")
-
-
-def faces_sensor(segments: Segments, which: NDArray[np.intp]) -> NDArray[np.bool_]:
-    """Whether segments ``which`` (K,) bulge towards the laser: the circle fitted to each (Kasa fit,
-    :func:`pfpeople.detectors.segments.circle_centres`) has its centre farther from the laser (the scan frame's
-    origin) than the segment's centroid, shape (K,). Collinear points (no circle) do not."""
-    if which.size == 0:
-        return np.zeros(0, dtype=bool)
-    centres = circle_centres(segments)[which]
-    cen = segments.centroids[which]
-    with np.errstate(invalid="ignore"):
-        return np.asarray(np.hypot(centres[:, 0], centres[:, 1]) > np.hypot(cen[:, 0], cen[:, 1]), dtype=bool)
 
 
 def far_leg_blobs(scan: LaserScan, params: LegDetectorParams) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -402,6 +385,7 @@ class LegDetector:
             & (r <= p.max_radius)
             & (f[:, _F["linearity"]] <= p.max_linearity)
             & (f[:, _F["circularity"]] <= p.max_circularity)
+            & (f[:, _F["mean_curvature"]] <= p.max_mean_curvature)
             & (iav >= p.min_iav)
             & (iav <= p.max_iav)
         )
@@ -409,7 +393,6 @@ class LegDetector:
     def _legs(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         segs, feats = scan_segments(scan, params=self.params.segmentation)
         keep = self.leg_mask(feats, abs(scan.angle_increment))
-        keep[keep] = faces_sensor(segs, np.flatnonzero(keep))
         return segs.centroids[keep], feats[keep, _F["width"]]
 
     def detect_legs(self, scan: LaserScan) -> NDArray[np.float64]:

@@ -60,7 +60,6 @@ __all__ = [
     "RADIUS_CAP",
     "SegmentationParams",
     "Segments",
-    "circle_centres",
     "scan_segments",
     "segment_features",
     "segment_scan",
@@ -245,55 +244,6 @@ def _segment_sum(values: NDArray[np.float64], starts: NDArray[np.intp]) -> NDArr
     return np.add.reduceat(values, starts, axis=0)
 
 
-def _kasa(
-    d: NDArray[np.float64],
-    starts: NDArray[np.intp],
-    n: NDArray[np.float64],
-    c: NDArray[np.float64],
-    sxx: NDArray[np.float64],
-    syy: NDArray[np.float64],
-    sxy: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Algebraic circle fit (Kasa) of every segment: minimise sum (x^2 + y^2 + D x + E y + G)^2.
-
-    ``d`` (N, 2) are the points minus their segment's centroid ``c`` (S, 2); ``sxx, syy, sxy`` (S,) their
-    scatter sums. Returns the centres (S, 2) (m, scan frame), radii (S,) (inf where the points are collinear)
-    and which fits exist (S,)."""
-    z = d[:, 0] ** 2 + d[:, 1] ** 2
-    suu, svv, suv = sxx, syy, sxy
-    suz = _segment_sum(d[:, 0] * z, starts)
-    svz = _segment_sum(d[:, 1] * z, starts)
-    det = suu * svv - suv**2
-    scale = np.maximum(suu + svv, 1e-300)
-    ok = det > 1e-12 * scale**2
-    safe_det = np.where(ok, det, 1.0)
-    # centre (a, b) in centred coordinates solves [[suu, suv], [suv, svv]] [a, b] = 0.5 [suz, svz]
-    a_c = np.where(ok, 0.5 * (svv * suz - suv * svz) / safe_det, 0.0)
-    b_c = np.where(ok, 0.5 * (suu * svz - suv * suz) / safe_det, 0.0)
-    r2 = a_c**2 + b_c**2 + (suu + svv) / n
-    radius = np.where(ok, np.sqrt(r2), np.inf)
-    return c + np.column_stack((a_c, b_c)), radius, ok
-
-
-def circle_centres(segments: Segments) -> NDArray[np.float64]:
-    """Centres ``(S, 2)`` (m, scan frame) of the circles fitted to the segments (the fit of ``radius`` and
-    ``circularity`` in :func:`segment_features`); NaN for collinear points."""
-    S = len(segments)
-    if S == 0:
-        return np.zeros((0, 2))
-    pts, starts = segments.points, segments.starts
-    n = segments.counts.astype(float)
-    c = _segment_sum(pts, starts) / n[:, None]
-    d = pts - c[segments.segment_ids]
-    sums = (
-        _segment_sum(d[:, 0] ** 2, starts),
-        _segment_sum(d[:, 1] ** 2, starts),
-        _segment_sum(d[:, 0] * d[:, 1], starts),
-    )
-    centre, _, ok = _kasa(d, starts, n, c, *sums)
-    return np.where(ok[:, None], centre, np.nan)
-
-
 def segment_features(segments: Segments) -> NDArray[np.float64]:
     """Geometric features of every segment (see the module docstring for the definitions).
 
@@ -345,7 +295,21 @@ def segment_features(segments: Segments) -> NDArray[np.float64]:
 
     width = np.hypot(*(last - first).T)
 
-    centre, radius, ok = _kasa(d, starts, n, c, sxx, syy, sxy)
+    # algebraic circle fit (Kasa): minimise sum (x^2 + y^2 + D x + E y + G)^2, in centred coordinates
+    z = d[:, 0] ** 2 + d[:, 1] ** 2
+    suu, svv, suv = sxx, syy, sxy
+    suz = _segment_sum(d[:, 0] * z, starts)
+    svz = _segment_sum(d[:, 1] * z, starts)
+    det = suu * svv - suv**2
+    scale = np.maximum(suu + svv, 1e-300)
+    ok = det > 1e-12 * scale**2
+    safe_det = np.where(ok, det, 1.0)
+    # centre (a, b) in centred coordinates solves [[suu, suv], [suv, svv]] [a, b] = 0.5 [suz, svz]
+    a_c = np.where(ok, 0.5 * (svv * suz - suv * svz) / safe_det, 0.0)
+    b_c = np.where(ok, 0.5 * (suu * svz - suv * suz) / safe_det, 0.0)
+    r2 = a_c**2 + b_c**2 + (suu + svv) / n
+    radius = np.where(ok, np.sqrt(r2), np.inf)
+    centre = c + np.column_stack((a_c, b_c))
     resid = np.where(ok[sid], radius[sid] - np.hypot(*(pts - centre[sid]).T), 0.0)
     circularity = np.where(ok, _segment_sum(resid**2, starts), linearity)
     radius = np.minimum(radius, RADIUS_CAP)
