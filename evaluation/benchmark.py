@@ -471,7 +471,7 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     srcs = ["tracks", "laser-legs", "laser-boosted", "all detectors merged"]
     if scene.startswith("scan:"):
         name = scene.split(":", 1)[1]
-        bag, cfg = work / name / f"{name}.bag", load_config(work / name / f"{name}.toml")
+        bag, cfg = work / name / f"{name}.bag", load_config(work / name / f"{name}_starter.toml")  # as scene_logs
         gt_csv, out = work / name / f"{name}_gt.csv", work / f"{name}_run"
         visible: tuple[int | None, ...] = (None, 3)
         followed, max_frames = False, None  # the scene bag has the benchmark's frames only
