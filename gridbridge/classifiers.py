@@ -69,6 +69,27 @@ class People:
     def __len__(self) -> int:
         return len(self.positions)
 
+    def __repr__(self) -> str:
+        """A short summary: count, positions and scores rounded, and the mask's shape and cell count.
+
+        Returns
+        -------
+        str
+            E.g. ``People(n=2, positions=[(3.00, 0.45), (1.20, -0.60)], scores=[0.90, 0.75], sizes=[4, 3],
+            mask=(30, 30) 7 cells)``; more than 5 people end in ``...``.
+        """
+        n = len(self.positions)
+        xy = np.round(np.asarray(self.positions, dtype=float)[:5], 2) + 0.0  # + 0.0: no "-0.00"
+        pos = ", ".join(f"({x:.2f}, {y:.2f})" for x, y in xy.tolist())
+        scores = ", ".join(f"{s:.2f}" for s in np.asarray(self.scores, dtype=float)[:5].tolist())
+        sizes = ", ".join(str(int(s)) for s in np.asarray(self.sizes)[:5].tolist())
+        more = ", ..." if n > 5 else ""
+        mask = np.asarray(self.mask)
+        return (
+            f"People(n={n}, positions=[{pos}{more}], scores=[{scores}{more}], sizes=[{sizes}{more}], "
+            f"mask={tuple(mask.shape)} {int(np.count_nonzero(mask))} cells)"
+        )
+
 
 def _from_blobs(result: ClassificationResult) -> People:
     sel = result.people
