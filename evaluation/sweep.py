@@ -16,9 +16,20 @@ the other tasks go on. The seed is the scenario's seed (robot path, people, dete
 particle filters' seed.
 
 The sweepable keys are :data:`SWEEP_KEYS` (anything else is an error naming the key): ``frames``,
-``particles`` (0: no particle filter), ``form``, ``motion_model``, ``gate``, ``odometry``. The filters of a
-point: the grid filter in the point's ``form``, and (``particles > 0``) the particle filter with that count and
-``motion_model``.
+``particles`` (0: no particle filter), ``form``, ``motion_model``, ``mode``, ``gate``, ``odometry``. The filters
+of a point, in each of its modes (``mode``; default both, ``paper`` and ``recommended``):
+
+- paper mode: the paper's grid filter in the point's ``form`` (``grid (paper)``, ``grid (linear)``) and
+  (``particles > 0``) the particle filter with that count and ``motion_model`` (default ``paper``),
+  classified by blobs;
+- recommended mode: the recommended grid filter (``recommended grid``; it has no ``form``) and
+  (``particles > 0``) the recommended particle filter with that count and ``motion_model`` (default
+  ``persistent``, the recommended mode's), classified by the recommended peaks (``classifier = "peaks"``).
+
+Each filter (and the detectors' rows) runs once per sweep: a point runs only what depends on a value no earlier
+point had (:data:`RUN_KEYS`), so a grid filter is run once whatever the particle counts and the recommended grid
+once whatever the forms; its rows leave the swept keys it does not depend on empty. A point with nothing left is
+not a task.
 """
 
 from __future__ import annotations
@@ -31,9 +42,10 @@ import traceback
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 __all__ = [
+    "RUN_KEYS",
     "SWEEP_KEYS",
     "SweepKey",
     "SweepPoint",
@@ -78,28 +90,85 @@ def _choice(*options: str) -> Callable[[str, str], str]:
 
 @dataclass(frozen=True, kw_only=True)
 class SweepKey:
-    """A sweepable parameter: how its values are parsed and checked, its default and what it sets."""
+    """A sweepable parameter: how its values are parsed and checked, its default and what it sets.
+
+    Attributes
+    ----------
+    parse : callable
+        ``parse(key, text)``: the value, or ``ValueError``.
+    default : object
+        The value of a point that does not sweep the key.
+    help : str
+        What it sets, for ``--help``; :attr:`text` adds the accepted values.
+    choices : tuple of str
+        The accepted values of a key with a fixed set of them (empty for numbers).
+    default_text : str or None
+        What a point that does not sweep the key runs, as :attr:`text` states it (None: ``default``).
+    """
 
     parse: Callable[[str, str], Any]
     default: Any
     help: str
+    choices: tuple[str, ...] = ()
+    default_text: str | None = None
+
+    @property
+    def text(self) -> str:
+        """The help with the accepted values, e.g. ``"... (paper|linear; default paper)"``."""
+        if not self.choices:
+            return self.help
+        default = f"default {self.default}" if self.default_text is None else f"unset: {self.default_text}"
+        return f"{self.help} ({'|'.join(self.choices)}; {default})"
+
+
+def _choice_key(
+    choices: tuple[str, ...], *, default: str | None, help: str, default_text: str | None = None
+) -> SweepKey:
+    return SweepKey(parse=_choice(*choices), default=default, help=help, choices=choices, default_text=default_text)
 
 
 #: The sweepable parameters (``--param KEY=V1,V2``).
 SWEEP_KEYS: dict[str, SweepKey] = {
     "frames": SweepKey(parse=_int_at_least(1), default=None, help="scenario frames (default: the scenario's)"),
     "particles": SweepKey(
-        parse=_int_at_least(0), default=5_000, help="particle count of the particle filter (0: grid filter only)"
+        parse=_int_at_least(0), default=5_000, help="particle count of the particle filters (0: grid filters only)"
     ),
-    "form": SweepKey(parse=_choice("paper", "linear"), default="paper", help="grid filter prediction form"),
-    "motion_model": SweepKey(
-        parse=_choice("paper", "persistent"), default="paper", help="particle filter people motion model"
+    "form": _choice_key(
+        ("paper", "linear"),
+        default="paper",
+        help="prediction form of the paper-mode grid filter",
+    ),
+    "motion_model": _choice_key(
+        ("paper", "persistent"),
+        default=None,
+        help="particle filters' people motion model",
+        default_text="paper in paper mode, persistent in recommended mode",
+    ),
+    "mode": _choice_key(
+        ("paper", "recommended"),
+        default=None,
+        help="filter mode: the paper's filters or the recommended ones",
+        default_text="each point runs both",
     ),
     "gate": SweepKey(parse=_positive_float, default=0.5, help="matching distance (m) for recall / precision"),
-    "odometry": SweepKey(
-        parse=_choice("noisy", "true"), default="noisy", help="odometry given to the filters: reported or true"
+    "odometry": _choice_key(
+        ("noisy", "true"),
+        default="noisy",
+        help="odometry given to the filters: the simulated robot's noisy one or the true motion",
     ),
 }
+
+#: What a point runs (``"detectors"``: the detectors' own rows; ``"<kind> <mode>"``: a filter) and the keys it
+#: depends on besides the scenario, seed, ``frames``, ``gate`` and ``odometry``: the same values of these give the
+#: same rows, so each runs once per sweep. A mode's filters run only in points of that mode (or of both).
+RUN_KEYS: dict[str, tuple[str, ...]] = {
+    "detectors": (),
+    "grid paper": ("form",),
+    "grid recommended": (),
+    "particle paper": ("particles", "motion_model"),
+    "particle recommended": ("particles", "motion_model"),
+}
+_COMMON_KEYS = ("frames", "gate", "odometry")
 
 
 def parse_param(text: str) -> tuple[str, list[Any]]:
@@ -126,6 +195,8 @@ class SweepPoint:
     scenario: str
     seed: int
     params: tuple[tuple[str, Any], ...] = ()
+    #: What the point runs (keys of :data:`RUN_KEYS`); None: everything its parameters give (:meth:`all_runs`).
+    runs: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.scenario, str) or not self.scenario:
@@ -135,6 +206,24 @@ class SweepPoint:
         for key, _ in self.params:
             if key not in SWEEP_KEYS:
                 raise ValueError(f"unknown sweep parameter {key!r}; sweepable: {sorted(SWEEP_KEYS)}")
+        for run in self.runs or ():
+            if run not in RUN_KEYS:
+                raise ValueError(f"SweepPoint.runs: unknown run {run!r}; known: {list(RUN_KEYS)}")
+
+    def all_runs(self) -> tuple[str, ...]:
+        """Everything the point's parameters give: the detectors and each filter of its modes (``mode``)."""
+        modes = ("paper", "recommended") if self.value("mode") is None else (self.value("mode"),)
+        kinds = ("grid", "particle") if self.value("particles") > 0 else ("grid",)
+        return ("detectors", *(f"{kind} {mode}" for kind in kinds for mode in modes))
+
+    def planned(self) -> tuple[str, ...]:
+        """What the point runs: :attr:`runs`, or :meth:`all_runs` when that is None."""
+        return self.all_runs() if self.runs is None else self.runs
+
+    def run_values(self, run: str) -> tuple[tuple[str, Any], ...]:
+        """The swept values that ``run`` depends on (:data:`RUN_KEYS`), in the point's order."""
+        keys = (*_COMMON_KEYS, *RUN_KEYS[run])
+        return tuple((k, v) for k, v in self.params if k in keys)
 
     def value(self, key: str) -> Any:
         """The point's value of ``key``, else its default."""
@@ -151,7 +240,11 @@ class SweepPoint:
 def sweep_points(
     scenarios: Sequence[str], seeds: Sequence[int], params: Mapping[str, Sequence[Any]]
 ) -> list[SweepPoint]:
-    """The Cartesian product ``scenarios x seeds x params`` (in that order, the last key varying fastest)."""
+    """The tasks of ``scenarios x seeds x params`` (in that order, the last key varying fastest).
+
+    Each point's :attr:`SweepPoint.runs` leaves out what an earlier point runs with the same values (a grid
+    filter is run once whatever the particle counts); a point with nothing left out of the product is dropped.
+    """
     if not scenarios:
         raise ValueError("no scenario given")
     if not seeds:
@@ -164,48 +257,83 @@ def sweep_points(
         if not values:
             raise ValueError(f"sweep parameter {key!r} has no value")
     keys = list(params)
-    return [
-        SweepPoint(scenario=sc, seed=int(seed), params=tuple(zip(keys, combo, strict=True)))
-        for sc, seed in itertools.product(scenarios, seeds)
-        for combo in itertools.product(*(params[k] for k in keys))
-    ]
-
-
-def _filters(point: SweepPoint) -> list[Any]:
-    from evaluation.ab import FilterSpec, particles_label
-
-    form = point.value("form")
-    out = [FilterSpec(name=f"grid ({form})", form=form)]
-    n = point.value("particles")
-    if n > 0:
-        model = point.value("motion_model")
-        label = particles_label(n) + (" persistent" if model == "persistent" else "")
-        out.append(FilterSpec(name=label, kind="particle", n_particles=n, motion_model=model))
+    done: set[tuple[Any, ...]] = set()
+    out = []
+    for sc, seed in itertools.product(scenarios, seeds):
+        for combo in itertools.product(*(params[k] for k in keys)):
+            point = SweepPoint(scenario=sc, seed=int(seed), params=tuple(zip(keys, combo, strict=True)))
+            runs = []
+            for run in point.all_runs():  # each run once per sweep (RUN_KEYS): the first point that has it
+                identity = (sc, int(seed), run, point.run_values(run))
+                if identity not in done:
+                    done.add(identity)
+                    runs.append(run)
+            if runs:
+                out.append(SweepPoint(scenario=sc, seed=int(seed), params=point.params, runs=tuple(runs)))
     return out
 
 
-def _base_row(point: SweepPoint) -> dict[str, Any]:
+def _filter(point: SweepPoint, run: str) -> Any:
+    """The :class:`evaluation.ab.FilterSpec` of one filter run (``"<kind> <mode>"``) of ``point``."""
+    from evaluation.ab import FilterSpec, particles_label
+    from pfpeople.filters import DEFAULT_MOTION_MODEL
+
+    kind, mode = run.split()
+    if kind == "grid":
+        if mode == "recommended":
+            return FilterSpec(name="recommended grid", mode="recommended")
+        return FilterSpec(name=f"grid ({point.value('form')})", form=point.value("form"))
+    n = point.value("particles")
+    model = point.value("motion_model") or DEFAULT_MOTION_MODEL[mode]
+    label = particles_label(n) + ("" if model == DEFAULT_MOTION_MODEL[mode] else f" {model}")
+    if mode == "recommended":
+        label = f"recommended {label}"
+    return FilterSpec(name=label, kind="particle", n_particles=n, motion_model=cast(Any, model), mode=cast(Any, mode))
+
+
+def _filters(point: SweepPoint) -> list[tuple[str, Any]]:
+    """``(run, FilterSpec)`` of each filter the point runs."""
+    return [(run, _filter(point, run)) for run in point.planned() if run != "detectors"]
+
+
+def _base_row(point: SweepPoint, run: str | None = None) -> dict[str, Any]:
+    """The row's task, scenario, seed and swept values; with ``run``, the values it does not depend on empty."""
     row: dict[str, Any] = {"task": point.name, "scenario": point.scenario, "seed": point.seed}
     row.update(dict(point.params))
+    if run is not None:
+        kept = dict(point.run_values(run))
+        if "mode" in row and run != "detectors":
+            kept["mode"] = row["mode"]
+        row.update({k: kept.get(k) for k, _ in point.params})
     return row
 
 
 def run_point(point: SweepPoint, out_dir: str | Path | None = None) -> list[dict[str, Any]]:
     """Evaluate one sweep point; never raises for a failing evaluation: returns its rows (see module docstring).
 
-    With ``out_dir``, the A/B run record goes to ``out_dir/tasks/<point.name>/run.json`` (or ``error.txt``).
+    Parameters
+    ----------
+    point : SweepPoint
+        The task: scenario, seed, values and what it runs (:meth:`SweepPoint.planned`).
+    out_dir : path, optional
+        The A/B run record goes to ``out_dir/tasks/<point.name>/run.json`` (or ``error.txt``).
+
+    Returns
+    -------
+    list of dict
+        The point's rows (one ``failed`` row when the evaluation raised).
     """
     from evaluation.ab import run_ab
     from evaluation.scenarios.scenario import Scenario
 
     t0 = time.perf_counter()
     task_dir = None if out_dir is None else Path(out_dir) / "tasks" / point.name
-    base = _base_row(point)
     try:
+        filters = _filters(point)
         scenario = Scenario.from_name(point.scenario, n_frames=point.value("frames"), seed=point.seed)
         result = run_ab(
             scenario,
-            _filters(point),
+            [spec for _, spec in filters],
             gate=point.value("gate"),
             out_dir=task_dir,
             seed=point.seed,
@@ -218,38 +346,29 @@ def run_point(point: SweepPoint, out_dir: str | Path | None = None) -> list[dict
                 (task_dir / "error.txt").write_text(f"{point}\n{traceback.format_exc()}")
             except OSError:
                 pass
-        return [
-            {
-                **base,
-                "status": "failed",
-                "error": f"{type(exc).__name__}: {exc}",
-                "wall_s": time.perf_counter() - t0,
-            }
-        ]
-    wall = time.perf_counter() - t0
+        error = f"{type(exc).__name__}: {exc}"
+        return [{**_base_row(point), "status": "failed", "error": error, "wall_s": time.perf_counter() - t0}]
+    rows = _result_rows(point, [run for run, _ in filters], result)
+    for row in rows:
+        row.update(n_frames=result.n_frames, wall_s=time.perf_counter() - t0, status="complete", error="")
+    return rows
+
+
+def _result_rows(point: SweepPoint, runs: Sequence[str], result: Any) -> list[dict[str, Any]]:
+    """The metric rows of an A/B result whose filters are the point's ``runs``, in that order."""
     rows: list[dict[str, Any]] = []
 
-    def add(filter_name: str, classifier: str, s: Mapping[str, Any], **extra: Any) -> None:
-        rows.append(
-            {
-                **base,
-                "filter": filter_name,
-                "classifier": classifier,
-                "recall": s["recall"],
-                "precision": s["precision"],
-                "fpcpf": s["fpcpf"],
-                **extra,
-            }
-        )
+    def add(run: str, filter_name: str, classifier: str, s: Mapping[str, Any], **extra: Any) -> None:
+        metrics = {"recall": s["recall"], "precision": s["precision"], "fpcpf": s["fpcpf"]}
+        rows.append({**_base_row(point, run), "filter": filter_name, "classifier": classifier, **metrics, **extra})
 
-    for name, s in result.detector_scores.items():
-        add(name, "detector", s)
-    for r in result.filters:
+    if "detectors" in point.planned():
+        for name, s in result.detector_scores.items():
+            add("detectors", name, "detector", s)
+    for run, r in zip(runs, result.filters, strict=True):
         tracked = r.tracking.get("tracked_fraction", math.nan) if r.tracking else math.nan
-        add(r.name, "blobs", r.scores, ms_per_iter=r.ms_per_iteration, tracked_fraction=tracked)
-        add(r.name, "threshold", r.threshold_scores, ms_per_iter=r.ms_per_iteration)
-    for row in rows:
-        row.update(n_frames=result.n_frames, wall_s=wall, status="complete", error="")
+        add(run, r.name, r.classifier, r.scores, ms_per_iter=r.ms_per_iteration, tracked_fraction=tracked)
+        add(run, r.name, "threshold", r.threshold_scores, ms_per_iter=r.ms_per_iteration)
     return rows
 
 

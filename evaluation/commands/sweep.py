@@ -6,8 +6,10 @@ Examples::
     pfpeople-eval sweep --scenario default --seeds 0 1 --param form=paper,linear --param frames=100 \\
         --out runs/sw2 --table runs/sw2.parquet --scheduler tcp://10.0.0.5:8786
 
-Sweepable keys: see ``--param`` below (:data:`evaluation.sweep.SWEEP_KEYS`). Exit status: 0 when every task
-completed, 1 when some failed (their errors are in the table), 2 on bad input.
+Every point runs the paper's filters and the recommended ones (``--param mode=paper`` or ``recommended`` for one
+mode), each filter once per sweep (a grid filter is not rerun for every particle count). Sweepable keys: see
+``--param`` below (:data:`evaluation.sweep.SWEEP_KEYS`). Exit status: 0 when every task completed, 1 when some
+failed (their errors are in the table), 2 on bad input.
 """
 
 from __future__ import annotations
@@ -24,15 +26,17 @@ from pfpeople.batch import check_table_path, quiet_dask_logs, write_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    keys = "; ".join(f"{k}: {v.help}" for k, v in SWEEP_KEYS.items())
+    keys = "; ".join(f"{k}: {v.text}" for k, v in SWEEP_KEYS.items())
     p = subparsers.add_parser(
         "sweep",
         epilog=examples(
             "pfpeople-eval sweep --scenario complementary --seeds 0 1 --param particles=5000,50000 --out runs/sweep",
+            "pfpeople-eval sweep --scenario corridor --param mode=recommended --param odometry=noisy,true --out sw",
         ),
         help="A/B evaluation over scenarios x seeds x parameter values, as Dask tasks; one metrics table",
-        description="One Dask task per point of scenarios x seeds x values; each runs the A/B evaluation and "
-        "returns recall, precision, FPCPF and ms/iteration per filter and classifier.",
+        description="One Dask task per point of scenarios x seeds x values; each runs the A/B evaluation of the "
+        "paper's and the recommended filters (each filter once per sweep) and returns recall, precision, FPCPF "
+        "and ms/iteration per filter and classifier.",
     )
     p.add_argument("--scenario", nargs="+", required=True, help="built-in scenario names or scenario TOML files")
     p.add_argument("--seeds", type=int, nargs="+", default=[0], help="scenario and particle seeds (default: 0)")
@@ -72,11 +76,12 @@ def run(args: argparse.Namespace) -> int:
     )
     write_table(rows, table, columns_for(list(params)))
     failed = sorted({r["task"] for r in rows if r["status"] != "complete"})
-    # Means over seeds of the blob-classified filters, per scenario and parameter values.
+    # Means over seeds of each filter with its own classifier (blobs, or peaks in the recommended mode), per
+    # scenario and parameter values ("-": a value the filter does not depend on).
     groups: dict[tuple[Any, ...], list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
-        if r["status"] == "complete" and r["classifier"] == "blobs":
-            groups[(r["scenario"], *(r[k] for k in params), r["filter"])].append(r)
+        if r["status"] == "complete" and r["classifier"] not in ("detector", "threshold"):
+            groups[(r["scenario"], *("-" if r[k] is None else r[k] for k in params), r["filter"])].append(r)
     head = ["scenario", *params, "filter"]
     print(" | ".join(head) + " | recall | precision | FPCPF | ms/iter | seeds")
     for group, rs in groups.items():
