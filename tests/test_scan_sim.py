@@ -390,10 +390,11 @@ def test_swept_scan_of_a_spinning_robot_is_distorted_as_predicted() -> None:
 def test_pipeline_leg_detector_finds_simulated_people(tmp_path: Path) -> None:
     """End to end: pfpeople's Pipeline with the written run config on 60 wheelchair scans (8 s, seed 0).
 
-    Measured (swept scans): the leg detector puts a detection within 0.3 m of 0.43 of the people with >= 3
-    beams on their legs (seeds 1-3: 0.30, 0.31, 0.34). Misses: far people have too few beams (4 beams need a
-    range below ~4.5 m at 0.35 deg per beam), a leg hidden by the other leaves an unpaired single leg, and the
-    1 cm range noise fails the curvature test on small legs. The mount comes from /tf_static."""
+    Measured (swept scans, 2 cm range noise, mixed pixels): a detection within 0.3 m of the people with >= 3 beams
+    on their legs, seeds 0 / 1 / 2 / 3: leg detector 0.20 / 0.15 / 0.13 / 0.16 (the curvature test fails on
+    small legs at this noise), boosted detector (trained with noise) 0.46 / 0.46 / 0.41 / 0.44, single legs
+    0.27 / 0.28 / 0.29 / 0.29, any of the three 0.74 / 0.75 / 0.71 / 0.75. Misses: far people have too few
+    beams (4 beams need a range below ~4.5 m at 0.35 deg per beam). The mount comes from /tf_static."""
     out = write_scene_bag("wheelchair", tmp_path, frames=60, seed=0)
     pipe = Pipeline(load_config(out.run_toml))
     with BagSource(out.bag) as src:
@@ -402,18 +403,23 @@ def test_pipeline_leg_detector_finds_simulated_people(tmp_path: Path) -> None:
     with BagSource(out.bag) as src:
         mount = Pipeline(load_config(out.run_toml)).prepare(src).lookup("base_link", "laser")
     assert (mount.x, mount.y, mount.yaw) == pytest.approx((0.85, 0.24, math.radians(42.0)), abs=1e-6)
-    found = visible = 0
+    found = np.zeros(4)  # legs, boosted, single legs, any
+    visible = 0
     with out.gt_csv.open() as fh:
         for row in csv.DictReader(fh):
             if int(row["hit_beams"]) < 3:
                 continue
             visible += 1
-            legs = results[int(row["scan_index"])].detections[0]
             xy = np.array([float(row["x_laser_m"]), float(row["y_laser_m"])])
-            if legs is not None and len(legs) and np.min(np.linalg.norm(legs - xy, axis=1)) < 0.3:
-                found += 1
+            hits = [
+                d is not None and len(d) > 0 and bool(np.min(np.linalg.norm(d - xy, axis=1)) < 0.3)
+                for d in results[int(row["scan_index"])].detections
+            ]
+            found += [*hits, any(hits)]
     assert visible > 100
-    assert 0.25 <= found / visible <= 0.6
+    rates = found / visible
+    assert 0.1 <= rates[0] <= 0.35 and 0.3 <= rates[1] <= 0.6 and 0.15 <= rates[2] <= 0.4
+    assert 0.6 <= rates[3] <= 0.9 and rates[3] >= rates[:3].max() + 0.2
 
 
 def test_simulate_bag_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
