@@ -24,9 +24,10 @@ cell relaxes towards the unknown value ``s0`` (``unknown_evidence``):
 
 * **hit** (a scan end point falls in the cell and is not near an excluded person): ``s <- min(s + dt, s_max)``;
 * **free** (every ``free_stride``-th beam is traced, in steps of one cell, up to ``free_margin`` before its end
-  point; or an end point near an excluded person falls in the cell, as leg_tracker marks human returns as
-  free): ``s <- max(s - free_rate dt, s_min)``, except in cells within ``protect_cells`` of a hit cell of the
-  same scan (beams passing beside a thin post, or a post misregistered by a cell, do not erase it).
+  point, or up to ``max_range`` when it returned nothing within range or beyond ``max_range``; or an end point
+  near an excluded person falls in the cell, as leg_tracker marks human returns as free):
+  ``s <- max(s - free_rate dt, s_min)``, except in cells within ``protect_cells`` of a hit cell of the same scan
+  (beams passing beside a thin post, or a post misregistered by a cell, do not erase it).
 
 With a per-scan log-odds increment proportional to ``dt``, the evidence is a rate, so the same time constants
 hold at 7.5 Hz and 40 Hz. Cells start (and cells entering the window are set) at ``s0``. ``s0 > 0`` is a
