@@ -5,25 +5,13 @@ The detections of a run on these bags come from the real pipeline (``pfpeople ru
 leg / boosted detectors -> filter -> classification), so detector failures (a leg hidden by the other leg,
 chair legs, an off-axis yawed laser, 7.5 Hz scans) reach the filter. Built-in scenes: ``scenes/*.toml``.
 
-Measured on the built-in scenes at their default length and seed (``pfpeople-eval simulate-bag SCENE --out D``,
-``python -m pfpeople.cli run D/SCENE.bag --config D/SCENE.toml --out R``, ``pfpeople-eval score R --gt
-D/SCENE_gt.csv --frame laser``; recall / precision of the built-in detectors against every person in the laser's
-field of view and range, gate 0.5 m):
+The lasers are simulated as they are specified (2 cm range noise, mixed pixels at depth edges, dropouts, the
+drivers' no-return codes) and the wheel odometry drifts, slips in turns and is stamped late (:mod:`.scene`);
+people walk, stop, and stand in groups and queues (:mod:`.people`, :mod:`.standing`). What the detectors and
+the pipeline find on the built-in scenes is in ``docs/benchmarks.md`` (``pfpeople-eval benchmark``).
 
-==========  ======  ==========  =====  =====  =============  =============  =============
-scene       scans   people/scn  ms/sc  MB     laser-legs     laser-boosted  filter (paper)
-==========  ======  ==========  =====  =====  =============  =============  =============
-wheelchair  675     3.18        3.5    6.5    0.30 / 0.54    0.24 / 0.96    0.10 / 0.51
-corridor    1200    4.36        3.1    5.1    0.14 / 0.97    0.09 / 0.95    0.02 / 1.00
-crowd       1800    5.82        2.9    11.7   0.15 / 0.99    0.11 / 1.00    0.003 / 1.00
-==========  ======  ==========  =====  =====  =============  =============  =============
-
-Within 5 m of the laser the detectors' recall is 0.36 / 0.30 (wheelchair), 0.45 / 0.28 (corridor), 0.28 / 0.24
-(crowd). The leg detector's false people in the wheelchair room are the 0.3 m column (two legs together) and
-box corners; the 3.6 cm chair legs are below its minimum segment width.
-
-Modules: :mod:`.raycast` (ray caster, range noise), :mod:`.gait` (legs), :mod:`.scene` (configuration),
-:mod:`.people` (people tracks), :mod:`.motion` (robot route, odometry), :mod:`.simulate` (the run),
+Modules: :mod:`.raycast` (ray caster, range noise, mixed pixels), :mod:`.gait` (legs), :mod:`.scene`
+(configuration), :mod:`.people` (people tracks), :mod:`.standing` (groups and queues), :mod:`.motion` (robot route, odometry), :mod:`.simulate` (the run),
 :mod:`.bagfile` (bag, GT CSV, run TOML).
 """
 
