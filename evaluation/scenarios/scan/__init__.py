@@ -11,8 +11,8 @@ people walk, stop, and stand in groups and queues (:mod:`.people`, :mod:`.standi
 the pipeline find on the built-in scenes is in ``docs/benchmarks.md`` (``pfpeople-eval benchmark``).
 
 Modules: :mod:`.raycast` (ray caster, range noise, mixed pixels), :mod:`.gait` (legs), :mod:`.scene`
-(configuration), :mod:`.people` (people tracks), :mod:`.standing` (groups and queues), :mod:`.motion` (robot route, odometry), :mod:`.simulate` (the run),
-:mod:`.bagfile` (bag, GT CSV, run TOML).
+(configuration), :mod:`.people` (people tracks), :mod:`.standing` (groups and queues), :mod:`.motion` (robot
+route, odometry), :mod:`.simulate` (the run), :mod:`.bagfile` (bag, GT CSV, run TOML).
 """
 
 from evaluation.scenarios.scan.bagfile import SceneBag, write_scene_bag, write_sim_bag
