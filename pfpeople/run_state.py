@@ -98,6 +98,9 @@ class RunSummary:
     the step's mean heading, :func:`pfpeople.odometry.odometry_between`), large for a driving laser mounted off
     the robot's rotation axis and yawed. Informative: the filters apply it (``Odometry.vy``, ``vy_mps`` in
     ``frames.csv``).
+
+    ``odometry_jumps`` counts the odometry steps too fast to be motion (:func:`pfpeople.odometry.is_odometry_jump`:
+    a reset or relocalised odometry); each restarted the filter and is also in ``filter_restarts``.
     """
 
     frames: int = 0
@@ -107,6 +110,7 @@ class RunSummary:
     bad_messages: dict[str, int] = field(default_factory=dict)
     frames_without_odometry: int = 0
     filter_restarts: int = 0
+    odometry_jumps: int = 0
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     laser_odometry_frames: int = 0
