@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from gridbridge.geometry import Pose2D, yaw_from_orientation, yaw_from_quaternion
+from gridbridge.geometry import Pose2D, xy_from_translation, yaw_from_orientation, yaw_from_quaternion
 
 __all__ = ["TfBuffer", "TfLookupError", "yaw_from_quaternion"]
 
@@ -59,8 +59,8 @@ class TfBuffer:
         Raises
         ------
         ValueError
-            Not a TFMessage, or a transform whose rotation is a zero (or non-finite) quaternion, which would
-            read as yaw 0: the message names the topic and the transform.
+            Not a TFMessage, a transform whose rotation is a zero (or non-finite) quaternion, which would read
+            as yaw 0, or whose translation is not finite: the message names the topic and the transform.
         """
         transforms = getattr(msg, "transforms", None)
         if transforms is None:
@@ -69,7 +69,8 @@ class TfBuffer:
             tr, q = t.transform.translation, t.transform.rotation
             stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
             where = f"topic {topic!r}: transform {t.header.frame_id!s} -> {t.child_frame_id!s}"
-            pose = Pose2D(x=float(tr.x), y=float(tr.y), yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, where))
+            x, y = xy_from_translation(tr.x, tr.y, tr.z, where)
+            pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, where))
             self.set_transform(t.header.frame_id, t.child_frame_id, pose, stamp)
         return len(transforms)
 
