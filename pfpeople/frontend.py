@@ -60,6 +60,8 @@ FRONT_COUNTERS = (
     "bad_messages",
     "frames_without_odometry",
     "filter_restarts",
+    "odometry_jumps",
+    "odometry_other_child",
     "max_lateral_m",
     "suppressed",
     "laser_odometry_frames",

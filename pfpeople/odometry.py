@@ -30,6 +30,11 @@ relocalisation of the odometry frame (e.g. x += 100 m, or yaw += pi, between two
 there as over a gap (:attr:`EgoMotion.restarted`; counted in ``filter_restarts`` and ``odometry_jumps``,
 warned once), and the motion goes on from the new pose. The two messages bracketing a frame are not
 interpolated across such a jump: the one nearer the frame stamp is used.
+
+The odometry pose is taken as the pose of the base frame (``[frames] base_frame``, where the grid frame's mount
+is looked up). Odometry messages whose ``child_frame_id`` is another frame (e.g. ``base_footprint`` while the
+mounts hang from ``base_link``) are used as if they were the base frame's (exact when the two frames coincide
+in the plane), warned once naming both and counted (``odometry_other_child``).
 """
 
 from __future__ import annotations
@@ -190,9 +195,13 @@ class OdometryIntegrator:
         The grid frame's pose in the base frame (the odometry's child frame); required with ``topic``.
     laser_odometry : bool
         Without ``topic``, take the motion from scan matching (:meth:`from_laser`).
+    base_frame : str, optional
+        The frame ``base_to_grid`` is given in; odometry messages of another child frame are warned about
+        (once) and counted (``odometry_other_child``). None: not checked.
     summary : RunSummary, optional
         Where the counts go (``frames_without_odometry``, ``max_lateral_m``, ``laser_odometry_frames``,
-        ``ego_motion``, ``filter_restarts``, ``odometry_jumps``, ``bad_messages[topic]``); default a new one.
+        ``ego_motion``, ``filter_restarts``, ``odometry_jumps``, ``odometry_other_child``, ``bad_messages[topic]``);
+        default a new one.
     warn : WarnOnce, optional
         Warn-once logger shared with the rest of the run; default a new one.
 
@@ -208,6 +217,7 @@ class OdometryIntegrator:
         base_to_grid: Pose2D | None = None,
         *,
         laser_odometry: bool = False,
+        base_frame: str | None = None,
         summary: RunSummary | None = None,
         warn: WarnOnce | None = None,
     ) -> None:
@@ -216,6 +226,7 @@ class OdometryIntegrator:
         self.topic = topic or None
         self.base_to_grid = base_to_grid
         self.laser_odometry = laser_odometry
+        self.base_frame = base_frame.lstrip("/") if base_frame else None
         self.summary = summary if summary is not None else RunSummary()
         self.warn = warn if warn is not None else WarnOnce(log)
         self.prev_stamp_ns: int | None = None
@@ -230,6 +241,25 @@ class OdometryIntegrator:
         self.prev_pose = None
         self.prev_pose_stamp_ns = None
 
+    def _check_child(self, child: str) -> None:
+        """Warn (once) and count an odometry message whose child frame is not :attr:`base_frame`."""
+        if not self.base_frame or not child or child == self.base_frame:
+            return
+        self.summary.odometry_other_child += 1
+        self.warn(
+            "odochild",
+            "topic %r: odometry child frame %r is not the base frame %r ([frames] base_frame, which the grid "
+            "frame's mount is given in): the run takes the odometry pose as the pose of %r (exact only if the two "
+            "frames coincide in the plane; set base_frame = %r if that is the robot's base; such messages are "
+            "counted in odometry_other_child)",
+            self.topic,
+            child,
+            self.base_frame,
+            self.base_frame,
+            child,
+            logger=log,
+        )
+
     def pose(self, frame: Frame) -> Pose2D | None:
         """The grid frame's odometry pose at the frame stamp (None: no usable odometry message in the frame)."""
         if not self.topic:
@@ -237,11 +267,12 @@ class OdometryIntegrator:
         poses = []
         for m in frame.inputs.get(self.topic, []):
             try:
-                pose, _child = odometry_pose_from_msg(m.msg, topic=m.topic)
+                pose, child = odometry_pose_from_msg(m.msg, topic=m.topic)
             except MessageDataError as exc:
                 count(self.summary.bad_messages, self.topic)
                 self.warn("bad:odom", "%s (such messages are not used; counted)", exc, logger=log)
                 return None
+            self._check_child(child)
             poses.append((m.stamp_ns, pose))
         if not poses:
             return None

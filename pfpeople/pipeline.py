@@ -126,7 +126,12 @@ def default_odometry(
     """The run's :class:`~pfpeople.odometry.OdometryIntegrator`: the ``odometry`` topic, else laser odometry if
     ``[clutter] laser_odometry``."""
     return OdometryIntegrator(
-        config.odometry, base_to_grid, laser_odometry=config.clutter.laser_odometry, summary=summary, warn=warn
+        config.odometry,
+        base_to_grid,
+        laser_odometry=config.clutter.laser_odometry,
+        base_frame=config.base_frame,
+        summary=summary,
+        warn=warn,
     )
 
 

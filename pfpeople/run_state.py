@@ -101,6 +101,8 @@ class RunSummary:
 
     ``odometry_jumps`` counts the odometry steps too fast to be motion (:func:`pfpeople.odometry.is_odometry_jump`:
     a reset or relocalised odometry); each restarted the filter and is also in ``filter_restarts``.
+    ``odometry_other_child`` counts the odometry messages whose child frame is not the base frame (used as the
+    base frame's pose; :mod:`pfpeople.odometry`).
     """
 
     frames: int = 0
@@ -111,6 +113,7 @@ class RunSummary:
     frames_without_odometry: int = 0
     filter_restarts: int = 0
     odometry_jumps: int = 0
+    odometry_other_child: int = 0
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     laser_odometry_frames: int = 0

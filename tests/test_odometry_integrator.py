@@ -15,7 +15,7 @@ import pfpeople.pipeline as pipeline
 from pfpeople.bag.reader import BagMessage
 from pfpeople.bag.sync import Frame
 from pfpeople.odometry import FIRST_DT_S, OdometryIntegrator, interpolate_pose, odometry_between
-from pfpeople.run_state import RunSummary
+from pfpeople.run_state import RunSummary, WarnOnce
 from pfpeople.sensors import Pose2D
 
 S = 1_000_000_000  # ns per s
@@ -193,3 +193,27 @@ def test_fast_but_plausible_odometry_is_motion() -> None:
     m2 = _step(integ, _frame(2, 0.104, _odom(round(0.104 * S), 0.43, yaw=0.5)))
     assert not m.restarted and not m2.restarted and summary.odometry_jumps == 0
     assert m.odometry is not None and m.odometry.omega == pytest.approx(5.0)
+
+
+def test_an_odometry_child_frame_other_than_the_base_frame_is_warned_once_and_counted(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Issue 27: odometry of ``base_footprint`` while the mounts hang from ``base_link`` was used silently."""
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(x=0.5), base_frame="base_footprint", summary=summary)
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        m = [_step(integ, _frame(k, 0.1 * k, _odom(round(0.1 * k * S), 0.1 * k))) for k in range(3)]
+    got = [r.getMessage() for r in caplog.records if "child frame" in r.getMessage()]
+    assert len(got) == 1 and "topic '/odom'" in got[0]
+    assert "'base_link'" in got[0] and "'base_footprint'" in got[0] and "takes the odometry pose" in got[0]
+    assert summary.odometry_other_child == 3 and summary.as_dict()["odometry_other_child"] == 3
+    assert m[2].odometry is not None and m[2].odometry.v == pytest.approx(1.0)  # still used, as stated
+    caplog.clear()
+    same = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), base_frame="/base_link", summary=same)
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    assert same.odometry_other_child == 0 and not caplog.records
+    cfg = SimpleNamespace(odometry="/odom", base_frame="base_footprint", clutter=SimpleNamespace(laser_odometry=False))
+    built = pipeline.default_odometry(cfg, Pose2D(), RunSummary(), WarnOnce(logging.getLogger("t")))  # type: ignore[arg-type]
+    assert built.base_frame == "base_footprint"
