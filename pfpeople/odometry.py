@@ -315,18 +315,17 @@ class OdometryIntegrator:
         span = (frame.stamp_ns - self.prev_pose_stamp_ns) * 1e-9
         if not is_odometry_jump(self.prev_pose, pose, span):
             return False
-        d = self.prev_pose.inverse().compose(pose)
+        dyaw = math.atan2(math.sin(pose.yaw - self.prev_pose.yaw), math.cos(pose.yaw - self.prev_pose.yaw))
         self.summary.odometry_jumps += 1
         self.summary.filter_restarts += 1
         self.warn(
             "odojump",
-            "topic %r: odometry jumps by (%.3g m, %.3g m, %.3g rad) in %.3f s before frame %d (faster than %g m/s "
+            "topic %r: odometry jumps by %.3g m and %.3g rad in %.3f s before frame %d (faster than %g m/s "
             "or %.3g rad/s: a reset or relocalised odometry, not motion): restarting the filter there (such jumps "
             "are counted in odometry_jumps)",
             self.topic,
-            d.x,
-            d.y,
-            d.yaw,
+            math.hypot(pose.x - self.prev_pose.x, pose.y - self.prev_pose.y),
+            dyaw,
             span,
             frame.index,
             MAX_ODOMETRY_SPEED_MPS,

@@ -499,3 +499,22 @@ def test_rewritten_training_bags_with_gaps_in_their_stamps_lose_no_frame(shared_
     # followed as clock steps, every scan is a frame.
     assert summary.frames == 197 and summary.sync["resync"] == {"/training_scan": 3}
     assert summary.sync["clock_jump"] == {} and summary.sync["non_monotonic"] == {}
+
+
+@pytest.mark.parametrize("two_processes", [False, True])
+def test_an_odometry_jump_in_a_bag_restarts_the_filter_and_is_in_run_json(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, two_processes: bool
+) -> None:
+    """Issue 27: odometry relocalised by 100 m at 1 s was taken as a 1000 m/s motion (no warning, no count)."""
+    import test_pipeline_bags as scene
+
+    smooth = scene.base_pose
+    monkeypatch.setattr(scene, "base_pose", lambda t: replace(smooth(t), x=smooth(t).x + 100.0 * (t >= 1.0)))
+    bag = tmp_path / "jump.bag"
+    write_bag(bag, n_scans=20)
+    with BagSource(bag) as src, caplog.at_level(logging.WARNING):
+        summary, _ = Pipeline(config(), front_process=two_processes).run(src, tmp_path / "run")
+    assert (summary.odometry_jumps, summary.filter_restarts) == (1, 1)
+    stats = load_run(tmp_path / "run").meta["stats"]
+    assert (stats["odometry_jumps"], stats["filter_restarts"], stats["odometry_other_child"]) == (1, 1, 0)
+    assert "topic '/odom': odometry jumps by 100 m and 0.015 rad in 0.100 s before frame 10" in caplog.text
