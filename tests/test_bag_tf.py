@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from gridbridge.geometry import xy_from_translation
-from pfpeople.bag.tf import TfBuffer, TfLookupError, yaw_from_quaternion
+from pfpeople.bag.tf import MountWatch, TfBuffer, TfLookupError, yaw_from_quaternion
 from pfpeople.sensors import Pose2D
 
 
@@ -70,3 +70,22 @@ def test_a_frame_with_two_parents_is_named_with_both_parents_and_topics() -> Non
     assert buf.lookup("base_link", "laser").x == pytest.approx(0.3)  # unchanged
     buf.add_message(_tf_msg("mast", "camera"), topic="/tf")  # TF replaces a [mounts] fallback: not two parents
     assert buf.lookup("mast", "camera").x == pytest.approx(0.2)
+
+
+def test_the_edges_of_a_lookup_leave_out_the_shared_ones_and_the_fallbacks() -> None:
+    """``odom -> base_link`` is above both the laser and the camera: it cancels in their mount, is not an edge."""
+    buf = TfBuffer(fallback_parent="base_link", fallback={"camera": (0.5, 0.0, 0.0)})
+    buf.add_message(_tf_msg("odom", "base_link", x=3.0), topic="/tf")
+    buf.add_message(_tf_msg("base_link", "mast"), topic="/tf_static")
+    buf.add_message(_tf_msg("mast", "laser", yaw=0.2), topic="/tf")
+    assert [(e.name, e.topic) for e in buf.edges("laser", "camera")] == [
+        ("mast -> laser", "/tf"),
+        ("base_link -> mast", "/tf_static"),
+    ]
+    assert buf.edges("laser", "laser") == [] and buf.edges("laser", "map") == []
+    watch = MountWatch(buf.edges("camera", "laser"))
+    assert watch.topics == ["/tf", "/tf_static"]
+    assert watch.check(_tf_msg("mast", "laser", yaw=0.205)) == []  # within 0.01 rad
+    (moved,) = watch.check(_tf_msg("/mast", "laser", x=0.25, yaw=0.2))
+    assert moved.edge.name == "mast -> laser" and moved.distance_m == pytest.approx(0.05)
+    assert watch.check(_tf_msg("odom", "base_link", x=9.0)) == []  # not a mount edge

@@ -10,19 +10,56 @@ it to the plane: x, y of the translation and the yaw of the rotation,
 which is exact for mounts rotated about the vertical axis only. A mount with roll or pitch (e.g. a camera
 optical frame) has no exact planar form; configure the detector's ``frame`` to a level frame instead.
 Static fallbacks (``[mounts]`` in the run config) give frames the bag has no TF for.
+
+A run uses one value per mount (read before the run). :class:`MountWatch` checks the TF edges the mounts are
+made of during the run and reports every transform more than :data:`MOUNT_CHANGE_M` or
+:data:`MOUNT_CHANGE_RAD` off the value used (a panning or moving mount, which the run does not follow).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 
 from gridbridge.geometry import Pose2D, xy_from_translation, yaw_from_orientation, yaw_from_quaternion
 
-__all__ = ["TfBuffer", "TfLookupError", "yaw_from_quaternion"]
+__all__ = [
+    "MOUNT_CHANGE_M",
+    "MOUNT_CHANGE_RAD",
+    "MountChange",
+    "MountWatch",
+    "TfBuffer",
+    "TfLink",
+    "TfLookupError",
+    "yaw_from_quaternion",
+]
+
+#: A mount's TF moving more than this (m) or turning more than :data:`MOUNT_CHANGE_RAD` (rad) from the value a
+#: run uses is a moving mount: below both, a detection 5 m away moves by under 6 cm (a fifth of a 0.3 m cell),
+#: the size of TF publishers' rounding and calibration jitter.
+MOUNT_CHANGE_M = 0.01
+#: See :data:`MOUNT_CHANGE_M`.
+MOUNT_CHANGE_RAD = 0.01
 
 
 class TfLookupError(LookupError):
     """No chain of transforms connects two frames."""
+
+
+@dataclass(frozen=True)
+class TfLink:
+    """One transform of the tree: ``pose`` of ``child`` in ``parent``, from ``topic`` (``""``: set directly)."""
+
+    parent: str
+    child: str
+    pose: Pose2D
+    topic: str
+
+    @property
+    def name(self) -> str:
+        """``"parent -> child"``."""
+        return f"{self.parent} -> {self.child}"
 
 
 class TfBuffer:
@@ -115,6 +152,32 @@ class TfBuffer:
             seen.add(frame)
         return frame, pose
 
+    def edges(self, target: str, source: str) -> list[TfLink]:
+        """The TF transforms :meth:`lookup` composes for ``target``, ``source`` (``[mounts]`` fallbacks left out).
+
+        Only the edges below the frames' lowest common ancestor: e.g. ``odom -> base_link`` above both is not
+        one (it cancels). Empty when the frames are the same or not connected.
+        """
+        target, source = target.lstrip("/"), source.lstrip("/")
+        up_t, up_s = self._chain(target), self._chain(source)
+        if up_t[-1] != up_s[-1]:
+            return []
+        common = set(up_t) & set(up_s)
+        below = [f for f in up_t if f not in common] + [f for f in up_s if f not in common]
+        return [
+            TfLink(self._parent[f][0], f, self._parent[f][1], self._topic.get(f, ""))
+            for f in below
+            if f not in self._fallback
+        ]
+
+    def _chain(self, frame: str) -> list[str]:
+        """``frame`` and its ancestors up to the root (the tree has no cycle: :meth:`_to_root`)."""
+        self._to_root(frame)
+        out = [frame]
+        while out[-1] in self._parent:
+            out.append(self._parent[out[-1]][0])
+        return out
+
     def lookup(self, target: str, source: str) -> Pose2D:
         """Pose of frame ``source`` in frame ``target`` (maps ``source`` points to ``target`` with ``apply``).
 
@@ -141,3 +204,56 @@ class TfBuffer:
         except TfLookupError:
             return False
         return True
+
+
+@dataclass(frozen=True)
+class MountChange:
+    """A transform of a watched edge off the value a run uses (:class:`MountWatch`)."""
+
+    edge: TfLink
+    pose: Pose2D
+    stamp_ns: int
+    distance_m: float
+    turn_rad: float
+
+
+class MountWatch:
+    """Finds the transforms of a run's mount edges that differ from the values the run uses.
+
+    Parameters
+    ----------
+    edges : iterable of TfLink
+        The edges the run's mounts are made of, each with the value used (:meth:`TfBuffer.edges`); edges
+        without a topic are not watched.
+    tol_m, tol_rad : float
+        A transform moved more than ``tol_m`` (m) or turned more than ``tol_rad`` (rad) is a change.
+    """
+
+    def __init__(self, edges: Iterable[TfLink], *, tol_m: float = MOUNT_CHANGE_M, tol_rad: float = MOUNT_CHANGE_RAD):
+        self.edges = {(e.parent, e.child): e for e in edges if e.topic}
+        self.tol_m, self.tol_rad = tol_m, tol_rad
+
+    @property
+    def topics(self) -> list[str]:
+        """The TF topics the watched edges came from (sorted)."""
+        return sorted({e.topic for e in self.edges.values()})
+
+    def check(self, msg: object) -> list[MountChange]:
+        """The transforms of a ``tf2_msgs/TFMessage`` that change a watched edge (others are ignored)."""
+        out = []
+        for t in getattr(msg, "transforms", None) or []:
+            edge = self.edges.get((str(t.header.frame_id).lstrip("/"), str(t.child_frame_id).lstrip("/")))
+            if edge is None:
+                continue
+            tr, q = t.transform.translation, t.transform.rotation
+            try:
+                x, y = xy_from_translation(tr.x, tr.y, tr.z, edge.name)
+                pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, edge.name))
+            except ValueError:
+                continue  # a broken transform of the edge is not a value the run could have used
+            dist = math.hypot(pose.x - edge.pose.x, pose.y - edge.pose.y)
+            turn = math.atan2(math.sin(pose.yaw - edge.pose.yaw), math.cos(pose.yaw - edge.pose.yaw))
+            if dist > self.tol_m or abs(turn) > self.tol_rad:
+                stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
+                out.append(MountChange(edge, pose, stamp, dist, turn))
+        return out
