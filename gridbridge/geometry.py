@@ -38,6 +38,7 @@ __all__ = [
     "rotate",
     "to_frame",
     "to_frame_xy",
+    "xy_from_translation",
     "yaw_from_orientation",
     "yaw_from_quaternion",
 ]
@@ -234,3 +235,20 @@ def near_any(points: ArrayLike, others: ArrayLike, radius: float) -> NDArray[np.
         return np.zeros(p.shape[0], dtype=bool)
     d2 = (p[:, None, 0] - o[None, :, 0]) ** 2 + (p[:, None, 1] - o[None, :, 1]) ** 2
     return np.asarray(d2.min(axis=1) <= radius * radius, dtype=bool)
+
+
+def xy_from_translation(x: float, y: float, z: float, where: str) -> tuple[float, float]:
+    """The planar part ``(x, y)`` of a message's translation or position, refusing a non-finite one.
+
+    ``z`` is not used but is checked too: a NaN anywhere means the transform was never computed, and a NaN in
+    ``x`` or ``y`` would otherwise surface far from its source (e.g. as a non-finite ego-motion).
+
+    Raises
+    ------
+    ValueError
+        Naming ``where`` (e.g. the topic and ``parent -> child``) and the translation.
+    """
+    t = (float(x), float(y), float(z))
+    if not all(math.isfinite(v) for v in t):
+        raise ValueError(f"{where}: translation {t} is not finite")
+    return t[0], t[1]

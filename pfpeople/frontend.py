@@ -53,13 +53,15 @@ from pfpeople.run_state import RunSummary
 __all__ = ["FRONT_COUNTERS", "FrontProcess", "FrontResult", "front_process_available"]
 
 #: The :class:`~pfpeople.run_state.RunSummary` fields the front end updates (the back end: ``frames``, ``sync``,
-#: ``elapsed_s``, ``error``).
+#: ``elapsed_s``, ``error``, and ``mount_changes``, from the TF it reads along the frames).
 FRONT_COUNTERS = (
     "no_data",
     "empty_scans",
     "bad_messages",
     "frames_without_odometry",
     "filter_restarts",
+    "odometry_jumps",
+    "odometry_other_child",
     "max_lateral_m",
     "suppressed",
     "laser_odometry_frames",

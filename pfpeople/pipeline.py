@@ -36,7 +36,12 @@ Per frame (driven by the config's ``driver`` topic, see :mod:`pfpeople.bag.sync`
    every sink.
 
 The first frame uses ``dt = 0.1 s`` (:data:`FIRST_DT_S`); a gap between frames longer than :data:`MAX_GAP_S`
-restarts the filter, the clutter maps and the tracker (counted).
+or an odometry jump (:func:`pfpeople.odometry.is_odometry_jump`) restarts the filter, the clutter maps and the
+tracker (counted).
+
+The mounts are read once, before the run. While the bag is read, the TF edges they are made of are checked
+(:class:`pfpeople.bag.tf.MountWatch`): a mount that moves (a panning laser) is warned once per edge and counted
+(``stats.mount_changes``); it is not followed.
 
 Steps 1-4 are the *front end* of a frame (:meth:`Pipeline._front`): they need only the frame and their own state.
 Step 5 is the *back end* (:meth:`Pipeline._back`). With two or more cores the front end runs in a second process,
@@ -73,9 +78,9 @@ from pfpeople.adapters import (
     build_detector,
 )
 from pfpeople.bag.config import BagConfig, FilterConfig
-from pfpeople.bag.reader import BagSource, MessageDataError
+from pfpeople.bag.reader import BagMessage, BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
-from pfpeople.bag.tf import TfBuffer
+from pfpeople.bag.tf import MountWatch, TfBuffer
 from pfpeople.filters import build_classifier, build_people_tracker
 from pfpeople.frontend import FrontProcess, FrontResult, front_process_available
 from pfpeople.mot.people import point_like, support_positions
@@ -126,7 +131,12 @@ def default_odometry(
     """The run's :class:`~pfpeople.odometry.OdometryIntegrator`: the ``odometry`` topic, else laser odometry if
     ``[clutter] laser_odometry``."""
     return OdometryIntegrator(
-        config.odometry, base_to_grid, laser_odometry=config.clutter.laser_odometry, summary=summary, warn=warn
+        config.odometry,
+        base_to_grid,
+        laser_odometry=config.clutter.laser_odometry,
+        base_frame=config.base_frame,
+        summary=summary,
+        warn=warn,
     )
 
 
@@ -214,6 +224,8 @@ class Pipeline:
         #: The tracker and the people it confirms (pfpeople.mot.people.PeopleTracker; None: tracking off).
         self.tracker: Any = None
         self.odometry: OdometryIntegrator | None = None
+        #: The TF edges of the mounts, checked for changes during the run (set by :meth:`prepare`).
+        self._mount_watch: MountWatch | None = None
         self.clutter: ClutterStage | None = None
         self._warn = WarnOnce(log)
 
@@ -250,9 +262,47 @@ class Pipeline:
         self.clutter = ClutterStage(c, self.adapters, self.summary)
         self.odometry = self._odometry_factory(c, setup.base_to_grid, self.summary, self._warn)
         self.tracker = build_people_tracker(c.tracking, self.classifier, c.filter.mode)
+        edges = [e for f in self.frame_mounts for e in setup.tf.edges(setup.grid_frame, f)]
+        self._mount_watch = MountWatch(edges)
         return setup.tf
 
     # -- running ---------------------------------------------------------------------------------------------
+
+    def _messages(self, source: BagSource, *, watch_mounts: bool) -> Iterator[BagMessage]:
+        """The run topics' messages of ``source``; with ``watch_mounts``, the TF topics of the mounts too, checked
+        on the way (:meth:`_check_mounts`) and not yielded."""
+        watch = self._mount_watch if watch_mounts else None
+        tf_topics = set(watch.topics) & set(source.topics) if watch is not None else set()
+        for m in source.messages([*self._topics(), *sorted(tf_topics)]):
+            if m.topic in tf_topics:
+                self._check_mounts(m, source.start_time_ns)
+            else:
+                yield m
+
+    def _check_mounts(self, m: BagMessage, start_ns: int) -> None:
+        """Count (per edge) and warn once about the transforms of ``m`` off the mounts' values the run uses."""
+        assert self._mount_watch is not None
+        for ch in self._mount_watch.check(m.msg):
+            e = ch.edge
+            count(self.summary.mount_changes, e.name)
+            self._warn(
+                f"mount:{e.name}",
+                "TF %s (topic %r) changes during the run: %.1f s into the bag it is (%.3f m, %.3f m, %.3f rad), "
+                "%.3g m and %.3g rad off the value the run uses (%.3f m, %.3f m, %.3f rad; read before the run). "
+                "The run uses one mount throughout: a panning or moving mount is not followed (its detections are "
+                "placed with that value); such transforms are counted in mount_changes",
+                e.name,
+                e.topic,
+                (m.bag_time_ns - start_ns) * 1e-9,
+                ch.pose.x,
+                ch.pose.y,
+                ch.pose.yaw,
+                ch.distance_m,
+                abs(ch.turn_rad),
+                e.pose.x,
+                e.pose.y,
+                e.pose.yaw,
+            )
 
     def _detect(self, adapter: DetectorAdapter, frame: Frame) -> Detections | None:
         """One detector's output in ``frame``; None when it has no data there (counted, warned once)."""
@@ -424,8 +474,8 @@ class Pipeline:
         use_bag_time = c.time_source == "bag"
         self.odometry.reset()
 
-        def synced(source: BagSource, sync: FrameAssembler) -> Iterator[Frame]:
-            for m in source.messages(self._topics()):
+        def synced(source: BagSource, sync: FrameAssembler, watch_mounts: bool = True) -> Iterator[Frame]:
+            for m in self._messages(source, watch_mounts=watch_mounts):
                 yield from sync.push(replace(m, stamp_ns=m.bag_time_ns) if use_bag_time else m)
             yield from sync.finish()
 
@@ -436,7 +486,7 @@ class Pipeline:
 
         def child_frames() -> Iterator[Frame]:  # in the front-end process: its own reader of the same bag
             with BagSource(bag.paths) as source:
-                yield from itertools.islice(synced(source, assembler()), max_frames)
+                yield from itertools.islice(synced(source, assembler(), watch_mounts=False), max_frames)
 
         sync = assembler()
         t0 = time.perf_counter()

@@ -98,6 +98,13 @@ class RunSummary:
     the step's mean heading, :func:`pfpeople.odometry.odometry_between`), large for a driving laser mounted off
     the robot's rotation axis and yawed. Informative: the filters apply it (``Odometry.vy``, ``vy_mps`` in
     ``frames.csv``).
+
+    ``odometry_jumps`` counts the odometry steps too fast to be motion (:func:`pfpeople.odometry.is_odometry_jump`:
+    a reset or relocalised odometry); each restarted the filter and is also in ``filter_restarts``.
+    ``odometry_other_child`` counts the odometry messages whose child frame is not the base frame (used as the
+    base frame's pose; :mod:`pfpeople.odometry`). ``mount_changes`` counts, per TF edge ``"parent -> child"``
+    of the run's mounts, the transforms during the run off the value used (a panning or moving mount, which the
+    run does not follow; :class:`pfpeople.bag.tf.MountWatch`).
     """
 
     frames: int = 0
@@ -107,6 +114,9 @@ class RunSummary:
     bad_messages: dict[str, int] = field(default_factory=dict)
     frames_without_odometry: int = 0
     filter_restarts: int = 0
+    odometry_jumps: int = 0
+    odometry_other_child: int = 0
+    mount_changes: dict[str, int] = field(default_factory=dict)
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     laser_odometry_frames: int = 0

@@ -3,6 +3,7 @@ logs and counters as in one process."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from dataclasses import replace
@@ -17,9 +18,10 @@ from evaluation.scenarios.scan import write_scene_bag
 from pfpeople.adapters import LegAdapter
 from pfpeople.bag.config import load_config
 from pfpeople.bag.reader import BagSource
-from pfpeople.frontend import front_process_available
+from pfpeople.frontend import FRONT_COUNTERS, front_process_available
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
+from pfpeople.run_state import RunSummary
 
 pytestmark = pytest.mark.skipif(not front_process_available()[0], reason=front_process_available()[1])
 
@@ -159,3 +161,9 @@ def test_a_front_end_process_that_dies_ends_the_run_with_a_named_error(tmp_path:
         pipe.run(src, tmp_path / "run")
     meta = load_run(tmp_path / "run").meta
     assert meta["status"] == "failed" and meta["frames"] == 3
+
+
+def test_every_count_but_the_back_ends_comes_back_from_the_front_process() -> None:
+    """A new :class:`RunSummary` count (e.g. ``odometry_jumps``) is copied back from the front-end process."""
+    back = {"frames", "sync", "elapsed_s", "error", "mount_changes"}
+    assert set(FRONT_COUNTERS) == {f.name for f in dataclasses.fields(RunSummary)} - back

@@ -15,7 +15,7 @@ import pfpeople.pipeline as pipeline
 from pfpeople.bag.reader import BagMessage
 from pfpeople.bag.sync import Frame
 from pfpeople.odometry import FIRST_DT_S, OdometryIntegrator, interpolate_pose, odometry_between
-from pfpeople.run_state import RunSummary
+from pfpeople.run_state import RunSummary, WarnOnce
 from pfpeople.sensors import Pose2D
 
 S = 1_000_000_000  # ns per s
@@ -148,3 +148,72 @@ def test_frames_faster_than_a_laser_warn_once_about_the_clock(caplog: pytest.Log
         for k in range(5):
             _step(integ, _frame(k, 0.025 * k))  # a 40 Hz laser: no warning
     assert not [r for r in caplog.records if "faster than a laser" in r.getMessage()]
+
+
+@pytest.mark.parametrize(("dx", "dyaw"), [(100.0, 0.0), (0.0, math.pi)])
+def test_an_odometry_jump_restarts_the_filter_warned_once_and_counted(
+    dx: float, dyaw: float, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Issue 27: a reset or relocalised odometry (x += 100 m, or yaw += pi, in one step) is not motion."""
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), summary=summary)
+    _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    _step(integ, _frame(1, 0.1, _odom(round(0.1 * S), 0.1)))
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        m = _step(integ, _frame(2, 0.2, _odom(round(0.2 * S), 0.2 + dx, yaw=dyaw)))
+        m3 = _step(integ, _frame(3, 0.3, _odom(round(0.3 * S), 0.3 + dx, yaw=dyaw)))
+        again = _step(integ, _frame(4, 0.4, _odom(round(0.4 * S), 0.4, yaw=0.0)))  # and back: a second jump
+    assert m.restarted and m.odometry is None and m.ego is None and m.dt == FIRST_DT_S
+    assert m3.odometry is not None and abs(m3.odometry.v) == pytest.approx(1.0)  # goes on from the new pose
+    assert again.restarted and summary.odometry_jumps == 2 and summary.filter_restarts == 2
+    assert summary.as_dict()["odometry_jumps"] == 2  # run.json stats
+    jumps = [r.getMessage() for r in caplog.records if "jump" in r.getMessage()]
+    assert len(jumps) == 1 and "topic '/odom'" in jumps[0] and "frame 2" in jumps[0]
+    assert "restarting the filter" in jumps[0] and "counted" in jumps[0]
+
+
+def test_a_jump_between_the_two_messages_of_a_frame_is_one_jump(caplog: pytest.LogCaptureFixture) -> None:
+    """The frame's bracketing messages straddle the jump: not interpolated across it (one restart, not two)."""
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), summary=summary)
+    _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        m1 = _step(integ, _frame(1, 0.1, _odom(round(0.09 * S), 0.09), _odom(round(0.12 * S), 100.12)))
+        m2 = _step(integ, _frame(2, 0.2, _odom(round(0.19 * S), 100.19), _odom(round(0.21 * S), 100.21)))
+    assert m1.pose == Pose2D(x=pytest.approx(0.09)) and not m1.restarted  # the nearer message: before the jump
+    assert m2.restarted and summary.odometry_jumps == 1 and summary.filter_restarts == 1
+
+
+def test_fast_but_plausible_odometry_is_motion() -> None:
+    """4 m/s and 5 rad/s are below the bounds; a 2 cm step 4 ms apart is judged over 0.1 s (not 5 m/s)."""
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), summary=summary)
+    _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    m = _step(integ, _frame(1, 0.1, _odom(round(0.1 * S), 0.4, yaw=0.5)))
+    m2 = _step(integ, _frame(2, 0.104, _odom(round(0.104 * S), 0.43, yaw=0.5)))
+    assert not m.restarted and not m2.restarted and summary.odometry_jumps == 0
+    assert m.odometry is not None and m.odometry.omega == pytest.approx(5.0)
+
+
+def test_an_odometry_child_frame_other_than_the_base_frame_is_warned_once_and_counted(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Issue 27: odometry of ``base_footprint`` while the mounts hang from ``base_link`` was used silently."""
+    summary = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(x=0.5), base_frame="base_footprint", summary=summary)
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        m = [_step(integ, _frame(k, 0.1 * k, _odom(round(0.1 * k * S), 0.1 * k))) for k in range(3)]
+    got = [r.getMessage() for r in caplog.records if "child frame" in r.getMessage()]
+    assert len(got) == 1 and "topic '/odom'" in got[0]
+    assert "'base_link'" in got[0] and "'base_footprint'" in got[0] and "takes the odometry pose" in got[0]
+    assert summary.odometry_other_child == 3 and summary.as_dict()["odometry_other_child"] == 3
+    assert m[2].odometry is not None and m[2].odometry.v == pytest.approx(1.0)  # still used, as stated
+    caplog.clear()
+    same = RunSummary()
+    integ = OdometryIntegrator("/odom", Pose2D(), base_frame="/base_link", summary=same)
+    with caplog.at_level(logging.WARNING, logger="pfpeople.odometry"):
+        _step(integ, _frame(0, 0.0, _odom(0, 0.0)))
+    assert same.odometry_other_child == 0 and not caplog.records
+    cfg = SimpleNamespace(odometry="/odom", base_frame="base_footprint", clutter=SimpleNamespace(laser_odometry=False))
+    built = pipeline.default_odometry(cfg, Pose2D(), RunSummary(), WarnOnce(logging.getLogger("t")))  # type: ignore[arg-type]
+    assert built.base_frame == "base_footprint"

@@ -52,11 +52,13 @@ def write_scan_bag(
     range_min: float = 0.05,
     range_max: float = 10.0,
     topics: tuple[str, ...] = ("/scan",),
+    tf_mount: Any = None,
 ) -> None:
     """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``.
 
     ``reverse``: the same beams listed clockwise (negative ``angle_increment``): the same points. Topics
-    after the first get a connection and no message.
+    after the first get a connection and no message. ``tf_mount(k) -> Pose2D``: the pose of ``laser`` in
+    ``base_link`` published on ``/tf`` with each scan ``k``.
     """
     ts = _typestore(False)
     m = _Msgs(ts, False)
@@ -71,8 +73,12 @@ def write_scan_bag(
     conn = w.add_connection(topics[0], "sensor_msgs/msg/LaserScan", typestore=ts)
     for extra in topics[1:]:
         w.add_connection(extra, "sensor_msgs/msg/LaserScan", typestore=ts)
+    tf_conn = None if tf_mount is None else w.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=ts)
     for k in range(n):
         stamp = T0_NS + k * 100_000_000
+        if tf_conn is not None:
+            tf = m.tf(stamp, "base_link", "laser", tf_mount(k))
+            w.write(tf_conn, stamp + 1_000_000, ts.serialize_ros1(tf, "tf2_msgs/msg/TFMessage"))
         msg = T["sensor_msgs/msg/LaserScan"](
             header=m.header(stamp, "laser"),
             angle_min=a0,
@@ -499,3 +505,47 @@ def test_rewritten_training_bags_with_gaps_in_their_stamps_lose_no_frame(shared_
     # followed as clock steps, every scan is a frame.
     assert summary.frames == 197 and summary.sync["resync"] == {"/training_scan": 3}
     assert summary.sync["clock_jump"] == {} and summary.sync["non_monotonic"] == {}
+
+
+@pytest.mark.parametrize("two_processes", [False, True])
+def test_an_odometry_jump_in_a_bag_restarts_the_filter_and_is_in_run_json(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, two_processes: bool
+) -> None:
+    """Issue 27: odometry relocalised by 100 m at 1 s was taken as a 1000 m/s motion (no warning, no count)."""
+    import test_pipeline_bags as scene
+
+    smooth = scene.base_pose
+    monkeypatch.setattr(scene, "base_pose", lambda t: replace(smooth(t), x=smooth(t).x + 100.0 * (t >= 1.0)))
+    bag = tmp_path / "jump.bag"
+    write_bag(bag, n_scans=20)
+    with BagSource(bag) as src, caplog.at_level(logging.WARNING):
+        summary, _ = Pipeline(config(), front_process=two_processes).run(src, tmp_path / "run")
+    assert (summary.odometry_jumps, summary.filter_restarts) == (1, 1)
+    stats = load_run(tmp_path / "run").meta["stats"]
+    assert (stats["odometry_jumps"], stats["filter_restarts"], stats["odometry_other_child"]) == (1, 1, 0)
+    assert "topic '/odom': odometry jumps by 100 m and 0.015 rad in 0.100 s before frame 10" in caplog.text
+
+
+@pytest.mark.parametrize("two_processes", [False, True])
+def test_a_panning_mount_is_warned_once_naming_the_tf_edge_and_counted(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, two_processes: bool
+) -> None:
+    """Issue 27: a mount whose TF changes during the run (a panning laser) was used at its first value, silently.
+
+    The run still uses one mount (following TF over time is not done): the change is detected, warned once
+    naming the edge, and counted per edge in ``stats.mount_changes``.
+    """
+    bag = tmp_path / "pan.bag"
+    write_scan_bag(bag, 30, tf_mount=lambda k: Pose2D(x=0.2, y=0.1, yaw=0.3 + (0.05 if k >= 20 else 0.0)))
+    with BagSource(bag) as src, caplog.at_level(logging.WARNING):
+        summary, _ = Pipeline(legs_only(), front_process=two_processes).run(src, tmp_path / "run")
+    assert summary.mount_changes == {"base_link -> laser": 10}
+    assert load_run(tmp_path / "run").meta["stats"]["mount_changes"] == {"base_link -> laser": 10}
+    warned = [r.getMessage() for r in caplog.records if "changes during the run" in r.getMessage()]
+    assert len(warned) == 1 and "TF base_link -> laser (topic '/tf')" in warned[0]
+    assert "0.05 rad" in warned[0] and "not followed" in warned[0]
+    still = tmp_path / "still.bag"  # 5 mm and 5 mrad of jitter: below 1 cm / 0.01 rad
+    write_scan_bag(still, 10, tf_mount=lambda k: Pose2D(x=0.2 + 0.005 * (k % 2), y=0.1, yaw=0.3 + 0.005 * (k % 2)))
+    with BagSource(still) as src:
+        summary, _ = Pipeline(legs_only()).run(src, None)
+    assert summary.mount_changes == {}

@@ -2,26 +2,64 @@
 
 Each ``geometry_msgs/TransformStamped`` gives the pose of ``child_frame_id`` in ``header.frame_id``. We keep
 the latest transform per child (static ones are never overwritten by dynamic ones of the same child unless
-newer) and project it to the plane: x, y of the translation and the yaw of the rotation,
+newer; a child given a second parent is refused, naming both, as a tree has one parent per frame) and project
+it to the plane: x, y of the translation and the yaw of the rotation,
 
     yaw = atan2(2 (w z + x y), 1 - 2 (y^2 + z^2))            (ZYX Euler angles, REP-103),
 
 which is exact for mounts rotated about the vertical axis only. A mount with roll or pitch (e.g. a camera
 optical frame) has no exact planar form; configure the detector's ``frame`` to a level frame instead.
 Static fallbacks (``[mounts]`` in the run config) give frames the bag has no TF for.
+
+A run uses one value per mount (read before the run). :class:`MountWatch` checks the TF edges the mounts are
+made of during the run and reports every transform more than :data:`MOUNT_CHANGE_M` or
+:data:`MOUNT_CHANGE_RAD` off the value used (a panning or moving mount, which the run does not follow).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 
-from gridbridge.geometry import Pose2D, yaw_from_orientation, yaw_from_quaternion
+from gridbridge.geometry import Pose2D, xy_from_translation, yaw_from_orientation, yaw_from_quaternion
 
-__all__ = ["TfBuffer", "TfLookupError", "yaw_from_quaternion"]
+__all__ = [
+    "MOUNT_CHANGE_M",
+    "MOUNT_CHANGE_RAD",
+    "MountChange",
+    "MountWatch",
+    "TfBuffer",
+    "TfLink",
+    "TfLookupError",
+    "yaw_from_quaternion",
+]
+
+#: A mount's TF moving more than this (m) or turning more than :data:`MOUNT_CHANGE_RAD` (rad) from the value a
+#: run uses is a moving mount: below both, a detection 5 m away moves by under 6 cm (a fifth of a 0.3 m cell),
+#: the size of TF publishers' rounding and calibration jitter.
+MOUNT_CHANGE_M = 0.01
+#: See :data:`MOUNT_CHANGE_M`.
+MOUNT_CHANGE_RAD = 0.01
 
 
 class TfLookupError(LookupError):
     """No chain of transforms connects two frames."""
+
+
+@dataclass(frozen=True)
+class TfLink:
+    """One transform of the tree: ``pose`` of ``child`` in ``parent``, from ``topic`` (``""``: set directly)."""
+
+    parent: str
+    child: str
+    pose: Pose2D
+    topic: str
+
+    @property
+    def name(self) -> str:
+        """``"parent -> child"``."""
+        return f"{self.parent} -> {self.child}"
 
 
 class TfBuffer:
@@ -39,19 +77,39 @@ class TfBuffer:
         self, *, fallback_parent: str = "base_link", fallback: Mapping[str, tuple[float, float, float]] = {}
     ) -> None:
         self._parent: dict[str, tuple[str, Pose2D, int]] = {}
+        #: The topic each child's transform came from (``""``: set directly).
+        self._topic: dict[str, str] = {}
+        #: Children whose transform is still a ``[mounts]`` fallback (TF replaces it, whatever its parent).
+        self._fallback: set[str] = set()
         for child, (x, y, yaw) in dict(fallback).items():
             self._parent[child.lstrip("/")] = (fallback_parent.lstrip("/"), Pose2D(x=x, y=y, yaw=yaw), -1)
+            self._fallback.add(child.lstrip("/"))
 
-    def set_transform(self, parent: str, child: str, pose: Pose2D, stamp_ns: int = 0) -> None:
-        """Record ``pose`` of ``child`` in ``parent`` (leading slashes are ignored, as tf2 does)."""
+    def set_transform(self, parent: str, child: str, pose: Pose2D, stamp_ns: int = 0, *, topic: str = "") -> None:
+        """Record ``pose`` of ``child`` in ``parent`` (leading slashes are ignored, as tf2 does).
+
+        Raises
+        ------
+        ValueError
+            If a frame is empty or its own parent, or ``child`` already has another parent in TF (a tree has
+            one parent per frame): the message names the frame, both parents and their topics.
+        """
         parent, child = parent.lstrip("/"), child.lstrip("/")
         if not parent or not child:
             raise ValueError(f"TF transform needs non-empty frames, got parent={parent!r} child={child!r}")
         if parent == child:
             raise ValueError(f"TF transform from frame {parent!r} to itself")
         old = self._parent.get(child)
-        if old is None or old[2] <= stamp_ns:
+        if old is not None and old[0] != parent and child not in self._fallback:
+            raise ValueError(
+                f"TF frame {child!r} has two parents: {old[0]!r} (topic {self._topic.get(child, '')!r}) and "
+                f"{parent!r} (topic {topic!r}); a TF tree has one parent per frame (fix the publishers, or leave "
+                "one TF topic out of [tf] topics and give its mounts in [mounts])"
+            )
+        if old is None or old[2] <= stamp_ns or child in self._fallback:
             self._parent[child] = (parent, pose, stamp_ns)
+            self._topic[child] = topic
+            self._fallback.discard(child)
 
     def add_message(self, msg: object, *, topic: str = "/tf") -> int:
         """Add every transform of a ``tf2_msgs/TFMessage`` read on ``topic``; returns how many were added.
@@ -59,8 +117,9 @@ class TfBuffer:
         Raises
         ------
         ValueError
-            Not a TFMessage, or a transform whose rotation is a zero (or non-finite) quaternion, which would
-            read as yaw 0: the message names the topic and the transform.
+            Not a TFMessage, a transform whose rotation is a zero (or non-finite) quaternion, which would read
+            as yaw 0, or whose translation is not finite: the message names the topic and the transform. A
+            frame given a second parent (:meth:`set_transform`).
         """
         transforms = getattr(msg, "transforms", None)
         if transforms is None:
@@ -69,8 +128,9 @@ class TfBuffer:
             tr, q = t.transform.translation, t.transform.rotation
             stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
             where = f"topic {topic!r}: transform {t.header.frame_id!s} -> {t.child_frame_id!s}"
-            pose = Pose2D(x=float(tr.x), y=float(tr.y), yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, where))
-            self.set_transform(t.header.frame_id, t.child_frame_id, pose, stamp)
+            x, y = xy_from_translation(tr.x, tr.y, tr.z, where)
+            pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, where))
+            self.set_transform(t.header.frame_id, t.child_frame_id, pose, stamp, topic=topic)
         return len(transforms)
 
     @property
@@ -91,6 +151,32 @@ class TfBuffer:
                 raise TfLookupError(f"TF cycle through frame {frame!r}")
             seen.add(frame)
         return frame, pose
+
+    def edges(self, target: str, source: str) -> list[TfLink]:
+        """The TF transforms :meth:`lookup` composes for ``target``, ``source`` (``[mounts]`` fallbacks left out).
+
+        Only the edges below the frames' lowest common ancestor: e.g. ``odom -> base_link`` above both is not
+        one (it cancels). Empty when the frames are the same or not connected.
+        """
+        target, source = target.lstrip("/"), source.lstrip("/")
+        up_t, up_s = self._chain(target), self._chain(source)
+        if up_t[-1] != up_s[-1]:
+            return []
+        common = set(up_t) & set(up_s)
+        below = [f for f in up_t if f not in common] + [f for f in up_s if f not in common]
+        return [
+            TfLink(self._parent[f][0], f, self._parent[f][1], self._topic.get(f, ""))
+            for f in below
+            if f not in self._fallback
+        ]
+
+    def _chain(self, frame: str) -> list[str]:
+        """``frame`` and its ancestors up to the root (the tree has no cycle: :meth:`_to_root`)."""
+        self._to_root(frame)
+        out = [frame]
+        while out[-1] in self._parent:
+            out.append(self._parent[out[-1]][0])
+        return out
 
     def lookup(self, target: str, source: str) -> Pose2D:
         """Pose of frame ``source`` in frame ``target`` (maps ``source`` points to ``target`` with ``apply``).
@@ -118,3 +204,56 @@ class TfBuffer:
         except TfLookupError:
             return False
         return True
+
+
+@dataclass(frozen=True)
+class MountChange:
+    """A transform of a watched edge off the value a run uses (:class:`MountWatch`)."""
+
+    edge: TfLink
+    pose: Pose2D
+    stamp_ns: int
+    distance_m: float
+    turn_rad: float
+
+
+class MountWatch:
+    """Finds the transforms of a run's mount edges that differ from the values the run uses.
+
+    Parameters
+    ----------
+    edges : iterable of TfLink
+        The edges the run's mounts are made of, each with the value used (:meth:`TfBuffer.edges`); edges
+        without a topic are not watched.
+    tol_m, tol_rad : float
+        A transform moved more than ``tol_m`` (m) or turned more than ``tol_rad`` (rad) is a change.
+    """
+
+    def __init__(self, edges: Iterable[TfLink], *, tol_m: float = MOUNT_CHANGE_M, tol_rad: float = MOUNT_CHANGE_RAD):
+        self.edges = {(e.parent, e.child): e for e in edges if e.topic}
+        self.tol_m, self.tol_rad = tol_m, tol_rad
+
+    @property
+    def topics(self) -> list[str]:
+        """The TF topics the watched edges came from (sorted)."""
+        return sorted({e.topic for e in self.edges.values()})
+
+    def check(self, msg: object) -> list[MountChange]:
+        """The transforms of a ``tf2_msgs/TFMessage`` that change a watched edge (others are ignored)."""
+        out = []
+        for t in getattr(msg, "transforms", None) or []:
+            edge = self.edges.get((str(t.header.frame_id).lstrip("/"), str(t.child_frame_id).lstrip("/")))
+            if edge is None:
+                continue
+            tr, q = t.transform.translation, t.transform.rotation
+            try:
+                x, y = xy_from_translation(tr.x, tr.y, tr.z, edge.name)
+                pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, edge.name))
+            except ValueError:
+                continue  # a broken transform of the edge is not a value the run could have used
+            dist = math.hypot(pose.x - edge.pose.x, pose.y - edge.pose.y)
+            turn = math.atan2(math.sin(pose.yaw - edge.pose.yaw), math.cos(pose.yaw - edge.pose.yaw))
+            if dist > self.tol_m or abs(turn) > self.tol_rad:
+                stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
+                out.append(MountChange(edge, pose, stamp, dist, turn))
+        return out
