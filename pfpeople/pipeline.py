@@ -73,7 +73,7 @@ from pfpeople.adapters import (
     build_detector,
 )
 from pfpeople.bag.config import BagConfig, FilterConfig
-from pfpeople.bag.reader import BagSource, MessageDataError
+from pfpeople.bag.reader import BadScanError, BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import TfBuffer
 from pfpeople.filters import build_classifier, build_people_tracker
@@ -284,6 +284,19 @@ class Pipeline:
                 exc.topic,
                 exc.stamp_ns,
                 d.name,
+            )
+        except BadScanError as exc:  # one warning per topic and reason: the message names the topic
+            count(s.bad_messages, d.name)
+            count(s.no_data, d.name)
+            count(s.bad_scans.setdefault(d.name, {}), exc.reason)
+            self._warn(
+                f"badscan:{d.topic}:{exc.reason}",
+                "detector %s: unusable input (%s); the detectors on %s have no data in such frames (they cover "
+                "no cell; counted in stats.bad_messages and stats.bad_scans.%s)",
+                d.name,
+                exc,
+                d.topic,
+                exc.reason,
             )
         except MessageDataError as exc:  # bad data only: a bug in a detector propagates
             count(s.bad_messages, d.name)
