@@ -82,7 +82,14 @@ from pfpeople.mot.people import point_like, support_positions
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import check_output_paths, deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
-from pfpeople.sensor_setup import TF_PRELOAD_S, SensorSetup, SetupSensors, run_topics, setup_sensors
+from pfpeople.sensor_setup import (
+    TF_PRELOAD_S,
+    SensorSetup,
+    SetupSensors,
+    check_grid_seen,
+    run_topics,
+    setup_sensors,
+)
 from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.sinks import RunInfo, RunOutcome, Sink, close_sinks, open_sinks, standard_sinks
 from pfpeople.suppression import ClutterStage
@@ -244,6 +251,7 @@ class Pipeline:
             self.adapters.append(adapter)
         self.models = [a.model for a in self.adapters]
         self.mounts = [a.mount for a in self.adapters]
+        check_grid_seen(self.spec, self.models, configured=c.grid is not None)
         factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
         self.filter = factory(self.spec, self.models)
         self.classifier = build_classifier(c.classifier, c.filter.mode)

@@ -14,6 +14,10 @@ Before the first frame, :func:`setup_sensors` reads what is fixed for the whole 
 - the grid: ``[grid]``, else the one covering the fields of view of the driving laser and of every laser with a
   detector, each at its mount (:func:`pfpeople.filters.grid_for_scan`, the union of their boxes), else the
   paper's 30 x 30 grid of 0.3 m.
+
+Once the detectors' models are known (:meth:`pfpeople.pipeline.Pipeline.prepare`), :func:`check_grid_seen`
+refuses a grid with no cell inside any detector's field of view (the run could only find nobody; refused rather
+than warned, as no frame of such a run says anything and it fails before any output is written).
 """
 
 from __future__ import annotations
@@ -26,12 +30,22 @@ from typing import Any
 
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
+from gridbridge.measurement import fov_mask
+from gridbridge.params import DetectorModel
 from pfpeople.bag.config import BagConfig, DetectorConfig, check_run_limits
 from pfpeople.bag.reader import IMAGE_TYPES, LASER_TYPES, ODOMETRY_TYPES, BagMessage, BagSource
 from pfpeople.bag.tf import TfBuffer, TfLookupError
 from pfpeople.filters import grid_for_scan
 
-__all__ = ["TF_PRELOAD_S", "SensorSetup", "SetupSensors", "run_topics", "scan_bearings", "setup_sensors"]
+__all__ = [
+    "TF_PRELOAD_S",
+    "SensorSetup",
+    "SetupSensors",
+    "check_grid_seen",
+    "run_topics",
+    "scan_bearings",
+    "setup_sensors",
+]
 
 log = logging.getLogger(__name__)
 
@@ -245,3 +259,46 @@ def _union(specs: Sequence[GridSpec]) -> GridSpec:
     nx = max(round((g.x0 - x0) / res) + g.nx for g in specs)
     ny = max(round((g.y0 - y0) / res) + g.ny for g in specs)
     return GridSpec(nx=nx, ny=ny, resolution=res, x0=x0, y0=y0)
+
+
+def _grid_text(spec: GridSpec) -> str:
+    return (
+        f"x {spec.x0:.2f}..{spec.x1:.2f} m, y {spec.y0:.2f}..{spec.y1:.2f} m "
+        f"({spec.nx} x {spec.ny} cells of {spec.resolution:g} m)"
+    )
+
+
+def _view_text(model: DetectorModel) -> str:
+    return (
+        f"{model.name}: bearings {math.degrees(model.fov_min):.0f}..{math.degrees(model.fov_max):.0f} deg, "
+        f"range {model.min_range:g}..{model.max_range:g} m, from ({model.mount_x:.2f}, {model.mount_y:.2f}) m "
+        f"yaw {math.degrees(model.mount_yaw):.0f} deg"
+    )
+
+
+def check_grid_seen(spec: GridSpec, models: Sequence[DetectorModel], *, configured: bool) -> None:
+    """Refuse a grid without a cell (centre) inside any detector's field of view and range.
+
+    Parameters
+    ----------
+    spec : GridSpec
+        The run's grid (grid frame).
+    models : sequence of DetectorModel
+        The detectors' models, with their mounts in the grid frame.
+    configured : bool
+        True when the grid is the config's ``[grid]`` (named in the error).
+
+    Raises
+    ------
+    ValueError
+        Naming the grid and every detector's field of view, when no detector sees any of its cells.
+    """
+    if not models or any(fov_mask(spec, m).any() for m in models):
+        return
+    where = "[grid]" if configured else "the grid"
+    raise ValueError(
+        f"{where} ({_grid_text(spec)}) has no cell inside any detector's field of view "
+        f"({'; '.join(_view_text(m) for m in models)}; grid frame): the run could only find nobody; move or "
+        "enlarge the grid (x0, y0, nx, ny) to overlap them"
+        + (", or leave [grid] out to size it from the lasers" if configured else "")
+    )

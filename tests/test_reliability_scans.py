@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,7 @@ from rosbags.rosbag1 import Writer as Writer1
 from test_pipeline_bags import T0_NS, _Msgs, _typestore
 from test_reliability_bags import INC, PEOPLE, _legs, legs_only
 
+from gridbridge.grid import GridSpec
 from pfpeople.bag.reader import BadScanError, BagSource, laser_from_msg
 from pfpeople.detectors.synthetic import render_scan
 from pfpeople.pipeline import Pipeline
@@ -183,3 +185,22 @@ def test_a_full_turn_with_the_first_bearing_repeated_is_accepted() -> None:
     with pytest.raises(BadScanError, match="more than a full turn") as info:
         laser_from_msg(two, stamp_ns=T0_NS, frame_id="laser")
     assert info.value.reason == "span"
+
+
+# -- 4. a grid no detector sees --------------------------------------------------------------------------------------
+
+
+def test_grid_no_detector_sees_is_refused_naming_grid_and_views(tmp_path: Path) -> None:
+    """The laser looks forward (-90..90 deg, 10 m); a grid behind it has no cell it covers: refused before any
+    output, naming the grid and the field of view."""
+    bag = tmp_path / "g.bag"
+    write_laser_bag(bag, 2)
+    behind = GridSpec(nx=10, ny=10, resolution=0.3, x0=-20.0, y0=-1.5)
+    with BagSource(bag) as src, pytest.raises(ValueError, match=r"\[grid\] \(x -20.00..-17.00 m.*no cell") as info:
+        Pipeline(legs_only(grid=behind), front_process=False).run(src, tmp_path / "run")
+    assert "legs: bearings -90..90 deg, range 0..10 m" in str(info.value)
+    assert not (tmp_path / "run").exists()
+    ahead = replace(behind, x0=1.0)
+    with BagSource(bag) as src:
+        summary, _ = Pipeline(legs_only(grid=ahead), front_process=False).run(src, None)
+    assert summary.frames == 2
