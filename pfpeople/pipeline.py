@@ -89,6 +89,7 @@ from pfpeople.sensor_setup import (
     check_grid_seen,
     run_topics,
     setup_sensors,
+    warn_coarse_lasers,
 )
 from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.sinks import RunInfo, RunOutcome, Sink, close_sinks, open_sinks, standard_sinks
@@ -252,6 +253,7 @@ class Pipeline:
         self.models = [a.model for a in self.adapters]
         self.mounts = [a.mount for a in self.adapters]
         check_grid_seen(self.spec, self.models, configured=c.grid is not None)
+        warn_coarse_lasers(self.adapters, setup.first)
         factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
         self.filter = factory(self.spec, self.models)
         self.classifier = build_classifier(c.classifier, c.filter.mode)

@@ -22,6 +22,7 @@ from test_reliability_bags import INC, PEOPLE, _legs, legs_only
 
 from gridbridge.grid import GridSpec
 from pfpeople.bag.reader import BadScanError, BagSource, laser_from_msg
+from pfpeople.detectors.legs import LegDetectorParams, leg_beam_range
 from pfpeople.detectors.synthetic import render_scan
 from pfpeople.pipeline import Pipeline
 
@@ -204,3 +205,32 @@ def test_grid_no_detector_sees_is_refused_naming_grid_and_views(tmp_path: Path) 
     with BagSource(bag) as src:
         summary, _ = Pipeline(legs_only(grid=ahead), front_process=False).run(src, None)
     assert summary.frames == 2
+
+
+# -- 5. beams too coarse for the leg detector --------------------------------------------------------------------------
+
+
+def test_leg_beam_range_follows_far_leg_width() -> None:
+    p = LegDetectorParams()
+    assert leg_beam_range(p, math.radians(1.0)) == pytest.approx(0.10 / (3 * math.radians(1.0)))
+    assert leg_beam_range(p, -math.radians(0.5)) == pytest.approx(3.82, abs=0.01)
+    assert leg_beam_range(replace(p, far_leg_width=0.0), math.radians(1.0)) == pytest.approx(
+        0.10 / (4 * math.radians(1.0))
+    )
+
+
+def test_coarse_360_laser_is_warned_once_at_the_start(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """A 1 deg, 360 deg low-cost laser: a 0.1 m leg gets under 3 returns beyond 1.91 m; warned once, naming the
+    topic, its spacing and that range. A 0.5 deg laser (3.82 m) is not warned about."""
+    bag = tmp_path / "coarse.bag"
+    write_laser_bag(bag, 3, angle_min=-math.pi, angle_max=math.pi - math.radians(1.0), inc=math.radians(1.0))
+    summary, _ = _run(bag, caplog)
+    assert summary.frames == 3 and summary.bad_messages == {}
+    text = caplog.text
+    assert text.count("too coarse for the leg detector") == 1
+    assert "topic /scan: beam spacing 1 deg" in text and "fewer than 3 returns beyond 1.91 m" in text
+    caplog.clear()
+    fine = tmp_path / "fine.bag"
+    write_laser_bag(fine, 2)
+    _run(fine, caplog)
+    assert "too coarse" not in caplog.text
