@@ -58,6 +58,7 @@ FRONT_COUNTERS = (
     "no_data",
     "empty_scans",
     "bad_messages",
+    "bad_scans",
     "frames_without_odometry",
     "filter_restarts",
     "odometry_jumps",

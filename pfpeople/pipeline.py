@@ -78,7 +78,7 @@ from pfpeople.adapters import (
     build_detector,
 )
 from pfpeople.bag.config import BagConfig, FilterConfig
-from pfpeople.bag.reader import BagMessage, BagSource, MessageDataError
+from pfpeople.bag.reader import BadScanError, BagMessage, BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import MountWatch, TfBuffer
 from pfpeople.filters import build_classifier, build_people_tracker
@@ -87,7 +87,15 @@ from pfpeople.mot.people import point_like, support_positions
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import check_output_paths, deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
-from pfpeople.sensor_setup import TF_PRELOAD_S, SensorSetup, SetupSensors, run_topics, setup_sensors
+from pfpeople.sensor_setup import (
+    TF_PRELOAD_S,
+    SensorSetup,
+    SetupSensors,
+    check_grid_seen,
+    run_topics,
+    setup_sensors,
+    warn_coarse_lasers,
+)
 from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.sinks import RunInfo, RunOutcome, Sink, close_sinks, open_sinks, standard_sinks
 from pfpeople.suppression import ClutterStage
@@ -256,6 +264,8 @@ class Pipeline:
             self.adapters.append(adapter)
         self.models = [a.model for a in self.adapters]
         self.mounts = [a.mount for a in self.adapters]
+        check_grid_seen(self.spec, self.models, configured=c.grid is not None)
+        warn_coarse_lasers(self.adapters, setup.first)
         factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
         self.filter = factory(self.spec, self.models)
         self.classifier = build_classifier(c.classifier, c.filter.mode)
@@ -334,6 +344,19 @@ class Pipeline:
                 exc.topic,
                 exc.stamp_ns,
                 d.name,
+            )
+        except BadScanError as exc:  # one warning per topic and reason: the message names the topic
+            count(s.bad_messages, d.name)
+            count(s.no_data, d.name)
+            count(s.bad_scans.setdefault(d.name, {}), exc.reason)
+            self._warn(
+                f"badscan:{d.topic}:{exc.reason}",
+                "detector %s: unusable input (%s); the detectors on %s have no data in such frames (they cover "
+                "no cell; counted in stats.bad_messages and stats.bad_scans.%s)",
+                d.name,
+                exc,
+                d.topic,
+                exc.reason,
             )
         except MessageDataError as exc:  # bad data only: a bug in a detector propagates
             count(s.bad_messages, d.name)

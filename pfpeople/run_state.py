@@ -94,6 +94,10 @@ class RunSummary:
     failed or skipped scan match, or the first frame of the run or after a restart, which have no previous
     frame); the three add up to the frames processed.
 
+    ``bad_scans`` counts, per detector and reason (``beam_count``, ``span``, ``no_return``: see
+    :class:`pfpeople.bag.reader.BadScanError`), the LaserScans refused for contradicting their angles or holding
+    no usable range; they are in ``bad_messages`` and ``no_data`` too.
+
     ``max_lateral_m`` is the largest sideways displacement (m) of the grid frame in one step (the chord across
     the step's mean heading, :func:`pfpeople.odometry.odometry_between`), large for a driving laser mounted off
     the robot's rotation axis and yawed. Informative: the filters apply it (``Odometry.vy``, ``vy_mps`` in
@@ -112,6 +116,7 @@ class RunSummary:
     no_data: dict[str, int] = field(default_factory=dict)
     empty_scans: dict[str, int] = field(default_factory=dict)
     bad_messages: dict[str, int] = field(default_factory=dict)
+    bad_scans: dict[str, dict[str, int]] = field(default_factory=dict)
     frames_without_odometry: int = 0
     filter_restarts: int = 0
     odometry_jumps: int = 0

@@ -14,6 +14,12 @@ Before the first frame, :func:`setup_sensors` reads what is fixed for the whole 
 - the grid: ``[grid]``, else the one covering the fields of view of the driving laser and of every laser with a
   detector, each at its mount (:func:`pfpeople.filters.grid_for_scan`, the union of their boxes), else the
   paper's 30 x 30 grid of 0.3 m.
+
+Once the detectors' models are known (:meth:`pfpeople.pipeline.Pipeline.prepare`), two checks of the setup as a
+whole: :func:`check_grid_seen` refuses a grid with no cell inside any detector's field of view (the run could
+only find nobody; refused rather than warned, as no frame of such a run says anything and it fails before any
+output is written), and :func:`warn_coarse_lasers` warns once per topic when a leg detector's laser is too coarse
+to put :data:`pfpeople.detectors.legs.MIN_LEG_BEAMS` returns on a leg within :data:`MIN_LEG_RANGE_M`.
 """
 
 from __future__ import annotations
@@ -26,17 +32,34 @@ from typing import Any
 
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
+from gridbridge.measurement import fov_mask
+from gridbridge.params import DetectorModel
+from pfpeople.adapters import DetectorAdapter
 from pfpeople.bag.config import BagConfig, DetectorConfig, check_run_limits
 from pfpeople.bag.reader import IMAGE_TYPES, LASER_TYPES, ODOMETRY_TYPES, BagMessage, BagSource
 from pfpeople.bag.tf import TfBuffer, TfLookupError
+from pfpeople.detectors.legs import MIN_LEG_BEAMS, LegDetectorParams, leg_beam_range
 from pfpeople.filters import grid_for_scan
 
-__all__ = ["TF_PRELOAD_S", "SensorSetup", "SetupSensors", "run_topics", "scan_bearings", "setup_sensors"]
+__all__ = [
+    "MIN_LEG_RANGE_M",
+    "TF_PRELOAD_S",
+    "SensorSetup",
+    "SetupSensors",
+    "check_grid_seen",
+    "run_topics",
+    "scan_bearings",
+    "setup_sensors",
+    "warn_coarse_lasers",
+]
 
 log = logging.getLogger(__name__)
 
 #: TF on /tf (not static) read before the run to find sensor mounts: the first this many seconds of the bag.
 TF_PRELOAD_S = 1.0
+#: A leg detector should get :data:`~pfpeople.detectors.legs.MIN_LEG_BEAMS` returns on a leg out to this range (m):
+#: people this near a robot are the least it must see (0.5 deg gives 3.8 m, 1 deg 1.9 m).
+MIN_LEG_RANGE_M = 3.0
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -245,3 +268,103 @@ def _union(specs: Sequence[GridSpec]) -> GridSpec:
     nx = max(round((g.x0 - x0) / res) + g.nx for g in specs)
     ny = max(round((g.y0 - y0) / res) + g.ny for g in specs)
     return GridSpec(nx=nx, ny=ny, resolution=res, x0=x0, y0=y0)
+
+
+def _grid_text(spec: GridSpec) -> str:
+    return (
+        f"x {spec.x0:.2f}..{spec.x1:.2f} m, y {spec.y0:.2f}..{spec.y1:.2f} m "
+        f"({spec.nx} x {spec.ny} cells of {spec.resolution:g} m)"
+    )
+
+
+def _view_text(model: DetectorModel) -> str:
+    return (
+        f"{model.name}: bearings {math.degrees(model.fov_min):.0f}..{math.degrees(model.fov_max):.0f} deg, "
+        f"range {model.min_range:g}..{model.max_range:g} m, from ({model.mount_x:.2f}, {model.mount_y:.2f}) m "
+        f"yaw {math.degrees(model.mount_yaw):.0f} deg"
+    )
+
+
+def check_grid_seen(spec: GridSpec, models: Sequence[DetectorModel], *, configured: bool) -> None:
+    """Refuse a grid without a cell (centre) inside any detector's field of view and range.
+
+    Parameters
+    ----------
+    spec : GridSpec
+        The run's grid (grid frame).
+    models : sequence of DetectorModel
+        The detectors' models, with their mounts in the grid frame.
+    configured : bool
+        True when the grid is the config's ``[grid]`` (named in the error).
+
+    Raises
+    ------
+    ValueError
+        Naming the grid and every detector's field of view, when no detector sees any of its cells.
+    """
+    if not models or any(fov_mask(spec, m).any() for m in models):
+        return
+    where = "[grid]" if configured else "the grid"
+    raise ValueError(
+        f"{where} ({_grid_text(spec)}) has no cell inside any detector's field of view "
+        f"({'; '.join(_view_text(m) for m in models)}; grid frame): the run could only find nobody; move or "
+        "enlarge the grid (x0, y0, nx, ny) to overlap them"
+        + (", or leave [grid] out to size it from the lasers" if configured else "")
+    )
+
+
+def _leg_params(detector: object) -> LegDetectorParams | None:
+    """The leg tests' thresholds of a detector (a ``LegDetector``, or a single-leg detector built on one)."""
+    for obj in (detector, getattr(detector, "legs", None)):
+        params = getattr(obj, "params", None)
+        if isinstance(params, LegDetectorParams):
+            return params
+    return None
+
+
+def warn_coarse_lasers(adapters: Sequence[DetectorAdapter], first: Mapping[str, BagMessage]) -> list[str]:
+    """Warn once per topic whose beam spacing gives a leg too few returns for a leg detector on it.
+
+    A leg ``far_leg_width`` wide gets fewer than :data:`~pfpeople.detectors.legs.MIN_LEG_BEAMS` beams beyond
+    :func:`~pfpeople.detectors.legs.leg_beam_range`; the warning is given when that range is below
+    :data:`MIN_LEG_RANGE_M` and the detector's ``max_range``.
+
+    Parameters
+    ----------
+    adapters : sequence of DetectorAdapter
+        The run's detectors.
+    first : mapping of str to BagMessage
+        The first message of each topic (the spacing of a topic's first LaserScan is used).
+
+    Returns
+    -------
+    list of str
+        The topics warned about.
+    """
+    warned: list[str] = []
+    for a in adapters:
+        topic, params, msg = a.config.topic, _leg_params(a.detector), first.get(a.config.topic)
+        if params is None or msg is None or msg.msgtype not in LASER_TYPES or topic in warned:
+            continue
+        inc = abs(float(msg.msg.angle_increment))
+        reach = leg_beam_range(params, inc)
+        if not reach < min(MIN_LEG_RANGE_M, a.model.max_range):
+            continue
+        warned.append(topic)
+        log.warning(
+            "topic %s: beam spacing %.3g deg is too coarse for the leg detector %s: a leg %.2f m wide gets fewer "
+            "than %d returns beyond %.2f m (floor(width / (range * spacing))), so it finds almost nobody farther "
+            "than that (far leg blobs start at far_from = %g m); use a laser or driver setting with a finer spacing "
+            "(%.3g deg gives %d returns out to %g m)",
+            topic,
+            math.degrees(inc),
+            a.config.name,
+            params.far_leg_width or LegDetectorParams().far_leg_width,
+            MIN_LEG_BEAMS,
+            reach,
+            params.far_from,
+            math.degrees(inc) * reach / MIN_LEG_RANGE_M,
+            MIN_LEG_BEAMS,
+            MIN_LEG_RANGE_M,
+        )
+    return warned

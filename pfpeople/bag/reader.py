@@ -34,6 +34,15 @@ Damaged input (every error names the file, member or topic):
   nothing: REP 117 NaN is an erroneous measurement, unlike +inf "no return") and odometry with implausible
   coordinates (beyond :data:`MAX_ODOMETRY_COORD_M`) raise ``ValueError`` naming the topic: the pipeline counts
   such messages and treats the detector as having no data (not as "saw nobody").
+- LaserScans whose beams contradict their angles raise :class:`BadScanError` (a ``MessageDataError``, with a
+  ``reason``), handled the same way (also counted per reason in ``run.json`` ``stats.bad_scans``):
+  ``beam_count``: ``len(ranges)`` differs by more than :data:`MAX_BEAM_MISMATCH` beam from
+  ``(angle_max - angle_min) / angle_increment + 1`` (drivers differ by one on whether ``angle_max`` is the last
+  beam's bearing or one step past it; more is a wrong increment or a truncated message, whose missing sector
+  would otherwise count as seen empty); ``span``: the beams span more than a full turn,
+  ``|angle_increment| (n - 1) > 2 pi`` plus one beam (a wrong increment; one repeated bearing is accepted);
+  ``no_return``: no beam is usable, every range NaN or below ``range_min`` (negative included) and none a
+  "no return" (``+inf`` or ``range_max`` and beyond): the sensor gave nothing to see free space or people with.
 """
 
 from __future__ import annotations
@@ -63,6 +72,7 @@ from gridbridge.geometry import Pose2D, yaw_from_orientation
 from pfpeople.sensors import CameraImage, LaserScan
 
 __all__ = [
+    "BadScanError",
     "BagMessage",
     "BagReadError",
     "BagSource",
@@ -95,6 +105,27 @@ class MessageDataError(ValueError):
     """
 
 
+class BadScanError(MessageDataError):
+    """A LaserScan whose beams contradict its angles or hold no usable range (see the module docstring).
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, naming the topic.
+    reason : {"beam_count", "span", "no_return"}
+        Which check failed (the key of its count in ``stats.bad_scans``).
+    """
+
+    def __init__(self, message: str, reason: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+    def __reduce__(self) -> tuple[type[BadScanError], tuple[str, str]]:
+        return type(self), (str(self), self.reason)
+
+
+#: Beams by which ``len(ranges)`` may differ from ``(angle_max - angle_min) / angle_increment + 1``.
+MAX_BEAM_MISMATCH = 1.0
 #: Largest uncompressed zip member extracted (bytes); ``$PFPEOPLE_MAX_ZIP_BYTES`` overrides.
 MAX_ZIP_MEMBER_BYTES = 64 * 2**30
 #: Largest compression ratio accepted for a member larger than :data:`ZIP_RATIO_MIN_BYTES` (bags compress
@@ -474,8 +505,8 @@ def laser_from_msg(msg: Any, *, stamp_ns: int, frame_id: str, topic: str = "") -
             f"{where} has range_min={rmin!r} > range_max={rmax!r} or a NaN bound: every beam would be invalid "
             "(fix the driver's range parameters)"
         )
-    if ranges.size and np.isnan(ranges).all():
-        raise MessageDataError(f"{where}: all {ranges.size} ranges are NaN (the sensor measured nothing)")
+    if ranges.size:
+        _check_scan_beams(msg, ranges, rmin, rmax, where)
     try:
         return LaserScan(
             ranges=ranges,
@@ -490,6 +521,49 @@ def laser_from_msg(msg: Any, *, stamp_ns: int, frame_id: str, topic: str = "") -
         raise MessageDataError(f"topic {topic!r}: {type(msg).__name__} is not a sensor_msgs/LaserScan") from None
     except ValueError as exc:
         raise MessageDataError(f"topic {topic!r}: bad LaserScan at stamp {stamp_ns} ns: {exc}") from None
+
+
+def _check_scan_beams(msg: Any, ranges: NDArray[np.float64], rmin: float, rmax: float, where: str) -> None:
+    """Refuse a non-empty scan whose beam count or span contradicts its angles, or without a usable range.
+
+    Raises
+    ------
+    BadScanError
+        With ``reason`` ``"span"``, ``"beam_count"`` or ``"no_return"`` (see the module docstring).
+    MessageDataError
+        If the angles are not numbers.
+    """
+    n = ranges.size
+    try:
+        a0, a1, inc = float(msg.angle_min), float(msg.angle_max), float(msg.angle_increment)
+    except (AttributeError, TypeError, ValueError):
+        raise MessageDataError(f"{where}: angle_min, angle_max or angle_increment is missing or not a number") from None
+    span = abs(inc) * (n - 1)
+    if span > 2 * math.pi + abs(inc) + 1e-6:
+        raise BadScanError(
+            f"{where}: {n} beams at angle_increment={inc!r} rad span {math.degrees(span):.1f} deg, more than a full "
+            "turn (a wrong angle_increment?); message refused",
+            "span",
+        )
+    if n > 1 and inc != 0.0:
+        expected = (a1 - a0) / inc + 1.0
+        if not abs(n - expected) <= MAX_BEAM_MISMATCH + 1e-6:
+            raise BadScanError(
+                f"{where}: {n} ranges, but angle_min={a0!r}, angle_max={a1!r}, angle_increment={inc!r} give "
+                f"{expected:.1f} beams (more than {MAX_BEAM_MISMATCH:.0f} beam apart: a truncated message or a wrong "
+                "increment); message refused",
+                "beam_count",
+            )
+    with np.errstate(invalid="ignore"):
+        usable = ranges >= rmin  # a return, or a "no return" (+inf, range_max and beyond): not NaN, not too close
+    if not usable.any():
+        if np.isnan(ranges).all():
+            raise BadScanError(f"{where}: all {n} ranges are NaN (the sensor measured nothing)", "no_return")
+        raise BadScanError(
+            f"{where}: no usable range: all {n} ranges are NaN or below range_min={rmin!r} (negative included), "
+            "none a return or a 'no return' (+inf, range_max and beyond)",
+            "no_return",
+        )
 
 
 _ENCODINGS = {

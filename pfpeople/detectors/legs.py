@@ -95,11 +95,13 @@ from pfpeople.detectors.segments import (
 from pfpeople.sensors import LaserScan
 
 __all__ = [
+    "MIN_LEG_BEAMS",
     "LegDetector",
     "LegDetectorParams",
     "PairingParams",
     "far_leg_blobs",
     "far_people",
+    "leg_beam_range",
     "pair_legs",
     "people_and_single_legs",
     "people_from_legs",
@@ -109,6 +111,8 @@ _F = {name: k for k, name in enumerate(FEATURE_NAMES)}
 
 #: A far person within this distance (m) of a person the leg tests found is that person (:func:`far_people`).
 FAR_DUPLICATE = 0.3
+#: The fewest returns a leg candidate has (the floor under ``far_leg_width`` in :meth:`LegDetector.leg_mask`).
+MIN_LEG_BEAMS = 3
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -188,6 +192,28 @@ class LegDetectorParams:
         for lo, hi in (("min_width", "max_width"), ("min_radius", "max_radius"), ("min_iav", "max_iav")):
             if getattr(self, lo) >= getattr(self, hi):
                 raise ValueError(f"LegDetectorParams.{lo} must be below {hi}")
+
+
+def leg_beam_range(params: LegDetectorParams, angle_increment: float) -> float:
+    """The range (m) beyond which a leg gives too few returns for the leg tests, at a beam spacing (rad).
+
+    A leg ``far_leg_width`` wide at range ``r`` gets ``floor(far_leg_width / (r d_phi))`` beams; the tests need
+    :data:`MIN_LEG_BEAMS` (``min_points`` when ``far_leg_width = 0``, for a leg of the default width), so beyond
+    ``width / (beams d_phi)`` a leg is found only as a far leg blob (from ``far_from`` on). ``inf`` for a spacing
+    of 0.
+
+    Parameters
+    ----------
+    params : LegDetectorParams
+        The detector's thresholds.
+    angle_increment : float
+        The scan's beam spacing (rad; its sign is ignored).
+    """
+    width, beams = params.far_leg_width, MIN_LEG_BEAMS
+    if width <= 0:
+        width, beams = LegDetectorParams().far_leg_width, params.min_points
+    inc = abs(angle_increment)
+    return width / (beams * inc) if inc > 0 else math.inf
 
 
 def far_leg_blobs(scan: LaserScan, params: LegDetectorParams) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -373,7 +399,7 @@ class LegDetector:
         need: Any = p.min_points
         if p.far_leg_width > 0 and angle_increment is not None and angle_increment > 0:
             expected = np.floor(p.far_leg_width / (np.maximum(f[:, _F["distance"]], 1e-3) * angle_increment))
-            need = np.clip(expected, 3, p.min_points)
+            need = np.clip(expected, MIN_LEG_BEAMS, p.min_points)
         w = f[:, _F["width"]]
         r = f[:, _F["radius"]]
         iav = f[:, _F["iav"]]
