@@ -40,7 +40,16 @@ from numpy.typing import NDArray
 from pfpeople.output import RunData
 from pfpeople.sensors import Pose2D
 
-__all__ = ["KEY_COLUMNS", "GroundTruth", "gt_to_grid", "read_gt_csv", "resolve_gt_frame", "truth_per_frame"]
+__all__ = [
+    "KEY_COLUMNS",
+    "GroundTruth",
+    "StampCheck",
+    "gt_to_grid",
+    "read_gt_csv",
+    "resolve_gt_frame",
+    "stamp_agreement",
+    "truth_per_frame",
+]
 
 KEY_COLUMNS = ("scan_index", "stamp_ns", "bag_time_ns")
 
@@ -61,6 +70,13 @@ class GroundTruth:
     frame : str or None
         Frame named by the column names (``x_<frame>_m``), None for plain ``x``/``y``.
     path : Path
+    stamp_column : {"stamp_ns", "bag_time_ns"} or None
+        For rows keyed by ``scan_index``: the time column the file also has (``stamp_ns`` preferred), which
+        :func:`stamp_agreement` checks against the run's frames; None when the file has neither.
+    stamps : ndarray, shape (N,), int64, or None
+        That column's values.
+    lines : ndarray, shape (N,), int64, or None
+        File line of each row (for error messages).
     """
 
     key: str
@@ -69,6 +85,9 @@ class GroundTruth:
     xy: NDArray[np.float64]
     frame: str | None
     path: Path
+    stamp_column: str | None = None
+    stamps: NDArray[np.int64] | None = None
+    lines: NDArray[np.int64] | None = None
 
     def __len__(self) -> int:
         return int(self.keys.size)
@@ -136,6 +155,78 @@ class GroundTruth:
         return self.keys > last + tolerance_ns
 
 
+@dataclass(frozen=True, eq=False)
+class StampCheck:
+    """How the time column of a ``scan_index``-keyed ground truth agrees with the run frames it is matched to.
+
+    Attributes
+    ----------
+    column : {"stamp_ns", "bag_time_ns"}
+        The GT column, compared with the run frames' column of the same name.
+    checked : int
+        GT rows matched to a run frame (the rows compared).
+    disagree : ndarray, shape (N,), bool
+        Matched rows whose time lies outside the window (never true for unmatched rows).
+    delta_ns : ndarray, shape (N,), int64
+        GT time minus the matched frame's time (0 for unmatched rows).
+    period_ns : int
+        Median frame period of the run.
+    window_ns : tuple of int
+        Agreeing ``delta_ns`` lie in ``[lo, hi)`` (``stamp_ns``: +- half a period, both ends included) .
+    """
+
+    column: str
+    checked: int
+    disagree: NDArray[np.bool_]
+    delta_ns: NDArray[np.int64]
+    period_ns: int
+    window_ns: tuple[int, int]
+
+    def offset_frames(self, row: int) -> int:
+        """Offset of row ``row`` in frame periods: the nearest for ``stamp_ns``, those whole for ``bag_time_ns``."""
+        ratio = float(self.delta_ns[row]) / self.period_ns
+        return round(ratio) if self.column == "stamp_ns" else math.floor(ratio)
+
+
+def stamp_agreement(
+    gt: GroundTruth, frame_of_row: NDArray[np.int64], stamp_ns: NDArray[np.int64], bag_time_ns: NDArray[np.int64]
+) -> StampCheck | None:
+    """Check the time column of a ``scan_index``-keyed ground truth against the run frames its rows are on.
+
+    ``stamp_ns`` agrees with the frame's ``stamp_ns`` within half the run's median frame period. ``bag_time_ns``
+    is a record time at or after its scan's (the leg_tracker GT messages are recorded about half a period after
+    their scan): it agrees from a quarter period before the frame's ``bag_time_ns`` to one period after.
+
+    Parameters
+    ----------
+    gt : GroundTruth
+    frame_of_row : ndarray, shape (N,), int64
+        Run frame of every GT row, -1 where none (:meth:`GroundTruth.assign`).
+    stamp_ns, bag_time_ns : ndarray, shape (F,)
+        The run's frames (``frames.csv`` columns).
+
+    Returns
+    -------
+    StampCheck or None
+        None when there is nothing to check: rows not keyed by ``scan_index``, no time column, fewer than two
+        run frames (no period).
+    """
+    if gt.stamp_column is None or gt.stamps is None or len(stamp_ns) < 2:
+        return None
+    ref = np.asarray(stamp_ns if gt.stamp_column == "stamp_ns" else bag_time_ns, dtype=np.int64)
+    period = int(np.median(np.diff(ref)))
+    if period <= 0:
+        return None
+    matched = frame_of_row >= 0
+    delta = np.where(matched, gt.stamps - ref[np.maximum(frame_of_row, 0)], 0).astype(np.int64)
+    if gt.stamp_column == "stamp_ns":
+        lo, hi = -(period // 2), period // 2 + 1
+    else:
+        lo, hi = -(period // 4), period
+    disagree = matched & ((delta < lo) | (delta >= hi))
+    return StampCheck(gt.stamp_column, int(matched.sum()), disagree, delta, period, (lo, hi))
+
+
 def _int(value: str, path: Path, line: int, col: str) -> int:
     try:
         return int(value)
@@ -196,17 +287,19 @@ def _position_columns(path: Path, cols: list[str], frame: str | None) -> tuple[s
 
 
 def _read_rows(
-    reader: Iterator[list[str]], path: Path, cols: list[str], key: str, xc: str, yc: str
-) -> tuple[list[int], list[int], list[tuple[float, float]]]:
-    """Keys, person ids and positions of the data rows; errors name the file and line.
+    reader: Iterator[list[str]], path: Path, cols: list[str], key: str, xc: str, yc: str, stamp: str | None
+) -> tuple[list[int], list[int], list[tuple[float, float]], list[int], list[int]]:
+    """Keys, person ids, positions, ``stamp`` column values (empty when None) and file lines of the data rows.
 
-    A negative key, and a row repeating the key and person id of an earlier row (which would count that person
-    twice), are refused naming both lines.
+    Errors name the file and line. A negative key, and a row repeating the key and person id of an earlier
+    row (which would count that person twice), are refused naming both lines.
     """
     ik, ip, ix, iy = (cols.index(c) for c in (key, "person_id", xc, yc))
     keys: list[int] = []
     ids: list[int] = []
     xy: list[tuple[float, float]] = []
+    stamps: list[int] = []
+    lines: list[int] = []
     first_line: dict[tuple[int, int], int] = {}
     for line, row in enumerate(reader, start=2):
         if not row:
@@ -228,10 +321,13 @@ def _read_rows(
             raise ValueError(f"{path}: line {line}: {xc}/{yc} must be numbers, got {row[ix]!r}, {row[iy]!r}") from None
         if not (math.isfinite(x) and math.isfinite(y)):
             raise ValueError(f"{path}: line {line}: position is not finite ({x}, {y})")
+        if stamp is not None:
+            stamps.append(_int(row[cols.index(stamp)], path, line, stamp))
         keys.append(k)
         ids.append(pid)
         xy.append((x, y))
-    return keys, ids, xy
+        lines.append(line)
+    return keys, ids, xy, stamps, lines
 
 
 def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
@@ -266,7 +362,8 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
         if "person_id" not in cols:
             raise ValueError(f"{path}: needs a person_id column; has {cols}")
         xc, yc, frame = _position_columns(path, cols, frame)
-        keys, ids, xy = _read_rows(reader, path, cols, key, xc, yc)
+        stamp = next((c for c in KEY_COLUMNS[1:] if c in cols), None) if key == "scan_index" else None
+        keys, ids, xy, stamps, lines = _read_rows(reader, path, cols, key, xc, yc, stamp)
     if not keys:
         raise ValueError(f"{path}: no ground-truth rows (only a header): nothing to score against")
     return GroundTruth(
@@ -276,6 +373,9 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
         xy=np.array(xy, dtype=float).reshape(-1, 2),
         frame=frame,
         path=path,
+        stamp_column=stamp,
+        stamps=np.array(stamps, dtype=np.int64) if stamp is not None else None,
+        lines=np.array(lines, dtype=np.int64),
     )
 
 

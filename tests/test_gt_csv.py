@@ -101,6 +101,7 @@ def test_gt_beyond_a_run_cut_short_is_reported(
         "gt_frames_without_run_frame": 6,
         "gt_frames_beyond_run": 6,
         "gt_rows_beyond_run": 7,
+        "gt_rows_stamp_mismatch": 0,
     }
     with caplog.at_level(logging.WARNING, logger="evaluation.run_truth"):
         result = score_run(run, gt)

@@ -22,6 +22,11 @@ be one the run recorded (``frames_in_grid`` in ``run.json``).
 Coverage: the score says how many GT frames had no run frame (``gt_frames_without_run_frame``) and how many
 lie after the run's last frame (``gt_frames_beyond_run``: a run stopped early or a ``frames.csv`` cut short);
 the latter are also logged as a warning.
+
+Stamps: a GT keyed by ``scan_index`` that also has ``stamp_ns`` (or ``bag_time_ns``) is checked against the
+run's frames (:func:`evaluation.run_truth.check_gt_stamps`): more than 10 % of the matched rows disagreeing (a
+shifted ``scan_index``, the GT of another recording) is an error naming the first such line and the offset;
+fewer are counted (``gt_rows_stamp_mismatch``) and logged as a warning.
 """
 
 from __future__ import annotations
@@ -80,7 +85,8 @@ def score_run(
     -------
     dict
         ``{"frames": F, "gt_rows": R, "gt_rows_unassigned": U, "gt_frames": G, "gt_frames_without_run_frame": M,
-        "gt_frames_beyond_run": B, "gt_rows_beyond_run": RB, "gt_frame": name, "scores": {name: summary}}``
+        "gt_frames_beyond_run": B, "gt_rows_beyond_run": RB, "gt_rows_stamp_mismatch": S, "gt_frame": name,
+        "scores": {name: summary}}``
         (see :func:`evaluation.run_truth.gt_coverage`) where ``name`` is each detector and ``"filter"``; a
         summary has frames, tp, fp, fn, recall, mean_match_distance_m and (unless ``recall_only``) precision
         and, for the filter, fpcpf.
@@ -158,6 +164,8 @@ def _score(args: argparse.Namespace) -> int:
             else ""
         )
     )
+    if result["gt_rows_stamp_mismatch"]:
+        print(f"GT rows whose stamp disagrees with their run frame's: {result['gt_rows_stamp_mismatch']}")
     cols = ["tp", "fp", "fn", "recall"] + ([] if args.recall_only else ["precision", "fpcpf"])
     print(f"{'source':<18}" + "".join(f"{c:>10}" for c in cols))
     for name, s in result["scores"].items():
