@@ -45,6 +45,7 @@ __all__ = [
     "ROW_COLUMNS",
     "TABLE_SUFFIXES",
     "check_cluster_args",
+    "check_out_dir",
     "check_table_path",
     "dashboard_available",
     "dask_client",
@@ -273,6 +274,36 @@ def run_bag(
     return row
 
 
+def check_out_dir(path: str | Path) -> Path:
+    """The batch output folder ``path``, checked before anything runs: it must be, or be creatable as, a folder.
+
+    Parameters
+    ----------
+    path : path
+        ``--out``: a new folder, or one holding earlier runs.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        When ``path`` is an existing file (not a folder), or one of its parents is: naming both.
+    """
+    p = Path(path)
+    for q in (p, *p.parents):
+        if q.exists() and not q.is_dir():
+            what = "is a file, not a folder" if q == p else f"cannot be a folder: its parent {str(q)!r} is a file"
+            raise ValueError(
+                f"--out {str(p)!r} {what}; give a folder for the run directories (new or holding earlier runs)"
+            )
+        if q.is_dir():
+            break
+    return p
+
+
 def check_table_path(path: str | Path) -> Path:
     """A results table path: ``.csv`` or ``.parquet`` (needs pyarrow), in an existing or creatable folder."""
     p = Path(path)
@@ -360,7 +391,7 @@ def run_batch(
         raise TypeError(f"config must be a BagConfig, got {type(config).__name__}")
     if client is None:
         check_cluster_args(scheduler, workers)
-    out = Path(out_dir).absolute()
+    out = check_out_dir(out_dir).absolute()
     names = run_dir_names(bags)
     run_dirs = [out / n for n in names]
     if not overwrite:

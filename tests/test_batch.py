@@ -164,3 +164,21 @@ def test_dask_quiet_by_default_and_no_dashboard_link_without_bokeh(
     messages = [r.getMessage() for r in distributed_log.records]
     assert any("Scheduler at" in m for m in messages), messages
     assert not any("dashboard" in m.lower() for m in messages), [m for m in messages if "dashboard" in m.lower()]
+
+
+def test_batch_out_that_is_a_file_is_refused_naming_it(
+    tmp_path: Path, bags: list[Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--out FILE`` gave a bare "[Errno 17] File exists"; refused before any cluster starts."""
+    from pfpeople.cli import main
+
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text('[frames]\ndriver = "/scan"\n[[detectors]]\nname = "laser-legs"\nkind = "leg"\ntopic = "/scan"\n')
+    afile = tmp_path / "out.txt"
+    afile.write_text("not a folder\n")
+    for out, what in ((afile, "is a file, not a folder"), (afile / "sub", f"its parent {str(afile)!r} is a file")):
+        argv = ["batch", str(bags[0]), "--config", str(cfg), "--out", str(out), "--no-progress"]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert f"--out {str(out)!r}" in err and what in err and "Errno" not in err
+    assert afile.read_text() == "not a folder\n"
