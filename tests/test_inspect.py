@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
 from dataclasses import replace
 from pathlib import Path
 
@@ -128,6 +129,20 @@ def test_inspect_command_json_config_and_errors(tmp_path: Path, capsys: pytest.C
     assert f"cannot open bag {str(junk)!r}" in capsys.readouterr().err
     assert main(["inspect", str(tmp_path / "missing.bag")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_the_suggested_run_command_quotes_paths_for_the_shell(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = tmp_path / "my bags"
+    folder.mkdir()
+    bag, cfg = folder / "b 1.bag", folder / "it's.toml"
+    write_bag(bag, n_scans=3)
+    assert main(["inspect", str(bag), "--write-config", str(cfg)]) == 0
+    err = capsys.readouterr().err
+    line = next(t for t in err.splitlines() if "run it with" in t)
+    suggested = line.split("run it with", 1)[1].strip()
+    assert shlex.split(suggested) == ["pfpeople", "run", str(bag), "--config", str(cfg)]
 
 
 @pytest.mark.realdata

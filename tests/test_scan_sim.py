@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import shlex
 from dataclasses import replace
 from pathlib import Path
 
@@ -440,3 +441,16 @@ def test_simulate_bag_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     with pytest.raises(ValueError, match="--frames must be >= 1"):
         args = parser.parse_args([*argv[:5], "0"])
         args.func(args)
+
+
+def test_simulate_bag_next_commands_quote_paths(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    parser = argparse.ArgumentParser()
+    simulate_bag.add_parser(parser.add_subparsers())
+    out = tmp_path / "my runs"
+    args = parser.parse_args(["simulate-bag", "corridor", "--out", str(out), "--frames", "2", "--no-progress"])
+    assert args.func(args) == 0
+    lines = capsys.readouterr().out.splitlines()
+    run = shlex.split(next(t for t in lines if t.startswith("next: ")).removeprefix("next: "))
+    assert run[run.index("--config") + 1] == str(out / "corridor.toml") and (out / "corridor.toml").is_file()
+    score = shlex.split(next(t for t in lines if "pfpeople-eval score" in t))
+    assert score[score.index("--gt") + 1] == str(out / "corridor_gt.csv")

@@ -10,6 +10,7 @@ Writes ``<name>.bag`` (or the ROS2 folder ``<name>``), ``<name>_gt.csv`` and ``<
 from __future__ import annotations
 
 import argparse
+import shlex
 from pathlib import Path
 
 from tqdm import tqdm
@@ -99,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         f"({out.seen_per_scan:.2f} with >= 3 beams on their legs), {out.ms_per_scan:.2f} ms per scan to simulate"
     )
     print(f"wrote {out.bag} ({out.size_bytes / 1e6:.1f} MB), {out.gt_csv}, {out.run_toml}")
-    print(f"next: python -m pfpeople.cli run {out.bag} --config {out.run_toml} --out RUN")
-    print(f"      pfpeople-eval score RUN --gt {out.gt_csv} --frame {las.frame_id}")
+    bag, toml, gt, frame = (shlex.quote(str(v)) for v in (out.bag, out.run_toml, out.gt_csv, las.frame_id))
+    print(f"next: python -m pfpeople.cli run {bag} --config {toml} --out RUN")
+    print(f"      pfpeople-eval score RUN --gt {gt} --frame {frame}")
     return 0

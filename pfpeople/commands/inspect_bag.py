@@ -12,6 +12,7 @@ See :mod:`pfpeople.bag.inspect` for what is measured and how the configuration i
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,8 @@ def _run(args: argparse.Namespace) -> int:
         if path.exists() and not args.overwrite:
             raise FileExistsError(f"--write-config {str(path)!r} exists (use --overwrite to replace it)")
         path.write_text(starter_config(report, driver=args.driver))
-        print(f"wrote {path}: run it with  pfpeople run {args.bag} --config {path}", file=sys.stderr)
+        bag_arg, cfg_arg = shlex.quote(str(args.bag)), shlex.quote(str(path))  # a command to paste into a shell
+        print(f"wrote {path}: run it with  pfpeople run {bag_arg} --config {cfg_arg}", file=sys.stderr)
     return 0
 
 
