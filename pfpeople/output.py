@@ -72,7 +72,7 @@ import struct
 import tempfile
 import threading
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType, TracebackType
@@ -538,63 +538,82 @@ class RunWriter:
         key = (frame, driver_index, stamp_ns, bag_time_ns)
         no_data = [n for n, d in zip(self.detector_names, detections, strict=True) if d is None]
         v, w, vy = _odometry_row(odometry)
+        flags = (int(odometry is not None), int(forced), len(people), ";".join(no_data))
+        row = (*key, f"{dt_s:.9g}", f"{v:.9g}", f"{w:.9g}", f"{vy:.9g}", *flags)
         with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
-            target = "frames.csv"
-            try:
-                self._frames.writerow(
-                    (
-                        *key,
-                        f"{dt_s:.9g}",
-                        f"{v:.9g}",
-                        f"{w:.9g}",
-                        f"{vy:.9g}",
-                        int(odometry is not None),
-                        int(forced),
-                        len(people),
-                        ";".join(no_data),
-                    )
-                )
-                target = "people.csv"
-                for (x, y), size, p in zip(people, sizes, probs, strict=True):
-                    self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
-                target = "detections.csv"
-                self._positions(self._dets, key, detections, static)
-                if support is not None:
-                    target = "support.csv"
-                    if self._support is None:
-                        self._support = self._csv("support.csv", DETECTION_COLUMNS)
-                    self._positions(self._support, key, support, support_static)
-                if tracks is not None:
-                    target = "tracks.csv"
-                    if self._tracks is None:
-                        from pfpeople.mot import TRACK_COLUMNS
-
-                        self._tracks = self._csv("tracks.csv", TRACK_COLUMNS)
-                    for row in tracks:
-                        self._tracks.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in row])
-                for fh in self._files:
-                    target = os.path.basename(fh.name)
-                    fh.flush()
-                target = "scans.npy"
-                if scans is not None:
-                    self._write_scans(frame, scans)
-                target = "particles.npy"
-                if particles is not None:
-                    if self._particles is None:
-                        self._particles = _RecordFile(self.path / "particles.npy", PARTICLE_DTYPE)
-                    self._particles.append(particle_records(frame, *particles))
-                target = "grids.npy"
-                self._grids.write(belief.astype("<f4").tobytes())
-                end = self._grids.tell()
-                self._grids.flush()
-                # the header counts the frame only once its grid (and every table row) is on disk
-                self._grids.seek(0)
-                self._grids.write(_npy_header(self.n_frames + 1, self.spec.nx, self.spec.ny))
-                self._grids.seek(end)
-                self._grids.flush()
-            except OSError as exc:
-                raise _named_os_error(exc, self.path / target) from exc  # names, not paths: per frame
+            self._run_steps(
+                [
+                    ("frames.csv", lambda: self._frames.writerow(row)),
+                    ("people.csv", lambda: self._write_people(key, people, sizes, probs)),
+                    ("detections.csv", lambda: self._positions(self._dets, key, detections, static)),
+                    ("support.csv", lambda: self._write_support(key, support, support_static)),
+                    ("tracks.csv", lambda: self._write_tracks(tracks)),
+                ]
+            )
+            self._run_steps(  # after the tables: support.csv and tracks.csv may have been created just now
+                [(os.path.basename(fh.name), fh.flush) for fh in self._files]
+                + [
+                    ("scans.npy", lambda: self._write_scans(frame, scans) if scans is not None else None),
+                    ("particles.npy", lambda: self._write_particles(frame, particles)),
+                    ("grids.npy", lambda: self._append_grid(belief)),
+                ]
+            )
             self.n_frames += 1
+
+    def _run_steps(self, steps: Sequence[tuple[str, Callable[[], object]]]) -> None:
+        """Run each ``(file name, step)`` in order; an ``OSError`` is re-raised naming the file (not the path: this
+        runs every frame)."""
+        for name, step in steps:
+            try:
+                step()
+            except OSError as exc:
+                raise _named_os_error(exc, self.path / name) from exc
+
+    def _write_people(
+        self, key: tuple[int, int, int, int], people: NDArray[np.float64], sizes: list[int], probs: list[float]
+    ) -> None:
+        for (x, y), size, p in zip(people, sizes, probs, strict=True):
+            self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
+
+    def _write_support(
+        self,
+        key: tuple[int, int, int, int],
+        support: Sequence[NDArray[np.float64] | None] | None,
+        support_static: Sequence[NDArray[np.bool_] | None] | None,
+    ) -> None:
+        if support is None:
+            return
+        if self._support is None:
+            self._support = self._csv("support.csv", DETECTION_COLUMNS)
+        self._positions(self._support, key, support, support_static)
+
+    def _write_tracks(self, tracks: Sequence[Sequence[Any]] | None) -> None:
+        if tracks is None:
+            return
+        if self._tracks is None:
+            from pfpeople.mot import TRACK_COLUMNS
+
+            self._tracks = self._csv("tracks.csv", TRACK_COLUMNS)
+        for row in tracks:
+            self._tracks.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in row])
+
+    def _write_particles(self, frame: int, particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
+        if particles is None:
+            return
+        if self._particles is None:
+            self._particles = _RecordFile(self.path / "particles.npy", PARTICLE_DTYPE)
+        self._particles.append(particle_records(frame, *particles))
+
+    def _append_grid(self, belief: NDArray[np.float64]) -> None:
+        """Append the belief to ``grids.npy``; its header counts the frame only once the grid (and every table row)
+        is on disk."""
+        self._grids.write(belief.astype("<f4").tobytes())
+        end = self._grids.tell()
+        self._grids.flush()
+        self._grids.seek(0)
+        self._grids.write(_npy_header(self.n_frames + 1, self.spec.nx, self.spec.ny))
+        self._grids.seek(end)
+        self._grids.flush()
 
     def _write_scans(
         self, frame: int, scans: Mapping[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]]
