@@ -405,16 +405,17 @@ class StaticClutterMap:
         far = r > c.max_range  # returns beyond the map: the beam crossed free space up to max_range
         far_pts = pts[far] * (c.max_range / r[far])[:, None]
         pts, r = pts[~far], r[~far]
-        free = far_pts if free is None else np.concatenate((_positions(free, "free", drop_nonfinite=True), far_pts))
+        no_return = np.zeros((0, 2)) if free is None else _positions(free, "free", drop_nonfinite=True)
+        free_rays = np.concatenate((no_return, far_pts))  # traced free all along: no end point, no margin
         human = np.zeros(pts.shape[0], dtype=bool)
         if people.shape[0] and pts.shape[0]:
             human = near_any(pts, people, c.exclude_radius)
         beams = np.arange(0, pts.shape[0], c.free_stride)
-        rays, lengths = pts[beams], r[beams] - c.free_margin
-        if free is not None:  # no-return beams: free all along, no margin (there is no end point)
-            fr_pts = _positions(free, "free", drop_nonfinite=True)[:: c.free_stride]
-            rays = np.concatenate((rays, fr_pts))
-            lengths = np.concatenate((lengths, np.minimum(np.hypot(fr_pts[:, 0], fr_pts[:, 1]), c.max_range)))
+        fr_pts = free_rays[:: c.free_stride]
+        rays = np.concatenate((pts[beams], fr_pts))
+        lengths = np.concatenate(
+            (r[beams] - c.free_margin, np.minimum(np.hypot(fr_pts[:, 0], fr_pts[:, 1]), c.max_range))
+        )
         cells, inside = self.cell_of(self.pose.apply(pts))
         ncell = self.n * self.n
         hc = cells[inside & ~human]

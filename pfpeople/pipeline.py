@@ -475,25 +475,7 @@ class Pipeline:
             self.prepare(bag)
         assert self.odometry is not None
         c = self.config
-        policies: dict[str, str] = {}
-        for d in c.detectors:
-            if d.topic != c.driver:
-                old = policies.setdefault(d.topic, d.assign)
-                if old != d.assign:
-                    raise ValueError(f"topic {d.topic!r} is given two sync policies ({old!r}, {d.assign!r})")
-        if c.odometry:
-            if c.odometry in policies or c.odometry == c.driver:
-                raise ValueError(f"odometry topic {c.odometry!r} is also a detector or driver topic")
-            policies[c.odometry] = "interpolate"
-        elif self._scan_matched():
-            log.info(
-                "no odometry topic configured: the ego-motion comes from scan matching the driving laser %s where "
-                "its scans match; in the other frames the robot is taken as standing (counted: run.json stats "
-                "ego_motion)",
-                c.driver,
-            )
-        else:
-            log.info("no odometry topic configured: the robot is taken as standing in every frame")
+        policies = self._sync_policies()
         use_bag_time = c.time_source == "bag"
         self.odometry.reset()
 
@@ -529,6 +511,37 @@ class Pipeline:
             self.summary.elapsed_s = time.perf_counter() - t0
             self.summary.sync = sync.stats
             self._log_ego_motion()
+
+    def _sync_policies(self) -> dict[str, str]:
+        """How each non-driver topic joins the frames (the detectors' ``assign``, odometry interpolated); logs the
+        ego-motion source.
+
+        Raises
+        ------
+        ValueError
+            For a topic given two policies, or an odometry topic that is also a detector or the driver topic.
+        """
+        c = self.config
+        policies: dict[str, str] = {}
+        for d in c.detectors:
+            if d.topic != c.driver:
+                old = policies.setdefault(d.topic, d.assign)
+                if old != d.assign:
+                    raise ValueError(f"topic {d.topic!r} is given two sync policies ({old!r}, {d.assign!r})")
+        if c.odometry:
+            if c.odometry in policies or c.odometry == c.driver:
+                raise ValueError(f"odometry topic {c.odometry!r} is also a detector or driver topic")
+            policies[c.odometry] = "interpolate"
+        elif self._scan_matched():
+            log.info(
+                "no odometry topic configured: the ego-motion comes from scan matching the driving laser %s where "
+                "its scans match; in the other frames the robot is taken as standing (counted: run.json stats "
+                "ego_motion)",
+                c.driver,
+            )
+        else:
+            log.info("no odometry topic configured: the robot is taken as standing in every frame")
+        return policies
 
     def _scan_matched(self) -> bool:
         """Whether the run's ego-motion comes from scan matching the driving laser (no odometry topic)."""

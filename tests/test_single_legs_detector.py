@@ -90,3 +90,20 @@ def test_augmented_copies_keep_the_labels_and_are_reproducible() -> None:
     assert augmented(pos, neg, BoostTrainingParams(augment_noise=())) == ([], [])
     with pytest.raises(ValueError, match="augment_noise"):
         BoostTrainingParams(augment_noise=(-0.01,))
+
+
+def test_boosted_and_single_legs_classify_a_scan_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The single-legs detector reuses the boosted detector's leg classification of the same scan object: one
+    call of the classifier for both; a new scan, or another model, is classified again."""
+    import pfpeople.detectors.boosted as boosted
+
+    calls = []
+    real = boosted.boost_scores
+    monkeypatch.setattr(boosted, "boost_scores", lambda m, x: calls.append(len(x)) or real(m, x))
+    scan = render_scan(circles=[(2.0, 1.0, 0.06), (3.0, -1.125, 0.06), (3.0, -0.875, 0.06)], angle_increment=_INC)
+    pair, single = boosted.BoostedSegmentDetector(), SingleLegDetector()
+    pair.detect(scan)
+    single.detect(scan)
+    assert len(calls) == 1
+    single.detect(render_scan(circles=[(2.0, 1.0, 0.06)], angle_increment=_INC))
+    assert len(calls) == 2

@@ -72,6 +72,10 @@ def _load_boost(path: Path) -> Any:
     return boost
 
 
+#: The latest (scan, model key, legs) of :meth:`BoostedSegmentDetector._legs`.
+_LATEST_LEGS: tuple[LaserScan, tuple[Any, ...], tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None
+
+
 class BoostedSegmentDetector:
     """Laser detector 2: segments classified as legs by a boosted classifier, paired into people.
 
@@ -135,9 +139,18 @@ class BoostedSegmentDetector:
         return centroids, boost_scores(self._boost, feats.astype(np.float32))
 
     def _legs(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Centroids ``(K, 2)`` and widths ``(K,)`` of the segments classified as legs; the latest result is kept
+        by the scan's identity and the model, so the boosted and the single-legs detector of one laser classify
+        each scan once."""
+        global _LATEST_LEGS
+        key = (self.model_path.resolve(), self.threshold, self.segmentation)
+        latest = _LATEST_LEGS
+        if latest is not None and latest[0] is scan and latest[1] == key:
+            return latest[2]
         feats, centroids, widths = scan_features(scan, segmentation=self.segmentation)
         keep = boost_scores(self._boost, feats.astype(np.float32)) > self.threshold
-        return centroids[keep], widths[keep]
+        _LATEST_LEGS = (scan, key, (centroids[keep], widths[keep]))
+        return _LATEST_LEGS[2]
 
     def detect_legs(self, scan: LaserScan) -> NDArray[np.float64]:
         """Positions ``(K, 2)`` of segments classified as legs (centroids, m, scan frame)."""
