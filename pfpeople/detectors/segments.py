@@ -40,8 +40,9 @@ For a segment with points ``p_1 .. p_n`` (scan frame, m), centroid ``c`` and coo
 The two "means" divide by the number of points n, not by the n - 2 triples, as leg_tracker's
 ``calcClusterFeatures`` does (the shipped boosted model was trained on these values).
 
-All features are computed for all segments of a scan at once with ``numpy.add.reduceat`` (no Python loop
-over segments or points).
+All features are computed for all segments of a scan at once: by compiled loops
+(:mod:`pfpeople.detectors._kernels`) when numba is enabled (:mod:`pfpeople._numba`), else with
+``numpy.add.reduceat`` (no Python loop over segments or points); both give the same floats.
 """
 
 from __future__ import annotations
@@ -53,6 +54,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.validation import check_positive
+from pfpeople import _numba
+from pfpeople.detectors import _kernels
 from pfpeople.sensors import LaserScan
 
 __all__ = [
@@ -215,9 +218,36 @@ def segment_scan(
         )
     r = scan.ranges[beams]
     a = scan.angle_min + scan.angle_increment * beams
-    pts = np.column_stack((r * np.cos(a), r * np.sin(a)))
+    x, y = r * np.cos(a), r * np.sin(a)
+    if _numba.ENABLED:
+        pts, kb, starts, counts, before, after, n_small = _kernels.jump_segments(
+            x, y, r, beams.astype(np.intp), float(p.jump_distance), int(min_points)
+        )
+        return Segments(
+            points=pts,
+            beams=kb,
+            starts=starts,
+            counts=counts,
+            range_before=before,
+            range_after=after,
+            n_invalid=n_invalid,
+            n_dropped_small=int(n_small),
+        )
+    return _runs_numpy(np.column_stack((x, y)), r, beams, p.jump_distance, min_points, n_invalid)
+
+
+def _runs_numpy(
+    pts: NDArray[np.float64],
+    r: NDArray[np.float64],
+    beams: NDArray[np.intp],
+    jump_distance: float,
+    min_points: int,
+    n_invalid: int,
+) -> Segments:
+    """The numpy fallback of :func:`pfpeople.detectors._kernels.jump_segments`: the kept runs of the valid end
+    points ``pts`` (V, 2) (m, walk order) with ranges ``r`` (V,) and beam indices ``beams`` (V,)."""
     gaps = np.hypot(*np.diff(pts, axis=0).T)
-    breaks = np.flatnonzero(gaps > p.jump_distance) + 1
+    breaks = np.flatnonzero(gaps > jump_distance) + 1
     starts = np.concatenate(([0], breaks))
     counts = np.diff(np.concatenate((starts, [beams.size])))
     keep = counts >= min_points
@@ -257,14 +287,32 @@ def segment_features(segments: Segments) -> NDArray[np.float64]:
     ndarray, shape (S, F)
         One row per segment, columns in the order of :data:`FEATURE_NAMES` (float64, SI units).
     """
+    if len(segments) == 0:
+        return np.zeros((0, len(FEATURE_NAMES)))
+    if np.any(segments.counts < 3):
+        raise ValueError("segments must have at least 3 points each for segment_features")
+    if _numba.ENABLED:
+        return _features_compiled(segments)
+    return _features_numpy(segments)
+
+
+def _features_compiled(segments: Segments) -> NDArray[np.float64]:
+    """:func:`segment_features` by the compiled kernels (the angles by numpy between them)."""
+    pts = np.ascontiguousarray(segments.points, dtype=np.float64)
+    starts = segments.starts.astype(np.intp)
+    counts = segments.counts.astype(np.intp)
+    cross_t, dot_t, cross_i, dot_i = _kernels.features_angles(pts, starts, counts)
+    th = np.mod(np.arctan2(cross_t, dot_t), 2 * np.pi)
+    ang = np.mod(np.arctan2(cross_i, dot_i), 2 * np.pi)
+    out: NDArray[np.float64] = _kernels.features_rest(pts, starts, counts, th, ang)
+    return out
+
+
+def _features_numpy(segments: Segments) -> NDArray[np.float64]:
+    """:func:`segment_features` in numpy (the fallback without numba; the compiled kernels' reference)."""
     S = len(segments)
-    F = len(FEATURE_NAMES)
-    if S == 0:
-        return np.zeros((0, F))
     pts = segments.points
     starts, counts = segments.starts, segments.counts
-    if np.any(counts < 3):
-        raise ValueError("segments must have at least 3 points each for segment_features")
     n = counts.astype(float)
     sid = segments.segment_ids
     first = pts[starts]
