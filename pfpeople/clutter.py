@@ -81,6 +81,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from gridbridge.geometry import Pose2D, near_any, rotate
+from pfpeople import _numba
+from pfpeople.clutter_kernels import update_evidence
 from pfpeople.scanmatch import ScanOdometry
 from pfpeople.selfreturns import SelfReturns
 
@@ -417,23 +419,31 @@ class StaticClutterMap:
             (r[beams] - c.free_margin, np.minimum(np.hypot(fr_pts[:, 0], fr_pts[:, 1]), c.max_range))
         )
         cells, inside = self.cell_of(self.pose.apply(pts))
-        ncell = self.n * self.n
         hc = cells[inside & ~human]
-        free_mask = np.zeros(ncell, dtype=bool)
-        free_mask[self._ray_cells(rays, lengths)] = True
-        free_mask[cells[inside & human]] = True
-        # cells next to a return are not carved free by the beams that pass beside it (thin objects)
-        for off in self._neighbours:
-            free_mask[(hc + off) % ncell] = False
         s = self.evidence.reshape(-1)
-        s0 = c.unknown_evidence
-        s -= s0
-        s *= math.exp(-step / c.forget_time)  # every cell relaxes towards unknown; observed ones change below
-        s += s0
-        hit = np.unique(hc)
-        s[hit] = np.minimum(s[hit] + step, c.s_max)
-        fr = np.flatnonzero(free_mask)
-        s[fr] = np.maximum(s[fr] - c.free_rate * step, c.s_min)
+        if _numba.ENABLED and s.base is self.evidence:  # the same as below, compiled (pfpeople.clutter_kernels)
+            ru, origin, n_free = self._ray_dirs(rays, lengths)
+            decrement = c.free_rate * step
+            params = np.array([c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, decrement, c.s_min])
+            hum = cells[inside & human]
+            nb = np.asarray(self._neighbours, dtype=np.intp)
+            update_evidence(s, self.n, hc, hum, ru, n_free, self._steps, origin, nb, params)
+        else:
+            ncell = self.n * self.n
+            free_mask = np.zeros(ncell, dtype=bool)
+            free_mask[self._ray_cells(rays, lengths)] = True
+            free_mask[cells[inside & human]] = True
+            # cells next to a return are not carved free by the beams that pass beside it (thin objects)
+            for off in self._neighbours:
+                free_mask[(hc + off) % ncell] = False
+            s0 = c.unknown_evidence
+            s -= s0
+            s *= math.exp(-step / c.forget_time)  # every cell relaxes towards unknown; observed ones change below
+            s += s0
+            hit = np.unique(hc)
+            s[hit] = np.minimum(s[hit] + step, c.s_max)
+            fr = np.flatnonzero(free_mask)
+            s[fr] = np.maximum(s[fr] - c.free_rate * step, c.s_min)
         # the latest returns, for the queries (all returns, people's too: a query looks at what is there now)
         self._hit_cells = cells[inside]
         self._hit_xy = pts[inside]
@@ -458,19 +468,27 @@ class StaticClutterMap:
             Cells inside the window (with repeats); sample k of a ray with unit direction u is
             ``pose(u * steps[k]) = R u steps[k] + t``.
         """
-        c = self.config
-        r = np.hypot(rays[:, 0], rays[:, 1])
-        n_free = np.searchsorted(self._steps, lengths)
+        ru, origin, n_free = self._ray_dirs(rays, lengths)
         total = int(n_free.sum())
         beam = np.repeat(np.arange(rays.shape[0]), n_free)
         k = np.arange(total) - np.repeat(np.cumsum(n_free) - n_free, n_free)
-        inv = 1.0 / c.resolution
-        ru = rotate(rays / np.maximum(r, 1e-9)[:, None], self.pose.yaw) * inv
-        origin = (np.array([self.pose.x, self.pose.y]) - self.origin) * inv
         fi = np.floor(ru[beam, 0] * self._steps[k] + origin[0]).astype(np.intp)
         fj = np.floor(ru[beam, 1] * self._steps[k] + origin[1]).astype(np.intp)
         ok = (fi >= 0) & (fi < self.n) & (fj >= 0) & (fj < self.n)
         return np.asarray(fi[ok] * self.n + fj[ok], dtype=np.intp)
+
+    def _ray_dirs(
+        self, rays: NDArray[np.float64], lengths: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
+        """Of rays (R, 2) traced ``lengths`` (R,) m (see :meth:`_ray_cells`): their unit directions in the map
+        frame in cells per m (R, 2), the sensor's position in cells from the window's corner (2,), and the samples
+        of each ray (R,)."""
+        r = np.hypot(rays[:, 0], rays[:, 1])
+        n_free = np.searchsorted(self._steps, lengths)
+        inv = 1.0 / self.config.resolution
+        ru = rotate(rays / np.maximum(r, 1e-9)[:, None], self.pose.yaw) * inv
+        origin = (np.array([self.pose.x, self.pose.y]) - self.origin) * inv
+        return np.ascontiguousarray(ru), origin, n_free.astype(np.intp)
 
     # --- queries ----------------------------------------------------------------------------------------------
     def cell_score(self) -> NDArray[np.float64]:
