@@ -1,0 +1,109 @@
+"""The compiled kernels (numba) and their numpy fallbacks give the same floats, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pfpeople import _numba
+from pfpeople.detectors import segments as seg
+from pfpeople.sensors import LaserScan
+
+pytestmark = pytest.mark.skipif(not _numba.ENABLED, reason="numba is not installed or PFPEOPLE_NUMBA=0")
+
+
+def _scans(n: int = 40) -> list[LaserScan]:
+    """Cluttered random scans: walls, leg-like arcs, noise, NaN / inf / out-of-range beams, either turn direction."""
+    rng = np.random.default_rng(7)
+    out = []
+    for k in range(n):
+        beams = int(rng.choice([5, 64, 361, 768]))
+        rng_m = np.full(beams, 8.0) + rng.normal(0, 0.5, beams).cumsum() * 0.05
+        for _ in range(rng.integers(0, 12)):  # small near objects (legs, chair legs)
+            c, w = int(rng.integers(0, beams)), int(rng.integers(1, 12))
+            rng_m[c : c + w] = rng.uniform(0.3, 9.0) + 0.05 * np.sin(np.linspace(0, np.pi, len(rng_m[c : c + w])))
+        rng_m += rng.normal(0, 0.01, beams)
+        bad = rng.random(beams)
+        rng_m[bad < 0.03] = np.nan
+        rng_m[(bad >= 0.03) & (bad < 0.06)] = np.inf
+        rng_m[(bad >= 0.06) & (bad < 0.07)] = 40.0
+        inc = (-1 if k % 3 == 0 else 1) * float(rng.choice([0.0061, 0.0087, 0.0175]))
+        out.append(
+            LaserScan(ranges=rng_m, angle_min=-inc * beams / 2, angle_increment=inc, range_min=0.05, range_max=30.0)
+        )
+    return out
+
+
+def _both(fn, monkeypatch):  # type: ignore[no-untyped-def]
+    monkeypatch.setattr(_numba, "ENABLED", True)
+    compiled = fn()
+    monkeypatch.setattr(_numba, "ENABLED", False)
+    return compiled, fn()
+
+
+def _same_segments(a: seg.Segments, b: seg.Segments) -> None:
+    for name in ("points", "beams", "starts", "counts", "range_before", "range_after"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and x.shape == y.shape, name
+        assert np.array_equal(x, y, equal_nan=True), name
+    assert (a.n_invalid, a.n_dropped_small) == (b.n_invalid, b.n_dropped_small)
+
+
+@pytest.mark.parametrize("min_points", [None, 1])
+def test_segment_scan_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch, min_points: int | None) -> None:
+    for scan in _scans():
+        for params in (seg.SegmentationParams(), seg.SegmentationParams(jump_distance=0.3, max_range=6.0)):
+            c, f = _both(lambda: seg.segment_scan(scan, params=params, min_points=min_points), monkeypatch)  # noqa: B023
+            _same_segments(c, f)
+
+
+def test_segment_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    for scan in _scans():
+        segs = seg.segment_scan(scan)
+        c, f = _both(lambda: seg.segment_features(segs), monkeypatch)  # noqa: B023
+        assert c.shape == f.shape == (len(segs), len(seg.FEATURE_NAMES))
+        assert np.array_equal(c, f, equal_nan=True)
+        assert c.tobytes() == f.tobytes()  # the sign of zero too
+
+
+def test_pairwise_sum_is_numpys_reduceat() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        v = rng.normal(size=700) * 10 ** rng.uniform(-3, 3, size=700)
+        lo, n = int(rng.integers(0, 300)), int(rng.integers(1, 400))
+        assert v[lo] + _numba.pairwise_sum(v, lo + 1, n - 1) == np.add.reduceat(v, [lo, lo + n])[0]
+
+
+def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two maps fed the same scans (a moving sensor, people to exclude, beams without a return) keep the same
+    evidence bit for bit, one compiled and one in numpy."""
+    from pfpeople.clutter import StaticClutterMap
+    from pfpeople.sensors import Pose2D
+
+    maps = {True: StaticClutterMap(), False: StaticClutterMap()}
+    rng = np.random.default_rng(11)
+    for k, scan in enumerate(_scans(30)):
+        pts = scan.points()
+        free = pts[np.isfinite(pts).all(axis=1)][::7] * 1.5
+        people = pts[np.isfinite(pts).all(axis=1)][:: max(1, pts.shape[0] // 3)][:3]
+        ego = Pose2D(x=float(rng.normal(0, 0.3)), y=float(rng.normal(0, 0.3)), yaw=float(rng.normal(0, 0.1)))
+        for enabled, m in maps.items():
+            monkeypatch.setattr(_numba, "ENABLED", enabled)
+            m.update(pts, ego=ego, exclude=people, dt=0.05 + 0.01 * (k % 5), free=free)
+        assert maps[True].evidence.tobytes() == maps[False].evidence.tobytes()
+    assert np.any(maps[True].evidence != maps[True].config.unknown_evidence)
+
+
+def test_warm_up_and_disabled_fallback() -> None:
+    """``warm_up`` loads the kernels; with ``PFPEOPLE_NUMBA=0`` numba is not imported and the numpy paths run."""
+    import subprocess
+    import sys
+
+    _numba.warm_up()
+    code = (
+        "import sys; from pfpeople import _numba; from pfpeople.detectors import segments; "
+        "assert not _numba.ENABLED and 'numba' not in sys.modules; _numba.warm_up(); print('ok')"
+    )
+    env = {**__import__("os").environ, "PFPEOPLE_NUMBA": "0"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "ok"
