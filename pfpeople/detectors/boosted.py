@@ -133,6 +133,13 @@ class BoostedSegmentDetector:
                 self.segmentation = SegmentationParams(**seg)
         self._boost = _load_boost(path)
 
+    def _resolved_path(self) -> Path:
+        """``self.model_path.resolve()``, resolved once per path (a file system call per scan otherwise)."""
+        cached = getattr(self, "_resolved", None)
+        if cached is None or cached[0] != self.model_path:
+            cached = self._resolved = (self.model_path, self.model_path.resolve())
+        return cached[1]
+
     def segment_scores(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centroids ``(S, 2)`` (m, scan frame) and boosted scores ``(S,)`` of every segment of ``scan``."""
         feats, centroids, _ = scan_features(scan, segmentation=self.segmentation)
@@ -143,7 +150,7 @@ class BoostedSegmentDetector:
         by the scan's identity and the model, so the boosted and the single-legs detector of one laser classify
         each scan once."""
         global _LATEST_LEGS
-        key = (self.model_path.resolve(), self.threshold, self.segmentation)
+        key = (self._resolved_path(), self.threshold, self.segmentation)
         latest = _LATEST_LEGS
         if latest is not None and latest[0] is scan and latest[1] == key:
             return latest[2]
