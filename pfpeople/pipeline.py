@@ -66,6 +66,7 @@ from gridbridge.classifiers import classify_frame
 from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
+from pfpeople import _numba
 from pfpeople.adapters import (
     ADAPTERS,
     AdapterFactory,
@@ -274,6 +275,7 @@ class Pipeline:
         self.tracker = build_people_tracker(c.tracking, self.classifier, c.filter.mode)
         edges = [e for f in self.frame_mounts for e in setup.tf.edges(setup.grid_frame, f)]
         self._mount_watch = MountWatch(edges)
+        _numba.warm_up()  # the compiled kernels load here, not in the first frame
         return setup.tf
 
     # -- running ---------------------------------------------------------------------------------------------
