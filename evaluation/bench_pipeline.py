@@ -1,24 +1,26 @@
-"""Benchmark of the whole bag pipeline on the real person-following bag (7170 scans, 720 s).
+"""Benchmark of ``pfpeople run`` (one process) on scan-level scenes and the real bag, against the previous release.
 
-Runs ``pfpeople run`` equivalents (bag reading, both laser detectors, the filter, classification, tracking and
-the run directory output) for each filter, in one process and with the front end in a second process
-(``Pipeline(front_process=...)``, :mod:`pfpeople.frontend`), and prints frames per second, the real-time factor
-(recorded seconds processed per wall-clock second), its ratio to the first variant of the same filter measured
-just before (the first value of each option), the CPU time of the filter's step alone (ms per frame, its thread;
-less sensitive to other load on the machine than the wall clock), and the recall of each detector and of the
-filter against the ground truth (recall only: passers-by are not annotated; the two modes give the same)::
+Cases (``--cases``): the 768-beam, 7.5 Hz scan-level scenes ``wheelchair`` and ``lobby``
+(:mod:`evaluation.scenarios.scan`, simulated once into ``--work`` and run with the starter configuration of
+``pfpeople inspect BAG --write-config``, the recommended mode) and ``person_following`` (the real
+person-following bag, 7170 scans of 245 beams at 10 Hz, with its built-in configuration). Each case runs with
+each filter of ``--filters`` (the recommended grid and particle filters) and each variant of ``--processes``
+(default 1: everything in one process), ``--max-overflow``, ``--particles`` and ``--motion-model``.
 
-    python -m evaluation.bench_pipeline [--data ../shared/data] [--filters grid particle] [--max-frames N]
-        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000 2500] [--motion-model paper persistent]
-        [--repeat N]
+Every run is a worker process (``--worker``) that runs the whole pipeline (bag reading, the detectors, the
+clutter map, the filter, classification, tracking and the run directory) and prints one JSON line: frames,
+wall-clock seconds, frames per second, the real-time factor (recorded seconds processed per wall-clock second),
+the filter step's CPU time (ms per frame, its thread; steadier than the wall clock on a loaded machine), the
+peak resident memory and, with ``--stages``, the wall-clock time of each stage (:mod:`evaluation.stage_timer`).
+With ``--baseline REV`` (default :data:`evaluation.release_baseline.PREVIOUS_RELEASE`; ``none`` skips it) the
+same worker also runs with the release's packages (:func:`evaluation.release_baseline.run_worker`), interleaved
+with this checkout's runs, and each row shows the same-run ratio ``this / release`` of the real-time factor and
+whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``detections.csv`` (byte for byte)::
 
-``--max-overflow``: the particle filter's ``FilterConfig.max_overflow`` values to compare (default: the
-configuration's, 0.1 in the recommended mode); 0 resamples whenever births overflow, as before it existed.
-``--particles``: particle counts to compare (default: the configuration's, 5 per cell and at least 5000: 5000 on
-this bag's 494-cell grid). ``--motion-model``: the particle filter's people-motion samplers to compare (default:
-the configuration's, ``"persistent"`` in the recommended mode). Every combination of ``--processes``,
-``--max-overflow``, ``--particles`` and ``--motion-model`` is a variant; the first is the baseline of the
-ratios.
+    python -m evaluation.bench_pipeline [--cases wheelchair lobby person_following] [--filters grid particle]
+        [--max-frames N] [--repeat N] [--baseline REV|none] [--stages] [--data ../shared/data] [--work DIR]
+        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000] [--motion-model paper persistent]
+    python -m evaluation.bench_pipeline --worker --bag BAG --config CFG --filter grid --out RUN [--stages] ...
 
 Wall-clock figures depend on the machine; tests never assert them.
 """
@@ -26,6 +28,10 @@ Wall-clock figures depend on the machine; tests never assert them.
 from __future__ import annotations
 
 import argparse
+import filecmp
+import importlib.util
+import json
+import resource
 import statistics
 import sys
 import tempfile
@@ -35,160 +41,300 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from evaluation.commands.score import score_run
-from evaluation.gt_csv import read_gt_csv
-from gridbridge.limits import ResourceLimitError
-from pfpeople.bag.config import builtin_config_path, load_config
-from pfpeople.bag.reader import BagSource
-from pfpeople.output import load_run
-from pfpeople.pipeline import Pipeline
-
+REPO = Path(__file__).resolve().parent.parent
+SCENES = ("wheelchair", "lobby")
+REAL = "person_following"
 BAG = "leg_tracker/person_following_outdoor_1.bag.zip"
 GT = "leg_tracker/person_following_outdoor_1_gt.csv"
+#: The run files compared between this checkout and the release.
+COMPARED = ("people.csv", "tracks.csv", "detections.csv")
 
 
-#: (processes, max_overflow, particle count, motion model); None: the configuration's.
-Variant = tuple[int, float | None, int | None, str | None]
+def _local(name: str) -> Any:
+    """A module of this checkout's ``evaluation`` folder, loaded from its file (a worker of the release imports
+    the release's ``evaluation`` package, which may not have it)."""
+    spec = importlib.util.spec_from_file_location(f"_bench_{name}", Path(__file__).with_name(f"{name}.py"))
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
-def _label(v: Variant, particle: bool) -> str:
+def _timed_pipeline(cfg: Any, front_process: bool) -> Any:
+    """A :class:`pfpeople.pipeline.Pipeline` whose ``filter_cpu_s`` adds up the CPU time of its filter steps."""
+    from pfpeople.pipeline import Pipeline
+
+    class Timed(Pipeline):
+        filter_cpu_s = 0.0
+
+        def prepare(self, bag: Any) -> Any:
+            out = super().prepare(bag)
+            filt: Any = self.filter
+            step = filt.step
+
+            def timed(*args: Any, **kwargs: Any) -> Any:
+                t0 = time.thread_time()
+                try:
+                    return step(*args, **kwargs)
+                finally:
+                    self.filter_cpu_s += time.thread_time() - t0
+
+            filt.step = timed
+            return out
+
+    return Timed(cfg, front_process=front_process)
+
+
+def _worker_config(args: argparse.Namespace) -> Any:
+    """The run configuration of a worker: ``--config`` with the variant's filter settings."""
+    from pfpeople.bag.config import builtin_config_path, load_config
+
+    path = Path(args.config)
+    cfg = load_config(path if path.suffix == ".toml" else builtin_config_path(args.config))
+    filt = replace(cfg.filter, kind=args.filter)
+    for field, value in (
+        ("n_particles", args.particles),
+        ("max_overflow", args.max_overflow),
+        ("motion_model", args.motion_model),
+    ):
+        if value is not None:
+            filt = replace(filt, **{field: value})
+    return replace(cfg, filter=filt)
+
+
+def worker(args: argparse.Namespace) -> dict[str, Any]:
+    """Run one case in this process and return its figures (see the module docstring)."""
+    from pfpeople.bag.reader import BagSource
+    from pfpeople.output import load_run
+
+    cfg = _worker_config(args)
+    stages: dict[str, float] = {}
+    timer = _local("stage_timer").timed_stages() if args.stages else None
+    pipe = _timed_pipeline(cfg, args.processes == 2)
+    with BagSource(Path(args.bag)) as src:
+        if timer is not None:
+            with timer as stages:
+                summary, _ = pipe.run(src, Path(args.out), max_frames=args.max_frames, overwrite=True)
+        else:
+            summary, _ = pipe.run(src, Path(args.out), max_frames=args.max_frames, overwrite=True)
+    stamps = load_run(Path(args.out)).frames["stamp_ns"]
+    n = int(summary.frames)
+    span = (int(stamps[-1]) - int(stamps[0])) * 1e-9 * n / (n - 1) if n > 1 else 0.0
+    elapsed = float(summary.elapsed_s)
+    return {
+        "frames": n,
+        "elapsed_s": elapsed,
+        "fps": n / elapsed if elapsed > 0 else float("nan"),
+        "recorded_s": span,
+        "rtf": span / elapsed if elapsed > 0 else float("nan"),
+        "filter_cpu_ms": 1e3 * pipe.filter_cpu_s / max(n, 1),
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "n_particles": getattr(pipe.filter, "n_particles", None),
+        "motion_model": getattr(pipe.filter, "motion_model", None),
+        "stages_ms": {k: 1e3 * v / max(n, 1) for k, v in stages.items()},
+    }
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m evaluation.bench_pipeline", description=__doc__.split("\n")[0])
+    ap.add_argument("--cases", nargs="+", default=[*SCENES, REAL], help=f"scan scenes and/or {REAL!r}")
+    ap.add_argument("--filters", nargs="+", default=["grid", "particle"], choices=("grid", "particle"))
+    ap.add_argument("--max-frames", type=int, default=None, help="frames per run (scenes: simulated length too)")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per case and variant, interleaved (medians)")
+    ap.add_argument("--baseline", default=None, help="git revision to compare against ('none': no comparison)")
+    ap.add_argument("--stages", action="store_true", help="time every stage (ms per frame)")
+    ap.add_argument("--data", default="../shared/data", help="the shared data folder (the real bag)")
+    ap.add_argument("--work", default=str(REPO / ".bench" / "scenes"), help="where the scene bags are kept")
+    ap.add_argument("--processes", nargs="+", type=int, default=[1], choices=(1, 2), help="2: front-end process")
+    ap.add_argument("--max-overflow", nargs="+", type=float, default=[None], help="particle filter max_overflow")
+    ap.add_argument("--particles", nargs="+", type=int, default=[None], help="particle counts")
+    ap.add_argument("--motion-model", nargs="+", default=[None], choices=("paper", "persistent"))
+    ap.add_argument("--json", default=None, help="also write every run's figures to this JSON file")
+    w = ap.add_argument_group("worker (one run in this process, one JSON line out)")
+    w.add_argument("--worker", action="store_true")
+    w.add_argument("--bag", help="the bag")
+    w.add_argument("--config", help="run config TOML or built-in config name")
+    w.add_argument("--filter", choices=("grid", "particle"), default="grid")
+    w.add_argument("--out", help="the run directory")
+    return ap
+
+
+def _worker_argv(bag: Path, config: str, kind: str, out: Path, v: tuple[Any, ...], a: argparse.Namespace) -> list[str]:
     n, ovf, count, model = v
-    out = f"{n} process{'es' if n > 1 else ''}"
-    if particle and ovf is not None:
-        out += f" ovf {ovf:g}"
-    if particle and count is not None:
-        out += f" N {count}"
-    if particle and model is not None:
-        out += f" {model}"
+    argv = ["--worker", "--bag", str(bag), "--config", config, "--filter", kind, "--out", str(out)]
+    argv += ["--processes", str(n)]
+    for flag, value in (("--max-overflow", ovf), ("--particles", count), ("--motion-model", model)):
+        if value is not None and kind == "particle":
+            argv += [flag, str(value)]
+    if a.max_frames is not None:
+        argv += ["--max-frames", str(a.max_frames)]
+    return argv + (["--stages"] if a.stages else [])
+
+
+def _worker_args(argv: list[str]) -> argparse.Namespace:
+    """The worker's namespace: the parser's, with one value per variant option."""
+    args = _parser().parse_args(argv)
+    for name in ("processes", "max_overflow", "particles", "motion_model"):
+        setattr(args, name, getattr(args, name)[0])
+    return args
+
+
+def _case(name: str, a: argparse.Namespace) -> tuple[Path, str, Path] | str:
+    """(bag, config, ground-truth CSV) of a case, simulating a scene once; or the reason it is skipped."""
+    if name == REAL:
+        bag = Path(a.data) / BAG
+        return (bag, "person_following_outdoor_1", Path(a.data) / GT) if bag.is_file() else f"{bag} is absent"
+    from evaluation.scenarios.scan import write_scene_bag
+    from pfpeople.bag.inspect import inspect_path, starter_config
+
+    out = Path(a.work) / (name if a.max_frames is None else f"{name}_{a.max_frames}")
+    bag = out / f"{name}.bag"
+    if not bag.is_file():
+        write_scene_bag(name, out, frames=a.max_frames, overwrite=True)
+    cfg = out / f"{name}_starter.toml"  # as the README: pfpeople inspect BAG --write-config
+    if not cfg.is_file():
+        cfg.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
+    return bag, str(cfg), out / f"{name}_gt.csv"
+
+
+def _same_outputs(a: Path, b: Path) -> bool:
+    """Whether two run directories hold the same :data:`COMPARED` files, byte for byte."""
+    return all(
+        (a / f).is_file() == (b / f).is_file() and (not (a / f).is_file() or filecmp.cmp(a / f, b / f, shallow=False))
+        for f in COMPARED
+    )
+
+
+def _recall(run_dir: Path, gt: Path, real: bool) -> str:
+    from evaluation.commands.score import score_run
+    from evaluation.gt_csv import read_gt_csv
+    from pfpeople.output import load_run
+
+    scores = score_run(load_run(run_dir), read_gt_csv(gt), frame="laser", recall_only=real)["scores"]
+    return "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
+
+
+HEAD = (
+    f"{'case':<17}{'filter':<9}{'variant':<20}{'code':<9}{'frames':>7}{'wall s':>8}{'fps':>8}{'RT x':>8}"
+    f"{'ratio':>7}{'filt ms':>8}{'RSS MB':>8}  same  recall"
+)
+
+
+def _row(case: str, kind: str, label: str, code: str, r: dict[str, Any], ratio: str, same: str, rec: str) -> str:
+    return (
+        f"{case:<17}{kind:<9}{label:<20}{code:<9}{r['frames']:>7}{r['elapsed_s']:>8.2f}{r['fps']:>8.1f}"
+        f"{r['rtf']:>8.1f}{ratio:>7}{r['filter_cpu_ms']:>8.3f}{r['peak_rss_mb']:>8.0f}  {same:<5} {rec}"
+    )
+
+
+def _label(v: tuple[Any, ...]) -> str:
+    n, ovf, count, model = v
+    out = f"{n}proc"
+    for tag, value in (("ovf", ovf), ("N", count), ("", model)):
+        if value is not None:
+            out += f" {tag}{value}"
     return out
 
 
-class _TimedPipeline(Pipeline):
-    """A :class:`Pipeline` that adds the CPU time (``time.thread_time``) of every filter step to ``filter_cpu_s``
-    (the filter runs in this process in both modes)."""
+def _roots(a: argparse.Namespace) -> dict[str, Path]:
+    """The code to measure: this checkout, and the release unless ``--baseline none``."""
+    rel = _local("release_baseline")
+    roots = {"this": REPO}
+    rev = a.baseline if a.baseline is not None else rel.PREVIOUS_RELEASE
+    if str(rev).lower() != "none":
+        roots["release"] = rel.release_checkout(rev)
+    return roots
 
-    filter_cpu_s = 0.0
 
-    def prepare(self, bag: BagSource) -> Any:
-        out = super().prepare(bag)
-        assert self.filter is not None
-        step = self.filter.step
+def _measure(
+    case: str,
+    kind: str,
+    v: tuple[Any, ...],
+    spec: tuple[Path, str, Path],
+    a: argparse.Namespace,
+    roots: dict[str, Path],
+) -> list[dict[str, Any]]:
+    """``--repeat`` interleaved rounds of one case, filter and variant with every code in ``roots``; prints a row
+    per run and returns the runs' figures (``code`` and ``round`` added)."""
+    run_worker = _local("release_baseline").run_worker
+    bag, config, gt = spec
+    runs: list[dict[str, Any]] = []
+    for k in range(max(a.repeat, 1)):
+        with tempfile.TemporaryDirectory() as tmp:
+            outs: dict[str, Path] = {}
+            for code, root in roots.items():
+                outs[code] = Path(tmp) / code
+                argv = _worker_argv(bag, config, kind, outs[code], v, a)
+                r = dict(run_worker(root, "evaluation.bench_pipeline", argv), code=code, round=k)
+                runs.append(r)
+            this = runs[-len(roots)]
+            rel = runs[-1] if "release" in roots else None
+            same = "-" if rel is None else ("yes" if _same_outputs(outs["this"], outs["release"]) else "NO")
+            for r in runs[-len(roots) :]:
+                r["same_outputs"] = same
+                ratio = f"{this['rtf'] / rel['rtf']:.2f}" if rel is not None and r is this else ""
+                rec = _recall(outs[r["code"]], gt, case == REAL) if gt.is_file() and r is this else ""
+                print(_row(case, kind, _label(v), r["code"], r, ratio, same if r is this else "", rec), flush=True)
+    return runs
 
-        def timed(*args: Any, **kwargs: Any) -> Any:
-            t0 = time.thread_time()
-            try:
-                return step(*args, **kwargs)
-            finally:
-                self.filter_cpu_s += time.thread_time() - t0
 
-        self.filter.step = timed  # type: ignore[method-assign]
-        return out
+def _summary(case: str, kind: str, v: tuple[Any, ...], runs: list[dict[str, Any]], stages: bool) -> None:
+    """Medians over the rounds per code, the ratio of the medians, and (``stages``) the stage table."""
+    codes = list(dict.fromkeys(r["code"] for r in runs))
+    med = {c: statistics.median(r["rtf"] for r in runs if r["code"] == c) for c in codes}
+    fps = {c: statistics.median(r["fps"] for r in runs if r["code"] == c) for c in codes}
+    parts = [f"{c} {med[c]:.1f}x ({fps[c]:.0f} frames/s)" for c in codes]
+    if "release" in med:
+        parts.append(f"ratio {med['this'] / med['release']:.2f}")
+    print(f"{case:<17}{kind:<9}{_label(v):<20}median RT factor: " + ", ".join(parts), flush=True)
+    if not stages:
+        return
+    names = list(dict.fromkeys(k for r in runs for k in r["stages_ms"]))
+    print(f"  {'stage (ms/frame, median)':<26}" + "".join(f"{c:>10}" for c in codes))
+    for name in names:
+        vals = [
+            statistics.median(r["stages_ms"].get(name, float("nan")) for r in runs if r["code"] == c) for c in codes
+        ]
+        print(f"  {name:<26}" + "".join(f"{x:>10.3f}" for x in vals))
+    total = [
+        statistics.median(1e3 * r["elapsed_s"] / max(r["frames"], 1) for r in runs if r["code"] == c) for c in codes
+    ]
+    print(f"  {'whole frame':<26}" + "".join(f"{x:>10.3f}" for x in total), flush=True)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m evaluation.bench_pipeline", description=__doc__.split("\n")[0])
-    ap.add_argument("--data", default="../shared/data", help="the shared data folder")
-    ap.add_argument("--filters", nargs="+", default=["grid", "particle"], choices=("grid", "particle"))
-    ap.add_argument("--max-frames", type=int, default=None, help="stop after N frames (default: the whole bag)")
-    ap.add_argument(
-        "--particles",
-        nargs="+",
-        type=int,
-        default=[None],
-        help="particle counts of the particle filter to compare (default: the configuration's)",
-    )
-    ap.add_argument(
-        "--processes",
-        nargs="+",
-        type=int,
-        default=[1, 2],
-        choices=(1, 2),
-        help="1: one process; 2: front end in a second process",
-    )
-    ap.add_argument(
-        "--max-overflow",
-        nargs="+",
-        type=float,
-        default=[None],
-        help="particle filter: FilterConfig.max_overflow values to compare (default: the configuration's)",
-    )
-    ap.add_argument(
-        "--motion-model",
-        nargs="+",
-        default=[None],
-        choices=("paper", "persistent"),
-        help="particle filter: people-motion samplers to compare (default: the configuration's)",
-    )
-    ap.add_argument(
-        "--repeat", type=int, default=1, help="runs per filter and mode, interleaved (the median is compared)"
-    )
-    args = ap.parse_args(argv)
-    data = Path(args.data)
-    if not (data / BAG).is_file():
-        print(f"{data / BAG} is absent; nothing to benchmark", file=sys.stderr)
-        return 2
-    gt = read_gt_csv(data / GT)
-    cfg0 = load_config(builtin_config_path("person_following_outdoor_1"))
-    print(
-        f"{'filter':<10}{'procs':>6}{'ovf':>5}{'N':>6}{'motion':>11}{'frames':>8}{'wall s':>9}{'fps':>9}"
-        f"{'RT factor':>11}"
-        f"{'ratio':>7}{'filt CPU ms':>12}   recall per source"
-    )
-    for kind in args.filters:
-        particle = kind == "particle"
-        overflows = args.max_overflow if particle else [None]
-        counts = args.particles if particle else [None]
-        models = args.motion_model if particle else [None]
-        variants = [(n, o, c, m) for n in args.processes for o in overflows for c in counts for m in models]
-        rtfs: dict[Variant, list[float]] = {v: [] for v in variants}
-        cpus: dict[Variant, list[float]] = {v: [] for v in variants}
-        for _ in range(max(args.repeat, 1)):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    a = _parser().parse_args(argv)
+    if a.worker:
+        if not (a.bag and a.config and a.out):
+            print("--worker needs --bag, --config and --out", file=sys.stderr)
+            return 2
+        print(json.dumps(worker(_worker_args(argv))))
+        return 0
+    roots = _roots(a)
+    print(f"code: {', '.join(f'{c} = {p}' for c, p in roots.items())}")
+    print(HEAD, flush=True)
+    every: list[dict[str, Any]] = []
+    for case in a.cases:
+        spec = _case(case, a)
+        if isinstance(spec, str):
+            print(f"{case}: skipped ({spec})", flush=True)
+            continue
+        for kind in a.filters:
+            particle = kind == "particle"
+            variants = [
+                (n, o, c, m)
+                for n in a.processes
+                for o in (a.max_overflow if particle else [None])
+                for c in (a.particles if particle else [None])
+                for m in (a.motion_model if particle else [None])
+            ]
             for v in variants:
-                n, ovf, count, model = v
-                filt = replace(cfg0.filter, kind=kind, n_particles=count)
-                if ovf is not None:
-                    filt = replace(filt, max_overflow=ovf)
-                if model is not None:
-                    filt = replace(filt, motion_model=model)
-                cfg = replace(cfg0, filter=filt)
-                with tempfile.TemporaryDirectory() as tmp:
-                    out = Path(tmp) / "run"
-                    try:
-                        with BagSource(data / BAG) as src:
-                            pipe = _TimedPipeline(cfg, front_process=n == 2)
-                            summary, _ = pipe.run(src, out, max_frames=args.max_frames)
-                    except ResourceLimitError as exc:  # too large for this machine; any other error is a failure
-                        print(f"{kind:<10} skipped: {exc}")
-                        break
-                    run = load_run(out)
-                    stamps = run.frames["stamp_ns"]
-                    recorded = (stamps[-1] - stamps[0]) * 1e-9 + 0.1 if len(stamps) else 0.0
-                    rtf = recorded / summary.elapsed_s if summary.elapsed_s > 0 else float("nan")
-                    rtfs[v].append(rtf)
-                    cpu_ms = 1e3 * pipe.filter_cpu_s / max(summary.frames, 1)
-                    cpus[v].append(cpu_ms)
-                    scores = score_run(run, gt, frame="laser", recall_only=True)["scores"]
-                    rec = "  ".join(f"{name} {s['recall']:.3f}" for name, s in scores.items())
-                    base = rtfs[variants[0]][-1] if rtfs[variants[0]] else float("nan")
-                    shown_o = "-" if not particle else ("cfg" if ovf is None else f"{ovf:g}")
-                    n_used = getattr(pipe.filter, "n_particles", None)
-                    shown_c = "-" if n_used is None else str(n_used)
-                    shown_m = getattr(pipe.filter, "motion_model", "-")
-                    print(
-                        f"{kind:<10}{n:>6}{shown_o:>5}{shown_c:>6}{shown_m:>11}{summary.frames:>8}{summary.elapsed_s:>9.2f}"
-                        f"{summary.fps:>9.1f}{rtf:>11.1f}{rtf / base:>7.2f}{cpu_ms:>12.3f}   {rec}",
-                        flush=True,
-                    )
-        if len(variants) > 1 and all(len(r) > 1 for r in rtfs.values()):
-            m0, c0 = statistics.median(rtfs[variants[0]]), statistics.median(cpus[variants[0]])
-            parts, cparts = [], []
-            for v in variants:
-                label = _label(v, particle)
-                m, c = statistics.median(rtfs[v]), statistics.median(cpus[v])
-                parts.append(f"{label} {m:.1f} (ratio {m / m0:.2f})")
-                cparts.append(f"{label} {c:.3f} (ratio {c0 / c:.2f})")
-            print(f"{kind:<10} median RT factor: " + ", ".join(parts))
-            print(f"{kind:<10} median filter CPU ms per frame (ratio: first variant / this): " + ", ".join(cparts))
+                runs = _measure(case, kind, v, spec, a, roots)
+                _summary(case, kind, v, runs, a.stages)
+                every += [dict(r, case=case, filter=kind, variant=_label(v)) for r in runs]
+    if a.json:
+        Path(a.json).write_text(json.dumps(every, indent=1), encoding="utf-8")
     return 0
 
 
