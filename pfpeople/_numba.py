@@ -88,6 +88,7 @@ def warm_up() -> None:
     pts, _b, starts, counts, _r0, _r1, _n = _kernels.jump_segments(x, x, x + 1.0, beams, 0.13, 3)
     ct, _dt, ci, _di = _kernels.features_angles(pts, starts, counts)
     _kernels.features_rest(pts, starts, counts, np.zeros(ct.size), np.zeros(ci.size))
+    _kernels.far_blobs(pts, _b, starts, counts, _r0, _r1, np.zeros(7))
     ev = np.zeros(4)
     no = np.zeros(0, dtype=np.intp)
     params = np.array([1.0, 1.0, 0.1, 20.0, 0.05, -1.0])

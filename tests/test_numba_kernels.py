@@ -107,3 +107,16 @@ def test_warm_up_and_disabled_fallback() -> None:
     env = {**__import__("os").environ, "PFPEOPLE_NUMBA": "0"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "ok"
+
+
+def test_far_leg_blobs_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    from pfpeople.detectors.legs import LegDetectorParams, far_leg_blobs
+
+    found = 0
+    for scan in _scans():
+        for params in (LegDetectorParams(), LegDetectorParams(far_from=1.0, far_max_points=8, far_leg_width=0.05)):
+            c, f = _both(lambda: far_leg_blobs(scan, params), monkeypatch)  # noqa: B023
+            for x, y in zip(c, f, strict=True):
+                assert x.shape == y.shape and x.tobytes() == y.tobytes()
+            found += len(c[1])
+    assert found > 0

@@ -347,3 +347,70 @@ def features_rest(
         out[s, 11] = iav
         out[s, 12] = math.sqrt(s2 / _max(n_int - 1.0, 1.0))
     return out
+
+
+@njit
+def far_blobs(
+    pts: NDArray[np.float64],
+    beams: NDArray[np.intp],
+    starts: NDArray[np.intp],
+    counts: NDArray[np.intp],
+    range_before: NDArray[np.float64],
+    range_after: NDArray[np.float64],
+    params: NDArray[np.float64],
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.float64]]:  # pragma: no cover - compiled
+    """The far leg blobs and small runs of :func:`pfpeople.detectors.legs.far_leg_blobs` among every run.
+
+    Parameters
+    ----------
+    pts, beams, starts, counts, range_before, range_after
+        The runs of ``segment_scan(scan, min_points=1)`` (m, scan frame).
+    params : ndarray, shape (7,)
+        ``(far_max_points, far_from, far_min_jump, far_leg_width, |angle_increment|, far_max_width, unused)``.
+
+    Returns
+    -------
+    keep, small : ndarray of bool, shape (R,)
+        The far leg blobs, and every small foreground run beyond ``far_from``.
+    centres : ndarray, shape (R, 2)
+        The runs' centroids (m).
+    """
+    R = starts.size
+    N = pts.shape[0]
+    max_points, far_from, min_jump, leg_width, inc, max_width = (
+        params[0],
+        params[1],
+        params[2],
+        params[3],
+        params[4],
+        params[5],
+    )
+    r = np.empty(N)
+    for p in range(N):
+        r[p] = math.hypot(pts[p, 0], pts[p, 1])
+    x = np.ascontiguousarray(pts[:, 0])
+    y = np.ascontiguousarray(pts[:, 1])
+    sr = _reduceat(r, starts, counts)
+    sx = _reduceat(x, starts, counts)
+    sy = _reduceat(y, starts, counts)
+    keep = np.zeros(R, dtype=np.bool_)
+    small = np.zeros(R, dtype=np.bool_)
+    centres = np.empty((R, 2))
+    for s in range(R):
+        lo, c = starts[s], counts[s]
+        hi = lo + c - 1
+        cf = float(c)
+        centres[s, 0] = sx[s] / cf
+        centres[s, 1] = sy[s] / cf
+        before = range_before[s] if lo > 0 and abs(beams[lo] - beams[lo - 1]) == 1 else math.inf
+        after = range_after[s] if hi < N - 1 and abs(beams[hi + 1] - beams[hi]) == 1 else math.inf
+        rmin = r[lo]
+        for p in range(lo + 1, lo + c):
+            rmin = _min(rmin, r[p])
+        rmean = sr[s] / cf
+        sm = (cf <= max_points) and (rmin >= far_from) and (before - rmean >= min_jump) and (after - rmean >= min_jump)
+        small[s] = sm
+        need = _max(np.floor(leg_width / (_max(rmean, 1e-3) * _max(inc, 1e-9))), 1.0)
+        width = math.hypot(x[hi] - x[lo], y[hi] - y[lo])
+        keep[s] = sm and (cf >= need) and (width <= max_width)
+    return keep, small, centres

@@ -74,6 +74,9 @@ def _load_boost(path: Path) -> Any:
 
 #: The latest (scan, model key, legs) of :meth:`BoostedSegmentDetector._legs`.
 _LATEST_LEGS: tuple[LaserScan, tuple[Any, ...], tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None
+#: The latest (scan, model and pairing key, (people, single legs)) of
+#: :meth:`BoostedSegmentDetector.detect_with_singles`: the single-legs detector asks for them again.
+_LATEST_PEOPLE: tuple[LaserScan, tuple[Any, ...], tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None
 
 
 class BoostedSegmentDetector:
@@ -169,6 +172,16 @@ class BoostedSegmentDetector:
 
     def detect_with_singles(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Person positions ``(M, 2)`` and unpaired single legs ``(S, 2)`` (m, scan frame)
-        (:func:`pfpeople.detectors.legs.people_and_single_legs`)."""
+        (:func:`pfpeople.detectors.legs.people_and_single_legs`); the latest result is kept by the scan's identity,
+        the model and the pairing (the arrays are shared: do not change them)."""
+        global _LATEST_PEOPLE
+        key = (self._resolved_path(), self.threshold, self.segmentation, self.pairing)
+        latest = _LATEST_PEOPLE
+        if latest is not None and latest[0] is scan and latest[1] == key:
+            return latest[2]
         legs, widths = self._legs(scan)
-        return people_and_single_legs(legs, widths, params=self.pairing)
+        out = people_and_single_legs(legs, widths, params=self.pairing)
+        for arr in out:
+            arr.flags.writeable = False
+        _LATEST_PEOPLE = (scan, key, out)
+        return out

@@ -76,6 +76,7 @@ false people per scan instead of 0.10-0.19. A person-following robot that must n
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -86,6 +87,8 @@ from numpy.typing import NDArray
 from gridbridge.geometry import near_any
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_positive
+from pfpeople import _numba
+from pfpeople.detectors import _kernels
 from pfpeople.detectors.segments import (
     FEATURE_NAMES,
     SegmentationParams,
@@ -241,6 +244,13 @@ def far_leg_blobs(scan: LaserScan, params: LegDetectorParams) -> tuple[NDArray[n
     segs = segment_scan(scan, params=p.segmentation, min_points=1)  # every run: they cover every valid beam
     if not len(segs):
         return none, none
+    if _numba.ENABLED:
+        inc = abs(scan.angle_increment)
+        par = np.array([p.far_max_points, p.far_from, p.far_min_jump, p.far_leg_width, inc, p.far_max_width, 0.0])
+        keep, small, centres = _kernels.far_blobs(
+            segs.points, segs.beams, segs.starts, segs.counts, segs.range_before, segs.range_after, par
+        )
+        return centres[keep].reshape(-1, 2), centres[small].reshape(-1, 2)
     starts, counts = segs.starts, segs.counts
     ends = starts + counts - 1
     r = np.hypot(segs.points[:, 0], segs.points[:, 1])
@@ -283,6 +293,15 @@ def far_people(
     return far[~near_any(far, people, FAR_DUPLICATE)].reshape(-1, 2)
 
 
+@functools.lru_cache(maxsize=64)
+def _pair_indices(k: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """``np.triu_indices(k, 1)`` (read-only, kept per ``k``: it is asked for every scan)."""
+    ii, jj = np.triu_indices(k, 1)
+    ii.flags.writeable = False
+    jj.flags.writeable = False
+    return ii, jj
+
+
 def pair_legs(
     legs: NDArray[np.float64], *, min_separation: float, max_separation: float
 ) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
@@ -307,7 +326,7 @@ def pair_legs(
     paired = np.zeros(k, dtype=bool)
     if k < 2:
         return np.zeros((0, 2), dtype=np.intp), paired
-    ii, jj = np.triu_indices(k, 1)
+    ii, jj = _pair_indices(k)
     d = np.hypot(*(pts[ii] - pts[jj]).T)
     ok = (d >= min_separation) & (d <= max_separation)
     ii, jj, d = ii[ok], jj[ok], d[ok]

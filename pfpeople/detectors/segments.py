@@ -199,12 +199,7 @@ def segment_scan(
         min_points = p.min_points
     elif isinstance(min_points, bool) or not isinstance(min_points, int) or min_points < 1:
         raise ValueError(f"min_points must be an integer >= 1, got {min_points!r}")
-    valid = scan.valid
-    with np.errstate(invalid="ignore"):
-        valid &= scan.ranges <= p.max_range
-    beams = np.flatnonzero(valid)
-    if scan.angle_increment < 0:  # walk the beams counter-clockwise (see the module docstring)
-        beams = beams[::-1]
+    beams, r, x, y = _valid_points(scan, p.max_range)
     n_invalid = int(scan.ranges.size - beams.size)
     if beams.size == 0:
         return Segments(
@@ -216,12 +211,9 @@ def segment_scan(
             range_after=np.zeros(0),
             n_invalid=n_invalid,
         )
-    r = scan.ranges[beams]
-    a = scan.angle_min + scan.angle_increment * beams
-    x, y = r * np.cos(a), r * np.sin(a)
     if _numba.ENABLED:
         pts, kb, starts, counts, before, after, n_small = _kernels.jump_segments(
-            x, y, r, beams.astype(np.intp), float(p.jump_distance), int(min_points)
+            x, y, r, beams, float(p.jump_distance), int(min_points)
         )
         return Segments(
             points=pts,
@@ -234,6 +226,34 @@ def segment_scan(
             n_dropped_small=int(n_small),
         )
     return _runs_numpy(np.column_stack((x, y)), r, beams, p.jump_distance, min_points, n_invalid)
+
+
+#: The latest (scan, max_range, valid points) of :func:`_valid_points`: a scan is segmented twice (the shape
+#: features' segments and the far leg blobs' runs).
+_LATEST_POINTS: tuple[LaserScan, float, tuple[NDArray[np.intp], ...]] | None = None
+
+
+def _valid_points(
+    scan: LaserScan, max_range: float
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The valid beams of ``scan`` within ``max_range`` in walk order (see the module docstring): beam indices,
+    ranges (m) and end points ``x``, ``y`` (m, scan frame), each shape (V,); the latest result is kept by the
+    scan's identity (do not change the arrays)."""
+    global _LATEST_POINTS
+    latest = _LATEST_POINTS
+    if latest is not None and latest[0] is scan and latest[1] == max_range:
+        return latest[2]  # type: ignore[return-value]
+    valid = scan.valid
+    with np.errstate(invalid="ignore"):
+        valid &= scan.ranges <= max_range
+    beams = np.flatnonzero(valid)
+    if scan.angle_increment < 0:  # walk the beams counter-clockwise (see the module docstring)
+        beams = beams[::-1]
+    r = scan.ranges[beams]
+    a = scan.angle_min + scan.angle_increment * beams
+    out = (beams.astype(np.intp), r, r * np.cos(a), r * np.sin(a))
+    _LATEST_POINTS = (scan, max_range, out)
+    return out
 
 
 def _runs_numpy(
