@@ -10,12 +10,13 @@ each filter of ``--filters`` (the recommended grid and particle filters) and eac
 Every run is a worker process (``--worker``) that runs the whole pipeline (bag reading, the detectors, the
 clutter map, the filter, classification, tracking and the run directory) and prints one JSON line: frames,
 wall-clock seconds, frames per second, the real-time factor (recorded seconds processed per wall-clock second),
-the filter step's CPU time (ms per frame, its thread; steadier than the wall clock on a loaded machine), the
-peak resident memory and, with ``--stages``, the wall-clock time of each stage (:mod:`evaluation.stage_timer`).
+the CPU time per frame of the same span and the real-time factor it gives (steadier than the wall clock on a
+loaded machine), the filter step's CPU time (ms per frame), the peak resident memory of the worker process
+and, with ``--stages``, the CPU time of each stage (:mod:`evaluation.stage_timer`).
 With ``--baseline REV`` (default :data:`evaluation.release_baseline.PREVIOUS_RELEASE`; ``none`` skips it) the
 same worker also runs with the release's packages (:func:`evaluation.release_baseline.run_worker`), interleaved
-with this checkout's runs, and each row shows the same-run ratio ``this / release`` of the real-time factor and
-whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``detections.csv`` (byte for byte)::
+with this checkout's runs, and each row shows the same-run ratios ``this / release`` of both real-time factors
+and whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``detections.csv`` (byte for byte)::
 
     python -m evaluation.bench_pipeline [--cases wheelchair lobby person_following] [--filters grid particle]
         [--max-frames N] [--repeat N] [--baseline REV|none] [--stages] [--data ../shared/data] [--work DIR]
@@ -66,6 +67,14 @@ def _timed_pipeline(cfg: Any, front_process: bool) -> Any:
 
     class Timed(Pipeline):
         filter_cpu_s = 0.0
+        cpu_s = 0.0
+
+        def frames(self, bag: Any, *, max_frames: int | None = None) -> Any:
+            t0 = time.process_time()  # the CPU time of what summary.elapsed_s times
+            try:
+                yield from super().frames(bag, max_frames=max_frames)
+            finally:
+                self.cpu_s = time.process_time() - t0
 
         def prepare(self, bag: Any) -> Any:
             out = super().prepare(bag)
@@ -127,6 +136,8 @@ def worker(args: argparse.Namespace) -> dict[str, Any]:
         "fps": n / elapsed if elapsed > 0 else float("nan"),
         "recorded_s": span,
         "rtf": span / elapsed if elapsed > 0 else float("nan"),
+        "cpu_ms": 1e3 * pipe.cpu_s / max(n, 1),
+        "cpu_rtf": span / pipe.cpu_s if pipe.cpu_s > 0 else float("nan"),
         "filter_cpu_ms": 1e3 * pipe.filter_cpu_s / max(n, 1),
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "n_particles": getattr(pipe.filter, "n_particles", None),
@@ -215,15 +226,16 @@ def _recall(run_dir: Path, gt: Path, real: bool) -> str:
 
 
 HEAD = (
-    f"{'case':<17}{'filter':<9}{'variant':<20}{'code':<9}{'frames':>7}{'wall s':>8}{'fps':>8}{'RT x':>8}"
-    f"{'ratio':>7}{'filt ms':>8}{'RSS MB':>8}  same  recall"
+    f"{'case':<17}{'filter':<9}{'variant':<12}{'code':<9}{'frames':>7}{'wall s':>8}{'fps':>8}{'RT x':>8}"
+    f"{'ratio':>7}{'CPU ms':>8}{'CPU RT':>8}{'ratio':>7}{'filt ms':>8}{'RSS MB':>8}  same  recall"
 )
 
 
-def _row(case: str, kind: str, label: str, code: str, r: dict[str, Any], ratio: str, same: str, rec: str) -> str:
+def _row(case: str, kind: str, label: str, code: str, r: dict[str, Any], ratios: tuple[str, str], rest: str) -> str:
     return (
-        f"{case:<17}{kind:<9}{label:<20}{code:<9}{r['frames']:>7}{r['elapsed_s']:>8.2f}{r['fps']:>8.1f}"
-        f"{r['rtf']:>8.1f}{ratio:>7}{r['filter_cpu_ms']:>8.3f}{r['peak_rss_mb']:>8.0f}  {same:<5} {rec}"
+        f"{case:<17}{kind:<9}{label:<12}{code:<9}{r['frames']:>7}{r['elapsed_s']:>8.2f}{r['fps']:>8.1f}"
+        f"{r['rtf']:>8.1f}{ratios[0]:>7}{r['cpu_ms']:>8.2f}{r['cpu_rtf']:>8.1f}{ratios[1]:>7}"
+        f"{r['filter_cpu_ms']:>8.3f}{r['peak_rss_mb']:>8.0f}  {rest}"
     )
 
 
@@ -272,34 +284,38 @@ def _measure(
             same = "-" if rel is None else ("yes" if _same_outputs(outs["this"], outs["release"]) else "NO")
             for r in runs[-len(roots) :]:
                 r["same_outputs"] = same
-                ratio = f"{this['rtf'] / rel['rtf']:.2f}" if rel is not None and r is this else ""
-                rec = _recall(outs[r["code"]], gt, case == REAL) if gt.is_file() and r is this else ""
-                print(_row(case, kind, _label(v), r["code"], r, ratio, same if r is this else "", rec), flush=True)
+                ratios = ("", "")
+                if rel is not None and r is this:
+                    ratios = (f"{this['rtf'] / rel['rtf']:.2f}", f"{this['cpu_rtf'] / rel['cpu_rtf']:.2f}")
+                rest = ""
+                if r is this:
+                    rest = f"{same:<5} " + (_recall(outs[r["code"]], gt, case == REAL) if gt.is_file() else "")
+                print(_row(case, kind, _label(v), r["code"], r, ratios, rest), flush=True)
     return runs
 
 
 def _summary(case: str, kind: str, v: tuple[Any, ...], runs: list[dict[str, Any]], stages: bool) -> None:
     """Medians over the rounds per code, the ratio of the medians, and (``stages``) the stage table."""
     codes = list(dict.fromkeys(r["code"] for r in runs))
-    med = {c: statistics.median(r["rtf"] for r in runs if r["code"] == c) for c in codes}
-    fps = {c: statistics.median(r["fps"] for r in runs if r["code"] == c) for c in codes}
-    parts = [f"{c} {med[c]:.1f}x ({fps[c]:.0f} frames/s)" for c in codes]
-    if "release" in med:
-        parts.append(f"ratio {med['this'] / med['release']:.2f}")
-    print(f"{case:<17}{kind:<9}{_label(v):<20}median RT factor: " + ", ".join(parts), flush=True)
+
+    def med(key: str, code: str) -> float:
+        return statistics.median(r[key] for r in runs if r["code"] == code)
+
+    parts = [f"{c} {med('rtf', c):.1f}x ({med('fps', c):.0f} frames/s, CPU {med('cpu_rtf', c):.1f}x)" for c in codes]
+    if "release" in codes:
+        rt, cpu = med("rtf", "this") / med("rtf", "release"), med("cpu_rtf", "this") / med("cpu_rtf", "release")
+        parts.append(f"ratio {rt:.2f} (CPU {cpu:.2f})")
+    print(f"{case:<17}{kind:<9}{_label(v):<12}median RT factor: " + ", ".join(parts), flush=True)
     if not stages:
         return
     names = list(dict.fromkeys(k for r in runs for k in r["stages_ms"]))
-    print(f"  {'stage (ms/frame, median)':<26}" + "".join(f"{c:>10}" for c in codes))
+    print(f"  {'stage (CPU ms/frame, median)':<30}" + "".join(f"{c:>10}" for c in codes))
     for name in names:
         vals = [
             statistics.median(r["stages_ms"].get(name, float("nan")) for r in runs if r["code"] == c) for c in codes
         ]
-        print(f"  {name:<26}" + "".join(f"{x:>10.3f}" for x in vals))
-    total = [
-        statistics.median(1e3 * r["elapsed_s"] / max(r["frames"], 1) for r in runs if r["code"] == c) for c in codes
-    ]
-    print(f"  {'whole frame':<26}" + "".join(f"{x:>10.3f}" for x in total), flush=True)
+        print(f"  {name:<30}" + "".join(f"{x:>10.3f}" for x in vals))
+    print(f"  {'whole frame (CPU)':<30}" + "".join(f"{med('cpu_ms', c):>10.3f}" for c in codes), flush=True)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -26,7 +26,7 @@ def test_worker_prints_one_json_line(tiny_scene: Path, tmp_path: Path, capsys: p
     assert bench_pipeline.main([*argv, "--max-frames", "5", "--stages", "--particles", "4000"]) == 0
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert out["frames"] == 5 and out["n_particles"] == 4000
-    for key in ("elapsed_s", "fps", "rtf", "recorded_s", "filter_cpu_ms", "peak_rss_mb"):
+    for key in ("elapsed_s", "fps", "rtf", "recorded_s", "cpu_ms", "cpu_rtf", "filter_cpu_ms", "peak_rss_mb"):
         assert out[key] > 0, key
     assert {"reading", "detectors", "segmentation", "features", "clutter", "filter", "tracking", "writing"} <= set(
         out["stages_ms"]

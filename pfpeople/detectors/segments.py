@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -230,7 +231,7 @@ def segment_scan(
 
 #: The latest (scan, max_range, valid points) of :func:`_valid_points`: a scan is segmented twice (the shape
 #: features' segments and the far leg blobs' runs).
-_LATEST_POINTS: tuple[LaserScan, float, tuple[NDArray[np.intp], ...]] | None = None
+_LATEST_POINTS: tuple[LaserScan, float, tuple[Any, ...]] | None = None
 
 
 def _valid_points(
@@ -242,7 +243,7 @@ def _valid_points(
     global _LATEST_POINTS
     latest = _LATEST_POINTS
     if latest is not None and latest[0] is scan and latest[1] == max_range:
-        return latest[2]  # type: ignore[return-value]
+        return latest[2]
     valid = scan.valid
     with np.errstate(invalid="ignore"):
         valid &= scan.ranges <= max_range
