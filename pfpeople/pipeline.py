@@ -245,6 +245,7 @@ class Pipeline:
 
     def prepare(self, bag: BagSource) -> TfBuffer:
         """Check topics and types, read the TF mounts, build the detector adapters, the filter and the rest."""
+        _numba.warm_up()  # the compiled kernels load here, not in the first frame
         c = self.config
         factories = {d.kind: adapter_factory(d.kind, self.adapter_registry) for d in c.detectors}
         setup = self._setup_sensors(
@@ -275,7 +276,6 @@ class Pipeline:
         self.tracker = build_people_tracker(c.tracking, self.classifier, c.filter.mode)
         edges = [e for f in self.frame_mounts for e in setup.tf.edges(setup.grid_frame, f)]
         self._mount_watch = MountWatch(edges)
-        _numba.warm_up()  # the compiled kernels load here, not in the first frame
         return setup.tf
 
     # -- running ---------------------------------------------------------------------------------------------
