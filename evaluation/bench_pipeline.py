@@ -192,13 +192,13 @@ def _worker_args(argv: list[str]) -> argparse.Namespace:
 
 def _case(name: str, a: argparse.Namespace) -> tuple[Path, str, Path] | str:
     """(bag, config, ground-truth CSV) of a case, simulating a scene once; or the reason it is skipped."""
-    if name == REAL:
-        bag = Path(a.data) / BAG
-        return (bag, "person_following_outdoor_1", Path(a.data) / GT) if bag.is_file() else f"{bag} is absent"
+    if name == REAL:  # absolute paths: the release's worker runs in the release's folder
+        bag = Path(a.data).resolve() / BAG
+        return (bag, "person_following_outdoor_1", bag.parent.parent / GT) if bag.is_file() else f"{bag} is absent"
     from evaluation.scenarios.scan import write_scene_bag
     from pfpeople.bag.inspect import inspect_path, starter_config
 
-    out = Path(a.work) / (name if a.max_frames is None else f"{name}_{a.max_frames}")
+    out = Path(a.work).resolve() / (name if a.max_frames is None else f"{name}_{a.max_frames}")
     bag = out / f"{name}.bag"
     if not bag.is_file():
         write_scene_bag(name, out, frames=a.max_frames, overwrite=True)
