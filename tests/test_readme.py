@@ -34,7 +34,7 @@ def _block(marker: str) -> str:
 
 def test_readme_has_the_library_examples() -> None:
     assert len(BLOCKS) >= 3
-    for marker in ("ParticleFilter(", "build_filter(", "MultiPersonTracker("):
+    for marker in ("ParticleFilter(", "pfpeople.recommended(", "MultiPersonTracker("):
         _block(marker)
 
 
@@ -55,12 +55,15 @@ def test_paper_filters_example() -> None:
     assert printed.startswith("belief there: grid ")
 
 
-def test_recommended_filter_example_finds_the_person() -> None:
-    namespace, printed = _run(_block("build_filter("))
-    people = namespace["people"]
-    assert len(people) == 1  # type: ignore[arg-type]
-    assert np.hypot(*(people.positions[0] - [3.0, 0.45])) < 0.3  # type: ignore[attr-defined]
-    assert printed.startswith("People(n=1, positions=[(")
+def test_recommended_example_finds_and_tracks_the_person() -> None:
+    namespace, printed = _run(_block("pfpeople.recommended("))
+    frame = namespace["frame"]
+    assert len(frame.people) == 1  # type: ignore[attr-defined]
+    assert np.hypot(*(frame.people.positions[0] - [3.0, 0.45])) < 0.3  # type: ignore[attr-defined]
+    (track,) = frame.tracks  # type: ignore[attr-defined]
+    assert np.hypot(track.x - 3.0, track.y - 0.45) < 0.3
+    lines = printed.strip().splitlines()
+    assert lines[0].startswith("People(n=1, positions=[(") and lines[1].startswith("[(1, ")
 
 
 def test_tracker_example_tracks_one_walker_at_1_m_s() -> None:
