@@ -35,7 +35,7 @@ from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
-from gridbridge.validation import check_choice, check_probability
+from gridbridge.validation import check_choice, check_number, check_probability
 
 __all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models"]
 
@@ -118,10 +118,12 @@ def as_odometry(odometry: Odometry | tuple[float, float] | None) -> Odometry | N
     if odometry is None or isinstance(odometry, Odometry):
         return odometry
     try:
-        v, omega = (float(c) for c in odometry)
+        if isinstance(odometry, str | bytes):
+            raise TypeError("a string is not a pair")
+        v, omega = odometry
     except (TypeError, ValueError):
         raise ValueError(f"odometry must be Odometry, a (v, omega) pair or None, got {odometry!r}") from None
-    return Odometry(v=v, omega=omega)
+    return Odometry(v=check_number(v, "odometry v"), omega=check_number(omega, "odometry omega"))
 
 
 def filter_models(
