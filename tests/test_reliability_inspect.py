@@ -6,6 +6,7 @@ Bags are written with ``tests/test_pipeline_bags.py``'s message helpers: ``/scan
 
 from __future__ import annotations
 
+import logging
 import math
 from pathlib import Path
 
@@ -30,11 +31,11 @@ def write_bag(
     *,
     odom: bool = True,
     tf_from: int | None = 0,
-    beams_first: int | None = None,
+    one_beam: int = 0,
     odom_also_scan: bool = False,
 ) -> None:
-    """``n`` scans; ``/tf`` base_link -> laser from scan ``tf_from`` on (None: no TF); the first ``beams_first``
-    beams only in the first scan; ``odom_also_scan``: ``/odom`` also carries LaserScans (two types)."""
+    """``n`` scans; ``/tf`` base_link -> laser from scan ``tf_from`` on (None: no TF); the first ``one_beam`` scans
+    of one beam (no field of view); ``odom_also_scan``: ``/odom`` also carries LaserScans (two types)."""
     ts = _typestore(False)
     m = _Msgs(ts, False)
     w = Writer1(path)
@@ -50,7 +51,7 @@ def write_bag(
             w.write(tf, st + 1, ts.serialize_ros1(m.tf(st, "base_link", "laser", MOUNT), tf.msgtype))
         if odo is not None:
             w.write(odo, st + 2, ts.serialize_ros1(m.odom(st, base_pose(0.0)), odo.msgtype))
-        r = ranges[:beams_first] if beams_first is not None and k == 0 else ranges
+        r = ranges[:1] if k < one_beam else ranges
         msg = ts.serialize_ros1(m.scan(st, r, -math.pi / 2, INC), LASER)
         w.write(scan, st + 3, msg)
         if odo_scan is not None:
@@ -89,3 +90,44 @@ def test_a_topic_with_two_message_types_is_reported_and_the_rest_inspected(
         pytest.raises(ValueError, match=rf"topic '/odom' in bag .* carries 2 message types \({both}\)"),
     ):
         src.require(["/odom"])
+
+
+def test_a_mount_first_published_after_one_second_runs_with_the_starter_config(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Issue 27 (5a): the run read /tf for 1 s only and refused the config inspect wrote (no mount on the base)."""
+    bag = tmp_path / "late.bag"
+    write_bag(bag, 20, tf_from=15)
+    with caplog.at_level(logging.WARNING):
+        text, summary = _starter_runs(bag, tmp_path)
+    assert "[mounts]" not in text  # inspect saw the TF: nothing to measure
+    assert summary.frames == 20  # type: ignore[attr-defined]
+    assert "TF first published after the first 1 s of the bag: frame 'laser' (topic /tf) at 1.5 s" in caplog.text
+    with BagSource(bag) as src:
+        pipe = Pipeline(load_config(tmp_path / "cfg.toml"))
+        pipe.prepare(src)
+    assert pipe.setup is not None and pipe.setup.base_to_grid == MOUNT
+
+
+def test_a_one_beam_first_scan_gives_the_next_scans_field_of_view(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Issue 27 (5b): inspect wrote fov_min = fov_max from a one-beam first scan, and run refused the grid."""
+    bag = tmp_path / "one.bag"
+    write_bag(bag, 10, one_beam=1)
+    report = inspect_path(bag)
+    (laser,) = report.lasers
+    assert laser.beams == 361 and laser.fov_max_rad == pytest.approx(math.pi / 2, abs=1e-6)
+    assert any("/scan: its first 1 scan(s) give no field of view (1 beam(s)" in w for w in report.warnings)
+    with caplog.at_level(logging.WARNING):
+        text, summary = _starter_runs(bag, tmp_path)
+    assert "fov_max = 1.5708" in text and summary.frames == 10  # type: ignore[attr-defined]
+    assert "the field of view, range and grid come from scan 1" in caplog.text
+    flat = tmp_path / "flat.bag"
+    write_bag(flat, 3, one_beam=3)
+    with (
+        BagSource(flat) as src,
+        pytest.raises(ValueError, match=r"topic '/scan': none of its first 3 LaserScans gives"),
+    ):
+        Pipeline(load_config(tmp_path / "cfg.toml"), front_process=False).run(src, None)
+    assert any("/scan: none of the 3 scans read gives a field of view" in w for w in inspect_path(flat).warnings)

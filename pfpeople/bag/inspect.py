@@ -335,7 +335,7 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         if not msgs:
             warnings.append(f"LaserScan topic {topic} has no messages")
             continue
-        first = msgs[0][1]
+        first = _first_usable_scan(topic, [m for _, m in msgs], warnings)
         geo = _laser_geometry(first)
         a_min, a_max, inc, n, r_min, r_max = geo
         last_angle = a_min + inc * max(n - 1, 0)
@@ -413,6 +413,23 @@ def _topic_types(bag: BagSource) -> tuple[dict[str, str], dict[str, tuple[str, .
     all_types = bag.topic_types
     single = {t: m[0] for t, m in all_types.items() if len(m) == 1}
     return single, {t: m for t, m in all_types.items() if len(m) > 1}
+
+
+def _first_usable_scan(topic: str, msgs: Sequence[Any], warnings: list[str]) -> Any:
+    """The first LaserScan of ``msgs`` with two or more beams over a span (the run's rule,
+    :mod:`pfpeople.sensor_setup`); a warning when scans before it give none (the first one when no scan does)."""
+    for k, m in enumerate(msgs):
+        a0, a1 = float(m.angle_min), float(m.angle_max)
+        if len(m.ranges) >= 2 and math.isfinite(a0) and math.isfinite(a1) and a0 != a1:
+            if k:
+                warnings.append(
+                    f"{topic}: its first {k} scan(s) give no field of view ({len(msgs[0].ranges)} beam(s), angle_min="
+                    f"{float(msgs[0].angle_min):.4f}, angle_max={float(msgs[0].angle_max):.4f}): scan {k} is reported "
+                    "(the run takes its field of view from it too)"
+                )
+            return m
+    warnings.append(f"{topic}: none of the {len(msgs)} scans read gives a field of view (a run refuses this laser)")
+    return msgs[0]
 
 
 def _sync_stamps(msgs: Sequence[tuple[int, Any]], time_source: str) -> list[int]:

@@ -111,8 +111,11 @@ class TfBuffer:
             self._topic[child] = topic
             self._fallback.discard(child)
 
-    def add_message(self, msg: object, *, topic: str = "/tf") -> int:
-        """Add every transform of a ``tf2_msgs/TFMessage`` read on ``topic``; returns how many were added.
+    def add_message(self, msg: object, *, topic: str = "/tf", new_frames_only: bool = False) -> list[str]:
+        """Add every transform of a ``tf2_msgs/TFMessage`` read on ``topic``; returns the children added.
+
+        With ``new_frames_only``, only transforms of children the buffer has no TF for (a ``[mounts]`` fallback
+        counts as none) are added.
 
         Raises
         ------
@@ -124,14 +127,19 @@ class TfBuffer:
         transforms = getattr(msg, "transforms", None)
         if transforms is None:
             raise ValueError(f"topic {topic!r}: not a tf2_msgs/TFMessage: {type(msg).__name__} has no 'transforms'")
+        added = []
         for t in transforms:
+            child = str(t.child_frame_id).lstrip("/")
+            if new_frames_only and child in self._parent and child not in self._fallback:
+                continue
             tr, q = t.transform.translation, t.transform.rotation
             stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
             where = f"topic {topic!r}: transform {t.header.frame_id!s} -> {t.child_frame_id!s}"
             x, y = xy_from_translation(tr.x, tr.y, tr.z, where)
             pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, where))
             self.set_transform(t.header.frame_id, t.child_frame_id, pose, stamp, topic=topic)
-        return len(transforms)
+            added.append(child)
+        return added
 
     @property
     def frames(self) -> list[str]:
