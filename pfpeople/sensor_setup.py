@@ -3,8 +3,9 @@
 Before the first frame, :func:`setup_sensors` reads what is fixed for the whole run:
 
 - the topics and their message types (:meth:`pfpeople.bag.reader.BagSource.require`);
-- TF: every ``/tf_static`` message and the first :data:`TF_PRELOAD_S` s of ``/tf`` (the config's ``[mounts]``
-  stand in for frames without TF, as children of the base frame);
+- TF: every ``/tf_static`` message and each frame's first transform in the first :data:`TF_PRELOAD_S` s of
+  ``/tf`` (or later, for a frame first published later; the config's ``[mounts]`` stand in for frames without TF,
+  as children of the base frame). The run follows the later transforms (:mod:`pfpeople.mounts`);
 - the grid frame (``[frames] grid_frame``, else the driver's ``frame_id``);
 - each detector's mount ``T`` (its frame's pose in the grid frame, m and rad), the pose in the grid frame of
   every frame the run's positions may be given in (written to ``run.json`` as ``frames_in_grid``), and the
@@ -186,7 +187,9 @@ def _first_messages(bag: BagSource, topics: Sequence[str]) -> dict[str, BagMessa
 
 
 def read_tf(config: BagConfig, bag: BagSource, needed: Sequence[tuple[str, str]] = ()) -> TfBuffer:
-    """TF known before the run: ``/tf_static``, the first :data:`TF_PRELOAD_S` s of ``/tf``, ``[mounts]``.
+    """TF known before the run: ``/tf_static``, the first transform of each frame in the first
+    :data:`TF_PRELOAD_S` s of ``/tf`` (the mount at the start: the run follows it, :mod:`pfpeople.mounts`),
+    ``[mounts]``.
 
     A frame of ``needed`` (``(target, source)`` pairs to look up) that these leave unconnected is looked for
     further into ``/tf``: its first transform is used (:func:`_read_late_tf`).
@@ -197,7 +200,8 @@ def read_tf(config: BagConfig, bag: BagSource, needed: Sequence[tuple[str, str]]
         for m in bag.messages([topic]):
             if not static and m.bag_time_ns - bag.start_time_ns > TF_PRELOAD_S * 1e9:
                 break
-            tf.add_message(m.msg, topic=topic)  # a zero quaternion is refused, naming the topic
+            # the first transform of each frame on /tf: the mount at the start (the run follows the later ones)
+            tf.add_message(m.msg, topic=topic, new_frames_only=not static)  # a zero quaternion is refused
     if any(not tf.can_transform(t, s) for t, s in needed):
         _read_late_tf(tf, config, bag, needed)
     return tf
@@ -211,7 +215,9 @@ def _read_late_tf(tf: TfBuffer, config: BagConfig, bag: BagSource, needed: Seque
     for m in bag.messages(topics):
         if m.bag_time_ns - bag.start_time_ns <= TF_PRELOAD_S * 1e9:
             continue
-        for child in tf.add_message(m.msg, topic=m.topic, new_frames_only=True):
+        before = set(tf.frames)
+        tf.add_message(m.msg, topic=m.topic, new_frames_only=True)
+        for child in sorted(set(tf.frames) - before):
             late.setdefault(f"frame {child!r} (topic {m.topic})", (m.bag_time_ns - bag.start_time_ns) * 1e-9)
         if late and all(tf.can_transform(t, s) for t, s in needed):
             break

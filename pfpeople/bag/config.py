@@ -691,7 +691,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
         detectors=tuple(detectors),
         odometry=odometry.get("topic", ""),
         tf_topics=tuple(tf_topics),
-        mounts=mounts,  # type: ignore[arg-type]
+        mounts=mounts,
         grid=GridSpec(**grid) if grid else None,
         filter=FilterConfig(**filt),
         classifier=ClassifierConfig(**classifier),
