@@ -63,7 +63,6 @@ class MountTracker:
         summary: RunSummary,
         warn: WarnOnce,
     ) -> None:
-        self.follower = MountFollower(tf, grid_frame)
         self.grid_frame = grid_frame
         self.summary, self.warn = summary, warn
         self.initial = [a.mount for a in adapters]
@@ -71,6 +70,7 @@ class MountTracker:
             a.config.frame or (first[a.config.topic].frame_id if a.config.topic in first else "") or grid_frame
             for a in adapters
         ]
+        self.follower = MountFollower(tf, grid_frame, frames=self.frames)
         self.fixed = [
             bool(getattr(a, "self_mounted", False)) or any(k in a.config.model for k in _MOUNT_KEYS) for a in adapters
         ]

@@ -303,24 +303,35 @@ class MountFollower:
         The transforms read before the run (copied: the run's setup keeps its own).
     grid_frame : str
         The frame mounts are given in.
+    frames : iterable of str, optional
+        The frames whose mounts will be asked for: only the transforms of their chains to the root (and of frames
+        the tree does not know yet) are kept. None: every transform.
     max_pending : int
         Transforms kept waiting for a frame at or after their stamp; beyond it the oldest is applied at once.
     """
 
-    def __init__(self, tf: TfBuffer, grid_frame: str, *, max_pending: int = 10_000) -> None:
+    def __init__(
+        self, tf: TfBuffer, grid_frame: str, *, frames: Iterable[str] | None = None, max_pending: int = 10_000
+    ) -> None:
         self.tf = copy.deepcopy(tf)
         self.grid_frame = grid_frame
         self.max_pending = max_pending
         self._pending: list[tuple[int, int, str, str, Pose2D, str]] = []
         self._seq = 0
         self._cache: dict[str, Pose2D] = {}
+        #: The frames on the chains of ``frames`` and of those looked up (None: all).
+        self._relevant: set[str] | None = None
+        if frames is not None:
+            self._relevant = set()
+            for f in [grid_frame, *frames]:
+                self._relevant.update(self.tf._chain(f.lstrip("/")))
 
     def add(self, msg: object, *, topic: str = "/tf") -> None:
         """Queue the transforms of a ``tf2_msgs/TFMessage`` read during the run (applied by :meth:`advance`);
         a transform giving a known frame another parent is left out (the tree read before the run holds)."""
         for stamp, parent, child, pose in _transforms(msg):
             old = self.tf.parent_of(child)
-            if old is not None and old != parent:
+            if old is not None and (old != parent or (self._relevant is not None and child not in self._relevant)):
                 continue
             self._seq += 1
             heapq.heappush(self._pending, (stamp, self._seq, parent, child, pose, topic))
@@ -342,4 +353,6 @@ class MountFollower:
         pose = self._cache.get(frame)
         if pose is None:
             pose = self._cache[frame] = self.tf.lookup(self.grid_frame, frame)
+            if self._relevant is not None:
+                self._relevant.update(self.tf._chain(frame.lstrip("/")))
         return pose
