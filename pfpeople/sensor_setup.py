@@ -215,9 +215,9 @@ def _read_late_tf(tf: TfBuffer, config: BagConfig, bag: BagSource, needed: Seque
     for m in bag.messages(topics):
         if m.bag_time_ns - bag.start_time_ns <= TF_PRELOAD_S * 1e9:
             continue
-        before = set(tf.frames)
+        before = {f for f in tf.frames if tf.parent_of(f) is not None}  # the frames with TF (children)
         tf.add_message(m.msg, topic=m.topic, new_frames_only=True)
-        for child in sorted(set(tf.frames) - before):
+        for child in sorted({f for f in tf.frames if tf.parent_of(f) is not None} - before):
             late.setdefault(f"frame {child!r} (topic {m.topic})", (m.bag_time_ns - bag.start_time_ns) * 1e-9)
         if late and all(tf.can_transform(t, s) for t, s in needed):
             break
