@@ -42,7 +42,7 @@ from scipy import ndimage
 from gridbridge.geometry import Pose2D, from_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import SensorMotionNoise
-from gridbridge.validation import check_finite, check_positive, check_probability
+from gridbridge.validation import check_number, check_positive, check_probability
 
 __all__ = [
     "Odometry",
@@ -77,9 +77,9 @@ class Odometry:
     vy: float = 0.0
 
     def __post_init__(self) -> None:
-        check_finite(self.v, "Odometry.v")
-        check_finite(self.omega, "Odometry.omega")
-        check_finite(self.vy, "Odometry.vy")
+        check_number(self.v, "Odometry.v")  # TypeError for a bool, a string or a complex
+        check_number(self.omega, "Odometry.omega")
+        check_number(self.vy, "Odometry.vy")
 
 
 def velocity_displacement(

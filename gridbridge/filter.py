@@ -14,7 +14,7 @@ and the Chapman-Kolmogorov sum (the filter the particle filter estimates without
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
@@ -35,9 +35,9 @@ from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
-from gridbridge.validation import check_choice, check_probability
+from gridbridge.validation import check_choice, check_number, check_probability
 
-__all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models"]
+__all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models", "remounted"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,10 +118,25 @@ def as_odometry(odometry: Odometry | tuple[float, float] | None) -> Odometry | N
     if odometry is None or isinstance(odometry, Odometry):
         return odometry
     try:
-        v, omega = (float(c) for c in odometry)
+        if isinstance(odometry, str | bytes):
+            raise TypeError("a string is not a pair")
+        v, omega = odometry
     except (TypeError, ValueError):
         raise ValueError(f"odometry must be Odometry, a (v, omega) pair or None, got {odometry!r}") from None
-    return Odometry(v=v, omega=omega)
+    return Odometry(v=check_number(v, "odometry v"), omega=check_number(omega, "odometry omega"))
+
+
+def remounted(
+    detectors: Sequence[DetectorModel], mounts: Sequence[tuple[float, float, float]]
+) -> tuple[DetectorModel, ...]:
+    """``detectors`` with the mounts ``(mount_x, mount_y, mount_yaw)`` (one per detector; ValueError otherwise)."""
+    if len(mounts) != len(detectors):
+        raise ValueError(f"mounts must give one (x, y, yaw) per detector ({len(detectors)}), got {len(mounts)}")
+    out = []
+    for d, (x, y, yaw) in zip(detectors, mounts, strict=True):
+        same = (d.mount_x, d.mount_y, d.mount_yaw) == (x, y, yaw)
+        out.append(d if same else replace(d, mount_x=x, mount_y=y, mount_yaw=yaw))
+    return tuple(out)
 
 
 def filter_models(
@@ -226,6 +241,12 @@ class GridFilter:
         self._observed: NDArray[np.bool_] | None = None
         #: The people prior of a :meth:`predict` not yet followed by :meth:`update`.
         self._people_prior: NDArray[np.float64] | None = None
+
+    def set_detector_mounts(self, mounts: Sequence[tuple[float, float, float]]) -> None:
+        """Move the detectors: ``(mount_x, mount_y, mount_yaw)`` per detector (m, rad; a panning laser's mount
+        at this frame). Their fields of view follow from the next update."""
+        self.detectors = remounted(self.detectors, mounts)
+        self._observed = None
 
     @property
     def observed(self) -> NDArray[np.bool_]:

@@ -21,6 +21,7 @@ __all__ = [
     "check_positions",
     "check_positive",
     "check_probability",
+    "check_real_array",
 ]
 
 
@@ -54,12 +55,29 @@ def check_grid_array(
     return arr
 
 
+def check_real_array(values: ArrayLike, name: str) -> NDArray[np.float64]:
+    """Return ``values`` as a float64 array after checking that they are real numbers.
+
+    Raises ``TypeError`` naming ``name`` for complex, bool, string or other non-number elements (NumPy would
+    drop an imaginary part, read True as 1 or parse ``"1.5"`` silently).
+    """
+    try:
+        arr = np.asarray(values)
+    except ValueError as exc:  # ragged nesting
+        raise TypeError(f"{name} must be an array of real numbers: {exc}") from None
+    if arr.dtype.kind not in "iuf" and not (arr.dtype.kind == "O" and arr.size == 0):
+        what = {"b": "bool", "c": "complex", "U": "string", "S": "bytes"}.get(arr.dtype.kind, f"{arr.dtype} values")
+        raise TypeError(f"{name} must hold real numbers, got {what} (dtype {arr.dtype})")
+    return arr.astype(float, copy=False)
+
+
 def check_positions(positions: ArrayLike, name: str) -> NDArray[np.float64]:
     """Return an ``(N, 2)`` float array of (x, y) positions (m); empty input gives shape (0, 2).
 
-    Raises ValueError naming ``name`` for another shape or NaN / infinite values.
+    Raises TypeError naming ``name`` for elements that are not real numbers (:func:`check_real_array`),
+    ValueError for another shape or NaN / infinite values.
     """
-    pts = np.asarray(positions, dtype=float)
+    pts = check_real_array(positions, name)
     if pts.size == 0:
         return np.zeros((0, 2))
     if pts.ndim != 2 or pts.shape[1] != 2:

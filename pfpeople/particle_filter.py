@@ -87,7 +87,7 @@ from gridbridge import (
     warp_belief,
 )
 from gridbridge.components import Appearance, BeliefBounds
-from gridbridge.filter import Prediction, filter_models
+from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
@@ -242,6 +242,12 @@ class ParticleFilter:
         self.reset()
 
     # ------------------------------------------------------------------ state
+
+    def set_detector_mounts(self, mounts: Sequence[tuple[float, float, float]]) -> None:
+        """Move the detectors: ``(mount_x, mount_y, mount_yaw)`` per detector (m, rad; a panning laser's mount
+        at this frame). Their fields of view follow from the next update."""
+        self.detectors = remounted(self.detectors, mounts)
+        self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
 
     def reset(self, belief: ArrayLike | None = None) -> None:
         """Restart: ``n_particles`` spread evenly over the cells, uniform within each, carrying ``belief``.

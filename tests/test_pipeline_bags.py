@@ -147,13 +147,15 @@ def write_bag(
     chunk_threshold: int | None = None,
     n_images: int = 0,
     odom_gap_s: tuple[float, float] | None = None,
+    odom_latency_s: float = 0.0,
 ) -> Truth:
     """Write the synthetic scene (see the module docstring); returns the true people in the laser frame.
 
     ROS1: the custom detections are headerless ``test_msgs/Person`` messages (one per person, in the laser
     frame, written 20 ms after their scan, like leg_tracker's ground truth). ROS2: a stamped
     ``test_msgs/PersonArray`` in base_link. ``scan_hook(k, stamp_ns, ranges) -> (stamp_ns, ranges)`` alters scans;
-    no odometry is written strictly inside ``odom_gap_s`` (s from the first scan).
+    no odometry is written strictly inside ``odom_gap_s`` (s from the first scan); odometry is recorded
+    ``odom_latency_s`` after its stamps (1 ms by default).
     """
     ts = _typestore(ros2)
     m = _Msgs(ts, ros2)
@@ -167,7 +169,8 @@ def write_bag(
             t_ns = T0_NS + k * 20_000_000
             if odom_gap_s is not None and odom_gap_s[0] < k * 0.02 - 1e-9 and k * 0.02 + 1e-9 < odom_gap_s[1]:
                 continue
-            items.append((t_ns + 1_000_000, "/odom", "nav_msgs/msg/Odometry", m.odom(t_ns, base_pose(k * 0.02))))
+            bag_ns = t_ns + 1_000_000 + round(odom_latency_s * 1e9)
+            items.append((bag_ns, "/odom", "nav_msgs/msg/Odometry", m.odom(t_ns, base_pose(k * 0.02))))
     truth = Truth([], [])
     inc = math.radians(0.5)
     for k in range(n_scans):

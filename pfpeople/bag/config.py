@@ -82,7 +82,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -90,6 +90,7 @@ from typing import Any
 from gridbridge.grid import GridSpec
 from gridbridge.limits import check_grid_size, check_memory, check_particles
 from gridbridge.params import DetectorModel, PeopleMotion
+from gridbridge.validation import check_number
 
 __all__ = [
     "DETECTOR_KINDS",
@@ -530,8 +531,7 @@ class BagConfig:
         for t in self.tf_topics:
             _check_str(t, "BagConfig.tf_topics")
         for frame, mount in self.mounts.items():
-            if len(mount) != 3 or not all(math.isfinite(float(v)) for v in mount):
-                raise ValueError(f"BagConfig.mounts[{frame!r}] must be three finite numbers [x, y, yaw]")
+            _mount(f"BagConfig.mounts[{frame!r}]", mount)
         if self.grid is not None and not isinstance(self.grid, GridSpec):
             raise ValueError("BagConfig.grid must be a GridSpec or None (from the driving laser)")
         if not isinstance(self.filter, FilterConfig):
@@ -635,6 +635,15 @@ def _only(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
         raise ValueError(f"config: unknown keys {sorted(unknown)} in [{where}]; allowed: {sorted(allowed)}")
 
 
+def _mount(key: str, value: object) -> tuple[float, float, float]:
+    """A ``[mounts]`` entry as ``(x, y, yaw)``; TypeError / ValueError naming the key for another value."""
+    where = key if key.startswith("BagConfig.") else f"[mounts] {key!r}"
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence) or len(value) != 3:
+        raise ValueError(f"{where} must be three numbers [x, y, yaw] (m, m, rad), got {value!r}")
+    x, y, yaw = (check_number(v, f"{where} {axis}") for v, axis in zip(value, ("x", "y", "yaw"), strict=True))
+    return x, y, yaw
+
+
 def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
     _only(
@@ -676,13 +685,13 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
             raise ValueError(f"config: detectors[{k}] must be a table")
         _only(d, {f.name for f in fields(DetectorConfig)}, f"detectors[{k}]")
         detectors.append(DetectorConfig(**d))
-    mounts = {str(k): tuple(float(x) for x in v) for k, v in _table(data, "mounts").items()}
+    mounts = {str(k): _mount(k, v) for k, v in _table(data, "mounts").items()}
     return BagConfig(
         **frames,
         detectors=tuple(detectors),
         odometry=odometry.get("topic", ""),
         tf_topics=tuple(tf_topics),
-        mounts=mounts,  # type: ignore[arg-type]
+        mounts=mounts,
         grid=GridSpec(**grid) if grid else None,
         filter=FilterConfig(**filt),
         classifier=ClassifierConfig(**classifier),

@@ -226,7 +226,7 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
     reader = bag._reader
     times: dict[str, list[int]] = {}
     decoded: dict[str, list[tuple[int, Any]]] = {}
-    types = bag.topics
+    types, mixed = _topic_types(bag)
     tf_topics = {t for t, m in types.items() if m in TF_TYPES}
     it = reader.messages()
     last = "the start"
@@ -244,6 +244,8 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         t.append(int(bag_time))
         last = f"message {len(t) - 1} of {topic!r} at bag time {bag_time} ns"
         dec = decoded.setdefault(topic, [])
+        if topic in mixed:
+            continue  # reported with its types, not decoded
         if topic in tf_topics or len(dec) < sample:
             try:
                 dec.append((int(bag_time), reader.deserialize(raw, conn.msgtype)))
@@ -252,9 +254,13 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
                     f"cannot decode a {conn.msgtype} message on topic {topic!r} at bag time {bag_time} ns "
                     f"in {bag.name!r}: {type(exc).__name__}: {exc}"
                 ) from None
-    warnings: list[str] = []
+    warnings = [
+        f"topic {t} carries {len(m)} message types ({', '.join(m)}): left out of this report's lasers, odometry "
+        "and TF and of the config (a run refuses a topic with two types)"
+        for t, m in sorted(mixed.items())
+    ]
     topics: list[TopicInfo] = []
-    for topic in sorted(types):
+    for topic in sorted({*types, *mixed}):
         t = times.get(topic, [])
         msgs = decoded.get(topic, [])
         ids = sorted({str(m.header.frame_id).lstrip("/") for _, m in msgs if hasattr(m, "header")})
@@ -268,7 +274,7 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         topics.append(
             TopicInfo(
                 topic=topic,
-                msgtype=types[topic],
+                msgtype=" | ".join(mixed[topic]) if topic in mixed else types[topic],
                 count=len(t),
                 rate_hz=_rate(len(t), t[0], t[-1]) if t else None,
                 frame_ids=tuple(ids),
@@ -329,7 +335,7 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         if not msgs:
             warnings.append(f"LaserScan topic {topic} has no messages")
             continue
-        first = msgs[0][1]
+        first = _first_usable_scan(topic, [m for _, m in msgs], warnings)
         geo = _laser_geometry(first)
         a_min, a_max, inc, n, r_min, r_max = geo
         last_angle = a_min + inc * max(n - 1, 0)
@@ -400,6 +406,30 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         time_source=time_source,
         warnings=tuple(warnings),
     )
+
+
+def _topic_types(bag: BagSource) -> tuple[dict[str, str], dict[str, tuple[str, ...]]]:
+    """``(topic -> type, topic -> types)``: the topics of one message type, and those carrying several."""
+    all_types = bag.topic_types
+    single = {t: m[0] for t, m in all_types.items() if len(m) == 1}
+    return single, {t: m for t, m in all_types.items() if len(m) > 1}
+
+
+def _first_usable_scan(topic: str, msgs: Sequence[Any], warnings: list[str]) -> Any:
+    """The first LaserScan of ``msgs`` with two or more beams over a span (the run's rule,
+    :mod:`pfpeople.sensor_setup`); a warning when scans before it give none (the first one when no scan does)."""
+    for k, m in enumerate(msgs):
+        a0, a1 = float(m.angle_min), float(m.angle_max)
+        if len(m.ranges) >= 2 and math.isfinite(a0) and math.isfinite(a1) and a0 != a1:
+            if k:
+                warnings.append(
+                    f"{topic}: its first {k} scan(s) give no field of view ({len(msgs[0].ranges)} beam(s), angle_min="
+                    f"{float(msgs[0].angle_min):.4f}, angle_max={float(msgs[0].angle_max):.4f}): scan {k} is reported "
+                    "(the run takes its field of view from it too)"
+                )
+            return m
+    warnings.append(f"{topic}: none of the {len(msgs)} scans read gives a field of view (a run refuses this laser)")
+    return msgs[0]
 
 
 def _sync_stamps(msgs: Sequence[tuple[int, Any]], time_source: str) -> list[int]:

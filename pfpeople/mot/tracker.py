@@ -91,6 +91,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from gridbridge.grid import GridSpec
+from gridbridge.validation import check_real_array
 from pfpeople.sensors import Pose2D
 
 __all__ = ["TRACK_COLUMNS", "MultiPersonTracker", "Track", "TrackerConfig", "track_rows"]
@@ -506,10 +507,7 @@ class _State:
 
 
 def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[np.float64]:
-    try:
-        z = np.asarray(positions, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be an (M, 2) array of numbers: {exc}") from None
+    z = check_real_array(positions, name)  # TypeError for complex, bool or string elements
     if z.size == 0:
         return np.zeros((0, 2))
     if z.ndim != 2 or z.shape[1] != 2:
@@ -522,10 +520,7 @@ def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[n
 def _check_scores(scores: ArrayLike | None, m: int) -> NDArray[np.float64]:
     if scores is None:
         return np.ones(m)
-    try:
-        s = np.asarray(scores, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"scores must be an (M,) array of numbers in [0, 1]: {exc}") from None
+    s = check_real_array(scores, "scores")
     if s.size == 0 and m == 0:
         return np.zeros(0)
     if s.shape != (m,):
