@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from pfpeople.bag.config import BagConfig
+from pfpeople.extras import require
 
 __all__ = [
     "ROW_COLUMNS",
@@ -105,7 +106,7 @@ def quiet_dask_logs(verbose: bool = False) -> None:
     verbose : bool
         Keep distributed's INFO messages (the ``-v`` of the commands).
     """
-    import distributed  # noqa: F401
+    require("batch", "pfpeople batch")
 
     level = logging.INFO if verbose else logging.WARNING
     logging.getLogger("distributed").setLevel(level)
@@ -128,6 +129,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     processes : bool
         Local workers as processes (default; the pipeline holds the GIL in Python code) or threads.
     """
+    require("batch", "pfpeople batch")
     from distributed import Client, LocalCluster
 
     check_cluster_args(scheduler, workers)
@@ -172,6 +174,7 @@ def run_tasks(
     (the function raised, or its worker died) yields ``on_error(i, exception)`` instead of a result; the other
     tasks go on.
     """
+    require("batch", "pfpeople batch")
     from distributed import as_completed
 
     from pfpeople.progress import progress_bar

@@ -37,9 +37,9 @@ from evaluation.calibration import (
 from evaluation.gt_csv import read_gt_csv
 from evaluation.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
-from gridbridge.cli_support import examples
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from pfpeople.cli_support import examples
 from pfpeople.jsonio import dumps
 from pfpeople.output import load_run
 
