@@ -42,12 +42,7 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
    ``see_through`` and the frame's laser scans (``views``), a track or a coasting person without a hit in this
    frame is also left out where a laser sees through its predicted position (:mod:`pfpeople.mot.freespace`).
 
-Why (``pfpeople-eval benchmark``, all scenes, the same detections; issue 9's note): on ``negative_2`` (nobody
-there) the false people per scan fall by about half (0.09 / 0.10 / 0.15 -> 0.05 / 0.05 / 0.09) and the
-followed person of ``person_following_outdoor_1`` is found in 0.91 of the scans instead of 0.88; recall on the
-other scenes moves by -0.02 .. +0.01, precision by -0.02 .. +0.01. Reporting the first frames of a person
-before confirmation costs the false people; coasting for 1 frame wins back the recall, 2 or more frames cost
-precision (a coasting prediction is a person within 0.5 m in about 80 % of cases on the wheelchair scene).
+Why, with the figures: ``docs/ablations.md``, "The reported people".
 """
 
 from __future__ import annotations
