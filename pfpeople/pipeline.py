@@ -187,7 +187,6 @@ class Pipeline:
         front_process_available` says it can and no front-end part (``detectors``, ``adapters``,
         ``odometry_factory``) is given: the state of those would be in the child process, out of the caller's
         sight. True: ask for it (one process, with a warning, where it cannot run); False: one process.
-        ``[clutter] keep_out = "tracks"`` feeds the tracks back into the clutter map: one process.
 
     Raises
     ------
@@ -443,9 +442,6 @@ class Pipeline:
             )
             people_found, tracks = tracked.people, tracked.tracks
         people = people_found.positions.reshape(-1, 2)
-        # with [clutter] keep_out = "tracks": the confirmed tracks (else the classified people) are kept out of the
-        # clutter map next frame (see pfpeople.bag.config.ClutterSuppression.keep_out for the trade-off)
-        self.clutter.remember(np.array([[t.x, t.y] for t in tracks]).reshape(-1, 2) if tracks else people)
         self.summary.frames += 1
         return FrameResult(
             frame=frame,
@@ -609,8 +605,6 @@ class Pipeline:
         why = ""
         if not isinstance(bag, BagSource):
             why = f"the source is a {type(bag).__name__}, not a BagSource the front-end process can open again"
-        elif self.config.clutter.keep_out == "tracks":
-            why = '[clutter] keep_out = "tracks" feeds the tracks back into the clutter map'
         else:
             _ok, why = front_process_available()
         if why:

@@ -579,9 +579,9 @@ def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
     cfg_path.write_text(
         '[frames]\ndriver = "/scan"\n[odometry]\ntopic = "/odom"\n'
         '[[detectors]]\nname = "laser-legs"\nkind = "leg"\ntopic = "/scan"\n'
-        # the two people stand still from the first scan and one detector sees them: by default (keep_out =
-        # "moving") the clutter map takes them for furniture after ~0.6 s (recall 0.35); confirmed tracks kept out
-        '[clutter]\nkeep_out = "tracks"\n'
+        # the two people stand still from the first scan and one detector sees them: the clutter map would take
+        # them for furniture after ~0.6 s
+        "[clutter]\nenabled = false\n"
     )
     out = tmp_path / "run"
     rc = main(

@@ -59,7 +59,6 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
     enabled = true              # default: on in the recommended mode, off in the paper mode
     laser_odometry = true       # no odometry topic: move the grid by scan matching the driving laser
-    keep_out = "moving"         # kept out of the map: people seen moving ("tracks": also every confirmed track)
     [clutter.params]            # pfpeople.clutter.ClutterConfig fields
 
     [[detectors]]
@@ -335,19 +334,12 @@ class ClutterSuppression:
         None: on in the recommended mode, off in the paper mode.
     laser_odometry : bool
         Without an odometry topic, move the grid with the driving laser's scan matching (when it succeeds).
-    keep_out : {"moving", "tracks"}
-        Who is kept out of the map (never turns static): ``"moving"`` (default) the people seen moving 0.6 m
-        within 2 s (:class:`pfpeople.clutter.MovingPeople`); ``"tracks"`` also every confirmed track (a person
-        standing still from the first scan is never absorbed, but neither is a chair that became a track: on
-        the wheelchair scene precision 0.62 instead of 0.91). With ``"moving"`` a person who has stood still
-        since they were first seen is taken for furniture after about 0.6 s.
     params : mapping
         :class:`pfpeople.clutter.ClutterConfig` fields overriding its defaults.
     """
 
     enabled: bool | None = None
     laser_odometry: bool = True
-    keep_out: str = "moving"
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -355,8 +347,6 @@ class ClutterSuppression:
             raise ValueError(f"[clutter] enabled must be true or false, got {self.enabled!r}")
         if not isinstance(self.laser_odometry, bool):
             raise ValueError(f"[clutter] laser_odometry must be true or false, got {self.laser_odometry!r}")
-        if self.keep_out not in ("moving", "tracks"):
-            raise ValueError(f'[clutter] keep_out must be "moving" or "tracks", got {self.keep_out!r}')
         if not isinstance(self.params, Mapping):
             raise ValueError("[clutter] params must be a table")
 
@@ -582,7 +572,6 @@ class BagConfig:
                 for k, v in {
                     "enabled": self.clutter.enabled,
                     "laser_odometry": self.clutter.laser_odometry,
-                    "keep_out": self.clutter.keep_out,
                     "params": dict(self.clutter.params),
                 }.items()
                 if v is not None
@@ -675,7 +664,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     tracking = _table(data, "tracking")
     _only(tracking, {f.name for f in fields(TrackingConfig)}, "tracking")
     clutter = _table(data, "clutter")
-    _only(clutter, {"enabled", "laser_odometry", "keep_out", "params"}, "clutter")
+    _only(clutter, {"enabled", "laser_odometry", "params"}, "clutter")
     dets = data.get("detectors", [])
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")

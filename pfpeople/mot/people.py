@@ -316,7 +316,7 @@ class PeopleTracker:
             n_found = len(found.positions)
             found = replace(found, positions=pos[:n_found])
         support = support if self.use_support else None
-        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, belief=grid, spec=spec, support=support)
+        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support)
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
         # the coasting tracks that may be reported (as tracks, or below as people) and whose place a laser sees

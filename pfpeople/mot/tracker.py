@@ -31,13 +31,6 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    (keep their prediction); every unassigned measurement with ``score >= birth_min_score`` starts a
    tentative track at its position with zero velocity and covariance ``diag(sz^2, sz^2, sv^2, sv^2)``.
 
-   4b. **Belief** (optional, a fused belief grid given to ``update``): for a confirmed track left unassigned,
-   ``b`` = the largest belief within ``belief_radius`` of its prediction (none when a position of this frame
-   lies that close: the belief there is that position's). With ``belief_support`` and ``b >=
-   belief_support`` the belief-weighted centre of those cells of belief ``>= b / 2`` updates the track as a
-   measurement of confidence ``b`` (a hit); with ``report_belief`` a coasting track is reported only while
-   ``b >= report_belief``.
-
    4c. **Support** (optional, ``support`` positions given to ``update``: weaker evidence than a position, such
    as the laser detectors' unpaired single legs): the confirmed tracks still without a hit are assigned to the
    support positions as in step 3 (same gates and cost, ``R = support_sigma^2 I``), leaving out support
@@ -51,8 +44,7 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    without a hit gives ``r <- r exp(-dt / score_tau)``. A new track starts at ``r = hit_gain c``.
 6. **Confirmation and deletion.** A tentative track is confirmed when it has ``confirm_hits`` hits within
    its first ``confirm_window`` frames (M of N); it is deleted when that has become impossible or after
-   ``tentative_max_misses`` consecutive misses (with ``confirm_score``, a measurement of that confidence or
-   more confirms it at once). A confirmed track is deleted after coasting longer than
+   ``tentative_max_misses`` consecutive misses. A confirmed track is deleted after coasting longer than
    ``max_coast_s`` seconds without a hit, or when its score falls below ``delete_score``, or (with
    ``region``) when its position leaves the region by more than ``region_margin``. The output (the confirmed
    tracks) leaves out tracks coasting longer than ``report_coast_s``: they stay alive to keep their id. A
@@ -90,7 +82,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from gridbridge.grid import GridSpec
 from gridbridge.validation import check_real_array
 from pfpeople.sensors import Pose2D
 
@@ -169,20 +160,6 @@ class TrackerConfig:
         Confirmed tracks coasting longer than this (s) stay alive (and keep their id when seen again) but are
         not reported by :meth:`MultiPersonTracker.confirmed` / ``update`` (SORT's rule); None reports every
         confirmed track up to its deletion.
-    belief_support : float or None
-        With a belief grid given to ``update``: a confirmed track that no position was assigned to takes the
-        belief-weighted centre of the cells within ``belief_radius`` of its prediction (cells of at least half
-        the largest) as a measurement when that largest belief is ``>= belief_support``, with that belief as
-        its confidence (step 4b). None (default): the belief is not used for this.
-    belief_radius : float
-        Radius (m) around a track's predicted position searched in the belief grid (``belief_support``,
-        ``report_belief``).
-    report_belief : float or None
-        With a belief grid given to ``update``: a coasting confirmed track is reported only while the largest
-        belief within ``belief_radius`` of its prediction is ``>= report_belief``. None (default): not used.
-    confirm_score : float or None
-        A tentative track is confirmed at once by a measurement of confidence ``>= confirm_score`` (its birth
-        included), besides the M-of-N rule. None (default): M of N only.
     support_sigma : float
         Standard deviation per axis (m) of a support position as a measurement of a person's centre (step 4c);
         a single leg lies 0.1-0.2 m from it.
@@ -237,10 +214,6 @@ class TrackerConfig:
     region: tuple[float, float, float, float] | None = None
     region_margin: float = 0.5
     report_coast_s: float | None = 1.0
-    belief_support: float | None = None
-    belief_radius: float = 0.45
-    report_belief: float | None = None
-    confirm_score: float | None = None
     support_sigma: float = 0.2
     support_exclusion: float = 0.4
     support_confidence: float = 0.5
@@ -272,17 +245,9 @@ class TrackerConfig:
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _finite_positive(getattr(self, name), name, allow_zero=True))
         object.__setattr__(self, "contest_radius", _finite_positive(self.contest_radius, "contest_radius"))
-        object.__setattr__(self, "belief_radius", _finite_positive(self.belief_radius, "belief_radius"))
         object.__setattr__(
             self, "support_min_speed", _finite_positive(self.support_min_speed, "support_min_speed", allow_zero=True)
         )
-        for name in ("belief_support", "confirm_score", "report_belief"):
-            v = getattr(self, name)
-            if v is not None:
-                v = _finite_positive(v, name)
-                if v > 1:
-                    raise ValueError(f"TrackerConfig.{name} must be in (0, 1] or None, got {v!r}")
-                object.__setattr__(self, name, v)
         for name, lo_open, hi_open in (
             ("delete_score", False, True),
             ("hit_gain", True, False),
@@ -341,8 +306,7 @@ class Track:
         Whether the track has passed the M-of-N confirmation.
     measurement : int
         Index (into this update's ``positions``) of the position assigned to the track in this frame, its
-        birth's included; -1 when none was (a coasting track, or one updated from the belief, step 4b, or from a
-        support position, step 4c).
+        birth's included; -1 when none was (a coasting track, or one updated from a support position, step 4c).
     supported : bool
         Whether a support position (step 4c) was this frame's hit.
     age_s : float
@@ -389,12 +353,21 @@ class _State:
     age: int = 1
     confirmed: bool = False
     coast_s: float = 0.0
-    support: float = 1.0
     measurement: int = -1
     supported: bool = False
     age_s: float = 0.0
     moved: bool = False
     lost: bool = False
+
+
+def _check_ego(ego: object) -> None:
+    """``ego`` is None or a finite :class:`pfpeople.sensors.Pose2D` (TypeError / ValueError otherwise)."""
+    if ego is None:
+        return
+    if not isinstance(ego, Pose2D):
+        raise TypeError(f"ego must be a pfpeople.sensors.Pose2D or None, got {type(ego).__name__}")
+    if not all(math.isfinite(v) for v in (ego.x, ego.y, ego.yaw)):
+        raise ValueError(f"ego must be finite, got {ego!r}")
 
 
 def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[np.float64]:
@@ -479,15 +452,9 @@ class MultiPersonTracker:
         Coasting tracks are included, up to ``config.report_coast_s`` of coasting when that is set.
         """
         rc = self.config.report_coast_s
-        rb = self.config.report_belief
         rc = math.inf if rc is None else rc + 1e-9
-        rb = -1.0 if rb is None else rb
         return self._snapshots(
-            [
-                i
-                for i, m in enumerate(self._meta)
-                if m.confirmed and not m.lost and (m.misses == 0 or (m.coast_s <= rc and m.support >= rb))
-            ]
+            [i for i, m in enumerate(self._meta) if m.confirmed and not m.lost and (m.misses == 0 or m.coast_s <= rc)]
         )
 
     def _snapshots(self, idx: list[int]) -> list[Track]:
@@ -531,8 +498,6 @@ class MultiPersonTracker:
         *,
         scores: ArrayLike | None = None,
         ego: Pose2D | None = None,
-        belief: ArrayLike | None = None,
-        spec: GridSpec | None = None,
         support: ArrayLike | None = None,
     ) -> list[Track]:
         """Advance the tracks by one frame.
@@ -548,12 +513,6 @@ class MultiPersonTracker:
             Confidence of each position in [0, 1] (e.g. the belief at a grid peak); None counts each as 1.
         ego : Pose2D, optional
             Pose of the current sensor frame in the previous one (m, m, rad); None: the sensor stood still.
-        belief : array_like, shape (nx, ny), optional
-            The fused belief grid of this frame (probability of a person per cell, current sensor frame), used
-            with ``config.belief_support`` to update confirmed tracks that no position was assigned to (step
-            4b of the module docstring). Ignored when ``config.belief_support`` is None.
-        spec : GridSpec, optional
-            Geometry of ``belief`` (required with it).
         support : array_like, shape (K, 2), optional
             Support positions (m, current sensor frame) for confirmed tracks left without a hit (step 4c).
 
@@ -568,23 +527,13 @@ class MultiPersonTracker:
             ``positions`` or ``support`` not (M, 2) or not finite; ``scores`` of the wrong shape or outside [0, 1];
             ``dt`` not finite and positive; ``ego`` not finite.
         TypeError
-            ``ego`` not a Pose2D, ``dt`` not a number, ``spec`` not a GridSpec.
+            ``ego`` not a Pose2D, ``dt`` not a number.
         """
         z = _check_positions(positions)
         c = _check_scores(scores, z.shape[0])
         sup = np.zeros((0, 2)) if support is None else _check_positions(support, "support")
         dt = _check_dt(dt)
-        grid = None
-        if belief is not None and (self.config.belief_support is not None or self.config.report_belief is not None):
-            if not isinstance(spec, GridSpec):
-                raise TypeError(f"spec must be the GridSpec of belief, got {type(spec).__name__}")
-            grid = spec.check_grid(belief, "belief")
-        if ego is not None:
-            if not isinstance(ego, Pose2D):
-                raise TypeError(f"ego must be a pfpeople.sensors.Pose2D or None, got {type(ego).__name__}")
-            if not all(math.isfinite(v) for v in (ego.x, ego.y, ego.yaw)):
-                raise ValueError(f"ego must be finite, got {ego!r}")
-        cfg = self.config
+        _check_ego(ego)
         if self._meta:
             if ego is not None and (ego.x != 0.0 or ego.y != 0.0 or ego.yaw != 0.0):
                 self._apply_ego(ego)
@@ -594,26 +543,52 @@ class MultiPersonTracker:
         n_old = len(self._meta)
         meas_of = np.full(n_old, -1, dtype=np.intp)
         meas_of[rows] = cols
-        assigned = meas_of.copy()  # before step 4b's belief hits
+        assigned = meas_of.copy()  # before step 4c's support hits
         conf = np.zeros(n_old)
         conf[rows] = c[cols]
-        if grid is not None and spec is not None:
-            g_rows, g_pos, g_conf = self._belief_measurements(grid, spec, z, meas_of)
-            if g_rows.size and cfg.belief_support is not None:
-                self._correct(g_rows, np.arange(g_rows.size, dtype=np.intp), g_pos)
-                meas_of[g_rows] = n_old  # any value >= 0: a hit
-                conf[g_rows] = g_conf
+        supported = self._support_hits(sup, z, meas_of, conf)
+        was_confirmed = [m.confirmed for m in self._meta]
+        self._score_and_confirm(dt, meas_of, assigned, conf, supported)
+        if n_old:
+            far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= self.config.moved_distance
+            for j in np.flatnonzero(far).tolist():
+                self._meta[j].moved = True
+            if self.config.reid_distance > 0:
+                self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
+        self._delete()
+        self._birth(z, c, cols)
+        return self.confirmed()
+
+    def _support_hits(
+        self, sup: NDArray[np.float64], z: NDArray[np.float64], meas_of: NDArray[np.intp], conf: NDArray[np.float64]
+    ) -> NDArray[np.bool_]:
+        """Step 4c: the confirmed tracks without a hit updated by support positions ``sup`` (K, 2); ``meas_of``
+        and ``conf`` (per track row) marked for them. Returns which rows a support position continued."""
+        n_old = len(meas_of)
         supported = np.zeros(n_old, dtype=bool)
-        if sup.shape[0] and n_old:
-            s_rows, s_cols = self._support(sup, z, meas_of)
-            if s_rows.size:
-                self._correct(s_rows, s_cols, sup, sigma=cfg.support_sigma)
-                meas_of[s_rows] = n_old
-                conf[s_rows] = cfg.support_confidence
-                supported[s_rows] = True
+        if not (sup.shape[0] and n_old):
+            return supported
+        s_rows, s_cols = self._support(sup, z, meas_of)
+        if s_rows.size:
+            self._correct(s_rows, s_cols, sup, sigma=self.config.support_sigma)
+            meas_of[s_rows] = n_old  # any value >= 0: a hit
+            conf[s_rows] = self.config.support_confidence
+            supported[s_rows] = True
+        return supported
+
+    def _score_and_confirm(
+        self,
+        dt: float,
+        meas_of: NDArray[np.intp],
+        assigned: NDArray[np.intp],
+        conf: NDArray[np.float64],
+        supported: NDArray[np.bool_],
+    ) -> None:
+        """Steps 5-6 for the tracks of the previous frame: age, hits and misses, existence score, confirmation
+        (M of N) and loss (``revive_after_s``)."""
+        cfg = self.config
         decay = math.exp(-dt / cfg.score_tau)
         lose_after = math.inf if cfg.revive_after_s is None else cfg.revive_after_s + 1e-9
-        was_confirmed = [m.confirmed for m in self._meta]
         for i, m in enumerate(self._meta):
             m.age += 1
             m.age_s += dt
@@ -626,8 +601,6 @@ class MultiPersonTracker:
                 m.misses = 0
                 m.coast_s = 0.0
                 m.score += cfg.hit_gain * float(conf[i]) * (1.0 - m.score)
-                if not m.confirmed and cfg.confirm_score is not None and conf[i] >= cfg.confirm_score:
-                    m.confirmed = True
             else:
                 m.misses += 1
                 m.coast_s += dt
@@ -635,15 +608,6 @@ class MultiPersonTracker:
                 m.lost = m.lost or (m.confirmed and m.coast_s > lose_after)
             if not m.confirmed and m.age <= cfg.confirm_window and m.hits >= cfg.confirm_hits:
                 m.confirmed = True
-        if n_old:
-            far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= cfg.moved_distance
-            for j in np.flatnonzero(far).tolist():
-                self._meta[j].moved = True
-            if cfg.reid_distance > 0:
-                self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
-        self._delete()
-        self._birth(z, c, cols)
-        return self.confirmed()
 
     def _reidentify(self, new: list[int]) -> None:
         """Step 6b: give the tracks ``new`` (rows confirmed in this frame) the ids of lost tracks.
@@ -805,60 +769,6 @@ class MultiPersonTracker:
         others = near.sum(axis=0)[None, :] - near[idx]  # other tracks near each measurement, per row
         return np.asarray(coasting[:, None] & (others > 0) & (dist2 > cfg.contest_gate**2))
 
-    def _belief_measurements(
-        self, grid: NDArray[np.float64], spec: GridSpec, z: NDArray[np.float64], meas_of: NDArray[np.intp]
-    ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
-        """Positions read from the belief grid for confirmed tracks without an assigned position (step 4b).
-
-        Returns the track rows, their measured positions ``(K, 2)`` and confidences ``(K,)``.
-        """
-        cfg = self.config
-        thr = 2.0 if cfg.belief_support is None else cfg.belief_support
-        rad = cfg.belief_radius
-        for i, m in enumerate(self._meta):
-            m.support = 1.0 if meas_of[i] >= 0 else 0.0
-        cand = [i for i, m in enumerate(self._meta) if m.confirmed and meas_of[i] < 0]
-        if not cand:
-            return np.zeros(0, dtype=np.intp), np.zeros((0, 2)), np.zeros(0)
-        res = spec.resolution
-        h = math.ceil(rad / res)
-        out_rows: list[int] = []
-        out_pos: list[tuple[float, float]] = []
-        out_conf: list[float] = []
-        for i in cand:
-            px, py = float(self._s[i, 0]), float(self._s[i, 1])
-            # a position of this frame near the track: the association kept it from this track (gated, or given to
-            # another one); the belief around it is that position's, not evidence for this track
-            if z.shape[0] and float(np.min((z[:, 0] - px) ** 2 + (z[:, 1] - py) ** 2)) <= rad * rad:
-                continue
-            ci = math.floor((px - spec.x0) / res)
-            cj = math.floor((py - spec.y0) / res)
-            i0, i1 = max(ci - h, 0), min(ci + h + 1, spec.nx)
-            j0, j1 = max(cj - h, 0), min(cj + h + 1, spec.ny)
-            if i0 >= i1 or j0 >= j1:
-                continue
-            win = grid[i0:i1, j0:j1]
-            xs = spec.x0 + (np.arange(i0, i1) + 0.5) * res
-            ys = spec.y0 + (np.arange(j0, j1) + 0.5) * res
-            near = (xs[:, None] - px) ** 2 + (ys[None, :] - py) ** 2 <= rad * rad
-            if not near.any():
-                continue
-            w = np.where(near, win, 0.0)
-            peak = float(w.max())
-            self._meta[i].support = peak
-            if peak < thr:
-                continue
-            w = np.where(w >= 0.5 * peak, w, 0.0)
-            tot = float(w.sum())
-            out_rows.append(i)
-            out_pos.append((float((w.sum(axis=1) @ xs) / tot), float((w.sum(axis=0) @ ys) / tot)))
-            out_conf.append(peak)
-        return (
-            np.array(out_rows, dtype=np.intp),
-            np.array(out_pos, dtype=float).reshape(-1, 2),
-            np.array(out_conf, dtype=float),
-        )
-
     def _correct(
         self, rows: NDArray[np.intp], cols: NDArray[np.intp], z: NDArray[np.float64], *, sigma: float | None = None
     ) -> None:
@@ -910,10 +820,9 @@ class MultiPersonTracker:
         self._s = np.concatenate([self._s, s0])
         self._p = np.concatenate([self._p, np.broadcast_to(p0, (new.size, 4, 4))])
         self._origin = np.concatenate([self._origin, z[new]])
-        cs = cfg.confirm_score
         for j in new:
             st = _State(id=self._next_id, score=cfg.hit_gain * float(c[j]), measurement=int(j))
-            st.confirmed = cfg.confirm_hits <= 1 or (cs is not None and float(c[j]) >= cs)
+            st.confirmed = cfg.confirm_hits <= 1
             self._meta.append(st)
             self._next_id += 1
 
