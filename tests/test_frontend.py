@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_reliability_bags import legs_only, write_scan_bag
+from bag_fixtures import legs_only, write_scan_bag
 
 from evaluation.scenarios.scan import write_scene_bag
 from pfpeople.adapters import LegAdapter

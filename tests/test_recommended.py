@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_pipeline_bags import MOUNT, config, write_bag
+from bag_fixtures import MOUNT, config, write_bag
 
 from gridbridge import GridFilter, GridSpec
 from gridbridge.classifiers import PeakClassifier, classify_peaks

@@ -11,8 +11,8 @@ import math
 from pathlib import Path
 
 import pytest
+from bag_fixtures import MOUNT, T0_NS, Msgs, base_pose, typestore
 from rosbags.rosbag1 import Writer as Writer1
-from test_pipeline_bags import MOUNT, T0_NS, _Msgs, _typestore, base_pose
 
 from pfpeople.bag.config import load_config
 from pfpeople.bag.inspect import format_report, inspect_path, starter_config
@@ -36,8 +36,8 @@ def write_bag(
 ) -> None:
     """``n`` scans; ``/tf`` base_link -> laser from scan ``tf_from`` on (None: no TF); the first ``one_beam`` scans
     of one beam (no field of view); ``odom_also_scan``: ``/odom`` also carries LaserScans (two types)."""
-    ts = _typestore(False)
-    m = _Msgs(ts, False)
+    ts = typestore(False)
+    m = Msgs(ts, False)
     w = Writer1(path)
     w.open()
     scan = w.add_connection("/scan", LASER, typestore=ts)

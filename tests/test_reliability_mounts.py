@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_reliability_bags import PEOPLE, legs_only, write_scan_bag
+from bag_fixtures import PEOPLE, legs_only, write_scan_bag
 
 from gridbridge.grid import GridSpec
 from pfpeople.bag.reader import BagSource

@@ -11,8 +11,7 @@ import logging
 from pathlib import Path
 
 import pytest
-from test_bag_sync import MS, msg, run_sync
-from test_pipeline_bags import config, write_bag
+from bag_fixtures import MS, config, msg, run_sync, write_bag
 
 from pfpeople.bag.reader import BagSource
 from pfpeople.bag.sync import FrameAssembler
