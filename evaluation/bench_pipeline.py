@@ -36,10 +36,10 @@ from pathlib import Path
 from typing import Any
 
 from evaluation.commands.score import score_run
-from evaluation.gt_csv import read_gt_csv
 from gridbridge.limits import ResourceLimitError
 from pfpeople.bag.config import builtin_config_path, load_config
 from pfpeople.bag.reader import BagSource
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
 

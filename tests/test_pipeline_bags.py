@@ -24,12 +24,12 @@ from rosbags.highlevel import AnyReader
 
 from evaluation.cli import main as eval_main
 from evaluation.commands.score import score_run
-from evaluation.gt_csv import read_gt_csv
 from gridbridge.ego_motion import odometry_pose
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.detectors.synthetic import render_scan
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline, odometry_between
 from pfpeople.sensors import Pose2D

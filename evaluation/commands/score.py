@@ -186,7 +186,7 @@ def register(subparsers: Any) -> None:
         help="score a pfpeople run directory against a ground-truth CSV",
     )
     p.add_argument("run_dir", help="run directory written by 'pfpeople run'")
-    p.add_argument("--gt", required=True, help="ground-truth CSV (see evaluation.gt_csv)")
+    p.add_argument("--gt", required=True, help="ground-truth CSV (see pfpeople.gt_csv)")
     p.add_argument(
         "--frame",
         default=None,
