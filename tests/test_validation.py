@@ -1,4 +1,5 @@
-"""The shared checks of :mod:`gridbridge.validation`: ``check_int`` and ``check_real``."""
+"""The shared checks of :mod:`gridbridge.validation` (``check_int``, ``check_real``) and the values they now
+refuse where a bool or a string used to slip through (``float("0.5")``, ``isinstance(True, int)``)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,12 @@ from typing import Any
 import numpy as np
 import pytest
 
+from gridbridge.classifiers import PeakClassifier
+from gridbridge.grid import GridSpec
 from gridbridge.validation import InputTypeError, check_int, check_real
+from pfpeople.detectors.camera import HogParams
+from pfpeople.mot import PeopleTracker, TrackerConfig
+from pfpeople.tracking import TrackerParams
 
 
 def test_check_int_accepts_python_and_numpy_integers() -> None:
@@ -69,3 +75,20 @@ def test_a_wrong_type_is_also_a_value_error_for_the_configs_and_command_lines() 
     with pytest.raises(InputTypeError) as caught:
         check_int("3", "n")
     assert isinstance(caught.value, TypeError) and isinstance(caught.value, ValueError)
+
+
+@pytest.mark.parametrize(
+    ("build", "name"),
+    [
+        (lambda: PeopleTracker(PeakClassifier(), peak_threshold="0.5"), "peak_threshold"),  # float() read it
+        (lambda: PeopleTracker(PeakClassifier(), min_separation=True), "min_separation"),  # True was 1 m
+        (lambda: TrackerConfig(region=("0", "5", "-2", "2")), r"TrackerConfig\.region"),
+        (lambda: TrackerParams(gate=True), r"TrackerParams\.gate"),
+        (lambda: TrackerParams(start_threshold=True), r"TrackerParams\.start_threshold"),
+        (lambda: GridSpec(resolution=True), r"GridSpec\.resolution"),
+        (lambda: HogParams(hit_threshold=True), r"HogParams\.hit_threshold"),
+    ],
+)
+def test_bools_and_strings_that_used_to_slip_through_are_refused_by_name(build: Any, name: str) -> None:
+    with pytest.raises(TypeError, match=rf"{name} must be a number, got (bool|str)"):
+        build()
