@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge.validation import check_grid_array, check_int, check_number, check_real
+from gridbridge.validation import check_grid_array, check_int, check_real
 
 __all__ = ["GridSpec"]
 
@@ -46,7 +46,7 @@ class GridSpec:
             check_int(getattr(self, name), f"GridSpec.{name}", minimum=1)
         check_real(self.resolution, "GridSpec.resolution", low=0.0, low_open=True)
         for name in ("x0", "y0"):
-            check_number(getattr(self, name), f"GridSpec.{name}")
+            check_real(getattr(self, name), f"GridSpec.{name}")
 
     @classmethod
     def centred_on_edge(cls, nx: int, ny: int, resolution: float) -> GridSpec:

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from gridbridge.validation import check_finite, check_number, check_positive, check_probability
+from gridbridge.validation import check_finite, check_positive, check_probability, check_real
 
 __all__ = [
     "CALIBRATED_LASER_DETECTORS",
@@ -124,7 +124,7 @@ class DetectorModel:
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"DetectorModel.name must be a non-empty string, got {self.name!r}")
         for attr in ("ppv", "fnr"):
-            value = check_number(getattr(self, attr), f"DetectorModel({self.name}).{attr}")
+            value = check_real(getattr(self, attr), f"DetectorModel({self.name}).{attr}")
             check_probability(value, f"DetectorModel({self.name}).{attr}")
             if value in (0.0, 1.0):
                 raise ValueError(

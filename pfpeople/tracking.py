@@ -43,7 +43,7 @@ from scipy import ndimage
 from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs
 from gridbridge.geometry import to_frame
 from gridbridge.grid import GridSpec
-from gridbridge.validation import check_int, check_number, check_real
+from gridbridge.validation import check_int, check_real
 
 __all__ = ["BlobTracker", "TrackFrame", "TrackResult", "TrackerParams", "TrackingError", "track_sequence"]
 
@@ -91,7 +91,7 @@ class TrackerParams:
             if len(sp) != 2:
                 raise ValueError(f"TrackerParams.start_point must be a finite (x, y) pair (m), got {sp!r}")
             for v in sp:
-                check_number(v, "TrackerParams.start_point")
+                check_real(v, "TrackerParams.start_point")
         if self.candidates not in ("people", "all"):
             raise ValueError(f"TrackerParams.candidates must be 'people' or 'all', got {self.candidates!r}")
 

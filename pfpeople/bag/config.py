@@ -236,7 +236,7 @@ class FilterConfig:
         if self.form is not None and self.form not in ("paper", "linear"):
             raise ValueError(f"FilterConfig.form must be 'paper' or 'linear', got {self.form!r}")
         if self.initial is not None:
-            check_probability(check_number(self.initial, "FilterConfig.initial"), "FilterConfig.initial")
+            check_probability(check_real(self.initial, "FilterConfig.initial"), "FilterConfig.initial")
         if self.n_particles is not None:
             check_int(self.n_particles, "FilterConfig.n_particles", minimum=1)
         check_int(self.seed, "FilterConfig.seed")
@@ -297,7 +297,7 @@ class ClassifierConfig:
         thr, keep = self.threshold, self.keep
         for name, value in (("threshold", thr), ("keep", keep)):
             if value is not None:
-                check_probability(check_number(value, f"ClassifierConfig.{name}"), f"ClassifierConfig.{name}")
+                check_probability(check_real(value, f"ClassifierConfig.{name}"), f"ClassifierConfig.{name}")
         if keep is not None and thr is not None and keep > thr:
             raise ValueError(f"ClassifierConfig.keep must be <= threshold, got keep={keep!r} > threshold={thr!r}")
         check_real(self.min_separation, "ClassifierConfig.min_separation", low=0.0, low_open=True)

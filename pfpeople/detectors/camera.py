@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
-from gridbridge.validation import check_int, check_number, check_positive, check_real
+from gridbridge.validation import check_int, check_positive, check_real
 from pfpeople.sensors import CameraImage, CameraIntrinsics, Pose2D
 
 __all__ = [
@@ -131,7 +131,7 @@ class HogParams:
     group_threshold: float = 2.0
 
     def __post_init__(self) -> None:
-        check_number(self.hit_threshold, "HogParams.hit_threshold")
+        check_real(self.hit_threshold, "HogParams.hit_threshold")
         check_int(self.win_stride, "HogParams.win_stride", minimum=1)
         check_int(self.padding, "HogParams.padding", minimum=0)
         check_real(self.scale, "HogParams.scale", low=1.0, low_open=True)

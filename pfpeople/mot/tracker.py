@@ -82,7 +82,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from gridbridge.validation import check_int, check_number, check_real, check_real_array
+from gridbridge.validation import check_int, check_real, check_real_array
 from pfpeople.sensors import Pose2D
 
 __all__ = ["TRACK_COLUMNS", "MultiPersonTracker", "Track", "TrackerConfig", "track_rows"]
@@ -247,7 +247,7 @@ class TrackerConfig:
                 f"({self.confirm_window})"
             )
         if self.region is not None:
-            reg = tuple(check_number(v, "TrackerConfig.region") for v in self.region)
+            reg = tuple(check_real(v, "TrackerConfig.region") for v in self.region)
             if len(reg) != 4 or not (reg[0] < reg[1] and reg[2] < reg[3]):
                 raise ValueError(
                     f"TrackerConfig.region must be (x_min, x_max, y_min, y_max) with min < max, got {self.region!r}"
