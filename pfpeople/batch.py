@@ -39,6 +39,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from gridbridge.validation import check_int
 from pfpeople.bag.config import BagConfig
 from pfpeople.extras import require
 
@@ -70,8 +71,8 @@ ERROR_FILE = "batch_error.txt"
 
 def check_cluster_args(scheduler: str | None, workers: int | None) -> None:
     """``workers``: None or a positive integer, and not together with a ``scheduler`` address."""
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
+    if workers is not None:
+        check_int(workers, "workers", minimum=1)
     if scheduler is not None and workers is not None:
         raise ValueError("workers sets the size of a local cluster; it cannot be combined with a scheduler address")
 

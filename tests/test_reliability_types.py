@@ -66,7 +66,7 @@ def test_tracker_update_refuses_positions_scores_and_support_that_are_not_real(v
         t.update([[1.0, 0.0]], 0.1, support=value)
     with pytest.raises(TypeError, match=r"scores must hold real numbers, got string"):
         t.update([[1.0, 0.0]], 0.1, scores=["0.5"])
-    with pytest.raises(TypeError, match=r"dt must be a number of seconds, got bool"):
+    with pytest.raises(TypeError, match=r"dt must be a number, got bool"):
         t.update([[1.0, 0.0]], True)
     assert t.update([[1.0, 0.0]], 0.1) == []  # a real frame still goes through (a new track is not confirmed)
 

@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.validation import check_positive, check_probability
+from gridbridge.validation import check_int, check_positive, check_probability
 from pfpeople.detectors._bags import LabelledScan, load_labelled_scans, load_scans
 from pfpeople.detectors.segments import (
     FEATURE_NAMES,
@@ -128,15 +128,12 @@ class BoostTrainingParams:
         if self.boost_type not in _BOOST_TYPES:
             raise ValueError(f"BoostTrainingParams.boost_type must be one of {sorted(_BOOST_TYPES)}")
         for name in ("weak_count", "max_depth"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"BoostTrainingParams.{name} must be a positive integer, got {v!r}")
+            check_int(getattr(self, name), f"BoostTrainingParams.{name}", minimum=1)
         check_probability(self.weight_trim_rate, "BoostTrainingParams.weight_trim_rate")
         check_positive(self.match_radius, "BoostTrainingParams.match_radius")
         check_positive(self.negatives_per_positive, "BoostTrainingParams.negatives_per_positive")
         check_probability(self.holdout_fraction, "BoostTrainingParams.holdout_fraction", open_high=True)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"BoostTrainingParams.seed must be a non-negative integer, got {self.seed!r}")
+        check_int(self.seed, "BoostTrainingParams.seed", minimum=0)
         object.__setattr__(self, "augment_noise", tuple(self.augment_noise))
         for v in self.augment_noise:
             check_positive(v, "BoostTrainingParams.augment_noise")
@@ -382,8 +379,7 @@ def negative_blocks(
         Period-major order ``(t0, 0), (t1, 0), ..., (t0, 1), ...``, so consecutive folds of
         :func:`leave_one_bag_out` test on different lasers.
     """
-    if isinstance(n_periods, bool) or not isinstance(n_periods, int) or n_periods < 1:
-        raise ValueError(f"n_periods must be a positive integer, got {n_periods!r}")
+    check_int(n_periods, "n_periods", minimum=1)
     out = []
     for period in range(n_periods):
         for topic, seq in scans.items():
@@ -613,11 +609,10 @@ def _check_training_files(
 
     Raises
     ------
-    ValueError, FileNotFoundError
-        Naming the argument or the missing file.
+    TypeError, ValueError, FileNotFoundError
+        Naming the argument (TypeError: a ``scan_step`` that is not an integer) or the missing file.
     """
-    if isinstance(scan_step, bool) or not isinstance(scan_step, int) or scan_step < 1:
-        raise ValueError(f"scan_step must be a positive integer, got {scan_step!r}")
+    check_int(scan_step, "scan_step", minimum=1)
     if not data_dir.is_dir():
         raise FileNotFoundError(f"data directory not found: {data_dir}")
     if not train_positive:

@@ -82,7 +82,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from gridbridge.validation import check_real_array
+from gridbridge.validation import check_int, check_real, check_real_array
 from pfpeople.sensors import Pose2D
 
 __all__ = ["TRACK_COLUMNS", "MultiPersonTracker", "Track", "TrackerConfig", "track_rows"]
@@ -94,24 +94,6 @@ _INFEASIBLE = 1e9
 #: Added to the cost of a tentative track's pairs with ``prefer_confirmed`` (above any allowed pair's cost:
 #: ``d^2 <= gate_mahalanobis``, ``|ln det S|`` a few units).
 _TENTATIVE = 1e3
-
-
-def _finite_positive(value: Any, name: str, *, allow_zero: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"TrackerConfig.{name} must be a number, got {type(value).__name__}")
-    v = float(value)
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"TrackerConfig.{name} must be finite and {bound}, got {value!r}")
-    return v
-
-
-def _count(value: Any, name: str, *, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"TrackerConfig.{name} must be an integer, got {type(value).__name__}")
-    if int(value) < minimum:
-        raise ValueError(f"TrackerConfig.{name} must be >= {minimum}, got {value!r}")
-    return int(value)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -226,7 +208,7 @@ class TrackerConfig:
     contest_radius: float = 0.5
 
     def __post_init__(self) -> None:
-        for name in (
+        positive = (
             "process_noise",
             "measurement_sigma",
             "initial_velocity_sigma",
@@ -237,42 +219,36 @@ class TrackerConfig:
             "support_sigma",
             "support_exclusion",
             "moved_distance",
-        ):
-            object.__setattr__(self, name, _finite_positive(getattr(self, name), name))
-        for name in ("region_margin", "reid_distance"):
-            object.__setattr__(self, name, _finite_positive(getattr(self, name), name, allow_zero=True))
-        for name in ("report_coast_s", "revive_after_s", "contest_gate"):
-            if getattr(self, name) is not None:
-                object.__setattr__(self, name, _finite_positive(getattr(self, name), name, allow_zero=True))
-        object.__setattr__(self, "contest_radius", _finite_positive(self.contest_radius, "contest_radius"))
-        object.__setattr__(
-            self, "support_min_speed", _finite_positive(self.support_min_speed, "support_min_speed", allow_zero=True)
+            "contest_radius",
         )
+        optional = ("report_coast_s", "revive_after_s", "contest_gate")  # None: off
+        for name in (*positive, "region_margin", "reid_distance", "support_min_speed", *optional):
+            value = getattr(self, name)
+            if value is not None or name not in optional:
+                v = check_real(value, f"TrackerConfig.{name}", low=0.0, low_open=name in positive)
+                object.__setattr__(self, name, v)
         for name, lo_open, hi_open in (
             ("delete_score", False, True),
             ("hit_gain", True, False),
             ("birth_min_score", False, False),
             ("support_confidence", True, False),
         ):
-            v = _finite_positive(getattr(self, name), name, allow_zero=True)
-            if v > 1 or (hi_open and v == 1) or (lo_open and v == 0):
-                lo = "(0" if lo_open else "[0"
-                hi = "1)" if hi_open else "1]"
-                raise ValueError(f"TrackerConfig.{name} must be in {lo}, {hi}, got {v!r}")
+            v = check_real(
+                getattr(self, name), f"TrackerConfig.{name}", low=0.0, high=1.0, low_open=lo_open, high_open=hi_open
+            )
             object.__setattr__(self, name, v)
         if not isinstance(self.prefer_confirmed, bool):
             raise TypeError(f"TrackerConfig.prefer_confirmed must be a bool, got {self.prefer_confirmed!r}")
-        object.__setattr__(self, "confirm_hits", _count(self.confirm_hits, "confirm_hits"))
-        object.__setattr__(self, "confirm_window", _count(self.confirm_window, "confirm_window"))
-        object.__setattr__(self, "tentative_max_misses", _count(self.tentative_max_misses, "tentative_max_misses"))
+        for name in ("confirm_hits", "confirm_window", "tentative_max_misses"):
+            object.__setattr__(self, name, check_int(getattr(self, name), f"TrackerConfig.{name}", minimum=1))
         if self.confirm_hits > self.confirm_window:
             raise ValueError(
                 f"TrackerConfig.confirm_hits ({self.confirm_hits}) must not exceed confirm_window "
                 f"({self.confirm_window})"
             )
         if self.region is not None:
-            reg = tuple(float(v) for v in self.region)
-            if len(reg) != 4 or not all(math.isfinite(v) for v in reg) or not (reg[0] < reg[1] and reg[2] < reg[3]):
+            reg = tuple(check_real(v, "TrackerConfig.region") for v in self.region)
+            if len(reg) != 4 or not (reg[0] < reg[1] and reg[2] < reg[3]):
                 raise ValueError(
                     f"TrackerConfig.region must be (x_min, x_max, y_min, y_max) with min < max, got {self.region!r}"
                 )
@@ -392,15 +368,6 @@ def _check_scores(scores: ArrayLike | None, m: int) -> NDArray[np.float64]:
     if not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s > 1):
         raise ValueError("scores must be finite and in [0, 1]")
     return s
-
-
-def _check_dt(dt: Any) -> float:
-    if isinstance(dt, bool) or not isinstance(dt, int | float | np.integer | np.floating):
-        raise TypeError(f"dt must be a number of seconds, got {type(dt).__name__}")
-    v = float(dt)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"dt must be finite and > 0 s (time going backwards is dt <= 0), got {dt!r}")
-    return v
 
 
 class MultiPersonTracker:
@@ -532,7 +499,7 @@ class MultiPersonTracker:
         z = _check_positions(positions)
         c = _check_scores(scores, z.shape[0])
         sup = np.zeros((0, 2)) if support is None else _check_positions(support, "support")
-        dt = _check_dt(dt)
+        dt = check_real(dt, "dt", low=0.0, low_open=True)
         _check_ego(ego)
         if self._meta:
             if ego is not None and (ego.x != 0.0 or ego.y != 0.0 or ego.yaw != 0.0):
