@@ -5,7 +5,7 @@ functions compiled with :func:`jit` (``numba.njit(cache=True)``); each has a num
 result (bit for bit where the kernels say so, else within a tolerance the tests check). The compiled kernels
 run when numba is importable and the environment variable ``PFPEOPLE_NUMBA`` is not ``0``; otherwise the
 callers take the numpy path. :func:`enabled` is read at every call, so :func:`override` can switch within a
-process (the tests compare the two paths with it).
+process, for every package or one (the tests compare the two paths with it).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any, TypeVar, cast
 
-__all__ = ["AVAILABLE", "enabled", "jit", "override"]
+__all__ = ["AVAILABLE", "SCOPES", "enabled", "jit", "override"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -28,23 +28,29 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
 #: Whether numba could be imported.
 AVAILABLE: bool = _numba is not None
 
-_state = {"enabled": AVAILABLE and os.environ.get("PFPEOPLE_NUMBA", "1").strip() != "0"}
+#: The packages with kernels; each can be switched alone (the tests compare one package's paths at a time).
+SCOPES = ("gridbridge", "pfpeople")
+
+_on = AVAILABLE and os.environ.get("PFPEOPLE_NUMBA", "1").strip() != "0"
+_state = dict.fromkeys(SCOPES, _on)
 
 
-def enabled() -> bool:
-    """True when the compiled kernels are used (numba importable and ``PFPEOPLE_NUMBA`` not ``0``)."""
-    return _state["enabled"]
+def enabled(scope: str = "gridbridge") -> bool:
+    """True when ``scope``'s compiled kernels are used (numba importable and ``PFPEOPLE_NUMBA`` not ``0``)."""
+    return _state[scope]
 
 
 @contextmanager
-def override(on: bool) -> Iterator[None]:
-    """Within the block use the compiled kernels (``on``, if numba is available) or the numpy twins."""
-    before = _state["enabled"]
-    _state["enabled"] = bool(on) and AVAILABLE
+def override(on: bool, scope: str | None = None) -> Iterator[None]:
+    """Within the block use the compiled kernels (``on``, if numba is available) or the numpy twins, in every
+    package or in ``scope`` (one of :data:`SCOPES`) only."""
+    before = dict(_state)
+    for name in SCOPES if scope is None else (scope,):
+        _state[name] = bool(on) and AVAILABLE
     try:
         yield
     finally:
-        _state["enabled"] = before
+        _state.update(before)
 
 
 def jit(fn: F) -> F:

@@ -345,7 +345,7 @@ class ParticleFilter:
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
         odo = as_odometry(odometry)
-        if jit.enabled():
+        if jit.enabled("pfpeople"):
             st, cells, counts, people_prior, sensor_prior, poses, pose_w = self._predict_compiled(odo, dt)
             empty = counts == 0
         else:
@@ -599,7 +599,7 @@ class ParticleFilter:
             birth_cells = np.flatnonzero(empty & (posterior > BIRTH_FLOOR))
             posterior[empty & (posterior <= BIRTH_FLOOR)] = 0.0
             rep = np.repeat(birth_cells, self.n_birth)
-        if jit.enabled():
+        if jit.enabled("pfpeople"):
             return (*self._scale_and_bear(st, cells, factor, rep, posterior), posterior)
         st.w = st.w * factor[cells]
         if rep.size:
@@ -656,7 +656,7 @@ class ParticleFilter:
             )
             return st, False
         n_cells = self.spec.n_cells
-        if jit.enabled():
+        if jit.enabled("pfpeople"):
             fn = get_resampler(self.resampler) if isinstance(self.resampler, str) else self.resampler
             rows = (st.x, st.y, st.vx, st.vy)
             out = resample_state(

@@ -221,7 +221,7 @@ def resample_by_cell(
     w = np.asarray(weights, dtype=float)
     if c.shape != w.shape or c.ndim != 1:
         raise ValueError(f"cells and weights must be 1-D of equal length, got {c.shape} and {w.shape}")
-    if jit.enabled():
+    if jit.enabled("pfpeople"):
         ancestors, cell_mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=fn)
         new_cells = c[ancestors]
         n_new = np.bincount(new_cells, minlength=n_cells)
