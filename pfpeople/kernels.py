@@ -36,8 +36,10 @@ __all__ = [
     "move_ego_compact",
     "people_prior",
     "scale_weights",
+    "select_moving",
     "systematic_gather",
     "systematic_into",
+    "walker_velocities",
 ]
 
 
@@ -53,6 +55,51 @@ def cell(x: float, y: float, grid: tuple[float, float, float, int, int]) -> int:
     if fi >= 0.0 and fi < nx and fj >= 0.0 and fj < ny:
         return int(fi) * ny + int(fj)
     return -1
+
+
+@jit
+def select_moving(u: NDArray[np.float64], p_stat: float) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """The walkers of the paper's motion prior: indices with ``u >= p_stat`` and their speed uniforms
+    ``(u - p_stat) / (1 - p_stat)`` (:func:`pfpeople.motion.sample_velocity_prior`'s arithmetic)."""
+    n = 0
+    for k in range(u.size):
+        n += u[k] >= p_stat
+    moving = np.empty(n + 1, dtype=np.intp)
+    m = 0
+    for k in range(u.size):  # branch-free: every index is written, the walkers' are kept
+        moving[m] = k
+        m += u[k] >= p_stat
+    moving = moving[:n]
+    z = np.empty(n)
+    for m in range(n):
+        z[m] = (u[moving[m]] - p_stat) / (1.0 - p_stat)
+    return moving, z
+
+
+@jit
+def walker_velocities(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    moving: NDArray[np.intp],
+    speed: NDArray[np.float64],
+    heading_u: NDArray[np.float64],
+    dt: float,
+    grid: tuple[float, float, float, int, int],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+    """Velocities ``speed (cos h, sin h)``, ``h = 2 pi u`` (m/s) of the walkers and how many of them are inside
+    the grid after moving ``dt`` (the others, standing, stay where they are)."""
+    n = moving.size
+    vx, vy = np.empty(n), np.empty(n)
+    two_pi = 2.0 * math.pi
+    n_in = 0
+    for m in range(n):
+        h = heading_u[m] * two_pi
+        vx[m] = speed[m] * math.cos(h)
+        vy[m] = speed[m] * math.sin(h)
+        k = moving[m]
+        if cell(x[k] + vx[m] * dt, y[k] + vy[m] * dt, grid) >= 0:
+            n_in += 1
+    return vx, vy, n_in
 
 
 @jit
@@ -122,22 +169,27 @@ def move_ego_compact(
     cells: NDArray[np.intp],
     mass: NDArray[np.float64],
     counts: NDArray[np.intp],
-) -> int:
+    prior: NDArray[np.float64],
+) -> tuple[int, int]:
     """People motion, then sensor motion, of N particles in one pass; the ones that leave are dropped.
 
-    The people motion is :func:`people_prior`'s; a particle outside after it is dropped (whatever the sensor
-    motion does), the others move into the new sensor frame as in :func:`ego_compact` (pose ``k mod S``).
-    Arguments as there; the survivors go to ``out[r][:n]`` (x, y, vx, vy, w) and ``cells[:n]``.
+    The people motion is :func:`people_prior`'s (its mass per cell accumulated into ``prior``); a particle
+    outside after it is dropped (whatever the sensor motion does), the others move into the new sensor frame as
+    in :func:`ego_compact` (pose ``k mod S``). Arguments as there; the survivors go to ``out[r][:n]``
+    (x, y, vx, vy, w) and ``cells[:n]``.
 
     Returns
     -------
-    int
-        n, the number of survivors.
+    n : int
+        The number of survivors.
+    n_inside : int
+        The number inside the grid after the people motion.
     """
     n_pose = poses.shape[1]
     m = 0
     nxt = moving[0] if moving.size else x.size
     j = 0
+    n_inside = 0
     p = -1
     for k in range(x.size):
         p += 1  # k mod S, without an integer division per particle
@@ -151,8 +203,11 @@ def move_ego_compact(
             nxt = moving[m] if m < moving.size else x.size
         xk = x[k] + vxk * dt
         yk = y[k] + vyk * dt
-        if cell(xk, yk, grid) < 0:
+        c1 = cell(xk, yk, grid)
+        if c1 < 0:
             continue
+        prior[c1] += w[k]
+        n_inside += 1
         if ego:
             c, s = poses[2, p], poses[3, p]
             xr = xk - poses[0, p]
@@ -168,7 +223,7 @@ def move_ego_compact(
         mass[ck] += wk
         counts[ck] += 1
         j += 1
-    return j
+    return j, n_inside
 
 
 @jit

@@ -116,6 +116,16 @@ log = logging.getLogger(__name__)
 BIRTH_FLOOR = 1e-12
 
 _Rows = tuple[NDArray[np.float64], ...]
+#: What the compiled prediction returns: particles, cells, count per cell, people and sensor priors, sigma points.
+_Compiled = tuple[
+    "ParticleState",
+    NDArray[np.intp],
+    NDArray[np.intp],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+]
 
 #: The sensor displacement rows of a standing robot (the compiled sensor motion leaves the particles alone).
 _NO_POSES = np.zeros((4, 1))
@@ -450,21 +460,22 @@ class ParticleFilter:
 
     def _people_velocities(
         self, dt: float
-    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int | None]:
         """Phase 1's draws (those of the numpy path, in its order): the particles to move (re-drawn in their cells
-        with ``redraw_in_cell``) and the indices and velocities (m/s) of those that move."""
+        with ``redraw_in_cell``), the indices and velocities (m/s) of those that move and, for the paper's model,
+        how many of those are inside the grid after the motion (None for the others)."""
         st = self.state
         if self.motion_model == "paper" and not self.redraw_in_cell:
             u = self.rng.random(out=self._pool.take(st.size))  # sample_velocity_prior's draws, in its order
             p_stat = self.motion.p_stationary
             if p_stat >= 1.0:
-                return st, np.zeros(0, np.intp), np.zeros(0), np.zeros(0)
-            moving = np.flatnonzero(u >= p_stat)
-            u_moving = u[moving]
+                return st, np.zeros(0, np.intp), np.zeros(0), np.zeros(0), 0
+            moving, z = kernels.select_moving(u, p_stat)
             self._pool.give(u)
-            speed = speeds_from_uniform(self.motion, (u_moving - p_stat) / (1.0 - p_stat))
-            heading = self.rng.random(moving.size) * (2.0 * math.pi)
-            return st, moving, speed * np.cos(heading), speed * np.sin(heading)
+            speed = speeds_from_uniform(self.motion, z)
+            heading_u = self.rng.random(moving.size)
+            vx, vy, n_in = kernels.walker_velocities(st.x, st.y, moving, speed, heading_u, dt, self._grid())
+            return st, moving, vx, vy, int(n_in)
         moved = st.shallow_copy()
         if self.redraw_in_cell:
             redraw_in_cells(moved, self.spec, rng=self.rng)
@@ -474,48 +485,67 @@ class ParticleFilter:
         else:
             move_persistent(moved, self.motion, self.persistent, dt, rng=self.rng)
         before = ParticleState(x=x, y=y, vx=moved.vx, vy=moved.vy, w=st.w)
-        return before, np.arange(st.size, dtype=np.intp), moved.vx, moved.vy
+        return before, np.arange(st.size, dtype=np.intp), moved.vx, moved.vy, None
 
     def _ego_rows(self, odo: Odometry | None, dt: float, size: int) -> NDArray[np.float64]:
         """``min(size, ego_pool)`` sampled sensor displacements as rows dx, dy, cos(dtheta), sin(dtheta)."""
         p = sample_ego_poses(odo, dt, self.noise, min(size, self.ego_pool), rng=self.rng)
         return np.stack((p[:, 0], p[:, 1], np.cos(p[:, 2]), np.sin(p[:, 2])))
 
-    def _predict_compiled(
-        self, odo: Odometry | None, dt: float
-    ) -> tuple[
-        ParticleState,
-        NDArray[np.intp],
-        NDArray[np.intp],
-        NDArray[np.float64],
-        NDArray[np.float64],
-        NDArray[np.float64],
-        NDArray[np.float64],
-    ]:
-        """Phases 1-2 in two passes over the particles (compiled), bit-identical to the numpy path.
+    def _predict_compiled(self, odo: Odometry | None, dt: float) -> _Compiled:
+        """Phases 1-2 in one pass over the particles (compiled), bit-identical to the numpy path.
 
-        Pass one (read only) sums the people prior; pass two moves people and sensor and compacts away the
-        particles that left, into a new buffer; the births follow the survivors in the same buffer (its capacity
-        bounds every count the births can reach, those of the update included). Returns the particles, their
-        cells, the count and the people and sensor priors per cell (flat) and the sigma points of the grid's warp.
+        The births at the border need the count inside after the people motion before the pass; it is taken to
+        be the standing particles (inside, where the last step left them) plus the walkers that stay inside.
+        Should the pass find otherwise (a state set from outside with particles beyond the grid), the random
+        generator is put back and the step redone with a counting pass first.
         """
+        before, moving, vx_m, vy_m, walkers_in = self._people_velocities(dt)
+        if walkers_in is not None:
+            saved = self.rng.bit_generator.state
+            out = self._predict_pass(odo, dt, before, moving, vx_m, vy_m, before.size - moving.size + walkers_in)
+            if out is not None:
+                return out
+            self.rng.bit_generator.state = saved
+        out = self._predict_pass(odo, dt, before, moving, vx_m, vy_m, None)
+        if out is None:  # pragma: no cover - a pass that counts first cannot be wrong
+            raise RuntimeError("particle filter: the prediction's count disagrees with itself")
+        return out
+
+    def _predict_pass(
+        self,
+        odo: Odometry | None,
+        dt: float,
+        before: ParticleState,
+        moving: NDArray[np.intp],
+        vx_m: NDArray[np.float64],
+        vy_m: NDArray[np.float64],
+        guess: int | None,
+    ) -> _Compiled | None:
+        """The pass of :meth:`_predict_compiled` given the count inside after the people motion (``guess``; None:
+        count it first). Returns the particles, their cells, the count and the people and sensor priors per
+        cell (flat) and the sigma points of the grid's warp; None if ``guess`` was wrong. The survivors go to a
+        new buffer, the births after them (its capacity bounds every count the births can reach, those of the
+        update included)."""
         n_cells, grid = self.spec.n_cells, self._grid()
-        before, moving, vx_m, vy_m = self._people_velocities(dt)
-        prior = np.zeros(n_cells)
-        n_inside = kernels.people_prior(before.x, before.y, before.w, moving, vx_m, vy_m, dt, grid, prior)
-        free = self.n_particles - n_inside
+        prior, scratch = np.zeros(n_cells), np.zeros(n_cells)
+        if guess is None:
+            n_inside = kernels.people_prior(before.x, before.y, before.w, moving, vx_m, vy_m, dt, grid, prior)
+        free = self.n_particles - (n_inside if guess is None else guess)
         born, born_cells = self._born_from_mass(self.people_inflow(dt).ravel(), free - max(free, 0) // 2)
-        prior += np.bincount(born_cells, weights=born.w, minlength=n_cells)
+        prior_born = np.bincount(born_cells, weights=born.w, minlength=n_cells)
         poses, pose_w = ego_motion_sigma_points(odo, dt, self.noise)
         moves = bool(np.any(poses != 0.0))
         rows = [self._ego_rows(odo, dt, part.size) if moves and part.size else _NO_POSES for part in (before, born)]
         cap = max(before.size, self.n_particles) + (3 + self.n_birth) * n_cells + 8
-        buf = tuple(self._pool.take(cap) for _ in range(5))
-        cells = self._pool.take_index(cap)
+        buf, cells = tuple(self._pool.take(cap) for _ in range(5)), self._pool.take_index(cap)
         mass, counts = np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp)
-        args = (before.x, before.y, before.w, moving, vx_m, vy_m, dt, rows[0], moves, grid, buf, cells)
-        j = j_st = kernels.move_ego_compact(*args, mass, counts)
-        born_src = np.stack((born.x, born.y, born.vx, born.vy))
+        args = (before.x, before.y, before.w, moving, vx_m, vy_m, dt, rows[0], moves, grid, buf, cells, mass, counts)
+        j, n_inside = kernels.move_ego_compact(*args, prior if guess is not None else scratch)
+        if guess is not None and n_inside != guess:
+            return None
+        prior += prior_born
+        j_st, born_src = j, np.stack((born.x, born.y, born.vx, born.vy))
         j = kernels.ego_compact(born_src, born.w, rows[1], moves, False, grid, buf, cells, j, mass, counts)
         if moves:
             n_now = n_inside + (j - j_st)
