@@ -62,23 +62,51 @@ def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside
     ndarray, shape (nx, ny)
         ``P_col = S / (1 + S)``, ``S = sum_k q_k / (1 - q_k)``, ``q_k = p_k bel_k`` over the off-centre nonzero
         taps in row-major order (the numpy code's order, tap by tap over the whole grid).
+
+    Notes
+    -----
+    ``q / (1 - q)`` depends only on the tap's value and the source cell's belief, and the kernel is radially
+    symmetric, so it is computed once per distinct tap value over the padded grid (8 values for the paper's
+    37 taps) and each tap adds its shifted copy: the same numbers added in the same order, without a division
+    per tap and cell.
     """
     nx, ny = bel.shape
     side = kernel.shape[0]
     rad = side // 2
     padded = _padded(bel, rad, outside)
-    s = np.zeros((nx, ny))
+    px, py = padded.shape
+    values = np.zeros(side * side)
+    n_values = 0
+    slot = np.full((side, side), -1, dtype=np.intp)
     for a in range(side):
         for b in range(side):
             k = kernel[a, b]
             if k == 0.0 or (a == rad and b == rad):
                 continue
+            for v in range(n_values):
+                if values[v] == k:
+                    slot[a, b] = v
+            if slot[a, b] < 0:
+                values[n_values] = k
+                slot[a, b] = n_values
+                n_values += 1
+    odds = np.empty((n_values, px, py))  # q / (1 - q) of every padded cell, per tap value
+    for v in range(n_values):
+        k = values[v]
+        for i in range(px):
+            for j in range(py):
+                q = k * padded[i, j]
+                odds[v, i, j] = q / (1.0 - q)
+    s = np.zeros((nx, ny))
+    for a in range(side):
+        for b in range(side):
+            if slot[a, b] < 0:
+                continue
+            src = odds[slot[a, b]]
             for i in range(nx):
-                src = padded[2 * rad - a + i]
-                row = s[i]
+                row, srow = s[i], src[2 * rad - a + i]
                 for j in range(ny):
-                    q = k * src[2 * rad - b + j]
-                    row[j] += q / (1.0 - q)
+                    row[j] += srow[2 * rad - b + j]
     p_stay = kernel[rad, rad]
     out = np.empty((nx, ny))
     for i in range(nx):
