@@ -322,13 +322,14 @@ def resample_plan(
     w = np.ascontiguousarray(weights, dtype=np.float64)
     forced, mass, _ = _forced_compiled(c, w, n, n_cells, rng)
     k = forced.size
+    if n == k:
+        return forced, mass
+    if resampler is not systematic:  # whatever a callable returns follows, as in the numpy code
+        rest = np.asarray(resampler(w, n - k, rng=rng), dtype=np.intp)
+        return np.concatenate((forced, rest)), mass
     ancestors = np.empty(n, dtype=np.intp)
     ancestors[:k] = forced
-    if n > k:
-        if resampler is systematic:
-            kernels.systematic_into(w, n - k, float(rng.random()), ancestors, k)
-        else:
-            ancestors[k:] = resampler(w, n - k, rng=rng)
+    kernels.systematic_into(w, n - k, float(rng.random()), ancestors, k)
     return ancestors, mass
 
 
@@ -361,11 +362,12 @@ def resample_state(
     """
     c = np.ascontiguousarray(cells, dtype=np.intp)
     w = np.ascontiguousarray(weights, dtype=np.float64)
-    out = tuple(np.empty(n) if pool is None else pool.take(n) for _ in range(5))
     if resampler is not systematic:
         ancestors, mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=resampler)
+        out = tuple(np.empty(ancestors.size) if pool is None else pool.take(ancestors.size) for _ in range(5))
         kernels.gather_resampled(ancestors, c, *rows, mass, n_cells, out)
         return out
+    out = tuple(np.empty(n) if pool is None else pool.take(n) for _ in range(5))
     forced, mass, total = _forced_compiled(c, w, n, n_cells, rng, pool)
     m = n - forced.size
     off = float(rng.random()) if m > 0 else 0.0

@@ -9,6 +9,7 @@ import sys
 import numpy as np
 import pytest
 
+from evaluation.bench_particles import filterpy_systematic
 from gridbridge import GridSpec, Odometry, jit
 from gridbridge.components import Appearance, BeliefBounds
 from pfpeople.buffers import BufferPool
@@ -25,6 +26,7 @@ CONFIGS = [
     {"redraw_in_cell": True, "ess_threshold": 2.0},
     {"resampler": "stratified", "ess_threshold": 2.0},
     {"resampler": "residual", "appearance": Appearance(), "bounds": BeliefBounds()},
+    {"resampler": filterpy_systematic, "ess_threshold": 2.0},  # a callable (returning fewer than asked)
 ]
 
 
