@@ -31,6 +31,7 @@ __all__ = [
     "cell",
     "cell_mass",
     "ego_compact",
+    "ego_rows",
     "forced_ancestors",
     "gather_resampled",
     "move_ego_compact",
@@ -100,6 +101,38 @@ def walker_velocities(
         if cell(x[k] + vx[m] * dt, y[k] + vy[m] * dt, grid) >= 0:
             n_in += 1
     return vx, vy, n_in
+
+
+@jit
+def ego_rows(
+    e: NDArray[np.float64], sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
+) -> NDArray[np.float64]:
+    """Sampled sensor displacements (eqs. 10-11) as rows dx, dy, cos(dtheta), sin(dtheta):
+    :func:`pfpeople.motion.sample_ego_poses` from its standard normal draws ``e`` (3, S), bit for bit.
+
+    ``sd`` are the noise sd of ``v``, ``omega`` and ``gamma``, ``control = (v, omega, vy)`` the odometry
+    (m/s, rad/s, m/s), ``eps`` the yaw rate below which the motion is a straight line
+    (:func:`gridbridge.velocity_displacement`).
+    """
+    v0, w0, vy = control
+    n = e.shape[1]
+    out = np.empty((4, n))
+    for k in range(n):
+        v = v0 + e[0, k] * sd[0]
+        w = w0 + e[1, k] * sd[1]
+        gamma = e[2, k] * sd[2]
+        if abs(w) > eps:
+            sw, cw = math.sin(w * dt), math.cos(w * dt)
+            dx, dy = v / w * sw, v / w * (1.0 - cw)
+            if vy != 0.0:
+                dx, dy = dx - vy / w * (1.0 - cw), dy + vy / w * sw
+        else:
+            dx, dy = v * dt, 0.0
+            if vy != 0.0:
+                dx, dy = dx - 0.0, dy + vy * dt
+        th = (w + gamma) * dt
+        out[0, k], out[1, k], out[2, k], out[3, k] = dx, dy, math.cos(th), math.sin(th)
+    return out
 
 
 @jit

@@ -88,6 +88,7 @@ from gridbridge import (
     warp_belief,
 )
 from gridbridge.components import Appearance, BeliefBounds
+from gridbridge.ego_motion import _OMEGA_EPS
 from gridbridge.filter import Prediction, filter_models
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
@@ -488,9 +489,13 @@ class ParticleFilter:
         return before, np.arange(st.size, dtype=np.intp), moved.vx, moved.vy, None
 
     def _ego_rows(self, odo: Odometry | None, dt: float, size: int) -> NDArray[np.float64]:
-        """``min(size, ego_pool)`` sampled sensor displacements as rows dx, dy, cos(dtheta), sin(dtheta)."""
-        p = sample_ego_poses(odo, dt, self.noise, min(size, self.ego_pool), rng=self.rng)
-        return np.stack((p[:, 0], p[:, 1], np.cos(p[:, 2]), np.sin(p[:, 2])))
+        """``min(size, ego_pool)`` sampled sensor displacements as rows dx, dy, cos(dtheta), sin(dtheta)
+        (:func:`sample_ego_poses`'s draws and arithmetic, compiled)."""
+        dt = check_positive(dt, "dt")
+        o = Odometry() if odo is None else odo
+        sd = np.sqrt(np.asarray(self.noise.variances(o.v, o.omega), dtype=np.float64))
+        e = self.rng.standard_normal((3, min(size, self.ego_pool)))
+        return kernels.ego_rows(e, sd, (float(o.v), float(o.omega), float(o.vy)), dt, _OMEGA_EPS)
 
     def _predict_compiled(self, odo: Odometry | None, dt: float) -> _Compiled:
         """Phases 1-2 in one pass over the particles (compiled), bit-identical to the numpy path.

@@ -164,3 +164,21 @@ def test_grid_tuple_cells_match_flat_index() -> None:
     want = spec.flat_index(xs, ys)
     got = [kernels.cell(float(x), float(y), grid) for x, y in zip(xs, ys, strict=True)]
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize(
+    "odo", [Odometry(v=0.5, omega=0.3), Odometry(v=0.4, omega=0.0), Odometry(v=0.2, omega=-0.5, vy=0.3), Odometry()]
+)
+def test_ego_rows_are_sample_ego_poses_bit_for_bit(odo: Odometry) -> None:
+    from gridbridge import SensorMotionNoise
+    from gridbridge.ego_motion import _OMEGA_EPS
+    from pfpeople import kernels
+    from pfpeople.motion import sample_ego_poses
+
+    noise = SensorMotionNoise()
+    poses = sample_ego_poses(odo, 0.1, noise, 500, rng=np.random.default_rng(2))
+    e = np.random.default_rng(2).standard_normal((3, 500))
+    sd = np.sqrt(np.asarray(noise.variances(odo.v, odo.omega), dtype=np.float64))
+    rows = kernels.ego_rows(e, sd, (odo.v, odo.omega, odo.vy), 0.1, _OMEGA_EPS)
+    want = np.stack((poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2])))
+    assert rows.tobytes() == want.tobytes()
