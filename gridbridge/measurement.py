@@ -244,6 +244,11 @@ def bayes_update(prior: ArrayLike, likelihood: ArrayLike) -> NDArray[np.float64]
     lik = check_grid_array(likelihood, "likelihood", ndim=None)
     if p.shape != lik.shape:
         raise ValueError(f"prior and likelihood shapes differ: {p.shape} vs {lik.shape}")
+    return bayes_update_unchecked(p, lik)
+
+
+def bayes_update_unchecked(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`bayes_update` of float arrays of one shape already known to hold probabilities (a filter's own)."""
     num = lik * p
     den = num + (1.0 - lik) * (1.0 - p)
     safe = den > 0.0
@@ -287,6 +292,17 @@ def likelihood_from_detections(
         Entry i is an ``(M_i, 2)`` array of positions (m, grid's sensor frame), or ``None`` when detector i
         has no data this frame (it then covers no cell).
     """
+    return _likelihood(spec, detectors, detections, None)
+
+
+def _likelihood(
+    spec: GridSpec,
+    detectors: Sequence[DetectorModel],
+    detections: Sequence[ArrayLike | None],
+    fovs: Sequence[NDArray[np.bool_]] | None,
+) -> Likelihood:
+    """:func:`likelihood_from_detections`, with the detectors' fields of view given (a filter's, computed once)
+    or looked up."""
     if len(detections) != len(detectors):
         raise ValueError(f"detections must have one entry per detector ({len(detectors)}), got {len(detections)}")
     d = len(detectors)
@@ -296,7 +312,7 @@ def likelihood_from_detections(
         if det is None:
             continue
         fired[i] = detection_map(spec, model, det)
-        covered[i] = fov_mask(spec, model)
+        covered[i] = fov_mask(spec, model) if fovs is None else fovs[i]
         if model.uncertainty == "point":
             covered[i] |= fired[i] > 0.0
     ppv = np.array([m.ppv for m in detectors])

@@ -21,7 +21,7 @@ from gridbridge import (
     predict_people,
     warp_belief,
 )
-from gridbridge.components import Appearance, BeliefBounds
+from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction, VelocityEgoMotion
 from gridbridge.params import DetectorModel
 
 pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
@@ -107,3 +107,29 @@ def test_grid_filter_steps_agree_to_1e12(form: str) -> None:
     for a, b in zip(*runs, strict=True):
         for name in ("people_prior", "sensor_prior", "likelihood", "posterior"):
             np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=0, atol=1e-12, err_msg=name)
+
+
+class _Paper(PaperPrediction):
+    """A component the filter does not know: it goes through predict_people, the public function."""
+
+
+class _Linear(LinearPrediction):
+    pass
+
+
+class _Ego(VelocityEgoMotion):
+    pass
+
+
+@pytest.mark.parametrize(("builtin", "custom"), [(PaperPrediction, _Paper), (LinearPrediction, _Linear)])
+def test_grid_filter_runs_its_builtin_components_as_their_functions_do(builtin: type, custom: type) -> None:
+    """The filter's direct kernel calls for its built-in components give the components' results bit for bit."""
+    spec = GridSpec.centred_on_edge(19, 23, 0.3)
+    runs = []
+    for prediction, ego in ((builtin(), VelocityEgoMotion()), (custom(), _Ego())):
+        f = GridFilter(spec, prediction=prediction, ego_motion=ego)
+        runs.append([f.step(scene(spec, np.random.default_rng(t)), Odometry(v=0.3, omega=0.2), 0.1) for t in range(4)])
+        runs[-1].append(f.step(scene(spec, np.random.default_rng(9)), None, 0.2))  # standing, another dt
+    for a, b in zip(*runs, strict=True):
+        for name in ("people_prior", "sensor_prior", "likelihood", "posterior"):
+            assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
