@@ -45,6 +45,29 @@ def _padded(bel: NDArray[np.float64], rad: int, outside: float) -> NDArray[np.fl
 
 
 @jit
+def _tap_values(kernel: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """The distinct off-centre nonzero values of a kernel and, per tap, the index of its value (-1: no tap)."""
+    side = kernel.shape[0]
+    rad = side // 2
+    values = np.zeros(side * side)
+    n_values = 0
+    slot = np.full((side, side), -1, dtype=np.intp)
+    for a in range(side):
+        for b in range(side):
+            k = kernel[a, b]
+            if k == 0.0 or (a == rad and b == rad):
+                continue
+            for v in range(n_values):
+                if values[v] == k:
+                    slot[a, b] = v
+            if slot[a, b] < 0:
+                values[n_values] = k
+                slot[a, b] = n_values
+                n_values += 1
+    return values[:n_values], slot
+
+
+@jit
 def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
     """The paper's people prediction, eq. 6 with eq. 8: ``bel' = p_stay bel + P_col (1 - bel)``.
 
@@ -75,21 +98,8 @@ def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside
     rad = side // 2
     padded = _padded(bel, rad, outside)
     px, py = padded.shape
-    values = np.zeros(side * side)
-    n_values = 0
-    slot = np.full((side, side), -1, dtype=np.intp)
-    for a in range(side):
-        for b in range(side):
-            k = kernel[a, b]
-            if k == 0.0 or (a == rad and b == rad):
-                continue
-            for v in range(n_values):
-                if values[v] == k:
-                    slot[a, b] = v
-            if slot[a, b] < 0:
-                values[n_values] = k
-                slot[a, b] = n_values
-                n_values += 1
+    values, slot = _tap_values(kernel)
+    n_values = values.size
     odds = np.empty((n_values, px, py))  # q / (1 - q) of every padded cell, per tap value
     for v in range(n_values):
         k = values[v]

@@ -508,19 +508,22 @@ def systematic_gather(
     without an ancestor array: the ``forced`` ancestors, then ``m`` systematic ones (offset ``off``, weights
     ``w`` of sum ``total``), each carrying ``M_c / n_c``.
 
-    Two passes over the particles: the first counts the new particles per cell, the second copies them.
+    Two passes over the particles: the first counts each particle's copies and the new particles per cell, the
+    second copies them.
 
     The new particles are written to ``out``: 5 arrays of shape (K + m,), x, y, vx, vy (of ``src``) and the
     new weights.
     """
     n, n_cells = w.size, mass.size
     n_new = np.zeros(n_cells, dtype=np.intp)
+    copies = np.empty(n, dtype=np.int32)  # each particle's systematic copies, for the second pass
     for f in forced:
         n_new[cells[f]] += 1
     acc, prev = 0.0, 0
     for i in range(n):
         acc += w[i]
         below = _systematic_count(acc, total, m, off, i == n - 1)
+        copies[i] = below - prev
         n_new[cells[i]] += below - prev
         prev = below
     share = np.zeros(n_cells)
@@ -533,12 +536,10 @@ def systematic_gather(
         a = forced[t]
         ox[t], oy[t], ovx[t], ovy[t], ow[t] = x[a], y[a], vx[a], vy[a], share[cells[a]]
     j = forced.size
-    acc, prev = 0.0, 0
     for i in range(n):
-        acc += w[i]
-        below = _systematic_count(acc, total, m, off, i == n - 1)
-        wi = share[cells[i]]
-        for _ in range(below - prev):
-            ox[j], oy[j], ovx[j], ovy[j], ow[j] = x[i], y[i], vx[i], vy[i], wi
+        if copies[i] == 0:
+            continue
+        xi, yi, vxi, vyi, wi = x[i], y[i], vx[i], vy[i], share[cells[i]]
+        for _ in range(copies[i]):
+            ox[j], oy[j], ovx[j], ovy[j], ow[j] = xi, yi, vxi, vyi, wi
             j += 1
-        prev = below

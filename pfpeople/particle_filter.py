@@ -50,6 +50,13 @@ Ego-motion poses: with at most ``ego_pool`` particles every particle draws its o
 of ``ego_pool`` i.i.d. exact draws is shared (particle k uses draw k mod ``ego_pool``), so each particle's
 displacement is still an exact draw while the cost of the trigonometry stays fixed.
 
+Compiled step: with numba (and ``PFPEOPLE_NUMBA`` not ``0``, :mod:`gridbridge.jit`) phases 1-2 run as one pass
+over the particles (:mod:`pfpeople.kernels`: people motion, sensor motion, the particles that left dropped, both
+priors summed), phase 3 scales the weights in one pass and phase 5 gathers the resampled particles without an
+ancestor array; the arrays come from a pool of those the filter let go of (:mod:`pfpeople.buffers`). It makes
+the numpy path's random draws in the same order and the same arithmetic in the same order: the same seed gives
+the same particles bit for bit (``tests/test_kernels_particles.py``).
+
 Bias of the empty-cell prior: a cell that is empty by chance gets the analytic prior instead of its (zero)
 particle mass, so the prior's expectation exceeds the linear grid's by P(empty) * prior. It matters only
 when cells hold about one particle: measured after one step from the uniform start (standing robot, 20 seeds),
