@@ -226,15 +226,10 @@ class GridFilter:
         self.ego_motion = ego_motion
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
         self._observed: NDArray[np.bool_] | None = None
-        #: The built-in components are run by the compiled kernels directly (the same kernels their functions
-        #: call, without re-checking the filter's own arrays); kernels per quantised dt, fields of view.
-        self._builtin = (
-            type(prediction) in (PaperPrediction, LinearPrediction) and type(ego_motion) is VelocityEgoMotion
-        )
-        self._kernels: dict[float, NDArray[np.float64]] = {}
-        self._fovs = (
-            [fov_mask(self.spec, m) for m in self.detectors] if type(self.likelihood) is DeMorganLikelihood else None
-        )
+        #: Kernels of the built-in predictions per (prediction, quantised dt), and the detectors' fields of view,
+        #: for the compiled path (:meth:`_predict_compiled`, :meth:`_likelihood`).
+        self._kernels: dict[tuple[PeoplePrediction, float], NDArray[np.float64]] = {}
+        self._fovs: tuple[tuple[DetectorModel, ...], list[NDArray[np.bool_]]] | None = None
         #: The people prior of a :meth:`predict` not yet followed by :meth:`update`.
         self._people_prior: NDArray[np.float64] | None = None
 
@@ -270,7 +265,7 @@ class GridFilter:
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
         odo = as_odometry(odometry)
-        if self._builtin and jit.enabled():
+        if self._builtin() and jit.enabled():
             people, sensor = self._predict_compiled(odo, dt)
         else:
             people = self.prediction.predict(self.belief, self.spec, dt)
@@ -281,19 +276,29 @@ class GridFilter:
         self._people_prior = people
         return Prediction(people, sensor)
 
+    def _builtin(self) -> bool:
+        """Whether the filter's predictions are the built-in components, which the compiled path runs directly
+        (the same kernels their functions call, without re-checking the filter's own arrays)."""
+        return (
+            type(self.prediction) in (PaperPrediction, LinearPrediction) and type(self.ego_motion) is VelocityEgoMotion
+        )
+
     def _predict_compiled(self, odo: Odometry | None, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Both predictions of the built-in components: :func:`~gridbridge.people_motion.predict_people` and
         :func:`~gridbridge.ego_motion.predict_sensor` on their compiled path, the same kernels and results."""
-        key = quantise_dt(dt)
+        key = (self.prediction, quantise_dt(dt))
+        paper = isinstance(self.prediction, PaperPrediction)
         kernel = self._kernels.get(key)
         if kernel is None:
             kernel = np.ascontiguousarray(self.prediction.kernel(self.spec, dt), dtype=np.float64)
-            if self.form == "paper":
+            if paper:
                 _check_paper_kernel(kernel)
+            if len(self._kernels) >= 64:
+                self._kernels.clear()
             self._kernels[key] = kernel
         bel = np.ascontiguousarray(self.belief, dtype=np.float64)
         outside = float(self.prediction.outside)
-        if self.form == "paper":
+        if paper:
             people = kernels.predict_paper(bel, kernel, outside)
         else:
             people = kernels.convolve_const(bel, kernel, outside)
@@ -306,10 +311,14 @@ class GridFilter:
         return people, kernels.warp_bilinear(people, grid, np.ascontiguousarray(poses), w / w.sum(), ego.outside)
 
     def _likelihood(self, detections: Sequence[ArrayLike | None]) -> Likelihood:
+        """The likelihood component on ``detections``; the built-in De Morgan fusion with the detectors' fields
+        of view computed once (the same result)."""
         dets = list(detections)
-        if self._fovs is not None and isinstance(self.likelihood, DeMorganLikelihood):
-            return self.likelihood.with_fields_of_view(self.spec, self.detectors, dets, self._fovs)
-        return self.likelihood(self.spec, self.detectors, dets)
+        if type(self.likelihood) is not DeMorganLikelihood:
+            return self.likelihood(self.spec, self.detectors, dets)
+        if self._fovs is None or self._fovs[0] is not self.detectors:
+            self._fovs = (self.detectors, [fov_mask(self.spec, m) for m in self.detectors])
+        return self.likelihood.with_fields_of_view(self.spec, self.detectors, dets, self._fovs[1])
 
     def update(self, detections: Sequence[ArrayLike | None]) -> FilterStep:
         """Measurement update (eqs. 12-14) of the belief (the prior), then the bounds; sets the posterior.
@@ -327,7 +336,7 @@ class GridFilter:
     def _update(self, lik: Likelihood) -> FilterStep:
         prior = self.belief
         people = prior if self._people_prior is None else self._people_prior
-        if self._builtin and jit.enabled() and prior.dtype == np.float64 and prior.shape == lik.likelihood.shape:
+        if self._builtin() and jit.enabled() and prior.dtype == np.float64 and prior.shape == lik.likelihood.shape:
             posterior = bayes_update_unchecked(prior, lik.likelihood)  # both the filter's own probabilities
         else:
             posterior = bayes_update(prior, lik.likelihood)
