@@ -15,7 +15,9 @@ past the end. Ancestors come out sorted. ``systematic`` and ``stratified`` accep
 (``u=``) so they can be compared with ``filterpy.monte_carlo`` on the same random numbers.
 
 :func:`resample_by_cell` is the occupancy-grid resampling the particle filter uses: it keeps the particle count
-at ``n`` and every cell's mass unchanged.
+at ``n`` and every cell's mass unchanged. With numba (:mod:`gridbridge.jit`) it runs compiled kernels
+(:func:`resample_plan`; :func:`resample_state` also gathers the particles) that make the same draws and return
+the same ancestors and weights bit for bit.
 """
 
 from __future__ import annotations
