@@ -218,7 +218,7 @@ def _same_outputs(a: Path, b: Path) -> bool:
 
 def _recall(run_dir: Path, gt: Path, real: bool) -> str:
     from evaluation.commands.score import score_run
-    from evaluation.gt_csv import read_gt_csv
+    from pfpeople.gt_csv import read_gt_csv
     from pfpeople.output import load_run
 
     scores = score_run(load_run(run_dir), read_gt_csv(gt), frame="laser", recall_only=real)["scores"]

@@ -3,6 +3,15 @@
 Run ``python -m evaluation.bench_soak [--steps N] [--modes NAME ...] [--seed S]`` (default 100000 steps per
 mode; it pins one core like the other benchmarks).
 
+Bag mode, ``python -m evaluation.bench_soak --bag-frames N [--workdir DIR]``: writes a synthetic ROS1 bag of
+``N`` LaserScans at 10 Hz (:func:`write_soak_bag`: two people walking back and forth in front of a 180 deg laser,
+0.5 deg spacing, mounted through ``/tf_static``) and runs ``pfpeople run BAG --driver /scan`` on it in a
+subprocess (the default grid filter, front end in a second process where it can). It samples the resident memory
+of the run's process tree (the run and its front-end process, ``psutil``) every 0.5 s and the frames written
+(rows of ``frames.csv``), and reports the memory when 10 %, 50 % and 100 % of the frames are written, the peak,
+the frames per second, and the size of each output file. Exit code 1 when the run failed or did not write every
+frame.
+
 Input (seeded ``numpy.random.Generator``): the paper's grid and three detectors; every step each detector has
 no data with probability 0.1, else a Poisson(1.5) number of people uniform over a box 2 m larger than the grid
 on every side (so some fall outside); the robot has no odometry with probability 0.05, else
@@ -158,7 +167,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--steps", type=lambda s: int(float(s)), default=100_000, help="steps per mode (1e5)")
     parser.add_argument("--modes", nargs="+", choices=sorted(modes), default=list(modes), help="modes to run")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--bag-frames", type=lambda s: int(float(s)), help="bag mode: pfpeople run over a bag of N scans (1e5)"
+    )
+    parser.add_argument("--workdir", help="bag mode: where the bag and the run go (default: a temporary folder)")
     args = parser.parse_args(argv)
+    if args.bag_frames is not None:
+        return _bag_main(args.bag_frames, args.workdir)
     n_cells = GridSpec().n_cells
     print(f"soak: {args.steps} steps per mode, seed {args.seed}, belief mass bounds [0, {n_cells}]")
     header = (
@@ -177,6 +192,29 @@ def main(argv: Sequence[str] | None = None) -> int:
             flush=True,
         )
     return 1 if failed else 0
+
+
+def _bag_main(frames: int, workdir: str | None) -> int:
+    """Bag mode (see the module docstring): run, print the figures, 1 when the run failed or lost frames."""
+    import tempfile
+    from pathlib import Path
+
+    from evaluation.bench_soak_bag import soak_bag
+
+    if frames < 10:
+        raise SystemExit(f"--bag-frames must be at least 10, got {frames}")
+    with tempfile.TemporaryDirectory(dir=workdir) as tmp:
+        r = soak_bag(frames, Path(tmp))
+    print(f"bag soak: {r.command}")
+    print(f"  bag {r.bag_bytes / 2**20:.1f} MiB, {r.frames} scans; exit code {r.returncode}")
+    print(f"  {r.frames_written} frames written in {r.elapsed_s:.0f} s ({r.frames_written / r.elapsed_s:.0f} frames/s)")
+    at = ", ".join(f"{k} %: {v:.1f} MiB" for k, v in sorted(r.rss_at.items()))
+    print(f"  RSS of the run's processes: {at}; peak {r.peak_rss_mib:.1f} MiB")
+    total = sum(r.outputs.values())
+    print(f"  outputs {total / 2**20:.1f} MiB ({total / max(r.frames_written, 1):.0f} B a frame):")
+    for name, size in r.outputs.items():
+        print(f"    {name:<20} {size / 2**20:10.2f} MiB")
+    return 0 if r.returncode == 0 and r.frames_written == r.frames else 1
 
 
 if __name__ == "__main__":

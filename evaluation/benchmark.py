@@ -458,9 +458,9 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     person only: its figure is the followed-person line (MOTA / precision there count passers-by as false).
     ``negative_2`` (nobody there) has no MOT rows. Gate ``gate`` m (leg_tracker's 0.75).
     """
-    from evaluation.gt_csv import read_gt_csv
     from evaluation.mot_eval import evaluate_log, evaluate_run
     from pfpeople.bag.config import builtin_config_path, load_config
+    from pfpeople.gt_csv import read_gt_csv
     from pfpeople.mot import TrackerConfig
     from pfpeople.output import load_run
 

@@ -11,7 +11,7 @@ Two harnesses, one tracker (:class:`pfpeople.mot.MultiPersonTracker`) and one sc
   (noisy) odometry of the frame, ``odometry_pose(odometry, dt)``, as the filters get. Ground truth and
   hypotheses are restricted to the grid (the grid cannot show people outside it).
 - **Run directory** (:func:`evaluate_run`): a ``pfpeople run`` output (``people.csv``: the filter's people;
-  ``detections.csv``: each detector) against a GT CSV with person ids (:mod:`evaluation.gt_csv`), with the
+  ``detections.csv``: each detector) against a GT CSV with person ids (:mod:`pfpeople.gt_csv`), with the
   followed-person figure: the fraction of the annotated frames of one person where a confirmed track lies
   within ``gate`` of it (CLEAR-MOT matching, so a matched track is one-to-one), and the identity switches on
   that person. Ego-motion: ``frames.csv`` (``v_mps``, ``omega_radps``, ``vy_mps``, ``dt_s``; frames without
@@ -41,7 +41,6 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from evaluation.ab import FilterSpec
-from evaluation.gt_csv import GroundTruth
 from evaluation.mot_metrics import MotScores, clear_mot, hota
 from evaluation.replay import ReplayLog
 from evaluation.run_truth import group_by_frame, gt_to_grid
@@ -51,6 +50,7 @@ from gridbridge.ego_motion import Odometry, odometry_pose
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
+from pfpeople.gt_csv import GroundTruth
 from pfpeople.mot import MultiPersonTracker, PeopleTracker, TrackerConfig
 from pfpeople.mot.people import point_like, support_positions
 from pfpeople.output import RunData

@@ -45,6 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pfpeople.extras import require
+
 __all__ = ["HotaScores", "MotScores", "accumulate", "clear_mot", "distance_matrix", "hota", "scores_from_events"]
 
 log = logging.getLogger(__name__)
@@ -139,8 +141,7 @@ def accumulate(
     max_range: float | None = None,
 ) -> Any:
     """The ``motmetrics.MOTAccumulator`` of a sequence (arguments as :func:`clear_mot`)."""
-    import motmetrics as mm
-
+    mm = require("eval", "the CLEAR-MOT scores")
     acc = mm.MOTAccumulator(auto_id=True)
     for gid, gpos, hid, hpos in _frames_in_region(gt_frames, hyp_frames, gate, sector, max_range):
         acc.update(gid.tolist(), hid.tolist(), distance_matrix(gpos, hpos, gate))
@@ -191,8 +192,7 @@ def clear_mot(
     -------
     MotScores
     """
-    import motmetrics as mm
-
+    mm = require("eval", "the CLEAR-MOT scores")
     acc = accumulate(gt_frames, hyp_frames, gate=gate, sector=sector, max_range=max_range)
     names = [
         "mota",

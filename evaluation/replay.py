@@ -138,8 +138,8 @@ def log_from_run(
     detections its filter saw; by default every detection (each detector alone). The same holds for the
     support positions of ``support.csv`` (:attr:`ReplayLog.support`, when the run wrote it).
     """
-    from evaluation.gt_csv import read_gt_csv
     from evaluation.run_truth import group_by_frame, truth_and_sources
+    from pfpeople.gt_csv import read_gt_csv
     from pfpeople.output import load_run
 
     run = load_run(run_dir)

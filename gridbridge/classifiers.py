@@ -212,22 +212,27 @@ def classify_peaks(
     check_positive(min_separation, "min_separation")
     check_positive(centroid_radius, "centroid_radius", allow_zero=True)
     smooth = check_positive(check_number(smooth, "smooth"), "smooth", allow_zero=True)
-    r = spec.resolution
     is_max, value = peak_maxima(grid, spec, min_separation, smooth)
     cand = np.argwhere((value > threshold) & is_max)
-    empty = People(
-        positions=np.zeros((0, 2)),
-        scores=np.zeros(0),
-        sizes=np.zeros(0, dtype=np.int64),
-        mask=np.zeros(spec.shape, dtype=bool),
-    )
     if len(cand) == 0:
-        return empty
+        return People(
+            positions=np.zeros((0, 2)),
+            scores=np.zeros(0),
+            sizes=np.zeros(0, dtype=np.int64),
+            mask=np.zeros(spec.shape, dtype=bool),
+        )
     values = value[cand[:, 0], cand[:, 1]]
     order = np.lexsort((cand[:, 1], cand[:, 0], -values))
     cand, values = cand[order], values[order]
-    # Greedy non-maximum suppression on the grid: a kept peak blocks every cell centre within min_separation.
-    sep = min_separation / r
+    kept = _suppress_non_maxima(cand, spec, min_separation)
+    return _peak_people(grid, spec, cand[kept], values[kept], threshold, centroid_radius)
+
+
+def _suppress_non_maxima(cand: NDArray[np.intp], spec: GridSpec, min_separation: float) -> list[int]:
+    """Greedy non-maximum suppression on the grid (step 2 of :func:`classify_peaks`): the indices of the kept
+    candidates ``(K, 2)`` (cells, in decreasing belief order), each blocking every cell centre within
+    ``min_separation`` (m)."""
+    sep = min_separation / spec.resolution
     reach_s = math.ceil(sep - 1e-9)
     si, sj = np.mgrid[-reach_s : reach_s + 1, -reach_s : reach_s + 1]
     block = (si**2 + sj**2) < sep**2 - 1e-9
@@ -241,14 +246,27 @@ def classify_peaks(
         i0, i1 = max(i - reach_s, 0), min(i + reach_s + 1, spec.nx)
         j0, j1 = max(j - reach_s, 0), min(j + reach_s + 1, spec.ny)
         blocked[i0:i1, j0:j1] |= block[i0 - i + reach_s : i1 - i + reach_s, j0 - j + reach_s : j1 - j + reach_s]
+    return kept
+
+
+def _peak_people(
+    grid: NDArray[np.float64],
+    spec: GridSpec,
+    peaks: NDArray[np.intp],
+    values: NDArray[np.float64],
+    threshold: float,
+    centroid_radius: float,
+) -> People:
+    """Step 3 of :func:`classify_peaks`: each kept peak's position (belief-weighted mean of the cells within
+    ``centroid_radius`` m whose belief is at least half the threshold), score and size."""
+    r = spec.resolution
     reach = math.floor(centroid_radius / r + 1e-9)
     di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
     disk = (di**2 + dj**2) * r * r <= centroid_radius**2 + 1e-12
     di, dj = di[disk], dj[disk]
     mask = np.zeros(spec.shape, dtype=bool)
     positions, scores, sizes = [], [], []
-    for k in kept:
-        i, j = int(cand[k, 0]), int(cand[k, 1])
+    for (i, j), v in zip(peaks.tolist(), values.tolist(), strict=True):
         ii, jj = i + di, j + dj
         ok = (ii >= 0) & (ii < spec.nx) & (jj >= 0) & (jj < spec.ny)
         ii, jj = ii[ok], jj[ok]
@@ -258,7 +276,7 @@ def classify_peaks(
         ci = float(np.sum(w * ii) / np.sum(w))
         cj = float(np.sum(w * jj) / np.sum(w))
         positions.append(spec.cell_centre(ci, cj))
-        scores.append(float(values[k]))
+        scores.append(float(v))
         sizes.append(len(w))
         mask[ii, jj] = True
     return People(

@@ -65,7 +65,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from gridbridge.grid import GridSpec
-from gridbridge.validation import check_positive, check_probability
+from gridbridge.validation import check_int, check_positive, check_probability
 
 __all__ = [
     "Blob",
@@ -141,13 +141,9 @@ class BlobParams:
             raise ValueError(
                 f"BlobParams.growth_compare must be 'closest', 'mean' or 'all', got {self.growth_compare!r}"
             )
-        g = self.growth_passes
-        if isinstance(g, bool) or not isinstance(g, int | np.integer) or g < 1:
-            raise ValueError(f"BlobParams.growth_passes must be a positive integer, got {g!r}")
+        check_int(self.growth_passes, "BlobParams.growth_passes", minimum=1)
         for name in ("small_blob_cells", "max_border_cells", "max_extent_cells"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-                raise ValueError(f"BlobParams.{name} must be a non-negative integer, got {value!r}")
+            check_int(getattr(self, name), f"BlobParams.{name}", minimum=0)
         check_probability(self.min_aspect_ratio, "BlobParams.min_aspect_ratio")
         if self.connectivity not in (4, 8) or isinstance(self.connectivity, bool):
             raise ValueError(f"BlobParams.connectivity must be 4 or 8, got {self.connectivity!r}")

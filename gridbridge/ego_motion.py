@@ -34,15 +34,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
+from gridbridge import jit, kernels
 from gridbridge.geometry import Pose2D, from_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import SensorMotionNoise
-from gridbridge.validation import check_finite, check_positive, check_probability
+from gridbridge.validation import check_number, check_positive, check_probability
 
 __all__ = [
     "Odometry",
@@ -77,9 +79,9 @@ class Odometry:
     vy: float = 0.0
 
     def __post_init__(self) -> None:
-        check_finite(self.v, "Odometry.v")
-        check_finite(self.omega, "Odometry.omega")
-        check_finite(self.vy, "Odometry.vy")
+        check_number(self.v, "Odometry.v")  # TypeError for a bool, a string or a complex
+        check_number(self.omega, "Odometry.omega")
+        check_number(self.vy, "Odometry.vy")
 
 
 def velocity_displacement(
@@ -144,6 +146,16 @@ def ego_motion_sigma_points(
     """
     dt = check_positive(dt, "dt")
     odo = Odometry() if odometry is None else odometry
+    if type(noise) is not SensorMotionNoise or type(odo) is not Odometry:  # a subclass may not hash by value
+        return _sigma_points_cached.__wrapped__(odo, dt, noise)
+    return _sigma_points_cached(odo, dt, noise)
+
+
+@lru_cache(maxsize=256)
+def _sigma_points_cached(
+    odo: Odometry, dt: float, noise: SensorMotionNoise
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`ego_motion_sigma_points` (read-only arrays), cached: a robot's odometry repeats from frame to frame."""
     variances = noise.variances(odo.v, odo.omega)
     mean = np.array([odo.v, odo.omega, 0.0])
     nodes = [mean]
@@ -162,7 +174,10 @@ def ego_motion_sigma_points(
     keep = w > 0.0
     controls, w = controls[keep], w[keep]
     dx, dy, dth = velocity_displacement(controls[:, 0], controls[:, 1], dt, controls[:, 2], vy=odo.vy)
-    return np.column_stack((dx, dy, dth)), w / w.sum()
+    poses, weights = np.column_stack((dx, dy, dth)), w / w.sum()
+    poses.setflags(write=False)
+    weights.setflags(write=False)
+    return poses, weights
 
 
 def warp_belief(
@@ -207,6 +222,9 @@ def warp_belief(
     w = w / w.sum()
     if len(p) == 1 and np.all(p[0] == 0.0):
         return bel.copy()
+    if jit.enabled():
+        grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+        return kernels.warp_bilinear(np.ascontiguousarray(bel), grid, np.ascontiguousarray(p), w, outside)
     gx, gy = spec.cell_centres()
     # p_old = R(dtheta) p_new + t, evaluated at every new cell centre for every pose: shape (S, nx, ny).
     x_old, y_old = from_frame_xy(gx, gy, p[:, None, None, :])

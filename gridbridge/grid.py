@@ -11,13 +11,12 @@ laser at the middle of one edge, looking into the grid: x in [0, 9] m, y in [-4.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge.validation import check_grid_array
+from gridbridge.validation import check_grid_array, check_int, check_real
 
 __all__ = ["GridSpec"]
 
@@ -44,14 +43,10 @@ class GridSpec:
 
     def __post_init__(self) -> None:
         for name in ("nx", "ny"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ValueError(f"GridSpec.{name} must be a positive integer, got {value!r}")
-        if not (math.isfinite(self.resolution) and self.resolution > 0):
-            raise ValueError(f"GridSpec.resolution must be a positive finite length (m), got {self.resolution!r}")
+            check_int(getattr(self, name), f"GridSpec.{name}", minimum=1)
+        check_real(self.resolution, "GridSpec.resolution", low=0.0, low_open=True)
         for name in ("x0", "y0"):
-            if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"GridSpec.{name} must be finite, got {getattr(self, name)!r}")
+            check_real(getattr(self, name), f"GridSpec.{name}")
 
     @classmethod
     def centred_on_edge(cls, nx: int, ny: int, resolution: float) -> GridSpec:

@@ -27,15 +27,16 @@ two detectors that agree multiply their evidence, and a detector with PPV 0.5 ad
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
-from gridbridge.measurement import Likelihood, detection_map, fov_mask, likelihood_from_detections
+from gridbridge.measurement import Likelihood, _likelihood, detection_map, fov_mask, likelihood_from_detections
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_probability
 
@@ -59,6 +60,16 @@ class DeMorganLikelihood:
         self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
     ) -> Likelihood:
         return likelihood_from_detections(spec, detectors, detections)
+
+    def with_fields_of_view(
+        self,
+        spec: GridSpec,
+        detectors: tuple[DetectorModel, ...],
+        detections: list[ArrayLike | None],
+        fovs: Sequence[NDArray[np.bool_]],
+    ) -> Likelihood:
+        """:meth:`__call__` with the detectors' fields of view (``fov_mask`` of each) given: the same result."""
+        return _likelihood(spec, detectors, detections, fovs)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -40,6 +40,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gridbridge import jit, kernels
 from gridbridge.geometry import to_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
@@ -127,6 +128,16 @@ def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) ->
     fired = np.zeros(spec.shape)
     if len(pts) == 0:
         return fired
+    if jit.enabled():
+        grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+        xs, ys = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
+        if model.uncertainty == "point":
+            kernels.point_map(fired, xs, ys, grid, float(model.footprint_radius))
+        else:
+            mount, sigmas = (model.mount_x, model.mount_y), (model.sigma_range, model.sigma_lateral)
+            cells, args = kernels.gaussian_args(xs, ys, grid, spec.shape, mount, sigmas)
+            kernels.scatter_max(fired, cells, np.exp(args), GAUSSIAN_CUTOFF)  # numpy's exp, as the numpy path
+        return fired
     if model.uncertainty == "point":
         flat = spec.flat_index(pts[:, 0], pts[:, 1])
         fired.ravel()[flat[flat >= 0]] = 1.0
@@ -201,6 +212,8 @@ def fuse_detectors(
             raise ValueError(f"covered must be a bool array, got dtype {cov.dtype}")
         if cov.shape != q.shape:
             raise ValueError(f"covered must have the shape of fired {q.shape}, got {cov.shape}")
+    if jit.enabled():
+        return kernels.fuse_update(np.ascontiguousarray(q), np.ascontiguousarray(cov), ppv_, fnr_)[1]
     ppv3, fnr3 = ppv_[:, None, None], fnr_[:, None, None]
     q = np.where(cov, q, 0.0)
     factor_a = np.where(cov, q * (1.0 - ppv3) + (1.0 - q) * (1.0 - fnr3), 1.0)
@@ -231,6 +244,11 @@ def bayes_update(prior: ArrayLike, likelihood: ArrayLike) -> NDArray[np.float64]
     lik = check_grid_array(likelihood, "likelihood", ndim=None)
     if p.shape != lik.shape:
         raise ValueError(f"prior and likelihood shapes differ: {p.shape} vs {lik.shape}")
+    return bayes_update_unchecked(p, lik)
+
+
+def bayes_update_unchecked(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`bayes_update` of float arrays of one shape already known to hold probabilities (a filter's own)."""
     num = lik * p
     den = num + (1.0 - lik) * (1.0 - p)
     safe = den > 0.0
@@ -274,6 +292,17 @@ def likelihood_from_detections(
         Entry i is an ``(M_i, 2)`` array of positions (m, grid's sensor frame), or ``None`` when detector i
         has no data this frame (it then covers no cell).
     """
+    return _likelihood(spec, detectors, detections, None)
+
+
+def _likelihood(
+    spec: GridSpec,
+    detectors: Sequence[DetectorModel],
+    detections: Sequence[ArrayLike | None],
+    fovs: Sequence[NDArray[np.bool_]] | None,
+) -> Likelihood:
+    """:func:`likelihood_from_detections`, with the detectors' fields of view given (a filter's, computed once)
+    or looked up."""
     if len(detections) != len(detectors):
         raise ValueError(f"detections must have one entry per detector ({len(detectors)}), got {len(detections)}")
     d = len(detectors)
@@ -283,11 +312,14 @@ def likelihood_from_detections(
         if det is None:
             continue
         fired[i] = detection_map(spec, model, det)
-        covered[i] = fov_mask(spec, model)
+        covered[i] = fov_mask(spec, model) if fovs is None else fovs[i]
         if model.uncertainty == "point":
             covered[i] |= fired[i] > 0.0
     ppv = np.array([m.ppv for m in detectors])
     fnr = np.array([m.fnr for m in detectors])
+    if jit.enabled():
+        per_det, fused = kernels.fuse_update(fired, covered, ppv, fnr)
+        return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
     per_det = np.where(covered, detector_likelihood(fired, ppv[:, None, None], fnr[:, None, None]), 0.5)
     fused = fuse_detectors(fired, ppv, fnr, covered=covered)
     return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)

@@ -20,11 +20,10 @@ both filters' shared likelihood code (:mod:`gridbridge.measurement`).
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from gridbridge.validation import check_finite, check_positive, check_probability
+from gridbridge.validation import check_finite, check_positive, check_probability, check_real
 
 __all__ = [
     "CALIBRATED_LASER_DETECTORS",
@@ -125,10 +124,8 @@ class DetectorModel:
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"DetectorModel.name must be a non-empty string, got {self.name!r}")
         for attr in ("ppv", "fnr"):
-            value = getattr(self, attr)
-            if isinstance(value, bool) or not isinstance(value, numbers.Real):
-                raise TypeError(f"DetectorModel({self.name}).{attr} must be a number, got {value!r}")
-            check_probability(float(value), f"DetectorModel({self.name}).{attr}")
+            value = check_real(getattr(self, attr), f"DetectorModel({self.name}).{attr}")
+            check_probability(value, f"DetectorModel({self.name}).{attr}")
             if value in (0.0, 1.0):
                 raise ValueError(
                     f"DetectorModel({self.name}).{attr} must be strictly between 0 and 1, got {value!r}: at 0 or 1 "

@@ -46,6 +46,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage, special
 
+from gridbridge import jit, kernels
 from gridbridge.grid import GridSpec
 from gridbridge.params import PeopleMotion
 from gridbridge.validation import check_choice, check_grid_array, check_positive, check_probability
@@ -211,17 +212,30 @@ def predict_people(
         raise ValueError("kernel must be non-negative")
     outside = check_probability(outside, "outside")
     if form == "linear":
+        if jit.enabled():
+            return kernels.convolve_const(np.ascontiguousarray(bel), np.ascontiguousarray(k), outside)
         out = ndimage.convolve(bel, k, mode="constant", cval=outside)
         return np.clip(out, 0.0, 1.0, out=out)
+    if jit.enabled():
+        _check_paper_kernel(k)
+        return kernels.predict_paper(np.ascontiguousarray(bel), np.ascontiguousarray(k), outside)
     return _predict_paper(bel, k, outside)
 
 
-def _predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+def _check_paper_kernel(kernel: NDArray[np.float64]) -> None:
+    """ValueError unless the off-centre values are below 1 (eq. 8 divides by ``1 - p_k bel_k``)."""
+    if kernel.max() < 1.0:
+        return
     radius = kernel.shape[0] // 2
     off_centre = kernel.copy()
     off_centre[radius, radius] = 0.0
     if off_centre.max() >= 1.0:
         raise ValueError("kernel off-centre values must be below 1 for the paper form (eq. 8 divides by 1 - p_k bel_k)")
+
+
+def _predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+    radius = kernel.shape[0] // 2
+    _check_paper_kernel(kernel)
     nx, ny = bel.shape
     padded = np.pad(bel, radius, mode="constant", constant_values=outside)
     s = np.zeros_like(bel)

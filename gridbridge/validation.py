@@ -1,7 +1,11 @@
 """Input checks shared by every package: every error names the argument that was wrong.
 
 The public home of the checks (gridbridge, pfpeople and evaluation all use them). Bad values raise
-``ValueError`` naming the input, as the README's Architecture section states for the whole project.
+``ValueError`` naming the input, as the README's Architecture section states for the whole project; values of
+the wrong type raise ``TypeError`` (from :func:`check_int` and :func:`check_real` an :class:`InputTypeError`,
+which is both). :func:`check_int` and :func:`check_real` are the checks of one count or one number with its
+bounds; their messages name the argument and the bound (``"TrackerConfig.gate_distance must be a number > 0,
+got -1.0"``).
 """
 
 from __future__ import annotations
@@ -14,14 +18,27 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "InputTypeError",
     "check_choice",
     "check_finite",
     "check_grid_array",
+    "check_int",
     "check_number",
     "check_positions",
     "check_positive",
     "check_probability",
+    "check_real",
+    "check_real_array",
 ]
+
+
+class InputTypeError(TypeError, ValueError):
+    """A value of the wrong type (a string, a bool, a float for a count), raised by :func:`check_int` and
+    :func:`check_real`.
+
+    A ``TypeError``, and a ``ValueError`` too: the configurations and the command lines catch bad input as
+    ``ValueError`` (the README's "bad values raise ValueError"), and a wrong type is bad input to them.
+    """
 
 
 def check_grid_array(
@@ -54,12 +71,29 @@ def check_grid_array(
     return arr
 
 
+def check_real_array(values: ArrayLike, name: str) -> NDArray[np.float64]:
+    """Return ``values`` as a float64 array after checking that they are real numbers.
+
+    Raises ``TypeError`` naming ``name`` for complex, bool, string or other non-number elements (NumPy would
+    drop an imaginary part, read True as 1 or parse ``"1.5"`` silently).
+    """
+    try:
+        arr = np.asarray(values)
+    except ValueError as exc:  # ragged nesting
+        raise TypeError(f"{name} must be an array of real numbers: {exc}") from None
+    if arr.dtype.kind not in "iuf" and not (arr.dtype.kind == "O" and arr.size == 0):
+        what = {"b": "bool", "c": "complex", "U": "string", "S": "bytes"}.get(arr.dtype.kind, f"{arr.dtype} values")
+        raise TypeError(f"{name} must hold real numbers, got {what} (dtype {arr.dtype})")
+    return arr.astype(float, copy=False)
+
+
 def check_positions(positions: ArrayLike, name: str) -> NDArray[np.float64]:
     """Return an ``(N, 2)`` float array of (x, y) positions (m); empty input gives shape (0, 2).
 
-    Raises ValueError naming ``name`` for another shape or NaN / infinite values.
+    Raises TypeError naming ``name`` for elements that are not real numbers (:func:`check_real_array`),
+    ValueError for another shape or NaN / infinite values.
     """
-    pts = np.asarray(positions, dtype=float)
+    pts = check_real_array(positions, name)
     if pts.size == 0:
         return np.zeros((0, 2))
     if pts.ndim != 2 or pts.shape[1] != 2:
@@ -98,6 +132,100 @@ def check_number(value: object, name: str) -> float:
     v = float(value)
     if not math.isfinite(v):
         raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def _bound_text(low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
+    """The bounds as text: ``"> 0"``, ``"<= 10"`` or ``"in [0, 1)"``."""
+    if low is not None and high is not None:
+        return f"in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+    if low is not None:
+        return f"{'>' if low_open else '>='} {low:g}"
+    return f"{'<' if high_open else '<='} {high:g}"
+
+
+def check_real(
+    value: object,
+    name: str,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
+    """Check a finite real number within optional bounds; returns it as a float.
+
+    Parameters
+    ----------
+    value : object
+        The value to check: a real number (Python or NumPy), not a bool, a string or a complex number.
+    name : str
+        The argument's name, used in the error messages (e.g. ``"TrackerConfig.process_noise"``).
+    low, high : float or None
+        Lower and upper bounds; None: unbounded on that side.
+    low_open, high_open : bool
+        Whether ``low`` / ``high`` themselves are excluded.
+
+    Returns
+    -------
+    float
+        ``value`` as a float.
+
+    Raises
+    ------
+    InputTypeError
+        A ``TypeError`` (and ``ValueError``) naming ``name``, for a value that is not a real number
+        (:func:`check_number`).
+    ValueError
+        Naming ``name``, for NaN or infinity, and naming ``name`` and the bound for a value outside the bounds.
+    """
+    try:
+        v = check_number(value, name)
+    except TypeError as exc:
+        raise InputTypeError(str(exc)) from None
+    below = low is not None and (v < low or (low_open and v == low))
+    above = high is not None and (v > high or (high_open and v == high))
+    if below or above:
+        raise ValueError(f"{name} must be a number {_bound_text(low, high, low_open, high_open)}, got {value!r}")
+    return v
+
+
+def check_int(value: object, name: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """Check an integer within optional inclusive bounds; returns it as an ``int``.
+
+    Parameters
+    ----------
+    value : object
+        The value to check: a Python ``int`` or a NumPy integer, not a bool, a float or a string.
+    name : str
+        The argument's name, used in the error messages (e.g. ``"TrackerConfig.confirm_hits"``).
+    minimum, maximum : int or None
+        Smallest and largest allowed value; None: unbounded on that side.
+
+    Returns
+    -------
+    int
+        ``value`` as an ``int``.
+
+    Raises
+    ------
+    InputTypeError
+        A ``TypeError`` (and ``ValueError``) naming ``name``, for a value that is not an integer (a bool
+        included: True is not a count).
+    ValueError
+        Naming ``name`` and the bound, for a value outside the bounds.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise InputTypeError(f"{name} must be an integer, got {type(value).__name__}")
+    v = int(value)
+    if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
+        if minimum is not None and maximum is not None:
+            bound = f"an integer in [{minimum}, {maximum}]"
+        elif minimum == 1:
+            bound = "a positive integer (>= 1)"
+        else:
+            bound = f"an integer >= {minimum}" if minimum is not None else f"an integer <= {maximum}"
+        raise ValueError(f"{name} must be {bound}, got {value!r}")
     return v
 
 

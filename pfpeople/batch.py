@@ -39,7 +39,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from gridbridge.validation import check_int
 from pfpeople.bag.config import BagConfig
+from pfpeople.extras import require
 
 __all__ = [
     "ROW_COLUMNS",
@@ -69,8 +71,8 @@ ERROR_FILE = "batch_error.txt"
 
 def check_cluster_args(scheduler: str | None, workers: int | None) -> None:
     """``workers``: None or a positive integer, and not together with a ``scheduler`` address."""
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
+    if workers is not None:
+        check_int(workers, "workers", minimum=1)
     if scheduler is not None and workers is not None:
         raise ValueError("workers sets the size of a local cluster; it cannot be combined with a scheduler address")
 
@@ -105,7 +107,7 @@ def quiet_dask_logs(verbose: bool = False) -> None:
     verbose : bool
         Keep distributed's INFO messages (the ``-v`` of the commands).
     """
-    import distributed  # noqa: F401
+    require("batch", "pfpeople batch")
 
     level = logging.INFO if verbose else logging.WARNING
     logging.getLogger("distributed").setLevel(level)
@@ -128,6 +130,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, pro
     processes : bool
         Local workers as processes (default; the pipeline holds the GIL in Python code) or threads.
     """
+    require("batch", "pfpeople batch")
     from distributed import Client, LocalCluster
 
     check_cluster_args(scheduler, workers)
@@ -172,6 +175,7 @@ def run_tasks(
     (the function raised, or its worker died) yields ``on_error(i, exception)`` instead of a result; the other
     tasks go on.
     """
+    require("batch", "pfpeople batch")
     from distributed import as_completed
 
     from pfpeople.progress import progress_bar

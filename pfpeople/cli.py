@@ -5,8 +5,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from gridbridge.cli_support import run
 from pfpeople import commands
+from pfpeople.cli_support import run
 
 
 def main(argv: Sequence[str] | None = None) -> int:

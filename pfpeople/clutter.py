@@ -59,13 +59,7 @@ Use
 :class:`ClutterSuppressor` runs the whole recipe per scan (scan odometry or a given ego, forgetting on an
 unknown ego, exclusion of :class:`MovingPeople` tracks, the static test of every detection).
 
-The defaults were chosen with ``python -m evaluation.bench_clutter`` across ``negative_2`` (three lasers),
-``person_following_outdoor_1`` and the six labelled positive bags together (see that module for the table):
-false people per scan on ``negative_2`` 0.960 -> 0.177 (leg detector) and 0.324 -> 0.057 (boosted); recall
-of the labelled people of the positive bags 0.416 -> 0.399 and 0.376 -> 0.360; person_following unchanged.
-Those figures are of the map's defaults with the earlier :class:`MovingPeople` rule (0.3 m from where a track
-started, one set for all detectors). Its present rule (0.6 m within 2 s, one set per detector) was chosen on
-``pfpeople-eval benchmark`` over every scene (see :class:`MovingPeople`).
+How the defaults were chosen: ``docs/ablations.md``, "The static-clutter map's defaults".
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,6 +32,10 @@ from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import IndependentLikelihood
 from gridbridge.params import DetectorModel, PeopleMotion
 from pfpeople.bag.config import ClassifierConfig, FilterConfig, TrackingConfig
+
+if TYPE_CHECKING:
+    from pfpeople.mot.people import PeopleTracker
+    from pfpeople.particle_filter import ParticleFilter
 
 log = logging.getLogger(__name__)
 
@@ -124,7 +128,9 @@ def recommended_models(config: FilterConfig, models: Sequence[DetectorModel]) ->
     )
 
 
-def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[DetectorModel]) -> Any:
+def build_filter(
+    config: FilterConfig, spec: GridSpec, detectors: Sequence[DetectorModel]
+) -> GridFilter | ParticleFilter:
     """The filter of ``config`` on ``spec`` for ``detectors`` (a :class:`gridbridge.GridFilter` or a
     :class:`pfpeople.ParticleFilter`; both follow the same ``step``/``reset``/``belief`` interface)."""
     if not isinstance(config, FilterConfig):
@@ -174,7 +180,7 @@ def build_filter(config: FilterConfig, spec: GridSpec, detectors: Sequence[Detec
     )
 
 
-def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = "recommended") -> Any:
+def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = "recommended") -> PeopleTracker | None:
     """The multi-person tracker of ``tracking`` on ``classifier``'s people (a
     :class:`pfpeople.mot.people.PeopleTracker`), or None when tracking is off.
 

@@ -49,6 +49,7 @@ from pfpeople.adapters import Detections
 from pfpeople.bag.sync import Frame
 from pfpeople.odometry import EgoMotion
 from pfpeople.run_state import RunSummary
+from pfpeople.sensors import Pose2D
 
 __all__ = ["FRONT_COUNTERS", "FrontProcess", "FrontResult", "front_process_available"]
 
@@ -63,6 +64,9 @@ FRONT_COUNTERS = (
     "filter_restarts",
     "odometry_jumps",
     "odometry_other_child",
+    "mounts_followed",
+    "frame_id_changes",
+    "frame_id_unplaced",
     "max_lateral_m",
     "suppressed",
     "laser_odometry_frames",
@@ -89,6 +93,8 @@ class FrontResult:
     scan_static : dict of str to ndarray of bool
         Per laser topic with a static-clutter map, which of its scan's end points lie in static cells
         (:attr:`pfpeople.suppression.ClutterStage.scan_static`).
+    mounts : tuple of Pose2D
+        Per detector, the mount it was placed with in this frame (:mod:`pfpeople.mounts`; empty: unchanged).
     """
 
     motion: EgoMotion
@@ -97,6 +103,7 @@ class FrontResult:
     static: list[NDArray[np.bool_] | None]
     support_static: list[NDArray[np.bool_] | None]
     scan_static: dict[str, NDArray[np.bool_]] = field(default_factory=dict)
+    mounts: tuple[Pose2D, ...] = ()
 
 
 def front_process_available() -> tuple[bool, str]:

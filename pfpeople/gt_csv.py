@@ -22,7 +22,7 @@ person_id, x_laser_m, y_laser_m).
 A run's frames: :meth:`GroundTruth.assign` gives the run frame of every row, :meth:`GroundTruth.beyond` the
 rows after the run's last frame, :func:`gt_to_grid` maps positions into the run's grid frame and
 :func:`truth_per_frame` does both (used by ``pfpeople view --gt``; scoring is in :mod:`evaluation.run_truth`).
-This module lives in ``pfpeople`` so that the viewer can read ground truth; ``evaluation.gt_csv`` re-exports it.
+This module lives in ``pfpeople`` so that the viewer can read ground truth; the evaluation reads it from here too.
 """
 
 from __future__ import annotations

@@ -51,6 +51,7 @@ __all__ = [
     "sample_ego_poses",
     "sample_speeds",
     "sample_velocity_prior",
+    "speeds_from_uniform",
 ]
 
 
@@ -108,10 +109,11 @@ class PersistentMotion:
 
 def sample_speeds(motion: PeopleMotion, n: int, *, rng: np.random.Generator) -> NDArray[np.float64]:
     """``n`` walking speeds (m/s) from N(mu, sigma) truncated to [0, v_max], sampled exactly (inverse CDF)."""
-    return _speeds_from_uniform(motion, rng.random(n))
+    return speeds_from_uniform(motion, rng.random(n))
 
 
-def _speeds_from_uniform(motion: PeopleMotion, u: NDArray[np.float64]) -> NDArray[np.float64]:
+def speeds_from_uniform(motion: PeopleMotion, u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Walking speeds (m/s) of the truncated normal by inverse CDF from uniforms ``u`` in [0, 1), any shape."""
     lo = special.ndtr(-motion.mu / motion.sigma)
     hi = special.ndtr((motion.v_max - motion.mu) / motion.sigma)
     s = motion.mu + motion.sigma * special.ndtri(lo + u * (hi - lo))
@@ -133,7 +135,7 @@ def sample_velocity_prior(
         return vx, vy
     moving = np.flatnonzero(u >= p_stat)
     # Given u >= p_stat, (u - p_stat) / (1 - p_stat) is uniform on [0, 1): it serves as the speed's uniform.
-    speed = _speeds_from_uniform(motion, (u[moving] - p_stat) / (1.0 - p_stat))
+    speed = speeds_from_uniform(motion, (u[moving] - p_stat) / (1.0 - p_stat))
     heading = rng.random(moving.size) * (2.0 * math.pi)
     vx[moving] = speed * np.cos(heading)
     vy[moving] = speed * np.sin(heading)

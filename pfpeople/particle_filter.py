@@ -50,6 +50,13 @@ Ego-motion poses: with at most ``ego_pool`` particles every particle draws its o
 of ``ego_pool`` i.i.d. exact draws is shared (particle k uses draw k mod ``ego_pool``), so each particle's
 displacement is still an exact draw while the cost of the trigonometry stays fixed.
 
+Compiled step: with numba (and ``PFPEOPLE_NUMBA`` not ``0``, :mod:`gridbridge.jit`) phases 1-2 run as one pass
+over the particles (:mod:`pfpeople.kernels`: people motion, sensor motion, the particles that left dropped, both
+priors summed), phase 3 scales the weights in one pass and phase 5 gathers the resampled particles without an
+ancestor array; the arrays come from a pool of those the filter let go of (:mod:`pfpeople.buffers`). It makes
+the numpy path's random draws in the same order and the same arithmetic in the same order: the same seed gives
+the same particles bit for bit (``tests/test_kernels_particles.py``).
+
 Bias of the empty-cell prior: a cell that is empty by chance gets the analytic prior instead of its (zero)
 particle mass, so the prior's expectation exceeds the linear grid's by P(empty) * prior. It matters only
 when cells hold about one particle: measured after one step from the uniform start (standing robot, 20 seeds),
@@ -82,16 +89,20 @@ from gridbridge import (
     bayes_update,
     ego_motion_sigma_points,
     fov_mask,
+    jit,
     people_motion_kernel,
     predict_people,
     warp_belief,
 )
 from gridbridge.components import Appearance, BeliefBounds
-from gridbridge.filter import Prediction, filter_models
+from gridbridge.ego_motion import _OMEGA_EPS
+from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
 from gridbridge.validation import check_choice, check_positive, check_probability
+from pfpeople import kernels
+from pfpeople.buffers import BufferPool
 from pfpeople.motion import (
     PersistentMotion,
     apply_ego_motion,
@@ -100,9 +111,10 @@ from pfpeople.motion import (
     redraw_in_cells,
     sample_ego_poses,
     sample_velocity_prior,
+    speeds_from_uniform,
 )
 from pfpeople.particles import ParticleState, uniform_in_cells
-from pfpeople.resampling import RESAMPLERS, effective_sample_size, resample_by_cell
+from pfpeople.resampling import RESAMPLERS, effective_sample_size, get_resampler, resample_by_cell, resample_state
 
 __all__ = ["BIRTH_FLOOR", "ParticleFilter", "ParticleStep"]
 
@@ -110,6 +122,21 @@ log = logging.getLogger(__name__)
 
 #: Cells whose posterior (or inflow) mass is at most this get no particles.
 BIRTH_FLOOR = 1e-12
+
+_Rows = tuple[NDArray[np.float64], ...]
+#: What the compiled prediction returns: particles, cells, count per cell, people and sensor priors, sigma points.
+_Compiled = tuple[
+    "ParticleState",
+    NDArray[np.intp],
+    NDArray[np.intp],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+]
+
+#: The sensor displacement rows of a standing robot (the compiled sensor motion leaves the particles alone).
+_NO_POSES = np.zeros((4, 1))
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,14 +261,25 @@ class ParticleFilter:
         self.likelihood, self.appearance, self.bounds = update_components(likelihood, appearance, bounds)
         self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
         self._inflow_cache: dict[float, NDArray[np.float64]] = {}
+        self._ego_inflow_cache: dict[bytes, NDArray[np.float64]] = {}
         self.state = ParticleState.empty()
         self.belief: NDArray[np.float64] = np.zeros(self.spec.shape)
         self._pending: _Pending | None = None
+        #: The compiled prediction's buffer (rows x, y, vx, vy, w), its cells and the columns in use.
+        self._buffer: tuple[_Rows, NDArray[np.intp], int] | None = None
+        #: Arrays of earlier steps, reused by the compiled path once nothing else holds them.
+        self._pool = BufferPool()
         #: Steps whose resampling was skipped because every weight was 0 (logged as a warning).
         self.resampling_skipped = 0
         self.reset()
 
     # ------------------------------------------------------------------ state
+
+    def set_detector_mounts(self, mounts: Sequence[tuple[float, float, float]]) -> None:
+        """Move the detectors: ``(mount_x, mount_y, mount_yaw)`` per detector (m, rad; a panning laser's mount
+        at this frame). Their fields of view follow from the next update."""
+        self.detectors = remounted(self.detectors, mounts)
+        self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
 
     def reset(self, belief: ArrayLike | None = None) -> None:
         """Restart: ``n_particles`` spread evenly over the cells, uniform within each, carrying ``belief``.
@@ -258,6 +296,7 @@ class ParticleFilter:
         self.state = self._born(cells, bel.ravel()[cells] / per_cell[cells])
         self.belief = bel
         self._pending = None
+        self._buffer = None
 
     @property
     def particles(self) -> ParticleState:
@@ -294,6 +333,20 @@ class ParticleFilter:
             self._inflow_cache[key] = cached
         return cached
 
+    def _ego_inflow(self, poses: NDArray[np.float64], pose_w: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Mass entering each cell (flat) across the border in the sensor motion: the grid's warp of an empty
+        grid with border value ``outside`` (cached per sigma points: the same odometry gives the same warp)."""
+        key = poses.tobytes() + pose_w.tobytes()
+        cached = self._ego_inflow_cache.get(key)
+        if cached is None:
+            zeros = np.zeros(self.spec.shape)
+            cached = warp_belief(zeros, self.spec, poses, pose_w, outside=self.outside).ravel()
+            cached.setflags(write=False)
+            if len(self._ego_inflow_cache) >= 64:
+                self._ego_inflow_cache.clear()
+            self._ego_inflow_cache[key] = cached
+        return cached
+
     def _empty_cell_prior(
         self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64]
     ) -> NDArray[np.float64]:
@@ -316,16 +369,21 @@ class ParticleFilter:
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
         odo = as_odometry(odometry)
-        # The filter never writes into particle arrays in place, so a shallow copy protects self.state.
-        moved = self._predict_people(self.state.shallow_copy(), dt)
-        st, cells, sensor_prior, poses, pose_w = self._predict_sensor(moved, odo, dt)
-        empty = np.bincount(cells, minlength=self.spec.n_cells) == 0
+        if jit.enabled("pfpeople"):
+            st, cells, counts, people_prior, sensor_prior, poses, pose_w = self._predict_compiled(odo, dt)
+            empty = counts == 0
+        else:
+            # The filter never writes into particle arrays in place, so a shallow copy protects self.state.
+            moved = self._predict_people(self.state.shallow_copy(), dt)
+            st, cells, sensor_prior, poses, pose_w = self._predict_sensor(moved, odo, dt)
+            people_prior = moved.prior
+            empty = np.bincount(cells, minlength=self.spec.n_cells) == 0
         if empty.any():
             sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w).ravel()[empty]
         self.state = st
-        self._pending = self._prediction(cells, empty, moved.prior, sensor_prior, dt)
+        self._pending = self._prediction(cells, empty, people_prior, sensor_prior, dt)
         self.belief = self._pending.prior.reshape(self.spec.shape)
-        return Prediction(moved.prior.reshape(self.spec.shape), sensor_prior.reshape(self.spec.shape))
+        return Prediction(people_prior.reshape(self.spec.shape), sensor_prior.reshape(self.spec.shape))
 
     def update(self, detections: Sequence[ArrayLike | None]) -> ParticleStep:
         """Measurement update, births in empty cells and resampling (phases 3-5 in the module docstring).
@@ -401,13 +459,134 @@ class ParticleFilter:
         inside = inside & (cells >= 0)
         born_moved = spec.flat_index(born.x, born.y)
         born_in = born_moved >= 0
-        ego_in = warp_belief(np.zeros(spec.shape), spec, poses, pose_w, outside=self.outside).ravel()
+        ego_in = self._ego_inflow(poses, pose_w)
         n_now = moved.n_inside + int(np.count_nonzero(born_in))
         born2, born2_cells = self._born_from_mass(ego_in, self.n_particles - n_now)
         st = ParticleState.concatenate([st.take(inside), born.take(born_in), born2])
         cells = np.concatenate((cells[inside], born_moved[born_in], born2_cells))
         mass = np.bincount(cells, weights=st.w, minlength=n_cells).astype(np.float64, copy=False)
         return st, cells, mass, poses, pose_w
+
+    def _grid(self) -> tuple[float, float, float, int, int]:
+        """The grid as the kernels take it: ``(x0, y0, resolution, nx, ny)``."""
+        spec, res = self.spec, float(self.spec.resolution)
+        return (float(spec.x0), float(spec.y0), res, int(spec.nx), int(spec.ny))
+
+    def _people_velocities(
+        self, dt: float
+    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int | None]:
+        """Phase 1's draws (those of the numpy path, in its order): the particles to move (re-drawn in their cells
+        with ``redraw_in_cell``), the indices and velocities (m/s) of those that move and, for the paper's model,
+        how many of those are inside the grid after the motion (None for the others)."""
+        st = self.state
+        if self.motion_model == "paper" and not self.redraw_in_cell:
+            u = self.rng.random(out=self._pool.take(st.size))  # sample_velocity_prior's draws, in its order
+            p_stat = self.motion.p_stationary
+            if p_stat >= 1.0:
+                return st, np.zeros(0, np.intp), np.zeros(0), np.zeros(0), 0
+            moving, z = kernels.select_moving(u, p_stat)
+            self._pool.give(u)
+            speed = speeds_from_uniform(self.motion, z)
+            heading_u = self.rng.random(moving.size)
+            vx, vy, n_in = kernels.walker_velocities(st.x, st.y, moving, speed, heading_u, dt, self._grid())
+            return st, moving, vx, vy, int(n_in)
+        moved = st.shallow_copy()
+        if self.redraw_in_cell:
+            redraw_in_cells(moved, self.spec, rng=self.rng)
+        x, y = moved.x, moved.y  # the positions the motion starts from (the kernel moves them)
+        if self.motion_model == "paper":
+            moved.vx, moved.vy = sample_velocity_prior(self.motion, moved.size, rng=self.rng)
+        else:
+            move_persistent(moved, self.motion, self.persistent, dt, rng=self.rng)
+        before = ParticleState(x=x, y=y, vx=moved.vx, vy=moved.vy, w=st.w)
+        return before, np.arange(st.size, dtype=np.intp), moved.vx, moved.vy, None
+
+    def _ego_rows(self, odo: Odometry | None, dt: float, size: int) -> NDArray[np.float64]:
+        """``min(size, ego_pool)`` sampled sensor displacements as rows dx, dy, cos(dtheta), sin(dtheta)
+        (:func:`sample_ego_poses`'s draws and arithmetic, compiled)."""
+        dt = check_positive(dt, "dt")
+        o = Odometry() if odo is None else odo
+        sd = np.sqrt(np.asarray(self.noise.variances(o.v, o.omega), dtype=np.float64))
+        e = self.rng.standard_normal((3, min(size, self.ego_pool)))
+        return kernels.ego_rows(e, sd, (float(o.v), float(o.omega), float(o.vy)), dt, _OMEGA_EPS)
+
+    def _predict_compiled(self, odo: Odometry | None, dt: float) -> _Compiled:
+        """Phases 1-2 in one pass over the particles (compiled), bit-identical to the numpy path.
+
+        The births at the border need the count inside after the people motion before the pass; it is taken to
+        be the standing particles (inside, where the last step left them) plus the walkers that stay inside.
+        Should the pass find otherwise (a state set from outside with particles beyond the grid), the random
+        generator is put back and the step redone with a counting pass first.
+        """
+        before, moving, vx_m, vy_m, walkers_in = self._people_velocities(dt)
+        if walkers_in is not None:
+            saved = self.rng.bit_generator.state
+            out = self._predict_pass(odo, dt, before, moving, vx_m, vy_m, before.size - moving.size + walkers_in)
+            if out is not None:
+                return out
+            self.rng.bit_generator.state = saved
+        out = self._predict_pass(odo, dt, before, moving, vx_m, vy_m, None)
+        if out is None:  # pragma: no cover - a pass that counts first cannot be wrong
+            raise RuntimeError("particle filter: the prediction's count disagrees with itself")
+        return out
+
+    def _predict_pass(
+        self,
+        odo: Odometry | None,
+        dt: float,
+        before: ParticleState,
+        moving: NDArray[np.intp],
+        vx_m: NDArray[np.float64],
+        vy_m: NDArray[np.float64],
+        guess: int | None,
+    ) -> _Compiled | None:
+        """The pass of :meth:`_predict_compiled` given the count inside after the people motion (``guess``; None:
+        count it first). Returns the particles, their cells, the count and the people and sensor priors per
+        cell (flat) and the sigma points of the grid's warp; None if ``guess`` was wrong. The survivors go to a
+        new buffer, the births after them (its capacity bounds every count the births can reach, those of the
+        update included)."""
+        n_cells, grid = self.spec.n_cells, self._grid()
+        prior, scratch = np.zeros(n_cells), np.zeros(n_cells)
+        if guess is None:
+            n_inside = kernels.people_prior(before.x, before.y, before.w, moving, vx_m, vy_m, dt, grid, prior)
+        free = self.n_particles - (n_inside if guess is None else guess)
+        born, born_cells = self._born_from_mass(self.people_inflow(dt).ravel(), free - max(free, 0) // 2)
+        prior_born = np.bincount(born_cells, weights=born.w, minlength=n_cells)
+        poses, pose_w = ego_motion_sigma_points(odo, dt, self.noise)
+        moves = bool(np.any(poses != 0.0))
+        rows = [self._ego_rows(odo, dt, part.size) if moves and part.size else _NO_POSES for part in (before, born)]
+        cap = max(before.size, self.n_particles) + (3 + self.n_birth) * n_cells + 8
+        buf, cells = tuple(self._pool.take(cap) for _ in range(5)), self._pool.take_index(cap)
+        mass, counts = np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp)
+        args = (before.x, before.y, before.w, moving, vx_m, vy_m, dt, rows[0], moves, grid, buf, cells, mass, counts)
+        j, n_inside = kernels.move_ego_compact(*args, prior if guess is not None else scratch)
+        if guess is not None and n_inside != guess:
+            return None
+        prior += prior_born
+        j_st, born_src = j, np.stack((born.x, born.y, born.vx, born.vy))
+        j = kernels.ego_compact(born_src, born.w, rows[1], moves, False, grid, buf, cells, j, mass, counts)
+        if moves:
+            n_now = n_inside + (j - j_st)
+            born2, born2_cells = self._born_from_mass(self._ego_inflow(poses, pose_w), self.n_particles - n_now)
+            j = self._append(buf, cells, j, born2, born2_cells)
+            kernels.accumulate(born2_cells, born2.w, mass, counts)
+        else:  # standing: the people prior is the sensor prior
+            mass = prior.copy()
+        self._buffer = (buf, cells, j)
+        self._pool.give(*_arrays(self.state))  # the old state: reused once no step record holds it
+        st = ParticleState(x=buf[0][:j], y=buf[1][:j], vx=buf[2][:j], vy=buf[3][:j], w=buf[4][:j])
+        return st, cells[:j], counts, prior, mass, poses, pose_w
+
+    @staticmethod
+    def _append(buf: _Rows, cells: NDArray[np.intp], j: int, part: ParticleState, where: NDArray[np.intp]) -> int:
+        """Write ``part`` (cells ``where``) into entries ``j, j + 1, ...`` of a buffer; returns the end."""
+        end = j + part.size
+        if end > cells.size:
+            raise RuntimeError(f"particle buffer of {cells.size} too small for {end} particles")
+        for r, arr in enumerate((part.x, part.y, part.vx, part.vy, part.w)):
+            buf[r][j:end] = arr
+        cells[j:end] = where
+        return end
 
     def _prediction(
         self,
@@ -438,7 +617,7 @@ class ParticleFilter:
         pending = self._held() if self._pending is None else self._pending
         st, cells, posterior = self._update_weights(self.state.shallow_copy(), pending, lik)
         st, resampled = self._resample(st, cells)
-        self.state, self._pending = st, None
+        self.state, self._pending, self._buffer = st, None, None
         self.belief = posterior.reshape(self.spec.shape)
         return ParticleStep(
             people_prior=pending.people_prior.reshape(self.spec.shape),
@@ -463,15 +642,48 @@ class ParticleFilter:
             posterior = self.bounds.apply(posterior)
         held = pending.sensor_prior > 0.0
         factor = np.divide(posterior, pending.sensor_prior, out=np.zeros(self.spec.n_cells), where=held & ~empty)
-        st.w = st.w * factor[cells]
+        rep = np.zeros(0, dtype=np.intp)
         if empty.any():
             birth_cells = np.flatnonzero(empty & (posterior > BIRTH_FLOOR))
             posterior[empty & (posterior <= BIRTH_FLOOR)] = 0.0
-            if birth_cells.size:
-                rep = np.repeat(birth_cells, self.n_birth)
-                st = ParticleState.concatenate([st, self._born(rep, posterior[rep] / self.n_birth)])
-                cells = np.concatenate((cells, rep))
+            rep = np.repeat(birth_cells, self.n_birth)
+        if jit.enabled("pfpeople"):
+            return (*self._scale_and_bear(st, cells, factor, rep, posterior), posterior)
+        st.w = st.w * factor[cells]
+        if rep.size:
+            st = ParticleState.concatenate([st, self._born(rep, posterior[rep] / self.n_birth)])
+            cells = np.concatenate((cells, rep))
         return st, cells, posterior
+
+    def _scale_and_bear(
+        self,
+        st: ParticleState,
+        cells: NDArray[np.intp],
+        factor: NDArray[np.float64],
+        rep: NDArray[np.intp],
+        posterior: NDArray[np.float64],
+    ) -> tuple[ParticleState, NDArray[np.intp]]:
+        """The compiled phases 3-4: weights scaled in one pass, the births in empty cells written after the
+        particles in the prediction's buffer (no copy of the particles) when they are still its first columns."""
+        n, k = st.size, rep.size
+        w = self._pool.take(n + k)
+        kernels.scale_weights(st.w, cells, factor, w)
+        if k == 0:
+            return ParticleState(x=st.x, y=st.y, vx=st.vx, vy=st.vy, w=w), cells
+        born = self._born(rep, posterior[rep] / self.n_birth)
+        w[n:] = born.w
+        buf, buf_cells, used = self._buffer if self._buffer is not None else (None, None, -1)
+        if (
+            buf is None
+            or buf_cells is None
+            or used != n
+            or _owner(st.x) is not _owner(buf[0])
+            or n + k > buf_cells.size
+        ):
+            st = ParticleState.concatenate([st, born])
+            return ParticleState(x=st.x, y=st.y, vx=st.vx, vy=st.vy, w=w), np.concatenate((cells, rep))
+        end = self._append(buf, buf_cells, n, born, rep)
+        return ParticleState(x=buf[0][:end], y=buf[1][:end], vx=buf[2][:end], vy=buf[3][:end], w=w), buf_cells[:end]
 
     def _resample(self, st: ParticleState, cells: NDArray[np.intp]) -> tuple[ParticleState, bool]:
         """Phase 5: resample by cell when the ESS is low or births pushed the count above
@@ -491,9 +703,16 @@ class ParticleFilter:
                 "particle filter: total weight %g, resampling skipped (%d steps so far)", total, self.resampling_skipped
             )
             return st, False
-        anc, new_w = resample_by_cell(
-            cells, st.w, n_target, n_cells=self.spec.n_cells, rng=self.rng, resampler=self.resampler
-        )
+        n_cells = self.spec.n_cells
+        if jit.enabled("pfpeople"):
+            fn = get_resampler(self.resampler) if isinstance(self.resampler, str) else self.resampler
+            rows = (st.x, st.y, st.vx, st.vy)
+            out = resample_state(
+                cells, st.w, n_target, rows, n_cells=n_cells, rng=self.rng, resampler=fn, pool=self._pool
+            )
+            self._pool.give(*_arrays(st), cells)  # the prediction's arrays: reused once nothing holds them
+            return ParticleState(x=out[0], y=out[1], vx=out[2], vy=out[3], w=out[4]), True
+        anc, new_w = resample_by_cell(cells, st.w, n_target, n_cells=n_cells, rng=self.rng, resampler=self.resampler)
         st = st.take(anc)
         st.w = new_w
         return st, True
@@ -520,6 +739,15 @@ class _Pending:
     people_prior: NDArray[np.float64]
     sensor_prior: NDArray[np.float64]
     prior: NDArray[np.float64]
+
+
+def _owner(a: NDArray[np.float64]) -> object:
+    """The array owning ``a``'s memory (``a`` itself when it owns it)."""
+    return a if a.base is None else a.base
+
+
+def _arrays(st: ParticleState) -> tuple[NDArray[np.float64], ...]:
+    return (st.x, st.y, st.vx, st.vy, st.w)
 
 
 def _check_count(value: int, name: str) -> int:

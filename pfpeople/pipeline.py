@@ -39,9 +39,11 @@ The first frame uses ``dt = 0.1 s`` (:data:`FIRST_DT_S`); a gap between frames l
 or an odometry jump (:func:`pfpeople.odometry.is_odometry_jump`) restarts the filter, the clutter maps and the
 tracker (counted).
 
-The mounts are read once, before the run. While the bag is read, the TF edges they are made of are checked
-(:class:`pfpeople.bag.tf.MountWatch`): a mount that moves (a panning laser) is warned once per edge and counted
-(``stats.mount_changes``); it is not followed.
+The mounts are read before the run and followed along it (:mod:`pfpeople.mounts`): each frame's detectors are
+placed with their frame's TF mount at the frame's stamp (latest transform at or before it), and a message in another
+frame than its topic's first is placed by its own frame's mount (counted). The TF edges of the mounts are checked
+too (:class:`pfpeople.bag.tf.MountWatch`): a mount that moves (a panning laser) is warned once per edge and counted
+(``stats.mount_changes``).
 
 Steps 1-4 are the *front end* of a frame (:meth:`Pipeline._front`): they need only the frame and their own state.
 Step 5 is the *back end* (:meth:`Pipeline._back`). With two or more cores the front end runs in a second process,
@@ -85,6 +87,7 @@ from pfpeople.bag.tf import MountWatch, TfBuffer
 from pfpeople.filters import build_classifier, build_people_tracker
 from pfpeople.frontend import FrontProcess, FrontResult, front_process_available
 from pfpeople.mot.people import point_like, support_positions
+from pfpeople.mounts import MountTracker, remount
 from pfpeople.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrator, odometry_between
 from pfpeople.output import check_output_paths, deferred_signals, interrupt_signals
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
@@ -185,7 +188,6 @@ class Pipeline:
         front_process_available` says it can and no front-end part (``detectors``, ``adapters``,
         ``odometry_factory``) is given: the state of those would be in the child process, out of the caller's
         sight. True: ask for it (one process, with a warning, where it cannot run); False: one process.
-        ``[clutter] keep_out = "tracks"`` feeds the tracks back into the clutter map: one process.
 
     Raises
     ------
@@ -235,6 +237,8 @@ class Pipeline:
         self.odometry: OdometryIntegrator | None = None
         #: The TF edges of the mounts, checked for changes during the run (set by :meth:`prepare`).
         self._mount_watch: MountWatch | None = None
+        #: Each frame's mounts, followed over TF time (set by :meth:`prepare`).
+        self._mounts: MountTracker | None = None
         self.clutter: ClutterStage | None = None
         self._warn = WarnOnce(log)
 
@@ -276,18 +280,21 @@ class Pipeline:
         self.tracker = build_people_tracker(c.tracking, self.classifier, c.filter.mode)
         edges = [e for f in self.frame_mounts for e in setup.tf.edges(setup.grid_frame, f)]
         self._mount_watch = MountWatch(edges)
+        self._mounts = MountTracker(setup.tf, setup.grid_frame, self.adapters, setup.first, self.summary, self._warn)
         return setup.tf
 
     # -- running ---------------------------------------------------------------------------------------------
 
     def _messages(self, source: BagSource, *, watch_mounts: bool) -> Iterator[BagMessage]:
-        """The run topics' messages of ``source``; with ``watch_mounts``, the TF topics of the mounts too, checked
-        on the way (:meth:`_check_mounts`) and not yielded."""
-        watch = self._mount_watch if watch_mounts else None
-        tf_topics = set(watch.topics) & set(source.topics) if watch is not None else set()
+        """The run topics' messages of ``source``; the TF topics too, followed (:mod:`pfpeople.mounts`) and, with
+        ``watch_mounts``, checked (:meth:`_check_mounts`) on the way, not yielded."""
+        tf_topics = set(self.config.tf_topics) & set(source.topics)
         for m in source.messages([*self._topics(), *sorted(tf_topics)]):
             if m.topic in tf_topics:
-                self._check_mounts(m, source.start_time_ns)
+                if self._mounts is not None:
+                    self._mounts.add(m.msg, m.topic)
+                if watch_mounts and self._mount_watch is not None and m.topic in self._mount_watch.topics:
+                    self._check_mounts(m, source.start_time_ns)
             else:
                 yield m
 
@@ -300,9 +307,9 @@ class Pipeline:
             self._warn(
                 f"mount:{e.name}",
                 "TF %s (topic %r) changes during the run: %.1f s into the bag it is (%.3f m, %.3f m, %.3f rad), "
-                "%.3g m and %.3g rad off the value the run uses (%.3f m, %.3f m, %.3f rad; read before the run). "
-                "The run uses one mount throughout: a panning or moving mount is not followed (its detections are "
-                "placed with that value); such transforms are counted in mount_changes",
+                "%.3g m and %.3g rad off the value read before the run (%.3f m, %.3f m, %.3f rad). The run follows "
+                "it: each frame's detections are placed with the latest transform at or before the frame's stamp "
+                "(counted in mount_changes and, per detector, mounts_followed)",
                 e.name,
                 e.topic,
                 (m.bag_time_ns - start_ns) * 1e-9,
@@ -334,6 +341,9 @@ class Pipeline:
                 d.topic,
                 frame.index,
             )
+            return None
+        if self._mounts is not None and not self._mounts.place(self.adapters.index(adapter), adapter, msgs[0]):
+            count(s.no_data, d.name)
             return None
         try:
             return adapter.detect(msgs)
@@ -372,6 +382,8 @@ class Pipeline:
         """The part of a frame that does not depend on the filter: ego-motion, detectors, static clutter."""
         assert self.odometry is not None and self.clutter is not None
         motion = self.odometry.begin(frame)
+        if self._mounts is not None:
+            self._mounts.advance(frame.stamp_ns)
         if motion.restarted:
             self.clutter.reset()
         found = [self._detect(a, frame) for a in self.adapters]
@@ -386,13 +398,21 @@ class Pipeline:
             motion = self.odometry.from_laser(motion, laser_ego)
         self.odometry.end(frame, motion)
         return FrontResult(
-            motion=motion, found=found, dets=dets, static=static, support_static=sup_static, scan_static=scan_static
+            motion=motion,
+            found=found,
+            dets=dets,
+            static=static,
+            support_static=sup_static,
+            scan_static=scan_static,
+            mounts=tuple(a.mount for a in self.adapters),
         )
 
     def _back(self, frame: Frame, front: FrontResult) -> FrameResult:
         """The filter, the classifier and the tracker on a frame's :meth:`_front` result."""
         assert self.filter is not None and self.clutter is not None
         motion, found, dets = front.motion, front.found, front.dets
+        if front.mounts:
+            remount(self.adapters, front.mounts, self.filter)
         if motion.restarted:
             self.filter.reset()
         raw: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
@@ -424,9 +444,6 @@ class Pipeline:
             )
             people_found, tracks = tracked.people, tracked.tracks
         people = people_found.positions.reshape(-1, 2)
-        # with [clutter] keep_out = "tracks": the confirmed tracks (else the classified people) are kept out of the
-        # clutter map next frame (see pfpeople.bag.config.ClutterSuppression.keep_out for the trade-off)
-        self.clutter.remember(np.array([[t.x, t.y] for t in tracks]).reshape(-1, 2) if tracks else people)
         self.summary.frames += 1
         return FrameResult(
             frame=frame,
@@ -590,8 +607,6 @@ class Pipeline:
         why = ""
         if not isinstance(bag, BagSource):
             why = f"the source is a {type(bag).__name__}, not a BagSource the front-end process can open again"
-        elif self.config.clutter.keep_out == "tracks":
-            why = '[clutter] keep_out = "tracks" feeds the tracks back into the clutter map'
         else:
             _ok, why = front_process_available()
         if why:

@@ -15,7 +15,9 @@ past the end. Ancestors come out sorted. ``systematic`` and ``stratified`` accep
 (``u=``) so they can be compared with ``filterpy.monte_carlo`` on the same random numbers.
 
 :func:`resample_by_cell` is the occupancy-grid resampling the particle filter uses: it keeps the particle count
-at ``n`` and every cell's mass unchanged.
+at ``n`` and every cell's mass unchanged. With numba (:mod:`gridbridge.jit`) it runs compiled kernels
+(:func:`resample_plan`; :func:`resample_state` also gathers the particles) that make the same draws and return
+the same ancestors and weights bit for bit.
 """
 
 from __future__ import annotations
@@ -25,12 +27,18 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gridbridge import jit
+from pfpeople import kernels
+from pfpeople.buffers import BufferPool
+
 __all__ = [
     "RESAMPLERS",
     "effective_sample_size",
     "get_resampler",
     "multinomial",
     "resample_by_cell",
+    "resample_plan",
+    "resample_state",
     "residual",
     "stratified",
     "systematic",
@@ -215,6 +223,12 @@ def resample_by_cell(
     w = np.asarray(weights, dtype=float)
     if c.shape != w.shape or c.ndim != 1:
         raise ValueError(f"cells and weights must be 1-D of equal length, got {c.shape} and {w.shape}")
+    if jit.enabled("pfpeople"):
+        ancestors, cell_mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=fn)
+        new_cells = c[ancestors]
+        n_new = np.bincount(new_cells, minlength=n_cells)
+        share = np.divide(cell_mass, n_new, out=np.zeros(n_cells), where=n_new > 0)
+        return ancestors, share[new_cells]
     if not np.all(np.isfinite(w)) or (w.size and w.min() < 0.0):
         raise ValueError("weights must be finite and non-negative")
     if c.size and (c.min() < 0 or c.max() >= n_cells):
@@ -244,3 +258,120 @@ def resample_by_cell(
     n_new = np.bincount(new_cells, minlength=n_cells)
     share = np.divide(mass, n_new, out=np.zeros(n_cells), where=n_new > 0)
     return ancestors, share[new_cells]
+
+
+def _forced_compiled(
+    c: NDArray[np.intp],
+    w: NDArray[np.float64],
+    n: int,
+    n_cells: int,
+    rng: np.random.Generator,
+    pool: BufferPool | None = None,
+) -> tuple[NDArray[np.intp], NDArray[np.float64], float]:
+    """Checks of :func:`resample_by_cell` and its one ancestor per occupied cell (compiled; the same draws).
+
+    Returns the forced ancestors (K,), the mass per cell and the total mass (running sum in particle order).
+    """
+    mass, counts, total, status = kernels.cell_mass(c, w, n_cells)
+    if status == 1:
+        raise ValueError("weights must be finite and non-negative")
+    if status == 2:
+        raise ValueError(f"cells must lie in [0, {n_cells})")
+    occupied = np.flatnonzero(mass > 0.0)
+    k = occupied.size
+    if k == 0:
+        raise ValueError("weights are all zero: nothing to resample")
+    if n < k:
+        raise ValueError(f"n={n} particles cannot keep one in each of the {k} cells holding mass")
+    forced = np.empty(k, dtype=np.intp)
+    order = np.empty(c.size, dtype=np.intp) if pool is None else pool.take_index(c.size)
+    kernels.forced_ancestors(c, w, counts, mass, occupied, rng.random(k), forced, order)
+    if pool is not None:
+        pool.give(order)
+    return forced, mass, float(total)
+
+
+def resample_plan(
+    cells: NDArray[np.intp],
+    weights: NDArray[np.float64],
+    n: int,
+    *,
+    n_cells: int,
+    rng: np.random.Generator,
+    resampler: Callable[..., NDArray[np.intp]],
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """The ancestors of :func:`resample_by_cell` and the cell masses, with the compiled kernels.
+
+    The same draws in the same order as :func:`resample_by_cell`'s numpy code, and the same ancestors bit for bit
+    (``resampler`` is :func:`systematic` compiled, any other callable called as there).
+
+    Parameters
+    ----------
+    cells : ndarray of intp, shape (N,)
+        Flat cell of each particle, in ``[0, n_cells)``.
+    weights : ndarray, shape (N,)
+        Occupancy masses, finite and >= 0.
+    n, n_cells, rng, resampler
+        As :func:`resample_by_cell` (``resampler`` a callable).
+
+    Returns
+    -------
+    ancestors : ndarray of intp, shape (n,)
+    mass : ndarray, shape (n_cells,)
+        The mass per cell (``np.bincount(cells, weights)``).
+    """
+    c = np.ascontiguousarray(cells, dtype=np.intp)
+    w = np.ascontiguousarray(weights, dtype=np.float64)
+    forced, mass, _ = _forced_compiled(c, w, n, n_cells, rng)
+    k = forced.size
+    if n == k:
+        return forced, mass
+    if resampler is not systematic:  # whatever a callable returns follows, as in the numpy code
+        rest = np.asarray(resampler(w, n - k, rng=rng), dtype=np.intp)
+        return np.concatenate((forced, rest)), mass
+    ancestors = np.empty(n, dtype=np.intp)
+    ancestors[:k] = forced
+    kernels.systematic_into(w, n - k, float(rng.random()), ancestors, k)
+    return ancestors, mass
+
+
+def resample_state(
+    cells: NDArray[np.intp],
+    weights: NDArray[np.float64],
+    n: int,
+    rows: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    *,
+    n_cells: int,
+    rng: np.random.Generator,
+    resampler: Callable[..., NDArray[np.intp]],
+    pool: BufferPool | None = None,
+) -> tuple[NDArray[np.float64], ...]:
+    """:func:`resample_by_cell` and the gather of the particles in one go (compiled; bit-identical).
+
+    Parameters
+    ----------
+    cells, weights, n, n_cells, rng, resampler
+        As :func:`resample_plan`.
+    rows : tuple of 4 ndarrays, shape (N,) each
+        The particles' x, y, vx, vy.
+    pool : BufferPool, optional
+        Where the new arrays and the scratch space come from (new arrays without).
+
+    Returns
+    -------
+    tuple of 5 ndarrays, shape (n,) each
+        x, y, vx, vy of the ancestors and the new weights (each cell's mass shared by its new particles).
+    """
+    c = np.ascontiguousarray(cells, dtype=np.intp)
+    w = np.ascontiguousarray(weights, dtype=np.float64)
+    if resampler is not systematic:
+        ancestors, mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=resampler)
+        out = tuple(np.empty(ancestors.size) if pool is None else pool.take(ancestors.size) for _ in range(5))
+        kernels.gather_resampled(ancestors, c, *rows, mass, n_cells, out)
+        return out
+    out = tuple(np.empty(n) if pool is None else pool.take(n) for _ in range(5))
+    forced, mass, total = _forced_compiled(c, w, n, n_cells, rng, pool)
+    m = n - forced.size
+    off = float(rng.random()) if m > 0 else 0.0
+    kernels.systematic_gather(forced, c, w, rows, mass, total, m, off, out)
+    return out

@@ -107,8 +107,11 @@ class RunSummary:
     a reset or relocalised odometry); each restarted the filter and is also in ``filter_restarts``.
     ``odometry_other_child`` counts the odometry messages whose child frame is not the base frame (used as the
     base frame's pose; :mod:`pfpeople.odometry`). ``mount_changes`` counts, per TF edge ``"parent -> child"``
-    of the run's mounts, the transforms during the run off the value used (a panning or moving mount, which the
-    run does not follow; :class:`pfpeople.bag.tf.MountWatch`).
+    of the run's mounts, the transforms during the run off the value read before it (a panning or moving mount;
+    :class:`pfpeople.bag.tf.MountWatch`). The run follows them (:mod:`pfpeople.mounts`): ``mounts_followed``
+    counts, per detector, the frames placed with a mount other than the one read before the run;
+    ``frame_id_changes`` the messages in a frame other than the detector's first one (each placed by its own
+    frame's mount), ``frame_id_unplaced`` those of them TF does not place (no data).
     """
 
     frames: int = 0
@@ -122,6 +125,9 @@ class RunSummary:
     odometry_jumps: int = 0
     odometry_other_child: int = 0
     mount_changes: dict[str, int] = field(default_factory=dict)
+    mounts_followed: dict[str, int] = field(default_factory=dict)
+    frame_id_changes: dict[str, int] = field(default_factory=dict)
+    frame_id_unplaced: dict[str, int] = field(default_factory=dict)
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     laser_odometry_frames: int = 0

@@ -37,25 +37,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from gridbridge.geometry import Pose2D
-from gridbridge.validation import check_number
+from gridbridge.validation import check_int, check_real
 
 __all__ = ["MatchResult", "OdometryStep", "ScanMatchConfig", "ScanOdometry", "ScanOdometryConfig", "match_scans"]
-
-
-def _check_number(value: object, name: str, *, low: float = 0.0, allow_low: bool = False) -> float:
-    v = check_number(value, name)
-    if v < low or (v == low and not allow_low):
-        bound = f">= {low}" if allow_low else f"> {low}"
-        raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
-    return v
-
-
-def _check_int(value: object, name: str, *, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an int, got {type(value).__name__}")
-    if int(value) < low:
-        raise ValueError(f"{name} must be >= {low}, got {value!r}")
-    return int(value)
 
 
 def _points(points: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -122,23 +106,20 @@ class ScanMatchConfig:
     tolerance: float = 2e-4
 
     def __post_init__(self) -> None:
-        _check_int(self.max_iterations, "ScanMatchConfig.max_iterations", low=1)
-        _check_int(self.gate_iterations, "ScanMatchConfig.gate_iterations", low=1)
-        _check_number(self.max_correspondence, "ScanMatchConfig.max_correspondence")
-        _check_number(self.min_correspondence, "ScanMatchConfig.min_correspondence")
+        for name, minimum in (
+            ("max_iterations", 1),
+            ("gate_iterations", 1),
+            ("normal_neighbours", 3),
+            ("max_points", 10),
+            ("max_reference_points", 10),
+        ):
+            check_int(getattr(self, name), f"ScanMatchConfig.{name}", minimum=minimum)
+        positive = ("max_correspondence", "min_correspondence", "huber", "normal_radius", "min_eigenvalue")
+        for name in (*positive, "max_rmse", "tolerance"):
+            check_real(getattr(self, name), f"ScanMatchConfig.{name}", low=0.0, low_open=True)
         if self.min_correspondence > self.max_correspondence:
             raise ValueError("ScanMatchConfig.min_correspondence must not exceed max_correspondence")
-        _check_number(self.huber, "ScanMatchConfig.huber")
-        _check_int(self.normal_neighbours, "ScanMatchConfig.normal_neighbours", low=3)
-        _check_number(self.normal_radius, "ScanMatchConfig.normal_radius")
-        _check_int(self.max_points, "ScanMatchConfig.max_points", low=10)
-        _check_int(self.max_reference_points, "ScanMatchConfig.max_reference_points", low=10)
-        _check_number(self.min_eigenvalue, "ScanMatchConfig.min_eigenvalue")
-        _check_number(self.max_rmse, "ScanMatchConfig.max_rmse")
-        _check_number(self.min_inlier_fraction, "ScanMatchConfig.min_inlier_fraction", allow_low=True)
-        if self.min_inlier_fraction > 1.0:
-            raise ValueError("ScanMatchConfig.min_inlier_fraction must be in [0, 1]")
-        _check_number(self.tolerance, "ScanMatchConfig.tolerance")
+        check_real(self.min_inlier_fraction, "ScanMatchConfig.min_inlier_fraction", low=0.0, high=1.0)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -338,11 +319,9 @@ class ScanOdometryConfig:
     def __post_init__(self) -> None:
         if not isinstance(self.match, ScanMatchConfig):
             raise TypeError(f"ScanOdometryConfig.match must be a ScanMatchConfig, got {type(self.match).__name__}")
-        _check_number(self.keyframe_distance, "ScanOdometryConfig.keyframe_distance", allow_low=True)
-        _check_number(self.keyframe_angle, "ScanOdometryConfig.keyframe_angle", allow_low=True)
-        _check_number(self.min_keyframe_overlap, "ScanOdometryConfig.min_keyframe_overlap", allow_low=True)
-        if self.min_keyframe_overlap > 1.0:
-            raise ValueError("ScanOdometryConfig.min_keyframe_overlap must be in [0, 1]")
+        check_real(self.keyframe_distance, "ScanOdometryConfig.keyframe_distance", low=0.0)
+        check_real(self.keyframe_angle, "ScanOdometryConfig.keyframe_angle", low=0.0)
+        check_real(self.min_keyframe_overlap, "ScanOdometryConfig.min_keyframe_overlap", low=0.0, high=1.0)
 
 
 @dataclass(frozen=True, kw_only=True)

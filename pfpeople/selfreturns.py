@@ -28,13 +28,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge.geometry import Pose2D
-from gridbridge.validation import check_number, check_positive
+from gridbridge.validation import check_real
 
 __all__ = ["SelfReturns"]
-
-
-def _positive(value: object, name: str) -> float:
-    return check_positive(check_number(value, f"SelfReturns.{name}"), f"SelfReturns.{name}")
 
 
 class SelfReturns:
@@ -56,10 +52,10 @@ class SelfReturns:
     def __init__(
         self, *, max_range: float = 1.0, tolerance: float = 0.05, travel: float = 0.5, radius: float = 0.2
     ) -> None:
-        self.max_range = _positive(max_range, "max_range")
-        self.tolerance = _positive(tolerance, "tolerance")
-        self.travel = _positive(travel, "travel")
-        self.radius = _positive(radius, "radius")
+        self.max_range = check_real(max_range, "SelfReturns.max_range", low=0.0, low_open=True)
+        self.tolerance = check_real(tolerance, "SelfReturns.tolerance", low=0.0, low_open=True)
+        self.travel = check_real(travel, "SelfReturns.travel", low=0.0, low_open=True)
+        self.radius = check_real(radius, "SelfReturns.radius", low=0.0, low_open=True)
         self.reset()
 
     def reset(self) -> None:

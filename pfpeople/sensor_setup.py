@@ -3,8 +3,9 @@
 Before the first frame, :func:`setup_sensors` reads what is fixed for the whole run:
 
 - the topics and their message types (:meth:`pfpeople.bag.reader.BagSource.require`);
-- TF: every ``/tf_static`` message and the first :data:`TF_PRELOAD_S` s of ``/tf`` (the config's ``[mounts]``
-  stand in for frames without TF, as children of the base frame);
+- TF: every ``/tf_static`` message and each frame's first transform in the first :data:`TF_PRELOAD_S` s of
+  ``/tf`` (or later, for a frame first published later; the config's ``[mounts]`` stand in for frames without TF,
+  as children of the base frame). The run follows the later transforms (:mod:`pfpeople.mounts`);
 - the grid frame (``[frames] grid_frame``, else the driver's ``frame_id``);
 - each detector's mount ``T`` (its frame's pose in the grid frame, m and rad), the pose in the grid frame of
   every frame the run's positions may be given in (written to ``run.json`` as ``frames_in_grid``), and the
@@ -55,8 +56,11 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: TF on /tf (not static) read before the run to find sensor mounts: the first this many seconds of the bag.
+#: TF on /tf (not static) read before the run to find sensor mounts: the first this many seconds of the bag (a mount
+#: first published later is read from further into the bag, :func:`read_tf`).
 TF_PRELOAD_S = 1.0
+#: LaserScans of a topic looked at for the first one that gives a field of view (:func:`_first_messages`).
+FIRST_SCAN_LOOKAHEAD = 100
 #: A leg detector should get :data:`~pfpeople.detectors.legs.MIN_LEG_BEAMS` returns on a leg out to this range (m):
 #: people this near a robot are the least it must see (0.5 deg gives 3.8 m, 1 deg 1.9 m).
 MIN_LEG_RANGE_M = 3.0
@@ -134,25 +138,96 @@ def with_scan_fov(d: DetectorConfig, msg: Any) -> DetectorConfig:
     return replace(d, model=model)
 
 
+def _usable_scan(m: BagMessage) -> bool:
+    """Whether a LaserScan gives a field of view: two or more beams over a span (:func:`scan_bearings`)."""
+    try:
+        scan_bearings(m.msg)
+    except ValueError:
+        return False
+    return len(m.msg.ranges) >= 2
+
+
 def _first_messages(bag: BagSource, topics: Sequence[str]) -> dict[str, BagMessage]:
+    """The first message of each topic; of a LaserScan topic, the first of :data:`FIRST_SCAN_LOOKAHEAD` that gives a
+    field of view (warned: the earlier ones give none).
+
+    Raises
+    ------
+    ValueError
+        For a LaserScan topic none of whose first :data:`FIRST_SCAN_LOOKAHEAD` scans gives a field of view.
+    """
     first: dict[str, BagMessage] = {}
-    for topic in topics:
+    for topic in dict.fromkeys(topics):
+        seen: list[BagMessage] = []
         for m in bag.messages([topic]):
-            first[topic] = m
-            break
+            if m.msgtype not in LASER_TYPES or _usable_scan(m):
+                first[topic] = m
+                break
+            seen.append(m)
+            if len(seen) == FIRST_SCAN_LOOKAHEAD:
+                break
+        if seen and topic not in first:
+            raise ValueError(
+                f"topic {topic!r}: none of its first {len(seen)} LaserScans gives a field of view (the first: "
+                f"{len(seen[0].msg.ranges)} beam(s), angle_min={float(seen[0].msg.angle_min)!r}, "
+                f"angle_max={float(seen[0].msg.angle_max)!r}); check the laser driver"
+            )
+        if seen:
+            log.warning(
+                "topic %s: its first %d scan(s) give no field of view (the first: %d beam(s), angle_min=%r, "
+                "angle_max=%r): the field of view, range and grid come from scan %d",
+                topic,
+                len(seen),
+                len(seen[0].msg.ranges),
+                float(seen[0].msg.angle_min),
+                float(seen[0].msg.angle_max),
+                len(seen),
+            )
     return first
 
 
-def read_tf(config: BagConfig, bag: BagSource) -> TfBuffer:
-    """TF known before the run: ``/tf_static``, the first :data:`TF_PRELOAD_S` s of ``/tf``, ``[mounts]``."""
+def read_tf(config: BagConfig, bag: BagSource, needed: Sequence[tuple[str, str]] = ()) -> TfBuffer:
+    """TF known before the run: ``/tf_static``, the first transform of each frame in the first
+    :data:`TF_PRELOAD_S` s of ``/tf`` (the mount at the start: the run follows it, :mod:`pfpeople.mounts`),
+    ``[mounts]``.
+
+    A frame of ``needed`` (``(target, source)`` pairs to look up) that these leave unconnected is looked for
+    further into ``/tf``: its first transform is used (:func:`_read_late_tf`).
+    """
     tf = TfBuffer(fallback_parent=config.base_frame, fallback=config.mounts)
     for topic in (t for t in config.tf_topics if t in bag.topics):
         static = topic.endswith("tf_static")
         for m in bag.messages([topic]):
             if not static and m.bag_time_ns - bag.start_time_ns > TF_PRELOAD_S * 1e9:
                 break
-            tf.add_message(m.msg, topic=topic)  # a zero quaternion is refused, naming the topic
+            # the first transform of each frame on /tf: the mount at the start (the run follows the later ones)
+            tf.add_message(m.msg, topic=topic, new_frames_only=not static)  # a zero quaternion is refused
+    if any(not tf.can_transform(t, s) for t, s in needed):
+        _read_late_tf(tf, config, bag, needed)
     return tf
+
+
+def _read_late_tf(tf: TfBuffer, config: BagConfig, bag: BagSource, needed: Sequence[tuple[str, str]]) -> None:
+    """Add to ``tf`` the first transform of every frame it lacks, read from ``/tf`` after :data:`TF_PRELOAD_S`,
+    until every pair of ``needed`` connects (or the bag ends); warns once naming the frames and when they appear."""
+    topics = [t for t in config.tf_topics if t in bag.topics and not t.endswith("tf_static")]
+    late: dict[str, float] = {}
+    for m in bag.messages(topics):
+        if m.bag_time_ns - bag.start_time_ns <= TF_PRELOAD_S * 1e9:
+            continue
+        before = {f for f in tf.frames if tf.parent_of(f) is not None}  # the frames with TF (children)
+        tf.add_message(m.msg, topic=m.topic, new_frames_only=True)
+        for child in sorted({f for f in tf.frames if tf.parent_of(f) is not None} - before):
+            late.setdefault(f"frame {child!r} (topic {m.topic})", (m.bag_time_ns - bag.start_time_ns) * 1e-9)
+        if late and all(tf.can_transform(t, s) for t, s in needed):
+            break
+    if late:
+        log.warning(
+            "TF first published after the first %g s of the bag: %s; each such frame's first transform is its mount "
+            "from the start of the run",
+            TF_PRELOAD_S,
+            ", ".join(f"{k} at {v:.1f} s" for k, v in late.items()),
+        )
 
 
 def setup_sensors(
@@ -190,12 +265,12 @@ def setup_sensors(
     if c.odometry:
         types[c.odometry] = ODOMETRY_TYPES
     bag.require(run_topics(c), types=types)
-    tf = read_tf(c, bag)
     first = _first_messages(bag, [c.driver, *(d.topic for d in c.detectors)])
     ids = {t: m.frame_id for t, m in first.items()}
     grid_frame = c.grid_frame or ids.get(c.driver, "")
     if not grid_frame:
         raise ValueError(f"driver topic {c.driver!r} has no frame_id; set [frames] grid_frame in the config")
+    tf = read_tf(c, bag, _needed_lookups(c, grid_frame, ids))
     detectors: list[DetectorConfig] = []
     mounts: list[Pose2D] = []
     frame_mounts: dict[str, Pose2D] = {grid_frame: Pose2D()}
@@ -238,6 +313,14 @@ def setup_sensors(
         spec=spec,
         first=first,
     )
+
+
+def _needed_lookups(c: BagConfig, grid_frame: str, ids: Mapping[str, str]) -> list[tuple[str, str]]:
+    """The ``(target, source)`` look-ups :func:`setup_sensors` makes: each detector's and laser's frame in the grid
+    frame, and the grid frame in the base frame (with odometry)."""
+    frames = [d.frame or ids.get(d.topic, "") or grid_frame for d in c.detectors] + [ids.get(c.driver, "")]
+    out = [(grid_frame, f) for f in dict.fromkeys(frames) if f and f != grid_frame]
+    return out + ([(c.base_frame, grid_frame)] if c.odometry else [])
 
 
 def default_grid(tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage], lasers: Sequence[str]) -> GridSpec:

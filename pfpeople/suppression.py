@@ -3,9 +3,7 @@
 Each laser topic with a detector has its own static-clutter map (:mod:`pfpeople.clutter`), kept in the laser's
 frame: the grid-frame ego-motion ``E`` (from odometry) becomes ``T^-1 E T`` with ``T`` the laser's mount in
 the grid frame. Each map keeps the people its detectors saw moving out of itself
-(:class:`pfpeople.clutter.MovingPeople`); with ``[clutter] keep_out = "tracks"`` the previous frame's confirmed
-tracks (or else its classified people, grid frame at the previous frame) are kept out too, moved into the
-current laser frame by ``T^-1 E^-1``.
+(:class:`pfpeople.clutter.MovingPeople`).
 A detection the map calls static, or whose nearest return is the robot's own (:mod:`pfpeople.selfreturns`), is
 suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
 ``suppressed``). Without odometry, the driving laser's scan-matched motion is
@@ -53,8 +51,6 @@ class ClutterStage:
         self.adapters = list(adapters)
         self.summary = summary
         self.suppressors: dict[str, Any] = {}
-        #: People kept out of the map in the next frame (m, grid frame of the frame they were found in).
-        self.last_people: NDArray[np.float64] = np.zeros((0, 2))
         #: Per detector, after :meth:`step`: which of its support positions the map calls static (None: no data or
         #: no map).
         self.support_static: list[NDArray[np.bool_] | None] = []
@@ -82,12 +78,6 @@ class ClutterStage:
         """Forget every map (the filter restarts after a gap)."""
         for sup in self.suppressors.values():
             sup.map.forget()
-
-    def remember(self, people: NDArray[np.float64]) -> None:
-        """People ``(P, 2)`` (m, grid frame) to keep out of the maps in the next frame (only with
-        ``[clutter] keep_out = "tracks"``; by default only the people seen moving are)."""
-        if self.config.clutter.keep_out == "tracks":
-            self.last_people = people
 
     def step(
         self,
@@ -137,16 +127,10 @@ class ClutterStage:
                 continue
             mount = self.adapters[idx[0]].mount  # the laser's pose in the grid frame
             ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
-            exclude = self.last_people
-            if len(exclude):
-                if ego_grid is not None:
-                    exclude = ego_grid.inverse().apply(exclude)
-                exclude = mount.inverse().apply(exclude)
             st = sup.step(
                 scan.points(),
                 [f.sensor for k in idx if (f := found[k]) is not None],
                 ego=ego,
-                exclude=exclude,
                 stamp_ns=stamp_ns,
                 dt=dt,
                 free=scan.free_rays(sup.map.config.max_range),

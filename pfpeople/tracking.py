@@ -32,7 +32,6 @@ convention of :func:`gridbridge.velocity_displacement`). The previous centroid i
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
@@ -44,6 +43,7 @@ from scipy import ndimage
 from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs
 from gridbridge.geometry import to_frame
 from gridbridge.grid import GridSpec
+from gridbridge.validation import check_int, check_real
 
 __all__ = ["BlobTracker", "TrackFrame", "TrackResult", "TrackerParams", "TrackingError", "track_sequence"]
 
@@ -83,19 +83,15 @@ class TrackerParams:
 
     def __post_init__(self) -> None:
         for name in ("gate", "start_radius"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"TrackerParams.{name} must be a positive finite distance (m), got {value!r}")
-        m = self.max_lost_frames
-        if isinstance(m, bool) or not isinstance(m, int) or m < 0:
-            raise ValueError(f"TrackerParams.max_lost_frames must be a non-negative integer, got {m!r}")
-        t = self.start_threshold
-        if not (isinstance(t, int | float) and 0.0 <= t <= 1.0):
-            raise ValueError(f"TrackerParams.start_threshold must be a probability in [0, 1], got {t!r}")
+            check_real(getattr(self, name), f"TrackerParams.{name}", low=0.0, low_open=True)
+        check_int(self.max_lost_frames, "TrackerParams.max_lost_frames", minimum=0)
+        check_real(self.start_threshold, "TrackerParams.start_threshold", low=0.0, high=1.0)
         if self.start_point is not None:
             sp = self.start_point
-            if len(sp) != 2 or not all(isinstance(v, int | float) and math.isfinite(v) for v in sp):
+            if len(sp) != 2:
                 raise ValueError(f"TrackerParams.start_point must be a finite (x, y) pair (m), got {sp!r}")
+            for v in sp:
+                check_real(v, "TrackerParams.start_point")
         if self.candidates not in ("people", "all"):
             raise ValueError(f"TrackerParams.candidates must be 'people' or 'all', got {self.candidates!r}")
 

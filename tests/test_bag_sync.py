@@ -5,23 +5,9 @@ from __future__ import annotations
 import tracemalloc
 
 import pytest
+from bag_fixtures import MS, msg, run_sync
 
-from pfpeople.bag.reader import BagMessage
 from pfpeople.bag.sync import FrameAssembler
-
-MS = 1_000_000
-
-
-def msg(topic: str, stamp_ms: float, index: int = 0) -> BagMessage:
-    t = round(stamp_ms * MS)
-    return BagMessage(topic, "x/msg/Y", index, t, t, "f", None)
-
-
-def run_sync(asm: FrameAssembler, stream: list[BagMessage]) -> list:
-    frames = []
-    for m in stream:
-        frames += asm.push(m)
-    return frames + asm.finish()
 
 
 def test_nearest_within_tolerance_else_no_data() -> None:

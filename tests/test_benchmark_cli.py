@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from evaluation.cli import main as eval_main
-from evaluation.gt_csv import read_gt_csv
+from pfpeople.gt_csv import read_gt_csv
 
 
 def _bench(tmp_path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[str, dict, Path]:

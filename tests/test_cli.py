@@ -1,4 +1,4 @@
-"""The command-line conventions shared by ``pfpeople`` and ``pfpeople-eval`` (gridbridge.cli_support).
+"""The command-line conventions shared by ``pfpeople`` and ``pfpeople-eval`` (pfpeople.cli_support).
 
 ``--version``; ``-q/-v`` before or after every subcommand; each subcommand's ``--help`` ends in examples that
 parse. Parsers only: no subcommand runs, except a stand-in for ``inspect``.
@@ -19,8 +19,8 @@ import pytest
 import evaluation.commands
 import pfpeople.commands
 from evaluation.cli import main as eval_main
-from gridbridge.cli_support import build_parser, package_version
 from pfpeople.cli import main as pf_main
+from pfpeople.cli_support import build_parser, package_version
 
 COMMANDS: list[tuple[str, ModuleType, Callable[..., int]]] = [
     ("pfpeople", pfpeople.commands, pf_main),

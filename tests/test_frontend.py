@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_reliability_bags import legs_only, write_scan_bag
+from bag_fixtures import legs_only, write_scan_bag
 
 from evaluation.scenarios.scan import write_scene_bag
 from pfpeople.adapters import LegAdapter
@@ -78,16 +78,15 @@ def test_an_error_in_the_front_end_ends_the_run_at_that_frame(tmp_path: Path) ->
 
 
 def test_a_run_that_cannot_use_it_warns_and_runs_in_one_process(
-    tmp_path: Path, caplog: pytest.LogCaptureFixture
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     bag = tmp_path / "scans.bag"
     write_scan_bag(bag, 5)
-    cfg = legs_only()
-    cfg = replace(cfg, clutter=replace(cfg.clutter, keep_out="tracks"))
+    monkeypatch.setattr("pfpeople.pipeline.front_process_available", lambda: (False, "1 usable core"))
     with caplog.at_level(logging.WARNING), BagSource(bag) as src:
-        summary, _ = Pipeline(cfg, front_process=True).run(src, None)
+        summary, _ = Pipeline(legs_only(), front_process=True).run(src, None)
     assert summary.frames == 5
-    assert 'front_process: one process ([clutter] keep_out = "tracks"' in caplog.text
+    assert "front_process: one process (1 usable core)" in caplog.text
 
 
 def test_pfpeople_run_one_process_flag_gives_the_same_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

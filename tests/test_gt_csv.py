@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import evaluation.gt_csv
 from evaluation.cli import main as eval_main
 from evaluation.commands.score import score_run
 from evaluation.run_truth import gt_coverage, truth_and_sources
@@ -38,11 +37,6 @@ def write_run(path: Path, n_frames: int, *, person: tuple[float, float] = (2.0, 
                 detections=[np.array([person])],
             )
     return path
-
-
-def test_evaluation_gt_csv_re_exports_the_moved_module() -> None:
-    assert evaluation.gt_csv.read_gt_csv is read_gt_csv
-    assert set(evaluation.gt_csv.__all__) >= {"GroundTruth", "read_gt_csv", "KEY_COLUMNS", "resolve_gt_frame"}
 
 
 def test_a_byte_order_mark_does_not_move_the_key_to_another_column(tmp_path: Path) -> None:

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from evaluation.gt_csv import read_gt_csv
 from evaluation.run_truth import gt_to_grid
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.output import RunData
 
 

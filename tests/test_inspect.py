@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_fixtures import MOUNT, T0_NS, Msgs, typestore, write_bag
 from rosbags.rosbag1 import Writer as Writer1
-from test_pipeline_bags import MOUNT, T0_NS, _Msgs, _typestore, write_bag
 
 from pfpeople.bag.config import FilterConfig, load_config
 from pfpeople.bag.inspect import format_report, inspect_bag, inspect_path, starter_config
@@ -179,8 +179,8 @@ def test_every_real_bag(shared_data: Path, tmp_path_factory: pytest.TempPathFact
 
 
 def test_reversed_laser_is_flagged_and_its_fov_kept(tmp_path: Path) -> None:
-    ts = _typestore(False)
-    m = _Msgs(ts, False)
+    ts = typestore(False)
+    m = Msgs(ts, False)
     bag = tmp_path / "rev.bag"
     inc = -math.radians(0.5)
     with Writer1(bag) as w:

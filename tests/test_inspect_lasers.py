@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from bag_fixtures import T0_NS, Msgs, typestore
 from rosbags.rosbag1 import Writer as Writer1
-from test_pipeline_bags import T0_NS, _Msgs, _typestore
 
 from gridbridge.geometry import Pose2D
 from pfpeople.bag.config import BagConfig, load_config
@@ -48,8 +48,8 @@ DETECTOR_NAMES = [name for name, _, _ in LASER_DETECTORS]
 
 def write_lasers_bag(path: Path, *, n_scans: int = 8, tf_for: tuple[str, ...] = tuple(LASERS)) -> None:
     """The three-laser scene (module docstring); /tf_static gives the mounts of the lasers in ``tf_for`` only."""
-    ts = _typestore(False)
-    m = _Msgs(ts, False)
+    ts = typestore(False)
+    m = Msgs(ts, False)
     items: list[tuple[int, str, str, Any]] = []
     for topic in tf_for:
         frame, mount, _ = LASERS[topic]

@@ -1,6 +1,6 @@
-"""The tracker's fused-belief inputs (pfpeople.mot): low peaks update but do not start tracks, the belief grid keeps
-a coasting track alive (belief_support) or its report (report_belief), fast confirmation (confirm_score); the
-pipeline's [tracking] peak_threshold; the MOT scoring helpers (tracks.csv, visibility filter)."""
+"""The tracker's fused-belief inputs (pfpeople.mot): low peaks update but do not start tracks; the options that lost
+their ablations are gone (the belief grid as a measurement, fast confirmation); the pipeline's [tracking]
+peak_threshold; the MOT scoring helpers (tracks.csv, visibility filter)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import pytest
 from evaluation.mot_eval import _drop_matched, read_tracks_csv
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import TrackingConfig, config_from_mapping
+from pfpeople.filters import build_people_tracker
 from pfpeople.mot import MultiPersonTracker, TrackerConfig
 
 DT = 0.1
@@ -42,73 +43,12 @@ def test_low_peaks_update_but_never_start_tracks() -> None:
     assert all(t.id == 1 for t in tracker.tracks)  # the static weak peak never started even a tentative track
 
 
-def test_belief_support_keeps_a_coasting_track_alive() -> None:
-    """A walker detected for 20 frames then only present in the belief (blob of 0.5 at its position, below the peak
-    threshold) for 30 frames: with belief_support = 0.3 the track follows the blob (within half a 0.3 m cell) and is
-    reported every frame; without, it stops being reported after report_coast_s = 1 s (10 frames)."""
-    for support, reported in ((0.3, 30), (None, 10)):
-        tracker = MultiPersonTracker(TrackerConfig(belief_support=support))
-        n_rep = 0
-        for k in range(50):
-            p = (2.0 + 0.05 * k, 0.5)
-            if k < 20:
-                out = tracker.update(np.array([p]), DT, scores=np.array([0.9]), belief=_blob(*p, 0.9), spec=SPEC)
-            else:
-                out = tracker.update(np.zeros((0, 2)), DT, belief=_blob(*p, 0.5), spec=SPEC)
-                n_rep += len(out)
-                if support is not None:
-                    (t,) = out
-                    assert t.id == 1 and t.misses == 0
-                    assert math.hypot(t.x - p[0], t.y - p[1]) < 0.15  # half a 0.3 m cell
-        assert n_rep == reported
-
-
-def test_belief_below_support_and_report_belief() -> None:
-    """Belief 0.2 < belief_support 0.3 gives no update (the track coasts); report_belief = 0.3 hides the coasting
-    track at once, report_belief = 0.1 reports it up to report_coast_s."""
-
-    def run(cfg: TrackerConfig) -> list[int]:
-        tracker = MultiPersonTracker(cfg)
-        n = []
-        for k in range(25):
-            p = (3.0, 0.0)
-            if k < 10:
-                out = tracker.update(np.array([p]), DT, belief=_blob(*p, 0.9), spec=SPEC)
-            else:
-                out = tracker.update(np.zeros((0, 2)), DT, belief=_blob(*p, 0.2), spec=SPEC)
-                n.append(len(out))
-                assert all(t.misses == k - 9 for t in out)
-        return n
-
-    assert run(TrackerConfig(belief_support=0.3)) == [1] * 10 + [0] * 5
-    assert run(TrackerConfig(report_belief=0.3)) == [0] * 15
-    assert run(TrackerConfig(report_belief=0.1)) == [1] * 10 + [0] * 5
-
-
-def test_belief_needs_its_spec_and_is_ignored_when_off() -> None:
-    tracker = MultiPersonTracker(TrackerConfig(belief_support=0.5))
-    with pytest.raises(TypeError, match="spec"):
-        tracker.update(np.array([[1.0, 0.0]]), DT, belief=_blob(1.0, 0.0, 0.9))
-    with pytest.raises(ValueError, match="belief"):
-        tracker.update(np.array([[1.0, 0.0]]), DT, belief=np.zeros((3, 3)), spec=SPEC)
-    plain = MultiPersonTracker()  # options off: the belief is not even checked
-    plain.update(np.array([[1.0, 0.0]]), DT, belief=np.zeros((3, 3)))
-
-
-def test_confirm_score_confirms_at_birth() -> None:
-    tracker = MultiPersonTracker(TrackerConfig(confirm_score=0.9))
-    assert [t.id for t in tracker.update(np.array([[2.0, 0.0], [4.0, 1.0]]), DT, scores=np.array([0.95, 0.8]))] == [1]
-    out = tracker.update(np.array([[2.0, 0.0], [4.0, 1.0]]), DT, scores=np.array([0.95, 0.92]))
-    assert [t.id for t in out] == [1, 2]  # the second confirmed by its 0.92 hit, before 3 of 5
-
-
-@pytest.mark.parametrize(
-    ("field", "value"),
-    [("belief_support", 0.0), ("belief_support", 1.5), ("report_belief", -0.1), ("confirm_score", 2)],
-)
-def test_belief_options_validated(field: str, value: float) -> None:
-    with pytest.raises(ValueError, match=field):
-        TrackerConfig(**{field: value})
+@pytest.mark.parametrize("field", ["belief_support", "belief_radius", "report_belief", "confirm_score"])
+def test_removed_options_are_refused_by_name(field: str) -> None:
+    with pytest.raises(TypeError, match=field):
+        TrackerConfig(**{field: 0.5})
+    with pytest.raises(ValueError, match=rf"\[tracking.params\].*{field}"):
+        build_people_tracker(TrackingConfig(params={field: 0.5}), None)
 
 
 def test_tracking_config_peak_threshold() -> None:

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from evaluation.gt_csv import read_gt_csv
 from evaluation.mot_eval import (
     FUSED_SOURCES,
     evaluate_log,
@@ -21,6 +20,7 @@ from evaluation.mot_eval import (
 from evaluation.replay import log_from_scenario
 from evaluation.scenarios.scenario import Scenario
 from gridbridge.grid import GridSpec
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.output import RunWriter, load_run
 
 SPEC = GridSpec()  # 30 x 30 cells of 0.3 m, x in [0, 9], y in [-4.5, 4.5]

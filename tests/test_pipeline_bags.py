@@ -13,258 +13,26 @@ import csv
 import json
 import logging
 import math
-import sys
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from bag_fixtures import MOUNT, Truth, V, W, config, laser_pose, people_in, write_bag
 from rosbags.highlevel import AnyReader
-from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
-from rosbags.rosbag2 import Writer as Writer2
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from evaluation.cli import main as eval_main
 from evaluation.commands.score import score_run
-from evaluation.gt_csv import read_gt_csv
 from gridbridge.ego_motion import odometry_pose
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.detectors.synthetic import render_scan
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline, odometry_between
 from pfpeople.sensors import Pose2D
-
-T0_NS = 1_000 * 1_000_000_000
-V, W = 0.5, 0.15
-MOUNT = Pose2D(x=0.2, y=0.1, yaw=0.3)
-PEOPLE_ODOM = np.array([[3.5, 1.0], [3.0, -1.0]])
-PERSON_MSG = "geometry_msgs/Pose pose\nuint32 id\n"
-PERSON_ARRAY_MSG = "std_msgs/Header header\ntest_msgs/Person[] people\n"
-
-
-def base_pose(t: float) -> Pose2D:
-    """Pose of base_link in odom at t s (constant twist from the origin)."""
-    return Pose2D(x=V / W * math.sin(W * t), y=V / W * (1 - math.cos(W * t)), yaw=W * t)
-
-
-def laser_pose(t: float) -> Pose2D:
-    return base_pose(t).compose(MOUNT)
-
-
-def people_in(pose: Pose2D) -> np.ndarray:
-    return pose.inverse().apply(PEOPLE_ODOM)
-
-
-@dataclass
-class Truth:
-    stamps_ns: list[int]
-    people_laser: list[np.ndarray]
-
-
-def _typestore(ros2: bool) -> Any:
-    ts = get_typestore(Stores.ROS2_HUMBLE if ros2 else Stores.ROS1_NOETIC)
-    types = get_types_from_msg(PERSON_MSG, "test_msgs/msg/Person")
-    types.update(get_types_from_msg(PERSON_ARRAY_MSG, "test_msgs/msg/PersonArray"))
-    if "tf2_msgs/msg/TFMessage" not in ts.types:  # not in rosbags' ROS1 Noetic store
-        types.update(get_types_from_msg("geometry_msgs/TransformStamped[] transforms\n", "tf2_msgs/msg/TFMessage"))
-    ts.register(types)
-    return ts
-
-
-class _Msgs:
-    def __init__(self, ts: Any, ros2: bool) -> None:
-        self.ts, self.T, self.ros2 = ts, ts.types, ros2
-
-    def header(self, stamp_ns: int, frame: str) -> Any:
-        stamp = self.T["builtin_interfaces/msg/Time"](sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
-        if self.ros2:
-            return self.T["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
-        return self.T["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id=frame)
-
-    def quat(self, yaw: float) -> Any:
-        return self.T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
-
-    def pose(self, x: float, y: float, yaw: float = 0.0) -> Any:
-        point = self.T["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0)
-        return self.T["geometry_msgs/msg/Pose"](position=point, orientation=self.quat(yaw))
-
-    def scan(self, stamp_ns: int, ranges: np.ndarray, angle_min: float, inc: float) -> Any:
-        r = np.asarray(ranges, dtype=np.float32)
-        return self.T["sensor_msgs/msg/LaserScan"](
-            header=self.header(stamp_ns, "laser"),
-            angle_min=angle_min,
-            angle_max=angle_min + inc * max(len(r) - 1, 0),
-            angle_increment=inc,
-            time_increment=0.0,
-            scan_time=0.1,
-            range_min=0.05,
-            range_max=10.0,
-            ranges=r,
-            intensities=np.zeros(0, dtype=np.float32),
-        )
-
-    def odom(self, stamp_ns: int, p: Pose2D) -> Any:
-        T = self.T
-        vec = T["geometry_msgs/msg/Vector3"]
-        twist = T["geometry_msgs/msg/Twist"](linear=vec(x=V, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=W))
-        return T["nav_msgs/msg/Odometry"](
-            header=self.header(stamp_ns, "odom"),
-            child_frame_id="base_link",
-            pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=self.pose(p.x, p.y, p.yaw), covariance=np.zeros(36)),
-            twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)),
-        )
-
-    def tf(self, stamp_ns: int, parent: str, child: str, p: Pose2D) -> Any:
-        T = self.T
-        tr = T["geometry_msgs/msg/Transform"](
-            translation=T["geometry_msgs/msg/Vector3"](x=p.x, y=p.y, z=0.3), rotation=self.quat(p.yaw)
-        )
-        ts = T["geometry_msgs/msg/TransformStamped"](
-            header=self.header(stamp_ns, parent), child_frame_id=child, transform=tr
-        )
-        return T["tf2_msgs/msg/TFMessage"](transforms=[ts])
-
-    def person(self, x: float, y: float, pid: int) -> Any:
-        return self.T["test_msgs/msg/Person"](pose=self.pose(x, y), id=pid)
-
-    def person_array(self, stamp_ns: int, frame: str, xy: np.ndarray) -> Any:
-        people = [self.person(x, y, k) for k, (x, y) in enumerate(xy)]
-        return self.T["test_msgs/msg/PersonArray"](header=self.header(stamp_ns, frame), people=people)
-
-
-def write_bag(
-    path: Path,
-    *,
-    ros2: bool = False,
-    storage: str = "sqlite3",
-    n_scans: int = 20,
-    odometry: bool = True,
-    scan_hook: Any = None,
-    chunk_threshold: int | None = None,
-    n_images: int = 0,
-    odom_gap_s: tuple[float, float] | None = None,
-) -> Truth:
-    """Write the synthetic scene (see the module docstring); returns the true people in the laser frame.
-
-    ROS1: the custom detections are headerless ``test_msgs/Person`` messages (one per person, in the laser
-    frame, written 20 ms after their scan, like leg_tracker's ground truth). ROS2: a stamped
-    ``test_msgs/PersonArray`` in base_link. ``scan_hook(k, stamp_ns, ranges) -> (stamp_ns, ranges)`` alters scans;
-    no odometry is written strictly inside ``odom_gap_s`` (s from the first scan).
-    """
-    ts = _typestore(ros2)
-    m = _Msgs(ts, ros2)
-    ser = ts.serialize_cdr if ros2 else ts.serialize_ros1
-    items: list[tuple[int, str, str, Any]] = []  # (bag time, topic, type, msg)
-    items.append(
-        (T0_NS - 200_000_000, "/tf_static", "tf2_msgs/msg/TFMessage", m.tf(T0_NS, "base_link", "laser", MOUNT))
-    )
-    if odometry:
-        for k in range(-5, 5 * n_scans + 6):
-            t_ns = T0_NS + k * 20_000_000
-            if odom_gap_s is not None and odom_gap_s[0] < k * 0.02 - 1e-9 and k * 0.02 + 1e-9 < odom_gap_s[1]:
-                continue
-            items.append((t_ns + 1_000_000, "/odom", "nav_msgs/msg/Odometry", m.odom(t_ns, base_pose(k * 0.02))))
-    truth = Truth([], [])
-    inc = math.radians(0.5)
-    for k in range(n_scans):
-        t = 0.1 * k
-        stamp = T0_NS + k * 100_000_000
-        lp = laser_pose(t)
-        xy = people_in(lp)
-        circles = []
-        for x, y in xy:
-            b = math.atan2(y, x)
-            px, py = -math.sin(b) * 0.15, math.cos(b) * 0.15
-            circles += [(x + px, y + py, 0.06), (x - px, y - py, 0.06)]
-        ranges = render_scan(circles=circles, angle_increment=inc).ranges
-        if scan_hook is not None:
-            stamp, ranges = scan_hook(k, stamp, ranges)
-        items.append(
-            (
-                T0_NS + k * 100_000_000 + 3_000_000,
-                "/scan",
-                "sensor_msgs/msg/LaserScan",
-                m.scan(stamp, ranges, -math.pi / 2, inc),
-            )
-        )
-        truth.stamps_ns.append(stamp)
-        truth.people_laser.append(xy)
-        if ros2:
-            base_xy = MOUNT.apply(xy)
-            items.append(
-                (
-                    stamp + 10_000_000,
-                    "/people",
-                    "test_msgs/msg/PersonArray",
-                    m.person_array(stamp, "base_link", base_xy),
-                )
-            )
-        else:
-            for pid, (x, y) in enumerate(xy):
-                items.append(
-                    (T0_NS + k * 100_000_000 + 20_000_000, "/people", "test_msgs/msg/Person", m.person(x, y, pid))
-                )
-    for k in range(n_images):
-        stamp = T0_NS + 37_000_000 + k * 250_000_000
-        pixels = np.full(480 * 640, 90, dtype=np.uint8)
-        img = m.T["sensor_msgs/msg/Image"](
-            header=m.header(stamp, "laser"),
-            height=480,
-            width=640,
-            encoding="mono8",
-            is_bigendian=0,
-            step=640,
-            data=pixels,
-        )
-        items.append((stamp + 30_000_000, "/image", "sensor_msgs/msg/Image", img))
-    items.sort(key=lambda it: it[0])
-    if ros2:
-        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
-        w2 = Writer2(path, version=9, storage_plugin=plugin)
-        w2.open()
-        conns2: dict[str, Any] = {}
-        for bt, topic, typ, msg in items:
-            if topic not in conns2:
-                conns2[topic] = w2.add_connection(topic, typ, typestore=ts)
-            w2.write(conns2[topic], bt, ser(msg, typ))
-        w2.close()
-    else:
-        w1 = Writer1(path)
-        if chunk_threshold is not None:
-            w1.chunk_threshold = chunk_threshold
-        w1.open()
-        conns1: dict[str, Any] = {}
-        for bt, topic, typ, msg in items:
-            if topic not in conns1:
-                conns1[topic] = w1.add_connection(topic, typ, typestore=ts)
-            w1.write(conns1[topic], bt, ser(msg, typ))
-        w1.close()
-    return truth
-
-
-def config(*, ros2: bool = False, odometry: bool = True, **changes: Any) -> BagConfig:
-    people = (
-        DetectorConfig(name="bag-people", kind="topic", topic="/people", model={"ppv": 0.9, "fnr": 0.2})
-        if ros2
-        else DetectorConfig(
-            name="bag-people",
-            kind="topic",
-            topic="/people",
-            frame="laser",
-            assign="preceding",
-            model={"ppv": 0.9, "fnr": 0.2},
-        )
-    )
-    cfg = BagConfig(
-        driver="/scan",
-        odometry="/odom" if odometry else "",
-        detectors=(DetectorConfig(name="laser-legs", kind="leg", topic="/scan"), people),
-    )
-    return replace(cfg, **changes)
 
 
 def _nearest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -338,9 +106,11 @@ def test_off_axis_yawed_laser_moves_the_grid_sideways(tmp_path: Path, monkeypatc
     # A driving laser 0.85 m ahead, 0.24 m left, yawed 42 deg (as on a real robot): driving on an arc, its
     # frame moves sideways. The run's odometry carries that as vy, frames.csv records it and a replay of the
     # run gives the filters the same motion.
+    import bag_fixtures
+
     from evaluation.replay import log_from_run
 
-    monkeypatch.setattr(sys.modules[__name__], "MOUNT", Pose2D(x=0.85, y=0.24, yaw=math.radians(42.0)), raising=True)
+    monkeypatch.setattr(bag_fixtures, "MOUNT", Pose2D(x=0.85, y=0.24, yaw=math.radians(42.0)), raising=True)
     write_bag(tmp_path / "off_axis.bag", n_scans=8)
     with BagSource(tmp_path / "off_axis.bag") as src:
         summary, results = Pipeline(config()).run(src, tmp_path / "run", keep=True)
@@ -576,9 +346,9 @@ def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
     cfg_path.write_text(
         '[frames]\ndriver = "/scan"\n[odometry]\ntopic = "/odom"\n'
         '[[detectors]]\nname = "laser-legs"\nkind = "leg"\ntopic = "/scan"\n'
-        # the two people stand still from the first scan and one detector sees them: by default (keep_out =
-        # "moving") the clutter map takes them for furniture after ~0.6 s (recall 0.35); confirmed tracks kept out
-        '[clutter]\nkeep_out = "tracks"\n'
+        # the two people stand still from the first scan and one detector sees them: the clutter map would take
+        # them for furniture after ~0.6 s
+        "[clutter]\nenabled = false\n"
     )
     out = tmp_path / "run"
     rc = main(

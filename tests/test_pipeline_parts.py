@@ -14,8 +14,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_pipeline_bags import write_bag
-from test_reliability_bags import PEOPLE, legs_only, write_scan_bag
+from bag_fixtures import PEOPLE, legs_only, write_bag, write_scan_bag
 
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel

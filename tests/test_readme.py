@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import re
 from pathlib import Path
 
@@ -34,7 +35,7 @@ def _block(marker: str) -> str:
 
 def test_readme_has_the_library_examples() -> None:
     assert len(BLOCKS) >= 3
-    for marker in ("ParticleFilter(", "build_filter(", "MultiPersonTracker("):
+    for marker in ("ParticleFilter(", "pfpeople.recommended(", "MultiPersonTracker("):
         _block(marker)
 
 
@@ -55,12 +56,15 @@ def test_paper_filters_example() -> None:
     assert printed.startswith("belief there: grid ")
 
 
-def test_recommended_filter_example_finds_the_person() -> None:
-    namespace, printed = _run(_block("build_filter("))
-    people = namespace["people"]
-    assert len(people) == 1  # type: ignore[arg-type]
-    assert np.hypot(*(people.positions[0] - [3.0, 0.45])) < 0.3  # type: ignore[attr-defined]
-    assert printed.startswith("People(n=1, positions=[(")
+def test_recommended_example_finds_and_tracks_the_person() -> None:
+    namespace, printed = _run(_block("pfpeople.recommended("))
+    frame = namespace["frame"]
+    assert len(frame.people) == 1  # type: ignore[attr-defined]
+    assert np.hypot(*(frame.people.positions[0] - [3.0, 0.45])) < 0.3  # type: ignore[attr-defined]
+    (track,) = frame.tracks  # type: ignore[attr-defined]
+    assert np.hypot(track.x - 3.0, track.y - 0.45) < 0.3
+    lines = printed.strip().splitlines()
+    assert lines[0].startswith("People(n=1, positions=[(") and lines[1].startswith("[(1, ")
 
 
 def test_tracker_example_tracks_one_walker_at_1_m_s() -> None:
@@ -87,3 +91,24 @@ def test_command_section_names_real_subcommands(capsys) -> None:
             except SystemExit as exc:  # argparse exits 0 after printing help
                 assert exc.code == 0, f"{prog} {sub}"
             assert "usage:" in capsys.readouterr().out
+
+
+def test_the_three_commands_run_as_written_on_a_simulated_bag(tmp_path: Path, monkeypatch, capsys) -> None:
+    """The README's "bag to people in three commands", verbatim, with ``my.bag`` an 8-scan simulated lobby bag."""
+    import shlex
+
+    section = README.split("## From your bag to people in three commands", 1)[1]
+    (block,) = re.findall(r"```bash\n(.*?)```", section, re.S)[:1]
+    assert eval_main(["simulate-bag", "lobby", "--out", str(tmp_path / "sim"), "--frames", "8", "--no-progress"]) == 0
+    (tmp_path / "sim" / "lobby.bag").rename(tmp_path / "my.bag")
+    monkeypatch.chdir(tmp_path)
+    commands = [line.split("#", 1)[0].strip() for line in block.strip().splitlines()]
+    assert [c.split()[:2] for c in commands] == [[".venv/bin/pfpeople", s] for s in ("inspect", "run", "view")]
+    for command in commands:
+        argv = shlex.split(command)[1:]
+        assert pf_main([*argv, "--no-progress"] if argv[0] == "run" else argv) == 0, command
+    capsys.readouterr()
+    assert (tmp_path / "my.toml").is_file()
+    run = tmp_path / "runs" / "my"
+    assert json.loads((run / "run.json").read_text())["frames"] == 8
+    assert (run / "view.mp4").stat().st_size > 0 and (run / "summary.png").stat().st_size > 0

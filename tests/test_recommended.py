@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_pipeline_bags import MOUNT, config, write_bag
+from bag_fixtures import MOUNT, config, write_bag
 
 from gridbridge import GridFilter, GridSpec
 from gridbridge.classifiers import PeakClassifier, classify_peaks
@@ -20,7 +20,7 @@ from gridbridge.params import CALIBRATED_LASER_DETECTORS, PAPER_DETECTORS
 from pfpeople import ParticleFilter
 from pfpeople.bag.config import ClassifierConfig, FilterConfig, config_from_mapping
 from pfpeople.bag.reader import BagSource
-from pfpeople.filters import build_classifier, build_filter, grid_for_scan
+from pfpeople.filters import BELIEF_MIN, DEFAULT_OVERFLOW, PEAK_THRESHOLD, build_classifier, build_filter, grid_for_scan
 from pfpeople.mot import TRACK_COLUMNS
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
@@ -46,16 +46,17 @@ def test_build_filter_composes_the_modes() -> None:
     assert isinstance(paper, GridFilter) and isinstance(paper.prediction, PaperPrediction)
     assert isinstance(paper.likelihood, DeMorganLikelihood) and paper.appearance is None and paper.bounds is None
     assert paper.initial == 0.5 and paper.outside == 0.5
-    rec = build_filter(FilterConfig(), spec, CALIBRATED_LASER_DETECTORS)
+    cfg = FilterConfig()  # the configuration's values reach the filter (not the tuned numbers themselves)
+    rec = build_filter(cfg, spec, CALIBRATED_LASER_DETECTORS)
     assert isinstance(rec.prediction, LinearPrediction) and isinstance(rec.likelihood, IndependentLikelihood)
-    assert rec.appearance == Appearance(rate=0.05) and rec.bounds == BeliefBounds(low=1e-4, high=0.99)
-    assert rec.initial == rec.outside == rec.likelihood.base_rate == 0.02
-    assert all(m.footprint_radius == 0.3 for m in rec.detectors)  # laser detections fire the person's footprint
+    assert rec.appearance == Appearance(rate=cfg.appearance_rate)
+    assert rec.bounds == BeliefBounds(low=BELIEF_MIN, high=cfg.belief_max)
+    assert rec.initial == rec.outside == rec.likelihood.base_rate == cfg.base_rate
+    assert all(m.footprint_radius == cfg.laser_footprint for m in rec.detectors)  # the person's footprint fires
     pf = build_filter(FilterConfig(kind="particle"), spec, CALIBRATED_LASER_DETECTORS)
-    assert (
-        isinstance(pf, ParticleFilter) and pf.n_particles == 5000 and isinstance(pf.likelihood, IndependentLikelihood)
-    )
-    assert pf.max_overflow == 0.1 and pf.motion_model == "persistent"
+    assert isinstance(pf, ParticleFilter) and isinstance(pf.likelihood, IndependentLikelihood)
+    assert pf.n_particles == cfg.particles_for(spec.n_cells)
+    assert pf.max_overflow == DEFAULT_OVERFLOW["recommended"] > 0 and pf.motion_model == "persistent"
     paper_pf = build_filter(FilterConfig(kind="particle", mode="paper"), spec, PAPER_DETECTORS)
     assert paper_pf.max_overflow == 0.0 and paper_pf.motion_model == "paper"  # the grid's prediction, sampled
     explicit = FilterConfig(kind="particle", motion_model="paper")
@@ -97,7 +98,7 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
     assert config_from_mapping({**doc, "filter": {"motion_model": "paper"}}).filter.motion_model == "paper"
     with pytest.raises(ValueError, match=r"ClassifierConfig\.kind"):
         ClassifierConfig(kind="cnn")
-    assert build_classifier(ClassifierConfig()).threshold == 0.7  # type: ignore[attr-defined]
+    assert build_classifier(ClassifierConfig()).threshold == PEAK_THRESHOLD  # type: ignore[attr-defined]
     assert build_classifier(ClassifierConfig(kind="threshold")).threshold == 0.5  # type: ignore[attr-defined]
 
 

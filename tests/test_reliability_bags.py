@@ -16,8 +16,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from rosbags.rosbag1 import Writer as Writer1
-from test_pipeline_bags import MOUNT, T0_NS, _Msgs, _typestore, config, write_bag
+from bag_fixtures import INC, MOUNT, PEOPLE, T0_NS, Msgs, config, legs, legs_only, typestore, write_bag, write_scan_bag
 
 from gridbridge.grid import GridSpec
 from gridbridge.limits import ResourceLimitError
@@ -29,76 +28,6 @@ from pfpeople.detectors.synthetic import render_scan, reversed_scan
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
 from pfpeople.sensors import Pose2D
-
-INC = math.radians(0.5)
-# Two people (legs 0.3 m apart) at 2 m and 3 m: what every scan of ``write_scan_bag`` shows.
-PEOPLE = np.array([[2.0, 0.8], [3.0, -1.0]])
-
-
-def _legs(xy: np.ndarray) -> list[tuple[float, float, float]]:
-    out = []
-    for x, y in xy:
-        b = math.atan2(y, x)
-        px, py = -math.sin(b) * 0.15, math.cos(b) * 0.15
-        out += [(x + px, y + py, 0.06), (x - px, y - py, 0.06)]
-    return out
-
-
-def write_scan_bag(
-    path: Path,
-    n: int,
-    *,
-    reverse: bool = False,
-    range_min: float = 0.05,
-    range_max: float = 10.0,
-    topics: tuple[str, ...] = ("/scan",),
-    tf_mount: Any = None,
-) -> None:
-    """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``.
-
-    ``reverse``: the same beams listed clockwise (negative ``angle_increment``): the same points. Topics
-    after the first get a connection and no message. ``tf_mount(k) -> Pose2D``: the pose of ``laser`` in
-    ``base_link`` published on ``/tf`` with each scan ``k``.
-    """
-    ts = _typestore(False)
-    m = _Msgs(ts, False)
-    scan = render_scan(circles=_legs(PEOPLE), angle_increment=INC)
-    ranges = np.asarray(scan.ranges, dtype=np.float32)
-    a0, inc = scan.angle_min, scan.angle_increment
-    if reverse:
-        ranges, a0, inc = ranges[::-1].copy(), a0 + inc * (ranges.size - 1), -inc
-    T = m.T
-    w = Writer1(path)
-    w.open()
-    conn = w.add_connection(topics[0], "sensor_msgs/msg/LaserScan", typestore=ts)
-    for extra in topics[1:]:
-        w.add_connection(extra, "sensor_msgs/msg/LaserScan", typestore=ts)
-    tf_conn = None if tf_mount is None else w.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=ts)
-    for k in range(n):
-        stamp = T0_NS + k * 100_000_000
-        if tf_conn is not None:
-            tf = m.tf(stamp, "base_link", "laser", tf_mount(k))
-            w.write(tf_conn, stamp + 1_000_000, ts.serialize_ros1(tf, "tf2_msgs/msg/TFMessage"))
-        msg = T["sensor_msgs/msg/LaserScan"](
-            header=m.header(stamp, "laser"),
-            angle_min=a0,
-            angle_max=a0 + inc * (ranges.size - 1),
-            angle_increment=inc,
-            time_increment=0.0,
-            scan_time=0.1,
-            range_min=range_min,
-            range_max=range_max,
-            ranges=ranges,
-            intensities=np.zeros(0, dtype=np.float32),
-        )
-        w.write(conn, stamp + 3_000_000, ts.serialize_ros1(msg, "sensor_msgs/msg/LaserScan"))
-    w.close()
-
-
-def legs_only(**changes: Any) -> BagConfig:
-    return replace(
-        BagConfig(driver="/scan", detectors=(DetectorConfig(name="legs", kind="leg", topic="/scan"),)), **changes
-    )
 
 
 def _close(a: np.ndarray, b: np.ndarray) -> bool:
@@ -168,7 +97,7 @@ def test_negative_angle_increment_gives_the_same_people(tmp_path: Path) -> None:
 def test_boosted_detector_on_a_reversed_scan() -> None:
     from pfpeople.detectors import BoostedSegmentDetector, LegDetector
 
-    scan = render_scan(circles=_legs(PEOPLE), angle_increment=INC)
+    scan = render_scan(circles=legs(PEOPLE), angle_increment=INC)
     rev = reversed_scan(scan)
     for det in (LegDetector(), BoostedSegmentDetector()):
         a, b = det.detect(scan), det.detect(rev)
@@ -406,7 +335,7 @@ def test_not_a_bag_folder_empty_topic_and_truncated_bag(tmp_path: Path) -> None:
 
 
 def test_implausible_odometry_is_named_and_counted(tmp_path: Path) -> None:
-    m = _Msgs(_typestore(False), False)
+    m = Msgs(typestore(False), False)
     msg = m.odom(T0_NS, Pose2D(x=1e200, y=0.0, yaw=0.0))
     with pytest.raises(ValueError, match=r"topic '/odom': odometry position \(1e\+200, 0\) m is beyond"):
         odometry_pose_from_msg(msg, topic="/odom")
@@ -416,7 +345,7 @@ def test_implausible_odometry_is_named_and_counted(tmp_path: Path) -> None:
 def test_zero_quaternion_in_odometry_or_tf_is_refused_naming_the_topic() -> None:
     from pfpeople.bag.tf import TfBuffer
 
-    m = _Msgs(_typestore(False), False)
+    m = Msgs(typestore(False), False)
     msg = m.odom(T0_NS, MOUNT)
     q = msg.pose.pose.orientation
     q.x = q.y = q.z = q.w = 0.0
@@ -439,7 +368,7 @@ def test_zero_quaternion_in_odometry_or_tf_is_refused_naming_the_topic() -> None
 
 
 def test_laser_from_msg_nan_range_max_names_the_topic() -> None:
-    m = _Msgs(_typestore(False), False)
+    m = Msgs(typestore(False), False)
     msg = m.scan(T0_NS, np.ones(10), -0.5, 0.1)
     msg.range_max = math.nan
     with pytest.raises(ValueError, match=r"topic '/front': LaserScan at stamp .* NaN bound"):
@@ -512,7 +441,7 @@ def test_an_odometry_jump_in_a_bag_restarts_the_filter_and_is_in_run_json(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture, two_processes: bool
 ) -> None:
     """Issue 27: odometry relocalised by 100 m at 1 s was taken as a 1000 m/s motion (no warning, no count)."""
-    import test_pipeline_bags as scene
+    import bag_fixtures as scene
 
     smooth = scene.base_pose
     monkeypatch.setattr(scene, "base_pose", lambda t: replace(smooth(t), x=smooth(t).x + 100.0 * (t >= 1.0)))
@@ -532,8 +461,8 @@ def test_a_panning_mount_is_warned_once_naming_the_tf_edge_and_counted(
 ) -> None:
     """Issue 27: a mount whose TF changes during the run (a panning laser) was used at its first value, silently.
 
-    The run still uses one mount (following TF over time is not done): the change is detected, warned once
-    naming the edge, and counted per edge in ``stats.mount_changes``.
+    The change is warned once naming the edge and counted per edge in ``stats.mount_changes``; the run follows
+    it (``tests/test_reliability_mounts.py``).
     """
     bag = tmp_path / "pan.bag"
     write_scan_bag(bag, 30, tf_mount=lambda k: Pose2D(x=0.2, y=0.1, yaw=0.3 + (0.05 if k >= 20 else 0.0)))
@@ -543,7 +472,7 @@ def test_a_panning_mount_is_warned_once_naming_the_tf_edge_and_counted(
     assert load_run(tmp_path / "run").meta["stats"]["mount_changes"] == {"base_link -> laser": 10}
     warned = [r.getMessage() for r in caplog.records if "changes during the run" in r.getMessage()]
     assert len(warned) == 1 and "TF base_link -> laser (topic '/tf')" in warned[0]
-    assert "0.05 rad" in warned[0] and "not followed" in warned[0]
+    assert "0.05 rad" in warned[0] and "The run follows it" in warned[0]
     still = tmp_path / "still.bag"  # 5 mm and 5 mrad of jitter: below 1 cm / 0.01 rad
     write_scan_bag(still, 10, tf_mount=lambda k: Pose2D(x=0.2 + 0.005 * (k % 2), y=0.1, yaw=0.3 + 0.005 * (k % 2)))
     with BagSource(still) as src:

@@ -18,9 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_fixtures import write_bag, write_scan_bag
 from rosbags.highlevel import AnyReader
-from test_pipeline_bags import write_bag
-from test_reliability_bags import write_scan_bag
 
 from gridbridge.grid import GridSpec
 from pfpeople import locks

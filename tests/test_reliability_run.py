@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_fixtures import legs_only, write_scan_bag
 from rosbags.highlevel import AnyReader
-from test_reliability_bags import legs_only, write_scan_bag
 
 from gridbridge.grid import GridSpec
 from pfpeople.cli import main

@@ -16,9 +16,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from bag_fixtures import INC, PEOPLE, T0_NS, Msgs, legs, legs_only, typestore
 from rosbags.rosbag1 import Writer as Writer1
-from test_pipeline_bags import T0_NS, _Msgs, _typestore
-from test_reliability_bags import INC, PEOPLE, _legs, legs_only
 
 from gridbridge.grid import GridSpec
 from pfpeople.bag.reader import BadScanError, BagSource, laser_from_msg
@@ -30,7 +29,7 @@ Fields = Callable[[int, dict[str, Any]], dict[str, Any]]
 
 
 def _scan_fields(angle_min: float, angle_max: float, inc: float) -> dict[str, Any]:
-    scan = render_scan(circles=_legs(PEOPLE), angle_min=angle_min, angle_max=angle_max, angle_increment=inc)
+    scan = render_scan(circles=legs(PEOPLE), angle_min=angle_min, angle_max=angle_max, angle_increment=inc)
     ranges = np.asarray(scan.ranges, dtype=np.float32)
     return {
         "angle_min": scan.angle_min,
@@ -52,8 +51,8 @@ def write_laser_bag(
     inc: float = INC,
 ) -> None:
     """``n`` scans at 10 Hz of the people of ``PEOPLE`` on ``/scan``; ``fields(k, f)`` returns scan k's fields."""
-    ts = _typestore(False)
-    m = _Msgs(ts, False)
+    ts = typestore(False)
+    m = Msgs(ts, False)
     w = Writer1(path)
     w.open()
     conn = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=ts)
@@ -79,7 +78,7 @@ def _run(bag: Path, caplog: pytest.LogCaptureFixture, **kw: Any) -> tuple[Any, l
 
 
 def _msg(**changes: Any) -> Any:
-    m = _Msgs(_typestore(False), False)
+    m = Msgs(typestore(False), False)
     msg = m.scan(T0_NS, np.full(100, 2.0), -0.5, 0.01)
     for name, value in changes.items():
         setattr(msg, name, np.asarray(value, dtype=np.float32) if name == "ranges" else value)

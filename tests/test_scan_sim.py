@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 
 from evaluation.commands import simulate_bag
-from evaluation.gt_csv import read_gt_csv
 from evaluation.scenarios.robot import integrate_path
 from evaluation.scenarios.scan import (
     GaitParams,
@@ -39,6 +38,7 @@ from evaluation.scenarios.scan.simulate import to_frame
 from pfpeople.bag.config import load_config
 from pfpeople.bag.reader import BagSource, laser_from_msg, odometry_pose_from_msg, positions_from_msg
 from pfpeople.bag.tf import yaw_from_quaternion
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.pipeline import Pipeline
 
 # -- ray caster --------------------------------------------------------------------------------------------------
@@ -320,7 +320,7 @@ def test_bag_round_trip(tmp_path: Path, fmt: str, storage: str) -> None:
     pose, child = odometry_pose_from_msg(odoms[-1].msg)
     assert child == "base_link" and odoms[-1].frame_id == "odom"
     assert (pose.x, pose.y) == pytest.approx(tuple(sim.odom[-1, :2]), abs=1e-9)
-    # the GT CSV reads back with evaluation.gt_csv: rows in the laser frame, keyed by scan index
+    # the GT CSV reads back with pfpeople.gt_csv: rows in the laser frame, keyed by scan index
     gt = read_gt_csv(out.gt_csv)
     assert gt.key == "scan_index" and gt.frame == "laser" and len(gt) == sim.gt_scan.size
     np.testing.assert_allclose(gt.xy, sim.gt_xy, atol=1e-4)

@@ -159,9 +159,9 @@ def wheelchair_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Pat
 
 
 def _recall(run_dir: Path, gt: Path) -> float:
-    from evaluation.gt_csv import read_gt_csv
     from evaluation.metrics import DetectionAccumulator
     from evaluation.run_truth import truth_and_sources
+    from pfpeople.gt_csv import read_gt_csv
 
     run = load_run(run_dir)
     truth, sources, _ = truth_and_sources(run, read_gt_csv(gt), frame="laser")
@@ -217,7 +217,7 @@ def test_log_truth_inside_the_grid(wheelchair_runs: tuple[Path, Path, Path], tmp
 def test_score_in_grid(wheelchair_runs: tuple[Path, Path, Path], tmp_path: Path) -> None:
     """``pfpeople-eval score --in-grid``: a true person outside the grid is no longer a miss of every source."""
     from evaluation.commands.score import score_run
-    from evaluation.gt_csv import read_gt_csv
+    from pfpeople.gt_csv import read_gt_csv
 
     with_dir, _, gt = wheelchair_runs
     with gt.open() as fh:

@@ -16,7 +16,7 @@ import imageio.v3 as iio
 import imageio_ffmpeg
 import numpy as np
 import pytest
-from test_reliability_bags import legs_only, write_scan_bag
+from bag_fixtures import legs_only, write_scan_bag
 
 from gridbridge.grid import GridSpec
 from pfpeople.bag.config import FilterConfig

@@ -20,7 +20,7 @@ from evaluation.benchmark import SCENES, format_rows, run_benchmark
 from evaluation.mot_eval import MotRow
 from evaluation.mot_eval import format_rows as format_mot_rows
 from evaluation.scenarios.eth_ucy import default_data_root
-from gridbridge.cli_support import examples
+from pfpeople.cli_support import examples
 from pfpeople.jsonio import dumps
 
 

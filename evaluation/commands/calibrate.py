@@ -34,12 +34,12 @@ from evaluation.calibration import (
     calibrate_sparse,
     oracle_calibration,
 )
-from evaluation.gt_csv import read_gt_csv
 from evaluation.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
-from gridbridge.cli_support import examples
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from pfpeople.cli_support import examples
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.jsonio import dumps
 from pfpeople.output import load_run
 
@@ -59,7 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     src.add_argument("--scenario", help="built-in scenario name or scenario TOML file")
     src.add_argument("--truth", type=Path, help="ground-truth CSV (frame, person_id, x_m, y_m)")
     src.add_argument("--run", type=Path, help="run directory written by 'pfpeople run' (with --gt)")
-    p.add_argument("--gt", type=Path, help="ground-truth CSV for --run (see evaluation.gt_csv)")
+    p.add_argument("--gt", type=Path, help="ground-truth CSV for --run (see pfpeople.gt_csv)")
     p.add_argument("--frame", default=None, help="frame of the --gt positions (default: from its columns, else grid)")
     p.add_argument("--recall-only", action="store_true", help="--gt does not annotate everybody: FNR only")
     p.add_argument("--detections", type=Path, help="detections CSV (frame, x_m, y_m) for --truth")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from evaluation.ab import FilterSpec, default_filters, format_table, particles_label, run_ab
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
-from gridbridge.cli_support import examples
+from pfpeople.cli_support import examples
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

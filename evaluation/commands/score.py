@@ -42,8 +42,8 @@ from numpy.typing import NDArray
 from evaluation.metrics import DetectionAccumulator
 from evaluation.run_truth import gt_coverage, in_region, truth_and_sources
 from gridbridge.classify import classify_blobs
-from gridbridge.cli_support import examples
 from gridbridge.grid import GridSpec
+from pfpeople.cli_support import examples
 from pfpeople.gt_csv import GroundTruth, read_gt_csv, resolve_gt_frame
 from pfpeople.jsonio import dumps
 from pfpeople.output import RunData, load_run
@@ -186,7 +186,7 @@ def register(subparsers: Any) -> None:
         help="score a pfpeople run directory against a ground-truth CSV",
     )
     p.add_argument("run_dir", help="run directory written by 'pfpeople run'")
-    p.add_argument("--gt", required=True, help="ground-truth CSV (see evaluation.gt_csv)")
+    p.add_argument("--gt", required=True, help="ground-truth CSV (see pfpeople.gt_csv)")
     p.add_argument(
         "--frame",
         default=None,

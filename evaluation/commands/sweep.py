@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from evaluation.sweep import SWEEP_KEYS, columns_for, parse_param, run_sweep
-from gridbridge.cli_support import examples
 from pfpeople.batch import check_table_path, quiet_dask_logs, write_table
+from pfpeople.cli_support import examples
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

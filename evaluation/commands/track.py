@@ -19,12 +19,12 @@ from pathlib import Path
 from typing import Any
 
 from evaluation.ab import FilterSpec, particles_label
-from evaluation.gt_csv import read_gt_csv
 from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows, peak_classifier
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
-from gridbridge.cli_support import examples
 from pfpeople.bag.config import TrackingConfig
+from pfpeople.cli_support import examples
 from pfpeople.filters import PEAK_THRESHOLD
+from pfpeople.gt_csv import read_gt_csv
 from pfpeople.jsonio import dumps
 from pfpeople.mot import TrackerConfig
 from pfpeople.output import load_run

@@ -59,7 +59,6 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [clutter]                   # static-clutter suppression of laser detections (pfpeople.clutter)
     enabled = true              # default: on in the recommended mode, off in the paper mode
     laser_odometry = true       # no odometry topic: move the grid by scan matching the driving laser
-    keep_out = "moving"         # kept out of the map: people seen moving ("tracks": also every confirmed track)
     [clutter.params]            # pfpeople.clutter.ClutterConfig fields
 
     [[detectors]]
@@ -80,9 +79,8 @@ Angles are radians, lengths metres, times seconds (REP-103 frames).
 
 from __future__ import annotations
 
-import math
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -90,6 +88,7 @@ from typing import Any
 from gridbridge.grid import GridSpec
 from gridbridge.limits import check_grid_size, check_memory, check_particles
 from gridbridge.params import DetectorModel, PeopleMotion
+from gridbridge.validation import check_int, check_number, check_probability, check_real
 
 __all__ = [
     "DETECTOR_KINDS",
@@ -236,30 +235,21 @@ class FilterConfig:
             raise ValueError(f"FilterConfig.mode must be one of {MODES}, got {self.mode!r}")
         if self.form is not None and self.form not in ("paper", "linear"):
             raise ValueError(f"FilterConfig.form must be 'paper' or 'linear', got {self.form!r}")
-        if self.initial is not None and not (
-            isinstance(self.initial, int | float) and not isinstance(self.initial, bool) and 0.0 <= self.initial <= 1.0
-        ):
-            raise ValueError(f"FilterConfig.initial must be a probability in [0, 1], got {self.initial!r}")
-        n = self.n_particles
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise ValueError(f"FilterConfig.n_particles must be a positive integer, got {n!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int):
-            raise ValueError(f"FilterConfig.seed must be an integer, got {self.seed!r}")
+        if self.initial is not None:
+            check_probability(check_real(self.initial, "FilterConfig.initial"), "FilterConfig.initial")
+        if self.n_particles is not None:
+            check_int(self.n_particles, "FilterConfig.n_particles", minimum=1)
+        check_int(self.seed, "FilterConfig.seed")
         if self.motion_model not in (None, "paper", "persistent"):
             raise ValueError(
                 f"FilterConfig.motion_model must be 'paper', 'persistent' or unset, got {self.motion_model!r}"
             )
-        mo = self.max_overflow
-        if mo is not None and (isinstance(mo, bool) or not isinstance(mo, int | float) or not 0.0 <= mo <= 10.0):
-            raise ValueError(f"FilterConfig.max_overflow must be a number in [0, 10] or unset, got {mo!r}")
-        for name, lo, hi in (("base_rate", 0.0, 1.0), ("belief_max", 0.0, 1.0)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not lo < v < hi:
-                raise ValueError(f"FilterConfig.{name} must be a number in ({lo}, {hi}), got {v!r}")
+        if self.max_overflow is not None:
+            check_real(self.max_overflow, "FilterConfig.max_overflow", low=0.0, high=10.0)
+        for name in ("base_rate", "belief_max"):
+            check_real(getattr(self, name), f"FilterConfig.{name}", low=0.0, high=1.0, low_open=True, high_open=True)
         for name in ("appearance_rate", "laser_footprint"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"FilterConfig.{name} must be a finite non-negative number, got {v!r}")
+            check_real(getattr(self, name), f"FilterConfig.{name}", low=0.0)
         if self.mode == "recommended" and not self.base_rate < self.belief_max:
             raise ValueError("FilterConfig: base_rate must be below belief_max")
 
@@ -304,23 +294,14 @@ class ClassifierConfig:
     def __post_init__(self) -> None:
         if self.kind is not None and self.kind not in ("peaks", "blobs", "threshold"):
             raise ValueError(f"ClassifierConfig.kind must be 'peaks', 'blobs' or 'threshold', got {self.kind!r}")
-        thr = self.threshold
-        if thr is not None and (isinstance(thr, bool) or not isinstance(thr, int | float) or not 0 <= thr <= 1):
-            raise ValueError(f"ClassifierConfig.threshold must be a probability, got {thr!r}")
-        keep = self.keep
-        if keep is not None and (isinstance(keep, bool) or not isinstance(keep, int | float) or not 0 <= keep <= 1):
-            raise ValueError(f"ClassifierConfig.keep must be a probability, got {keep!r}")
+        thr, keep = self.threshold, self.keep
+        for name, value in (("threshold", thr), ("keep", keep)):
+            if value is not None:
+                check_probability(check_real(value, f"ClassifierConfig.{name}"), f"ClassifierConfig.{name}")
         if keep is not None and thr is not None and keep > thr:
             raise ValueError(f"ClassifierConfig.keep must be <= threshold, got keep={keep!r} > threshold={thr!r}")
-        if (
-            isinstance(self.min_separation, bool)
-            or not isinstance(self.min_separation, int | float)
-            or not self.min_separation > 0
-        ):
-            raise ValueError(f"ClassifierConfig.min_separation must be positive (m), got {self.min_separation!r}")
-        sm = self.smooth
-        if isinstance(sm, bool) or not isinstance(sm, int | float) or not (math.isfinite(sm) and sm >= 0):
-            raise ValueError(f"ClassifierConfig.smooth must be a number of cells >= 0, got {sm!r}")
+        check_real(self.min_separation, "ClassifierConfig.min_separation", low=0.0, low_open=True)
+        check_real(self.smooth, "ClassifierConfig.smooth", low=0.0)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -334,19 +315,12 @@ class ClutterSuppression:
         None: on in the recommended mode, off in the paper mode.
     laser_odometry : bool
         Without an odometry topic, move the grid with the driving laser's scan matching (when it succeeds).
-    keep_out : {"moving", "tracks"}
-        Who is kept out of the map (never turns static): ``"moving"`` (default) the people seen moving 0.6 m
-        within 2 s (:class:`pfpeople.clutter.MovingPeople`); ``"tracks"`` also every confirmed track (a person
-        standing still from the first scan is never absorbed, but neither is a chair that became a track: on
-        the wheelchair scene precision 0.62 instead of 0.91). With ``"moving"`` a person who has stood still
-        since they were first seen is taken for furniture after about 0.6 s.
     params : mapping
         :class:`pfpeople.clutter.ClutterConfig` fields overriding its defaults.
     """
 
     enabled: bool | None = None
     laser_odometry: bool = True
-    keep_out: str = "moving"
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -354,8 +328,6 @@ class ClutterSuppression:
             raise ValueError(f"[clutter] enabled must be true or false, got {self.enabled!r}")
         if not isinstance(self.laser_odometry, bool):
             raise ValueError(f"[clutter] laser_odometry must be true or false, got {self.laser_odometry!r}")
-        if self.keep_out not in ("moving", "tracks"):
-            raise ValueError(f'[clutter] keep_out must be "moving" or "tracks", got {self.keep_out!r}')
         if not isinstance(self.params, Mapping):
             raise ValueError("[clutter] params must be a table")
 
@@ -423,22 +395,13 @@ class TrackingConfig:
     def __post_init__(self) -> None:
         if not isinstance(self.enabled, bool):
             raise ValueError(f"TrackingConfig.enabled must be true or false, got {self.enabled!r}")
-        pt = self.peak_threshold
-        if pt is not None and (
-            isinstance(pt, bool) or not isinstance(pt, int | float) or not (math.isfinite(pt) and 0 <= pt < 1)
-        ):
-            raise ValueError(f"TrackingConfig.peak_threshold must be a number in [0, 1) or absent, got {pt!r}")
+        if self.peak_threshold is not None:
+            check_real(self.peak_threshold, "TrackingConfig.peak_threshold", low=0.0, high=1.0, high_open=True)
         if self.people is not None and self.people not in ("confirmed", "classified"):
             raise ValueError(f'TrackingConfig.people must be "confirmed" or "classified", got {self.people!r}')
-        cf = self.coast_frames
-        if isinstance(cf, bool) or not isinstance(cf, int) or cf < 0:
-            raise ValueError(f"TrackingConfig.coast_frames must be an integer >= 0, got {cf!r}")
-        sr = self.snap_radius
-        if isinstance(sr, bool) or not isinstance(sr, int | float) or not (math.isfinite(sr) and sr >= 0):
-            raise ValueError(f"TrackingConfig.snap_radius must be a number >= 0 (m), got {sr!r}")
-        sc = self.static_confirm_s
-        if isinstance(sc, bool) or not isinstance(sc, int | float) or not (math.isfinite(sc) and sc >= 0):
-            raise ValueError(f"TrackingConfig.static_confirm_s must be a number >= 0 (s), got {sc!r}")
+        check_int(self.coast_frames, "TrackingConfig.coast_frames", minimum=0)
+        check_real(self.snap_radius, "TrackingConfig.snap_radius", low=0.0)
+        check_real(self.static_confirm_s, "TrackingConfig.static_confirm_s", low=0.0)
         if not isinstance(self.single_legs, bool):
             raise ValueError(f"TrackingConfig.single_legs must be true or false, got {self.single_legs!r}")
         if not isinstance(self.observed_tracks_only, bool):
@@ -520,18 +483,13 @@ class BagConfig:
         _check_str(self.base_frame, "BagConfig.base_frame")
         if self.time_source not in ("header", "bag"):
             raise ValueError(f"BagConfig.time_source must be 'header' or 'bag', got {self.time_source!r}")
-        tol = self.sync_tolerance_s
-        if isinstance(tol, bool) or not isinstance(tol, int | float) or not (math.isfinite(tol) and tol >= 0):
-            raise ValueError(f"BagConfig.sync_tolerance_s must be a finite non-negative time (s), got {tol!r}")
-        mp = self.max_pending_frames
-        if isinstance(mp, bool) or not isinstance(mp, int) or mp < 1:
-            raise ValueError(f"BagConfig.max_pending_frames must be a positive integer, got {mp!r}")
+        check_real(self.sync_tolerance_s, "BagConfig.sync_tolerance_s", low=0.0)
+        check_int(self.max_pending_frames, "BagConfig.max_pending_frames", minimum=1)
         _check_str(self.odometry, "BagConfig.odometry", allow_empty=True)
         for t in self.tf_topics:
             _check_str(t, "BagConfig.tf_topics")
         for frame, mount in self.mounts.items():
-            if len(mount) != 3 or not all(math.isfinite(float(v)) for v in mount):
-                raise ValueError(f"BagConfig.mounts[{frame!r}] must be three finite numbers [x, y, yaw]")
+            _mount(f"BagConfig.mounts[{frame!r}]", mount)
         if self.grid is not None and not isinstance(self.grid, GridSpec):
             raise ValueError("BagConfig.grid must be a GridSpec or None (from the driving laser)")
         if not isinstance(self.filter, FilterConfig):
@@ -582,7 +540,6 @@ class BagConfig:
                 for k, v in {
                     "enabled": self.clutter.enabled,
                     "laser_odometry": self.clutter.laser_odometry,
-                    "keep_out": self.clutter.keep_out,
                     "params": dict(self.clutter.params),
                 }.items()
                 if v is not None
@@ -635,6 +592,15 @@ def _only(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
         raise ValueError(f"config: unknown keys {sorted(unknown)} in [{where}]; allowed: {sorted(allowed)}")
 
 
+def _mount(key: str, value: object) -> tuple[float, float, float]:
+    """A ``[mounts]`` entry as ``(x, y, yaw)``; TypeError / ValueError naming the key for another value."""
+    where = key if key.startswith("BagConfig.") else f"[mounts] {key!r}"
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence) or len(value) != 3:
+        raise ValueError(f"{where} must be three numbers [x, y, yaw] (m, m, rad), got {value!r}")
+    x, y, yaw = (check_number(v, f"{where} {axis}") for v, axis in zip(value, ("x", "y", "yaw"), strict=True))
+    return x, y, yaw
+
+
 def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
     _only(
@@ -666,7 +632,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     tracking = _table(data, "tracking")
     _only(tracking, {f.name for f in fields(TrackingConfig)}, "tracking")
     clutter = _table(data, "clutter")
-    _only(clutter, {"enabled", "laser_odometry", "keep_out", "params"}, "clutter")
+    _only(clutter, {"enabled", "laser_odometry", "params"}, "clutter")
     dets = data.get("detectors", [])
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")
@@ -676,13 +642,13 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
             raise ValueError(f"config: detectors[{k}] must be a table")
         _only(d, {f.name for f in fields(DetectorConfig)}, f"detectors[{k}]")
         detectors.append(DetectorConfig(**d))
-    mounts = {str(k): tuple(float(x) for x in v) for k, v in _table(data, "mounts").items()}
+    mounts = {str(k): _mount(k, v) for k, v in _table(data, "mounts").items()}
     return BagConfig(
         **frames,
         detectors=tuple(detectors),
         odometry=odometry.get("topic", ""),
         tf_topics=tuple(tf_topics),
-        mounts=mounts,  # type: ignore[arg-type]
+        mounts=mounts,
         grid=GridSpec(**grid) if grid else None,
         filter=FilterConfig(**filt),
         classifier=ClassifierConfig(**classifier),

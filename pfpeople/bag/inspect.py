@@ -222,12 +222,59 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
     """
     if sample < 1:
         raise ValueError(f"sample must be a positive number of messages, got {sample}")
-    # BagSource's reader (same package): record times without decoding, then only the sampled messages.
-    reader = bag._reader
+    types, mixed = _topic_types(bag)
+    tf_topics = {t for t, m in types.items() if m in TF_TYPES}
+    times, decoded = _read_messages(bag, sample, tf_topics, set(mixed))
+    warnings = [
+        f"topic {t} carries {len(m)} message types ({', '.join(m)}): left out of this report's lasers, odometry "
+        "and TF and of the config (a run refuses a topic with two types)"
+        for t, m in sorted(mixed.items())
+    ]
+    topics = [_topic_info(t, types, mixed, times.get(t, []), decoded.get(t, [])) for t in sorted({*types, *mixed})]
+    by_topic = {i.topic: i for i in topics}
+    tf, tfbuf = _tf_edges(tf_topics, decoded)
+    odometry = _odometry_infos(types, decoded, by_topic, warnings)
+    base = max(odometry, key=lambda o: o.count).child_frame_id if odometry else "base_link"
+    base = base or "base_link"
+    lasers = [
+        _laser_info(topic, decoded[topic], tfbuf, base, warnings)
+        for topic in sorted(t for t, m in types.items() if m in LASER_TYPES)
+        if _has_messages(topic, decoded, "LaserScan", warnings)
+    ]
+    driver, time_source = _driver_and_time_source(lasers, by_topic, warnings)
+    if driver is not None:
+        sync = {li.topic: _sync_stamps(decoded.get(li.topic, []), time_source) for li in lasers}
+        lasers = _relate_to_driver(lasers, driver, tfbuf, sync, base=base, odometry=bool(odometry), warnings=warnings)
+    storage = "ROS 1 bag" if all(p.suffix == ".bag" for p in bag.paths) else "ROS 2 bag"
+    return BagReport(
+        bag=name or bag.name,
+        storage=storage + (" (zip)" if name and name.endswith(".zip") else ""),
+        start_ns=bag.start_time_ns,
+        end_ns=bag.end_time_ns,
+        topics=tuple(topics),
+        lasers=tuple(lasers),
+        odometry=tuple(odometry),
+        tf=tf,
+        driver=driver,
+        time_source=time_source,
+        warnings=tuple(warnings),
+    )
+
+
+def _read_messages(
+    bag: BagSource, sample: int, tf_topics: set[str], mixed: set[str]
+) -> tuple[dict[str, list[int]], dict[str, list[tuple[int, Any]]]]:
+    """Every message's record time per topic, and the first ``sample`` messages decoded (TF topics: all; topics
+    of several types: none), as ``(bag time ns, message)``.
+
+    Raises
+    ------
+    BagReadError
+        A truncated or corrupt bag (naming the last message read), or a message that does not decode.
+    """
+    reader = bag._reader  # BagSource's reader (same package): record times without decoding
     times: dict[str, list[int]] = {}
     decoded: dict[str, list[tuple[int, Any]]] = {}
-    types = bag.topics
-    tf_topics = {t for t, m in types.items() if m in TF_TYPES}
     it = reader.messages()
     last = "the start"
     while True:
@@ -244,6 +291,8 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         t.append(int(bag_time))
         last = f"message {len(t) - 1} of {topic!r} at bag time {bag_time} ns"
         dec = decoded.setdefault(topic, [])
+        if topic in mixed:
+            continue  # reported with its types, not decoded
         if topic in tf_topics or len(dec) < sample:
             try:
                 dec.append((int(bag_time), reader.deserialize(raw, conn.msgtype)))
@@ -252,35 +301,42 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
                     f"cannot decode a {conn.msgtype} message on topic {topic!r} at bag time {bag_time} ns "
                     f"in {bag.name!r}: {type(exc).__name__}: {exc}"
                 ) from None
-    warnings: list[str] = []
-    topics: list[TopicInfo] = []
-    for topic in sorted(types):
-        t = times.get(topic, [])
-        msgs = decoded.get(topic, [])
-        ids = sorted({str(m.header.frame_id).lstrip("/") for _, m in msgs if hasattr(m, "header")})
-        stamps = [(bt, s) for bt, m in msgs if (s := header_stamp_ns(m)) is not None]
-        offsets = [(s - bt) / 1e9 for bt, s in stamps]
-        hs = sorted(s for _, s in stamps)
-        burst = False
-        if len(stamps) >= 3 and hs[-1] - hs[0] > 100_000_000:
-            bts = [bt for bt, _ in stamps]
-            burst = max(bts) - min(bts) < RECORD_BURST_RATIO * (hs[-1] - hs[0])
-        topics.append(
-            TopicInfo(
-                topic=topic,
-                msgtype=types[topic],
-                count=len(t),
-                rate_hz=_rate(len(t), t[0], t[-1]) if t else None,
-                frame_ids=tuple(ids),
-                header_offset_s=statistics.median(offsets) if offsets else None,
-                first_ns=t[0] if t else 0,
-                last_ns=t[-1] if t else 0,
-                header_rate_hz=_rate(len(hs), hs[0], hs[-1]) if hs else None,
-                record_burst=burst,
-            )
-        )
-    by_topic = {i.topic: i for i in topics}
-    # TF tree.
+    return times, decoded
+
+
+def _topic_info(
+    topic: str,
+    types: dict[str, str],
+    mixed: dict[str, tuple[str, ...]],
+    t: list[int],
+    msgs: list[tuple[int, Any]],
+) -> TopicInfo:
+    """One topic's counts, rates, frame ids and header-stamp offsets from its record times ``t`` (ns) and its
+    decoded ``msgs``."""
+    ids = sorted({str(m.header.frame_id).lstrip("/") for _, m in msgs if hasattr(m, "header")})
+    stamps = [(bt, s) for bt, m in msgs if (s := header_stamp_ns(m)) is not None]
+    offsets = [(s - bt) / 1e9 for bt, s in stamps]
+    hs = sorted(s for _, s in stamps)
+    burst = False
+    if len(stamps) >= 3 and hs[-1] - hs[0] > 100_000_000:
+        bts = [bt for bt, _ in stamps]
+        burst = max(bts) - min(bts) < RECORD_BURST_RATIO * (hs[-1] - hs[0])
+    return TopicInfo(
+        topic=topic,
+        msgtype=" | ".join(mixed[topic]) if topic in mixed else types[topic],
+        count=len(t),
+        rate_hz=_rate(len(t), t[0], t[-1]) if t else None,
+        frame_ids=tuple(ids),
+        header_offset_s=statistics.median(offsets) if offsets else None,
+        first_ns=t[0] if t else 0,
+        last_ns=t[-1] if t else 0,
+        header_rate_hz=_rate(len(hs), hs[0], hs[-1]) if hs else None,
+        record_burst=burst,
+    )
+
+
+def _tf_edges(tf_topics: set[str], decoded: dict[str, list[tuple[int, Any]]]) -> tuple[tuple[TfEdge, ...], TfBuffer]:
+    """The TF tree: each edge's latest transform (by header stamp) with its message count, and a buffer of all."""
     edges: dict[tuple[str, str], tuple[Pose2D, int, bool, int]] = {}
     tfbuf = TfBuffer()
     for topic in sorted(tf_topics):
@@ -302,16 +358,31 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
         TfEdge(parent=p, child=c, x=pose.x, y=pose.y, yaw=pose.yaw, static=st, count=n)
         for (p, c), (pose, _, st, n) in sorted(edges.items())
     )
-    # Odometry.
-    odometry: list[OdometryInfo] = []
+    return tf, tfbuf
+
+
+def _has_messages(topic: str, decoded: dict[str, list[tuple[int, Any]]], kind: str, warnings: list[str]) -> bool:
+    """Whether ``topic`` has decoded messages; a warning when it has none."""
+    if decoded.get(topic):
+        return True
+    warnings.append(f"{kind} topic {topic} has no messages")
+    return False
+
+
+def _odometry_infos(
+    types: dict[str, str],
+    decoded: dict[str, list[tuple[int, Any]]],
+    by_topic: dict[str, TopicInfo],
+    warnings: list[str],
+) -> list[OdometryInfo]:
+    """The odometry topics with their frames (from the first message), counts and rates."""
+    out: list[OdometryInfo] = []
     for topic in sorted(t for t, m in types.items() if m in ODOMETRY_TYPES):
-        msgs = decoded.get(topic, [])
-        info = by_topic[topic]
-        if not msgs:
-            warnings.append(f"odometry topic {topic} has no messages")
+        if not _has_messages(topic, decoded, "odometry", warnings):
             continue
-        first = msgs[0][1]
-        odometry.append(
+        first = decoded[topic][0][1]
+        info = by_topic[topic]
+        out.append(
             OdometryInfo(
                 topic=topic,
                 frame_id=str(first.header.frame_id).lstrip("/"),
@@ -320,86 +391,95 @@ def inspect_bag(bag: BagSource, *, sample: int = 200, name: str | None = None) -
                 rate_hz=info.rate_hz,
             )
         )
-    base = max(odometry, key=lambda o: o.count).child_frame_id if odometry else "base_link"
-    base = base or "base_link"
-    # Lasers.
-    lasers: list[LaserInfo] = []
-    for topic in sorted(t for t, m in types.items() if m in LASER_TYPES):
-        msgs = decoded.get(topic, [])
-        if not msgs:
-            warnings.append(f"LaserScan topic {topic} has no messages")
-            continue
-        first = msgs[0][1]
-        geo = _laser_geometry(first)
-        a_min, a_max, inc, n, r_min, r_max = geo
-        last_angle = a_min + inc * max(n - 1, 0)
-        frame_id = str(first.header.frame_id).lstrip("/")
-        mount: tuple[float, float, float] | None = None
-        if frame_id and tfbuf.frames:
-            try:
-                p = tfbuf.lookup(base, frame_id)
-                mount = (p.x, p.y, p.yaw)
-            except TfLookupError:
-                mount = None
-        varies = any(_laser_geometry(m) != geo for _, m in msgs[1:])
-        if varies:
-            warnings.append(f"{topic}: the scan geometry changes between messages (the first one is reported)")
-        if inc < 0:
-            warnings.append(
-                f"{topic}: negative angle_increment (beams run clockwise: a laser mounted upside down or reversed)"
-            )
-        if not (math.isfinite(r_max) and r_max > 0) or not (math.isfinite(r_min) and r_min < r_max):
-            warnings.append(f"{topic}: range interval [{r_min}, {r_max}] m is not a valid interval")
-        lasers.append(
-            LaserInfo(
-                topic=topic,
-                frame_id=frame_id,
-                beams=n,
-                angle_min_deg=math.degrees(a_min),
-                angle_max_deg=math.degrees(a_max),
-                angle_increment_deg=math.degrees(inc),
-                increment_sign=1 if inc > 0 else -1 if inc < 0 else 0,
-                fov_min_rad=min(a_min, last_angle),
-                fov_max_rad=max(a_min, last_angle),
-                range_min_m=r_min,
-                range_max_m=r_max,
-                varies=varies,
-                mount_in_base=mount,
-            )
+    return out
+
+
+def _laser_info(
+    topic: str, decoded: list[tuple[int, Any]], tfbuf: TfBuffer, base: str, warnings: list[str]
+) -> LaserInfo:
+    """One LaserScan topic's geometry (its first usable scan), its mount in ``base`` from TF (None when TF has no
+    path) and the warnings about it."""
+    msgs = [m for _, m in decoded]
+    first = _first_usable_scan(topic, msgs, warnings)
+    geo = _laser_geometry(first)
+    a_min, a_max, inc, n, r_min, r_max = geo
+    last_angle = a_min + inc * max(n - 1, 0)
+    frame_id = str(first.header.frame_id).lstrip("/")
+    mount: tuple[float, float, float] | None = None
+    if frame_id and tfbuf.frames:
+        try:
+            p = tfbuf.lookup(base, frame_id)
+            mount = (p.x, p.y, p.yaw)
+        except TfLookupError:
+            mount = None
+    varies = any(_laser_geometry(m) != geo for m in msgs[1:])
+    if varies:
+        warnings.append(f"{topic}: the scan geometry changes between messages (the first one is reported)")
+    if inc < 0:
+        warnings.append(
+            f"{topic}: negative angle_increment (beams run clockwise: a laser mounted upside down or reversed)"
         )
-    driver = None
-    if lasers:
-        driver = sorted(lasers, key=lambda li: (-by_topic[li.topic].count, li.topic))[0].topic
-    else:
-        warnings.append("no sensor_msgs/LaserScan topic: a run needs a driver topic (see pfpeople run --driver)")
-    time_source = "header"
-    if driver is not None:
-        off = by_topic[driver].header_offset_s
-        if by_topic[driver].record_burst:
-            warnings.append(
-                f"the driver {driver!r} was recorded in a burst ({_fmt(by_topic[driver].rate_hz)} Hz of record time, "
-                f"{_fmt(by_topic[driver].header_rate_hz)} Hz of header stamps): its record times carry no timing; "
-                "synchronise on header stamps (time_source = header)"
-            )
-        elif off is not None and abs(off) > TIME_SOURCE_THRESHOLD_S:
-            time_source = "bag"
-    if driver is not None:
-        sync = {li.topic: _sync_stamps(decoded.get(li.topic, []), time_source) for li in lasers}
-        lasers = _relate_to_driver(lasers, driver, tfbuf, sync, base=base, odometry=bool(odometry), warnings=warnings)
-    storage = "ROS 1 bag" if all(p.suffix == ".bag" for p in bag.paths) else "ROS 2 bag"
-    return BagReport(
-        bag=name or bag.name,
-        storage=storage + (" (zip)" if name and name.endswith(".zip") else ""),
-        start_ns=bag.start_time_ns,
-        end_ns=bag.end_time_ns,
-        topics=tuple(topics),
-        lasers=tuple(lasers),
-        odometry=tuple(odometry),
-        tf=tf,
-        driver=driver,
-        time_source=time_source,
-        warnings=tuple(warnings),
+    if not (math.isfinite(r_max) and r_max > 0) or not (math.isfinite(r_min) and r_min < r_max):
+        warnings.append(f"{topic}: range interval [{r_min}, {r_max}] m is not a valid interval")
+    return LaserInfo(
+        topic=topic,
+        frame_id=frame_id,
+        beams=n,
+        angle_min_deg=math.degrees(a_min),
+        angle_max_deg=math.degrees(a_max),
+        angle_increment_deg=math.degrees(inc),
+        increment_sign=1 if inc > 0 else -1 if inc < 0 else 0,
+        fov_min_rad=min(a_min, last_angle),
+        fov_max_rad=max(a_min, last_angle),
+        range_min_m=r_min,
+        range_max_m=r_max,
+        varies=varies,
+        mount_in_base=mount,
     )
+
+
+def _driver_and_time_source(
+    lasers: list[LaserInfo], by_topic: dict[str, TopicInfo], warnings: list[str]
+) -> tuple[str | None, str]:
+    """The driver (the LaserScan topic with the most messages) and the time source its stamps call for."""
+    if not lasers:
+        warnings.append("no sensor_msgs/LaserScan topic: a run needs a driver topic (see pfpeople run --driver)")
+        return None, "header"
+    driver = sorted(lasers, key=lambda li: (-by_topic[li.topic].count, li.topic))[0].topic
+    info = by_topic[driver]
+    if info.record_burst:
+        warnings.append(
+            f"the driver {driver!r} was recorded in a burst ({_fmt(info.rate_hz)} Hz of record time, "
+            f"{_fmt(info.header_rate_hz)} Hz of header stamps): its record times carry no timing; "
+            "synchronise on header stamps (time_source = header)"
+        )
+        return driver, "header"
+    off = info.header_offset_s
+    return driver, "bag" if off is not None and abs(off) > TIME_SOURCE_THRESHOLD_S else "header"
+
+
+def _topic_types(bag: BagSource) -> tuple[dict[str, str], dict[str, tuple[str, ...]]]:
+    """``(topic -> type, topic -> types)``: the topics of one message type, and those carrying several."""
+    all_types = bag.topic_types
+    single = {t: m[0] for t, m in all_types.items() if len(m) == 1}
+    return single, {t: m for t, m in all_types.items() if len(m) > 1}
+
+
+def _first_usable_scan(topic: str, msgs: Sequence[Any], warnings: list[str]) -> Any:
+    """The first LaserScan of ``msgs`` with two or more beams over a span (the run's rule,
+    :mod:`pfpeople.sensor_setup`); a warning when scans before it give none (the first one when no scan does)."""
+    for k, m in enumerate(msgs):
+        a0, a1 = float(m.angle_min), float(m.angle_max)
+        if len(m.ranges) >= 2 and math.isfinite(a0) and math.isfinite(a1) and a0 != a1:
+            if k:
+                warnings.append(
+                    f"{topic}: its first {k} scan(s) give no field of view ({len(msgs[0].ranges)} beam(s), angle_min="
+                    f"{float(msgs[0].angle_min):.4f}, angle_max={float(msgs[0].angle_max):.4f}): scan {k} is reported "
+                    "(the run takes its field of view from it too)"
+                )
+            return m
+    warnings.append(f"{topic}: none of the {len(msgs)} scans read gives a field of view (a run refuses this laser)")
+    return msgs[0]
 
 
 def _sync_stamps(msgs: Sequence[tuple[int, Any]], time_source: str) -> list[int]:

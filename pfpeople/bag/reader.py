@@ -410,6 +410,14 @@ class BagSource:
         return {c.topic: c.msgtype for c in self._reader.connections}
 
     @property
+    def topic_types(self) -> dict[str, tuple[str, ...]]:
+        """Topic -> every message type its connections carry (sorted; two or more: a mixed topic)."""
+        out: dict[str, set[str]] = {}
+        for c in self._reader.connections:
+            out.setdefault(c.topic, set()).add(c.msgtype)
+        return {t: tuple(sorted(v)) for t, v in out.items()}
+
+    @property
     def message_counts(self) -> dict[str, int]:
         counts: dict[str, int] = {}
         for c in self._reader.connections:
@@ -431,6 +439,13 @@ class BagSource:
         if missing:
             listing = ", ".join(f"{t} ({m})" for t, m in sorted(have.items())) or "none"
             raise ValueError(f"topic(s) {missing} not in bag {self.name!r}; the bag has: {listing}")
+        mixed = {t: m for t, m in self.topic_types.items() if len(m) > 1 and t in set(topics)}
+        if mixed:
+            topic, kinds = sorted(mixed.items())[0]
+            raise ValueError(
+                f"topic {topic!r} in bag {self.name!r} carries {len(kinds)} message types ({', '.join(kinds)}): a run "
+                "reads one type per topic; record them on separate topics (or leave this topic out of the config)"
+            )
         counts = self.message_counts
         for topic, allowed in (types or {}).items():
             if have[topic] not in allowed:

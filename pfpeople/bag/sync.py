@@ -16,9 +16,17 @@ frame by a policy:
 
 Streaming: a frame is finalised as soon as no later message can change its assignment, i.e. once every topic
 has a message at or after the frame's bound (``t``, or ``t_next`` for "preceding"), or the driver is more
-than two tolerances past the bound, or more than ``max_pending`` frames wait (then it is finalised with what
-arrived, and this is counted). Buffers keep only what pending frames can still use, so memory does not grow
-with the bag's length.
+than two tolerances plus the topic's lag past the bound, or more than ``max_pending`` frames wait (then it is
+finalised with what arrived, and this is counted). Buffers keep only what pending frames can still use, so memory
+does not grow with the bag's length.
+
+Latency: a topic recorded well after its stamps (odometry or a camera 0.3 s late) would miss nearly every frame
+if frames went out two tolerances after the driver. Each topic's *lag* is measured as its messages arrive: the
+largest amount (up to 5 s: more is another clock) by which the newest driver stamp is ahead of a message's stamp
+(``stats["lag_ms"]``). Frames wait
+for a topic for that lag more (at most ``max_pending`` frames: a lag longer than those cover forces frames, and the
+warning names the topic, its lag and the ``max_pending_frames`` to set). The frames before a topic's first message
+cannot know its lag. A lag above two tolerances is warned once per topic.
 
 Non-monotonic stamps: a message whose stamp is earlier than the previous one of its topic (or equal, for the
 driver) cannot be placed in a stream; it is skipped, counted in :attr:`FrameAssembler.stats` and logged
@@ -44,6 +52,7 @@ then skipped as non-monotonic (counted); run with ``time_source = "bag"`` for su
 from __future__ import annotations
 
 import logging
+import math
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -94,6 +103,8 @@ class _Topic:
     policy: str
     buffer: deque[BagMessage] = field(default_factory=deque)
     last_stamp: int | None = None
+    #: How far (ns) the newest driver stamp was ahead of this topic's messages as they arrived (the most seen).
+    lag_ns: int = 0
 
 
 class FrameAssembler:
@@ -163,6 +174,7 @@ class FrameAssembler:
             "buffer_overflow": {},
             "clock_jump": {},
             "resync": {},
+            "lag_ms": {},
         }
 
     @property
@@ -266,6 +278,7 @@ class FrameAssembler:
                 self._skip_non_monotonic(msg, topic.last_stamp)
                 return []
             topic.last_stamp = msg.stamp_ns
+            self._measure_lag(topic, msg)
             topic.buffer.append(msg)
             if len(topic.buffer) > self.max_buffer:
                 topic.buffer.popleft()
@@ -278,6 +291,24 @@ class FrameAssembler:
                     )
                 over[msg.topic] = over.get(msg.topic, 0) + 1
         return self._drain()
+
+    def _measure_lag(self, topic: _Topic, msg: BagMessage) -> None:
+        """Update the topic's lag behind the driver (see the module docstring); warn once when it exceeds two
+        tolerances (the frames then wait for it)."""
+        lag = None if self._last_driver is None else self._last_driver - msg.stamp_ns
+        if lag is None or lag <= topic.lag_ns or lag > DEFAULT_MAX_CLOCK_JUMP_NS:  # beyond: another clock, not a lag
+            return
+        before, topic.lag_ns = topic.lag_ns, lag
+        self.stats["lag_ms"][msg.topic] = round(topic.lag_ns / 1e6)
+        if topic.lag_ns > 2 * self.tolerance_ns >= before:
+            log.warning(
+                "topic %s arrives %.3f s (or more) after its stamps (behind the driver %s): frames wait for it that "
+                "much longer, at most max_pending_frames = %d frames (the lag is in the run's sync statistics, lag_ms)",
+                msg.topic,
+                topic.lag_ns * 1e-9,
+                self.driver,
+                self.max_pending,
+            )
 
     def finish(self) -> list[Frame]:
         """End of the stream: release held messages (nothing tells them outliers), finalise every pending frame."""
@@ -310,7 +341,7 @@ class FrameAssembler:
                 return False
             if topic.last_stamp is not None and topic.last_stamp >= bound:
                 continue
-            if newest - bound > 2 * self.tolerance_ns:
+            if newest - bound > 2 * self.tolerance_ns + topic.lag_ns:
                 continue
             return False
         return True
@@ -325,6 +356,16 @@ class FrameAssembler:
                 forced = True
             out.append(self._finalise(forced))
         return out
+
+    def _lag_advice(self, drv: BagMessage) -> str:
+        """For the forced-frame warning: the lagging topics and the ``max_pending_frames`` covering their lag."""
+        lag = max((tp.lag_ns for tp in self._topics.values()), default=0)
+        if not lag or not self._pending:
+            return ""
+        period = (self._pending[-1].stamp_ns - drv.stamp_ns) / max(len(self._pending), 1)
+        need = math.ceil((lag + 2 * self.tolerance_ns) / period) + 1 if period > 0 else self.max_pending + 1
+        lagging = ", ".join(f"{n} (lag {tp.lag_ns * 1e-9:.3f} s)" for n, tp in self._topics.items() if tp.lag_ns)
+        return f"; lagging topics: {lagging}: set max_pending_frames to at least {need} to wait for them"
 
     def _finalise(self, forced: bool) -> Frame:
         drv = self._pending[0]
@@ -365,9 +406,10 @@ class FrameAssembler:
             if self.stats["frames"]["forced"] == 0:
                 log.warning(
                     "frame at %d ns finalised after %d pending frames before every topic caught up "
-                    "(late messages are not used; counted as 'forced')",
+                    "(late messages are not used; counted as 'forced')%s",
                     t,
                     self.max_pending,
+                    self._lag_advice(drv),
                 )
             self.stats["frames"]["forced"] += 1
         return frame

@@ -11,13 +11,18 @@ which is exact for mounts rotated about the vertical axis only. A mount with rol
 optical frame) has no exact planar form; configure the detector's ``frame`` to a level frame instead.
 Static fallbacks (``[mounts]`` in the run config) give frames the bag has no TF for.
 
-A run uses one value per mount (read before the run). :class:`MountWatch` checks the TF edges the mounts are
-made of during the run and reports every transform more than :data:`MOUNT_CHANGE_M` or
-:data:`MOUNT_CHANGE_RAD` off the value used (a panning or moving mount, which the run does not follow).
+A run reads its mounts before the first frame and then follows TF over time (:class:`MountFollower`): the
+transforms read along the frames are applied at their stamps, and each frame's detectors are placed with the
+mount composed of every edge's latest transform stamped at or before the frame (latest-before, not
+interpolated). :class:`MountWatch` checks the TF edges the mounts are made of and reports every transform more
+than :data:`MOUNT_CHANGE_M` or :data:`MOUNT_CHANGE_RAD` off the value read before the run (a panning or moving
+mount).
 """
 
 from __future__ import annotations
 
+import copy
+import heapq
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -28,6 +33,7 @@ __all__ = [
     "MOUNT_CHANGE_M",
     "MOUNT_CHANGE_RAD",
     "MountChange",
+    "MountFollower",
     "MountWatch",
     "TfBuffer",
     "TfLink",
@@ -111,8 +117,11 @@ class TfBuffer:
             self._topic[child] = topic
             self._fallback.discard(child)
 
-    def add_message(self, msg: object, *, topic: str = "/tf") -> int:
+    def add_message(self, msg: object, *, topic: str = "/tf", new_frames_only: bool = False) -> int:
         """Add every transform of a ``tf2_msgs/TFMessage`` read on ``topic``; returns how many were added.
+
+        With ``new_frames_only``, only transforms of children the buffer has no TF for (a ``[mounts]`` fallback
+        counts as none) are added.
 
         Raises
         ------
@@ -124,14 +133,26 @@ class TfBuffer:
         transforms = getattr(msg, "transforms", None)
         if transforms is None:
             raise ValueError(f"topic {topic!r}: not a tf2_msgs/TFMessage: {type(msg).__name__} has no 'transforms'")
+        added = []
         for t in transforms:
+            child = str(t.child_frame_id).lstrip("/")
+            if new_frames_only and child in self._parent and child not in self._fallback:
+                continue
             tr, q = t.transform.translation, t.transform.rotation
             stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
             where = f"topic {topic!r}: transform {t.header.frame_id!s} -> {t.child_frame_id!s}"
             x, y = xy_from_translation(tr.x, tr.y, tr.z, where)
             pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, where))
             self.set_transform(t.header.frame_id, t.child_frame_id, pose, stamp, topic=topic)
-        return len(transforms)
+            added.append(child)
+        return len(added)
+
+    def parent_of(self, child: str) -> str | None:
+        """The TF parent of ``child`` (None: no TF for it; a ``[mounts]`` fallback is none)."""
+        child = child.lstrip("/")
+        if child in self._fallback or child not in self._parent:
+            return None
+        return self._parent[child][0]
 
     @property
     def frames(self) -> list[str]:
@@ -257,3 +278,81 @@ class MountWatch:
                 stamp = int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec)
                 out.append(MountChange(edge, pose, stamp, dist, turn))
         return out
+
+
+def _transforms(msg: object) -> Iterable[tuple[int, str, str, Pose2D]]:
+    """``(stamp_ns, parent, child, pose)`` of every well-formed transform of a TFMessage (broken ones left out: the
+    run refuses them before it starts, :meth:`TfBuffer.add_message`; one appearing later is not a usable mount)."""
+    for t in getattr(msg, "transforms", None) or []:
+        tr, q = t.transform.translation, t.transform.rotation
+        parent, child = str(t.header.frame_id).lstrip("/"), str(t.child_frame_id).lstrip("/")
+        try:
+            x, y = xy_from_translation(tr.x, tr.y, tr.z, child)
+            pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, child))
+        except ValueError:
+            continue
+        yield int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec), parent, child, pose
+
+
+class MountFollower:
+    """Mounts followed over TF time: each frame's mount from every edge's latest transform at or before its stamp.
+
+    Parameters
+    ----------
+    tf : TfBuffer
+        The transforms read before the run (copied: the run's setup keeps its own).
+    grid_frame : str
+        The frame mounts are given in.
+    frames : iterable of str, optional
+        The frames whose mounts will be asked for: only the transforms of their chains to the root (and of frames
+        the tree does not know yet) are kept. None: every transform.
+    max_pending : int
+        Transforms kept waiting for a frame at or after their stamp; beyond it the oldest is applied at once.
+    """
+
+    def __init__(
+        self, tf: TfBuffer, grid_frame: str, *, frames: Iterable[str] | None = None, max_pending: int = 10_000
+    ) -> None:
+        self.tf = copy.deepcopy(tf)
+        self.grid_frame = grid_frame
+        self.max_pending = max_pending
+        self._pending: list[tuple[int, int, str, str, Pose2D, str]] = []
+        self._seq = 0
+        self._cache: dict[str, Pose2D] = {}
+        #: The frames on the chains of ``frames`` and of those looked up (None: all).
+        self._relevant: set[str] | None = None
+        if frames is not None:
+            self._relevant = set()
+            for f in [grid_frame, *frames]:
+                self._relevant.update(self.tf._chain(f.lstrip("/")))
+
+    def add(self, msg: object, *, topic: str = "/tf") -> None:
+        """Queue the transforms of a ``tf2_msgs/TFMessage`` read during the run (applied by :meth:`advance`);
+        a transform giving a known frame another parent is left out (the tree read before the run holds)."""
+        for stamp, parent, child, pose in _transforms(msg):
+            old = self.tf.parent_of(child)
+            if old is not None and (old != parent or (self._relevant is not None and child not in self._relevant)):
+                continue
+            self._seq += 1
+            heapq.heappush(self._pending, (stamp, self._seq, parent, child, pose, topic))
+            if len(self._pending) > self.max_pending:
+                self._apply(heapq.heappop(self._pending))
+
+    def _apply(self, item: tuple[int, int, str, str, Pose2D, str]) -> None:
+        stamp, _, parent, child, pose, topic = item
+        self.tf.set_transform(parent, child, pose, stamp, topic=topic)
+        self._cache.clear()
+
+    def advance(self, stamp_ns: int) -> None:
+        """Apply every queued transform stamped at or before ``stamp_ns``."""
+        while self._pending and self._pending[0][0] <= stamp_ns:
+            self._apply(heapq.heappop(self._pending))
+
+    def mount(self, frame: str) -> Pose2D:
+        """The pose of ``frame`` in the grid frame now (raises :class:`TfLookupError` when not connected)."""
+        pose = self._cache.get(frame)
+        if pose is None:
+            pose = self._cache[frame] = self.tf.lookup(self.grid_frame, frame)
+            if self._relevant is not None:
+                self._relevant.update(self.tf._chain(frame.lstrip("/")))
+        return pose

@@ -17,9 +17,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from gridbridge.cli_support import examples
 from pfpeople.bag.config import BagConfig, builtin_config_path, load_config
 from pfpeople.batch import check_table_path, quiet_dask_logs, run_batch, write_table
+from pfpeople.cli_support import examples
 
 
 def _config(args: argparse.Namespace) -> BagConfig:

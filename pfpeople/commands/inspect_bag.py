@@ -17,9 +17,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gridbridge.cli_support import examples
 from pfpeople.bag.inspect import format_report, inspect_bag, starter_config
 from pfpeople.bag.reader import BagReadError, BagSource
+from pfpeople.cli_support import examples
 from pfpeople.jsonio import dumps
 
 

@@ -22,10 +22,10 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from gridbridge.cli_support import examples
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.bag.writer import BAG_FORMATS, check_bag_out
+from pfpeople.cli_support import examples
 from pfpeople.output import RunInterrupted, check_output_paths, interrupt_signals
 from pfpeople.pipeline import Pipeline
 from pfpeople.sinks import standard_sinks

@@ -7,7 +7,7 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
-from gridbridge.cli_support import examples
+from pfpeople.cli_support import examples
 from pfpeople.detectors.segments import SegmentationParams
 from pfpeople.detectors.training import POSITIVE_BAGS, BoostTrainingParams, train_from_directory
 

@@ -21,7 +21,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from gridbridge.cli_support import examples
+from pfpeople.cli_support import examples
 from pfpeople.gt_csv import read_gt_csv, resolve_gt_frame, truth_per_frame
 from pfpeople.output import RunData, load_run
 

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
-from gridbridge.validation import check_positive
+from gridbridge.validation import check_int, check_positive, check_real
 from pfpeople.sensors import CameraImage, CameraIntrinsics, Pose2D
 
 __all__ = [
@@ -131,16 +131,10 @@ class HogParams:
     group_threshold: float = 2.0
 
     def __post_init__(self) -> None:
-        if not math.isfinite(self.hit_threshold):
-            raise ValueError("HogParams.hit_threshold must be finite")
-        for name in ("win_stride", "padding"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < (1 if name == "win_stride" else 0):
-                raise ValueError(
-                    f"HogParams.{name} must be a {'positive' if name == 'win_stride' else 'non-negative'} integer"
-                )
-        if not (math.isfinite(self.scale) and self.scale > 1.0):
-            raise ValueError(f"HogParams.scale must be > 1, got {self.scale!r}")
+        check_real(self.hit_threshold, "HogParams.hit_threshold")
+        check_int(self.win_stride, "HogParams.win_stride", minimum=1)
+        check_int(self.padding, "HogParams.padding", minimum=0)
+        check_real(self.scale, "HogParams.scale", low=1.0, low_open=True)
         check_positive(self.group_threshold, "HogParams.group_threshold", allow_zero=True)
 
 

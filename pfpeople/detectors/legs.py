@@ -18,60 +18,14 @@ paired greedily, closest pair first, when their centres are ``min_separation .. 
 (patterns LA / FS); the person is the midpoint. An unpaired single leg counts as a person only with
 ``count_single_legs=True``. The learned detector (:mod:`pfpeople.detectors.boosted`) reuses the same pairing.
 
-The default thresholds were chosen by hand on the leg_tracker recordings (Leigh et al. 2015): leg recall 0.78 /
-0.68 on the labelled legs of ``positive_1`` / ``positive_4_extracted.bag`` (within 0.15 m) with 0.96 false people
-per scan on the people-free ``negative_2.bag`` (cluttered rooms: chair and table legs look like legs); walls,
-corners and thin poles are rejected (``tests/test_detectors_*.py``).
+**Far leg blobs** (``far_from`` m, :func:`far_people`): beyond ``far_from`` a run of at most ``far_max_points``
+returns, at most ``far_max_width`` wide, with at least the returns a ``far_leg_width`` leg gives at its range (at
+least one), standing ``far_min_jump`` in front of both neighbouring beams is a far leg blob; two blobs paired as
+legs are a person when no other small foreground run lies within ``far_isolation`` of their midpoint (a chair or
+a table shows three or four legs). ``far_from = inf`` turns them off.
 
-``far_leg_width = 0.10`` m (issue 9, ``pfpeople-eval benchmark``): with ``min_points = 4`` everywhere, a 0.5 deg
-laser loses legs beyond ~3 m and a 0.35 deg one beyond ~4 m (64 % of the segments near people at 4-6 m in the
-corridor scene failed on the point count alone). Letting the minimum follow the beams a leg can give raises the
-detector's recall alone on the wheelchair / corridor / crowd scenes from 0.41 / 0.19 / 0.28 to 0.44 / 0.27 / 0.35
-at the same precision; its false people on negative_2 go from 0.94 / 1.09 / 0.85 to 1.02 / 1.15 / 0.93 per scan
-(left / rear / right), which the recommended pipeline does not report (0.048 / 0.046 / 0.106, unchanged); the
-pipeline's recall rises from 0.46 / 0.22 / 0.35 to 0.49 / 0.30 / 0.42. 0.12 m gave the same within 0.005.
-
-**Far leg blobs** (``far_from = 5`` m, :func:`far_people`; issue 10): at 6-12 m a 0.35-0.5 deg laser puts 1-3
-returns on a leg, too few for the shape tests; the corridor scene's people beyond 6 m were found in 0-14 % of the
-scans. Beyond ``far_from`` a run of at most ``far_max_points`` returns, at most ``far_max_width`` wide, with at
-least the returns a ``far_leg_width`` leg gives at its range (at least one), standing ``far_min_jump`` in front
-of both neighbouring beams is a far leg blob; two blobs paired as legs are a person when no other small
-foreground run lies within ``far_isolation`` of their midpoint (a chair or a table shows three or four legs).
-``far_from = inf`` turns them off. Measured with ``pfpeople run`` on every scene, one run per setting (people
-recall (precision); MOTA / identity switches of ``tracks.csv``; false people per scan on negative_2 left / rear /
-right; the followed person of person_following_outdoor_1; the six labelled leg bags' recall):
-
-=======================================  ===================  ==================  ===================  ==============
-setting                                  wheelchair           corridor            crowd                negative_2
-=======================================  ===================  ==================  ===================  ==============
-off                                      .559 (.946) .572/23  .547 (.995) .664/2  .599 (.978) .652/17  .002/.018/.025
-blobs of any beam count, no isolation    .566 (.665) .115/28  .764 (.990) .852/2  .662 (.977) .715/20  .018/.018/.030
-beam count, no isolation                 .561 (.933) .521/25  .763 (.990) .852/2  .662 (.977) .715/20  .002/.018/.025
-**beam count, isolation 0.8**            .560 (.946) .568/24  .732 (.991) .845/4  .640 (.976) .698/20  .002/.018/.030
-beam count, isolation 0.6                .560 (.946) .565/25  .733 (.991) .841/4  .657 (.977) .708/21  -
-far pairs as single legs (support)       .559 (.946) .572/23  .651 (.993) .726/2  .607 (.979) .652/20  -
-default + unpaired blobs as single legs  .560 (.941) .560/24  .777 (.986) .861/2  .651 (.975) .695/24  -
-=======================================  ===================  ==================  ===================  ==============
-
-The followed person (0.962, 2 switches) and the labelled bags (0.676; their labels end at 5.2 m) did not change.
-The wheelchair scene's furnished room is what the isolation and the beam count are for: its 5 cm chair legs gave
-2.31 false far people per scan with neither, 0.32 with the beam count, 0.05 with both (true ones: 0.13, 0.11,
-0.06 per scan). A chair seen edge-on shows two legs and is left to the static-clutter map. The detector alone
-finds more on negative_2 (1.02 / 1.15 / 0.93 -> 1.18 / 1.31 / 1.09 per scan), which the pipeline does not report
-(above). Treating places never seen free as static beyond 5 m instead (the clutter map's unknown evidence) cut
-the corridor's and the crowd's far people too (.651 / .538 recall). Cost: 0.17 ms per scan of the detector's
-0.63 ms on person_following_outdoor_1's 245-beam scans (CPU time, same run).
-
-Single legs stay off (``count_single_legs=False``) for both laser detectors, decided on every benchmark scene
-(``pfpeople-eval benchmark`` detector rows, recall / precision, false people per scan on the people-free
-negative_2 left / rear / right). With single legs the leg detector's recall rises (wheelchair 0.41 -> 0.74, corridor
-0.19 -> 0.28, crowd 0.28 -> 0.46, the real person_following_outdoor_1 0.46 -> 0.79) but its precision in the crowd
-falls from 1.00 to 0.68 and its false people on negative_2 rise from 0.94 / 1.09 / 0.85 to 4.3 / 4.5 / 4.4 per
-scan; the boosted detector's from 0.29 / 0.39 / 0.37 to 1.8 / 2.0 / 2.0 (recall 0.36 -> 0.64, 0.15 -> 0.25,
-0.24 -> 0.37, 0.60 -> 0.84). Run through the recommended pipeline with re-measured PPV / FNR (0.67 / 0.35),
-single legs of the boosted detector alone find more people (wheelchair 0.47 -> 0.63, crowd 0.33 -> 0.41,
-person_following 0.83 -> 0.95) but the crowd's precision falls from 1.00 to 0.72 and negative_2 keeps 0.51-0.94
-false people per scan instead of 0.10-0.19. A person-following robot that must not lose its person may turn them on.
+How the defaults were chosen (thresholds, ``far_leg_width``, far leg blobs, single legs off), with the
+ablation tables: ``docs/ablations.md``, "The leg detector's defaults".
 """
 
 from __future__ import annotations

@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.validation import check_positive, check_probability
+from gridbridge.validation import check_int, check_positive, check_probability
 from pfpeople.detectors._bags import LabelledScan, load_labelled_scans, load_scans
 from pfpeople.detectors.segments import (
     FEATURE_NAMES,
@@ -128,15 +128,12 @@ class BoostTrainingParams:
         if self.boost_type not in _BOOST_TYPES:
             raise ValueError(f"BoostTrainingParams.boost_type must be one of {sorted(_BOOST_TYPES)}")
         for name in ("weak_count", "max_depth"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"BoostTrainingParams.{name} must be a positive integer, got {v!r}")
+            check_int(getattr(self, name), f"BoostTrainingParams.{name}", minimum=1)
         check_probability(self.weight_trim_rate, "BoostTrainingParams.weight_trim_rate")
         check_positive(self.match_radius, "BoostTrainingParams.match_radius")
         check_positive(self.negatives_per_positive, "BoostTrainingParams.negatives_per_positive")
         check_probability(self.holdout_fraction, "BoostTrainingParams.holdout_fraction", open_high=True)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"BoostTrainingParams.seed must be a non-negative integer, got {self.seed!r}")
+        check_int(self.seed, "BoostTrainingParams.seed", minimum=0)
         object.__setattr__(self, "augment_noise", tuple(self.augment_noise))
         for v in self.augment_noise:
             check_positive(v, "BoostTrainingParams.augment_noise")
@@ -382,8 +379,7 @@ def negative_blocks(
         Period-major order ``(t0, 0), (t1, 0), ..., (t0, 1), ...``, so consecutive folds of
         :func:`leave_one_bag_out` test on different lasers.
     """
-    if isinstance(n_periods, bool) or not isinstance(n_periods, int) or n_periods < 1:
-        raise ValueError(f"n_periods must be a positive integer, got {n_periods!r}")
+    check_int(n_periods, "n_periods", minimum=1)
     out = []
     for period in range(n_periods):
         for topic, seq in scans.items():
@@ -558,21 +554,8 @@ def train_from_directory(
     """
     p = params if params is not None else BoostTrainingParams()
     seg = segmentation if segmentation is not None else SegmentationParams()
-    if isinstance(scan_step, bool) or not isinstance(scan_step, int) or scan_step < 1:
-        raise ValueError(f"scan_step must be a positive integer, got {scan_step!r}")
-    data_dir = Path(data_dir)
-    out_dir = Path(out_dir)
-    if not data_dir.is_dir():
-        raise FileNotFoundError(f"data directory not found: {data_dir}")
-    if not train_positive:
-        raise ValueError("train_positive names no bag")
-    overlap = set(train_positive) & set(test_positive)
-    if overlap:
-        raise ValueError(f"bag(s) {sorted(overlap)} are both in train_positive and test_positive")
-    files = [*train_positive, *test_positive, negative]
-    for f in files:
-        if not (data_dir / f).is_file():
-            raise FileNotFoundError(f"training bag not found: {data_dir / f}")
+    data_dir, out_dir = Path(data_dir), Path(out_dir)
+    files = _check_training_files(data_dir, train_positive, test_positive, negative, scan_step)
     train_bags = {f: _every(load_labelled_scans(data_dir / f), scan_step) for f in train_positive}
     train_pos = [s for scans in train_bags.values() for s in scans]
     test_pos = [s for f in test_positive for s in _every(load_labelled_scans(data_dir / f), scan_step)]
@@ -586,10 +569,9 @@ def train_from_directory(
         test_neg += scans[cut:]
     log.info("train: %d positive scans, %d negative scans", len(train_pos), len(train_neg))
     block = _block("train", train_pos, train_neg, p, seg)
-    Xtr, ytr, ctr = block.X, block.y, block.counts
-    model = train_boost(np.concatenate((Xtr, block.aug_X)), np.concatenate((ytr, block.aug_y)), params=p)
-    metrics: dict[str, object] = {"threshold": 0.0, "train": segment_metrics(boost_scores(model, Xtr), ytr)}
-    counts: dict[str, object] = {"train": ctr}
+    model = train_boost(np.concatenate((block.X, block.aug_X)), np.concatenate((block.y, block.aug_y)), params=p)
+    metrics: dict[str, object] = {"threshold": 0.0, "train": segment_metrics(boost_scores(model, block.X), block.y)}
+    counts: dict[str, object] = {"train": block.counts}
     if test_pos or test_neg:
         Xte, yte, cte = build_training_set(test_pos, test_neg, match_radius=p.match_radius, segmentation=seg)
         m_test = segment_metrics(boost_scores(model, Xte), yte)
@@ -602,7 +584,63 @@ def train_from_directory(
     out_dir.mkdir(parents=True, exist_ok=True)
     model_path = out_dir / f"{name}.yml"
     model.save(str(model_path))
-    sidecar: dict[str, object] = {
+    split = {
+        "train_positive": list(train_positive),
+        "test_positive": list(test_positive),
+        "negative": negative,
+        "negative_topics": list(NEGATIVE_TOPICS),
+        "negative_holdout": f"last {p.holdout_fraction:g} of each topic",
+        "scan_step": scan_step,
+        "train_positive_scans": len(train_pos),
+        "train_negative_scans": len(train_neg),
+        "test_positive_scans": len(test_pos),
+        "test_negative_scans": len(test_neg),
+    }
+    sidecar = _sidecar(model_path, seg, p, data_dir, files, split, counts, metrics, lobo)
+    (out_dir / f"{name}.json").write_text(json.dumps(_json_safe(sidecar), indent=2, sort_keys=False) + "\n")
+    return sidecar
+
+
+def _check_training_files(
+    data_dir: Path, train_positive: Sequence[str], test_positive: Sequence[str], negative: str, scan_step: int
+) -> list[str]:
+    """The training bags (train, test, negative), checked: they exist, no bag is in both splits, ``scan_step``
+    is a positive integer.
+
+    Raises
+    ------
+    TypeError, ValueError, FileNotFoundError
+        Naming the argument (TypeError: a ``scan_step`` that is not an integer) or the missing file.
+    """
+    check_int(scan_step, "scan_step", minimum=1)
+    if not data_dir.is_dir():
+        raise FileNotFoundError(f"data directory not found: {data_dir}")
+    if not train_positive:
+        raise ValueError("train_positive names no bag")
+    overlap = set(train_positive) & set(test_positive)
+    if overlap:
+        raise ValueError(f"bag(s) {sorted(overlap)} are both in train_positive and test_positive")
+    files = [*train_positive, *test_positive, negative]
+    for f in files:
+        if not (data_dir / f).is_file():
+            raise FileNotFoundError(f"training bag not found: {data_dir / f}")
+    return files
+
+
+def _sidecar(
+    model_path: Path,
+    seg: SegmentationParams,
+    p: BoostTrainingParams,
+    data_dir: Path,
+    files: Sequence[str],
+    split: dict[str, object],
+    counts: dict[str, object],
+    metrics: dict[str, object],
+    lobo: object,
+) -> dict[str, object]:
+    """The model's sidecar: data files with sizes and SHA-256, features, parameters, seed, split, counts and
+    metrics."""
+    return {
         "model_file": model_path.name,
         "classifier": "cv2.ml.Boost",
         "opencv_version": cv2.__version__,
@@ -611,24 +649,11 @@ def train_from_directory(
         "params": asdict(p),
         "seed": p.seed,
         "data": [{"file": f, "bytes": (data_dir / f).stat().st_size, "sha256": _sha256(data_dir / f)} for f in files],
-        "split": {
-            "train_positive": list(train_positive),
-            "test_positive": list(test_positive),
-            "negative": negative,
-            "negative_topics": list(NEGATIVE_TOPICS),
-            "negative_holdout": f"last {p.holdout_fraction:g} of each topic",
-            "scan_step": scan_step,
-            "train_positive_scans": len(train_pos),
-            "train_negative_scans": len(train_neg),
-            "test_positive_scans": len(test_pos),
-            "test_negative_scans": len(test_neg),
-        },
+        "split": split,
         "counts": counts,
         "metrics": metrics,
         "leave_one_bag_out": lobo,
     }
-    (out_dir / f"{name}.json").write_text(json.dumps(_json_safe(sidecar), indent=2, sort_keys=False) + "\n")
-    return sidecar
 
 
 def _json_safe(value: Any) -> Any:

@@ -8,14 +8,7 @@ within ``half_width`` (m, across the line of sight) of the predicted position re
 behind it, or reports no return (``+inf``, REP-117), the laser sees through the place and nobody is there. A
 person hidden behind someone else stays reported: the beams stop in front of the place.
 
-``half_width = 0.5`` m (a person's half width and the prediction's error) was chosen with ``pfpeople run`` on the
-scan-level scenes, one run per value (MOTA / identity switches of ``tracks.csv`` on wheelchair / corridor /
-crowd; issue 10): off .568 / 24, .845 / 4, .698 / 20; 0.3 m .561 / 24, .845 / 4, .726 / 20; **0.5 m** .569 / 24,
-.845 / 4, .727 / 20; 0.7 m .570 / 24, -, .726 / 20. At 0.3 m the crowd lost 262 false and 16 true track frames,
-the wheelchair scene 8 false and 23 true ones: there the coasting prediction was 0.4-0.64 m from its person,
-within the 0.75 m match gate, and the beams beside the person saw through. On the crowd's people that a laser
-sees (``[hit_beams>=3]``) MOTA rises from .745 to .780. The followed person of person_following_outdoor_1 and
-negative_2 did not change; the ETH/UCY replays have no scans.
+How ``half_width`` was chosen: ``docs/ablations.md``, "Seen through".
 
 Positions are in the grid frame (m); each view is a :class:`~pfpeople.sensors.LaserScan` with the pose of its
 laser frame in the grid frame. A place outside a scan's field of view or beyond its ``range_max``, or a beam

@@ -42,17 +42,11 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
    ``see_through`` and the frame's laser scans (``views``), a track or a coasting person without a hit in this
    frame is also left out where a laser sees through its predicted position (:mod:`pfpeople.mot.freespace`).
 
-Why (``pfpeople-eval benchmark``, all scenes, the same detections; issue 9's note): on ``negative_2`` (nobody
-there) the false people per scan fall by about half (0.09 / 0.10 / 0.15 -> 0.05 / 0.05 / 0.09) and the
-followed person of ``person_following_outdoor_1`` is found in 0.91 of the scans instead of 0.88; recall on the
-other scenes moves by -0.02 .. +0.01, precision by -0.02 .. +0.01. Reporting the first frames of a person
-before confirmation costs the false people; coasting for 1 frame wins back the recall, 2 or more frames cost
-precision (a coasting prediction is a person within 0.5 m in about 80 % of cases on the wheelchair scene).
+Why, with the figures: ``docs/ablations.md``, "The reported people".
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -62,6 +56,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gridbridge.classifiers import PeakClassifier, People, people_cells
 from gridbridge.grid import GridSpec
+from gridbridge.validation import check_int, check_real
 from pfpeople.mot.freespace import LaserView, seen_through
 from pfpeople.mot.inputs import tracker_inputs
 from pfpeople.mot.tracker import MultiPersonTracker, Track, TrackerConfig
@@ -207,6 +202,8 @@ class PeopleTracker:
     ------
     ValueError
         An unknown ``people``, a negative ``coast_frames``, a ``peak_threshold`` outside [0, 1).
+    TypeError
+        A setting that is not a number (``coast_frames``: not an integer), naming it.
     """
 
     def __init__(
@@ -226,32 +223,23 @@ class PeopleTracker:
     ) -> None:
         if people not in PEOPLE_MODES:
             raise ValueError(f"people must be one of {PEOPLE_MODES}, got {people!r}")
-        if isinstance(coast_frames, bool) or not isinstance(coast_frames, int | np.integer) or coast_frames < 0:
-            raise ValueError(f"coast_frames must be an integer >= 0, got {coast_frames!r}")
-        for name, value, unit in (
-            ("min_separation", min_separation, "m"),
-            ("snap_radius", snap_radius, "m"),
-            ("static_confirm_s", static_confirm_s, "s"),
-        ):
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0 {unit}, got {value!r}")
-        self.snap_radius = float(snap_radius)
-        self.static_confirm_s = float(static_confirm_s)
+        self.coast_frames = check_int(coast_frames, "coast_frames", minimum=0)
+        self.min_separation = check_real(min_separation, "min_separation", low=0.0)
+        self.snap_radius = check_real(snap_radius, "snap_radius", low=0.0)
+        self.static_confirm_s = check_real(static_confirm_s, "static_confirm_s", low=0.0)
         #: Whether :meth:`step` leaves coasting tracks outside the observed cells out of its tracks.
         self.observed_tracks_only = bool(observed_tracks_only)
         #: Whether :meth:`step` leaves out coasting tracks and people whose place its laser ``views`` see through.
         self.see_through = bool(see_through)
         self.classifier = classifier
         self.tracker = MultiPersonTracker(config)
-        self.people, self.coast_frames, self.min_separation = people, int(coast_frames), float(min_separation)
+        self.people = people
         #: Whether :meth:`step` uses its ``support`` positions.
         self.use_support = bool(use_support) and people == "confirmed"
         self._weak: PeakClassifier | None = None
         high = getattr(classifier, "threshold", None)
         if peak_threshold is not None:
-            pt = float(peak_threshold)
-            if not (math.isfinite(pt) and 0 <= pt < 1):
-                raise ValueError(f"peak_threshold must be in [0, 1) or None, got {peak_threshold!r}")
+            pt = check_real(peak_threshold, "peak_threshold", low=0.0, high=1.0, high_open=True)
             base = getattr(classifier, "peaks", classifier)  # HysteresisPeaks holds a PeakClassifier
             if isinstance(base, PeakClassifier) and high is not None and pt < high:
                 self._weak = replace(base, threshold=pt)
@@ -321,7 +309,7 @@ class PeopleTracker:
             n_found = len(found.positions)
             found = replace(found, positions=pos[:n_found])
         support = support if self.use_support else None
-        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, belief=grid, spec=spec, support=support)
+        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support)
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
         # the coasting tracks that may be reported (as tracks, or below as people) and whose place a laser sees

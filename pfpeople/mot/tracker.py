@@ -31,13 +31,6 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    (keep their prediction); every unassigned measurement with ``score >= birth_min_score`` starts a
    tentative track at its position with zero velocity and covariance ``diag(sz^2, sz^2, sv^2, sv^2)``.
 
-   4b. **Belief** (optional, a fused belief grid given to ``update``): for a confirmed track left unassigned,
-   ``b`` = the largest belief within ``belief_radius`` of its prediction (none when a position of this frame
-   lies that close: the belief there is that position's). With ``belief_support`` and ``b >=
-   belief_support`` the belief-weighted centre of those cells of belief ``>= b / 2`` updates the track as a
-   measurement of confidence ``b`` (a hit); with ``report_belief`` a coasting track is reported only while
-   ``b >= report_belief``.
-
    4c. **Support** (optional, ``support`` positions given to ``update``: weaker evidence than a position, such
    as the laser detectors' unpaired single legs): the confirmed tracks still without a hit are assigned to the
    support positions as in step 3 (same gates and cost, ``R = support_sigma^2 I``), leaving out support
@@ -51,8 +44,7 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    without a hit gives ``r <- r exp(-dt / score_tau)``. A new track starts at ``r = hit_gain c``.
 6. **Confirmation and deletion.** A tentative track is confirmed when it has ``confirm_hits`` hits within
    its first ``confirm_window`` frames (M of N); it is deleted when that has become impossible or after
-   ``tentative_max_misses`` consecutive misses (with ``confirm_score``, a measurement of that confidence or
-   more confirms it at once). A confirmed track is deleted after coasting longer than
+   ``tentative_max_misses`` consecutive misses. A confirmed track is deleted after coasting longer than
    ``max_coast_s`` seconds without a hit, or when its score falls below ``delete_score``, or (with
    ``region``) when its position leaves the region by more than ``region_margin``. The output (the confirmed
    tracks) leaves out tracks coasting longer than ``report_coast_s``: they stay alive to keep their id. A
@@ -90,7 +82,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from gridbridge.grid import GridSpec
+from gridbridge.validation import check_int, check_real, check_real_array
 from pfpeople.sensors import Pose2D
 
 __all__ = ["TRACK_COLUMNS", "MultiPersonTracker", "Track", "TrackerConfig", "track_rows"]
@@ -102,24 +94,6 @@ _INFEASIBLE = 1e9
 #: Added to the cost of a tentative track's pairs with ``prefer_confirmed`` (above any allowed pair's cost:
 #: ``d^2 <= gate_mahalanobis``, ``|ln det S|`` a few units).
 _TENTATIVE = 1e3
-
-
-def _finite_positive(value: Any, name: str, *, allow_zero: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"TrackerConfig.{name} must be a number, got {type(value).__name__}")
-    v = float(value)
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"TrackerConfig.{name} must be finite and {bound}, got {value!r}")
-    return v
-
-
-def _count(value: Any, name: str, *, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"TrackerConfig.{name} must be an integer, got {type(value).__name__}")
-    if int(value) < minimum:
-        raise ValueError(f"TrackerConfig.{name} must be >= {minimum}, got {value!r}")
-    return int(value)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -168,20 +142,6 @@ class TrackerConfig:
         Confirmed tracks coasting longer than this (s) stay alive (and keep their id when seen again) but are
         not reported by :meth:`MultiPersonTracker.confirmed` / ``update`` (SORT's rule); None reports every
         confirmed track up to its deletion.
-    belief_support : float or None
-        With a belief grid given to ``update``: a confirmed track that no position was assigned to takes the
-        belief-weighted centre of the cells within ``belief_radius`` of its prediction (cells of at least half
-        the largest) as a measurement when that largest belief is ``>= belief_support``, with that belief as
-        its confidence (step 4b). None (default): the belief is not used for this.
-    belief_radius : float
-        Radius (m) around a track's predicted position searched in the belief grid (``belief_support``,
-        ``report_belief``).
-    report_belief : float or None
-        With a belief grid given to ``update``: a coasting confirmed track is reported only while the largest
-        belief within ``belief_radius`` of its prediction is ``>= report_belief``. None (default): not used.
-    confirm_score : float or None
-        A tentative track is confirmed at once by a measurement of confidence ``>= confirm_score`` (its birth
-        included), besides the M-of-N rule. None (default): M of N only.
     support_sigma : float
         Standard deviation per axis (m) of a support position as a measurement of a person's centre (step 4c);
         a single leg lies 0.1-0.2 m from it.
@@ -216,117 +176,8 @@ class TrackerConfig:
 
     Notes
     -----
-    ``max_coast_s = 5`` with ``report_coast_s = 1`` was chosen on three sequences at once (the real
-    ``person_following_outdoor_1`` run, the ``eth`` and ``complementary`` scenarios; 300 frames each):
-    against 1.5 s / always reported it cut identity switches on the real run 4-6x (legs detector 17 -> 3) at
-    equal or better MOTA on every sequence and source; q and the gate (0.75-1.0 m) changed little. It became 8 s
-    with re-identification (below).
-
-    ``process_noise = 0.3`` (was 1.0) was chosen with the pipeline feeding the tracker the belief peaks above 0.5
-    and starting tracks only from peaks above the classifier's 0.7 (``[tracking] peak_threshold``), on the
-    seven scenes of the MOT ablation at once (``eth``, ``hotel``, ``zara01``, the scan-level ``wheelchair``,
-    ``corridor``, ``crowd`` and the real ``person_following_outdoor_1``); see ``evaluation.mot_eval``. The
-    belief options (``belief_support``, ``report_belief``) and ``confirm_score`` are off by default: in that
-    ablation each lowered MOTA on most scenes (they trade false tracks for misses).
-
-    ``support_min_speed = 0.6`` m/s was chosen with the single legs of the laser detectors as support (issue 9,
-    ``pfpeople run`` on the scan-level scenes and the real negative_2, one run per value, before the far-leg and
-    snapping changes). Recall (precision) on wheelchair / crowd and false people per scan on negative_2 left /
-    rear / right:
-
-    ======================  ============  ============  ===================
-    support_min_speed       wheelchair    crowd         negative_2
-    ======================  ============  ============  ===================
-    no support              .456 (.912)   .346 (.989)   .048 / .046 / .106
-    0 (every track)         .598 (.915)   .421 (.969)   .067 / - / .207
-    0.3                     .562 (.921)   .416 (.970)   .051 / .064 / .131
-    0.5                     .541 (.923)   .411 (.975)   .048 / .046 / .115
-    **0.6**                 .538 (.922)   .409 (.976)   .048 / .046 / .094
-    0.7                     .531 (.920)   .407 (.976)   .048 / .046 / .097
-    ======================  ============  ============  ===================
-
-    Without the speed gate, confirmed clutter tracks (chairs) live on single chair legs. A limit of 3 support hits
-    in a row instead (no speed gate) gave .520 / .391 with .060 / .090 / .138.
-
-    It became 0.4 (issue 10) once the static-clutter stage drops the robot's own returns
-    (:mod:`pfpeople.selfreturns`): at 0.4 the right laser of negative_2 had given 0.055 false people per scan
-    (0.030 at 0.6), from a return of the robot's body 0.32 m from the laser that single legs kept alive as a
-    track walking at the robot's speed. ``pfpeople run`` with the self returns dropped, MOTA of ``tracks.csv``
-    on wheelchair / corridor / crowd for the scenes' seeds 0, 1, 2, the labelled bags' people recall and
-    negative_2 false people per scan:
-
-    =================  ===================  ===================  ===================  =====  ===================
-    support_min_speed  seed 0               seed 1               seed 2               bags   negative_2
-    =================  ===================  ===================  ===================  =====  ===================
-    0.6                .569 / .845 / .727   .603 / .760 / .715   .526 / .720 / .725   .676   .002 / .018 / .030
-    0.5                .580 / - / .725      -                    -                    -      .002 / .018 / .030
-    **0.4**            .592 / .845 / .719   .619 / .756 / .723   .531 / .720 / .730   .685   .002 / .018 / .030
-    0.3                .596 / - / .718      .618 / - / .723      -                    -      .002 / .018 / .030
-    =================  ===================  ===================  ===================  =====  ===================
-
-    The followed person of ``person_following_outdoor_1``: 0.962 with 2 switches at 0.6 and 0.4.
-
-    ``reid_distance = 2.5`` with ``max_coast_s = 8`` (was 0 and 5) was chosen with ``pfpeople run`` on the scan-level
-    scenes, the real ``person_following_outdoor_1`` and negative_2, and the ETH/UCY replays, one run per setting
-    (issue 10). Identity switches of the run's tracks on wheelchair / corridor / crowd, the followed person's
-    switches on person_following, switches on eth / hotel / zara01, false people per scan on negative_2's right
-    laser; everything else within 0.005:
-
-    ============================  ===========  ==============  ==========  ========  =========
-    setting                       scan scenes  person_follow.  ETH/UCY     hotel     negative_2
-                                                                           MOTA      right
-    ============================  ===========  ==============  ==========  ========  =========
-    neither (before)              28 / 2 / 19  5               0 / 1 / 1   .643      .025
-    max_coast_s 8 only            28 / 2 / 19  3               0 / 1 / 1   .643      .025
-    reid 1.5                      26 / 2 / 19  4               -           -         .025
-    reid 2.5                      23 / 2 / 17  4               0 / 1 / 2   .643      .025
-    reid 3.5                      23 / 2 / 17  4               0 / 1 / 2   .680      .025
-    **reid 2.5, max_coast_s 8**   23 / 2 / 17  2               0 / 1 / 2   .643      .025
-    reid 3.0, max_coast_s 8       23 / 2 / 17  2               0 / 1 / 2   .643      .030
-    reid 3.5, max_coast_s 8       23 / 2 / 17  2               0 / 1 / 2   .680      .030
-    ============================  ===========  ==============  ==========  ========  =========
-
-    HOTA moves both ways: wheelchair .372 -> .395, person_following .472 -> .490, crowd .541 -> .532, zara01 .666
-    -> .615 (one wrong re-identification joins two people's tracks: association accuracy .69 -> .59); with reid 1.5
-    and 8 s: .383, -, .540, .634, and 26 / 19 switches on wheelchair / crowd. The remaining switches on the
-    wheelchair scene are people lost for 6-11 s, and tracks that move over to another person of a group.
-
-    ``revive_after_s = 2.5`` (was: any hit revives) was chosen with ``pfpeople run`` on the scan-level scenes
-    (seed 0; seeds 1 and 2 of the scan-level scenes unchanged at 2.5), the real ``person_following_outdoor_1`` and
-    the ETH/UCY replays, one run per setting. On hotel, a confirmed track that had coasted 3.6 s after its person
-    left was shown again for 1 s by each of two single weaker belief peaks (clutter, 0.5-0.7) near its
-    prediction: 22 false track frames. MOTA of the tracks:
-
-    =====================  =====  =====  ======  ==========  ========  =====  ===============
-    revive_after_s         eth    hotel  zara01  wheelchair  corridor  crowd  followed person
-    =====================  =====  =====  ======  ==========  ========  =====  ===============
-    None (before)          .817   .643   .666    .569        .845      .727   .962 / 2
-    1.0 (report_coast_s)   .817   .680   .666    .561        .845      .717   .961 / 2
-    2.0                    .817   .680   .666    .569        .845      .726   .962 / 2
-    **2.5**                .817   .680   .666    .569        .845      .727   .962 / 2
-    =====================  =====  =====  ======  ==========  ========  =====  ===============
-
-    Identity switches did not change by more than 2. On the scan-level scenes a person back from behind others
-    is first seen as a weaker peak, so reviving only on people costs them recall when the wait is short.
-
-    ``contest_gate = 0.75`` with ``contest_radius = 0.5`` (was: no contest rule) was chosen with ``pfpeople run``
-    on the scan-level scenes (seeds 0, 1, 2), the ETH/UCY replays, ``person_following_outdoor_1`` and negative_2,
-    one run per setting. A plain 0.75 m ``gate_distance`` (was 1.0) had given the crowd .719 / .723 / .730 ->
-    .735 / .738 / .736 (identity switches 20 / 27 / 23 -> 15 / 22 / 22) but cost the wheelchair room .592 / .619 /
-    .531 -> .582 / .600 / .537, the corridor's seed 2 .720 -> .707 and hotel .680 -> .665; the same gate only for
-    tracks that missed the previous frame gave the same figures: the gate matters for coasting tracks, which in
-    the crowd take over a neighbour's detection and in the furnished room pick their own person up 0.75-1 m from
-    the prediction. The contest rule keeps the second and stops the first. MOTA (identity switches) of the
-    tracks, seeds 0 / 1 / 2:
-
-    ==============  ===========================  ===========================  ===========================
-    contest_gate    wheelchair                   corridor                     crowd
-    ==============  ===========================  ===========================  ===========================
-    None (before)   .592 / .619 / .531 (21)      .845 / .756 / .720 (4)       .719 / .723 / .730 (20)
-    **0.75**        .593 / .614 / .531 (20)      .845 / .759 / .720 (4)       .734 / .725 / .736 (18)
-    ==============  ===========================  ===========================  ===========================
-
-    The ETH/UCY replays, the followed person and negative_2 did not change.
+    How each default was chosen, with the ablation tables: ``docs/ablations.md``, "The multi-person tracker's
+    defaults".
     """
 
     process_noise: float = 0.3
@@ -345,10 +196,6 @@ class TrackerConfig:
     region: tuple[float, float, float, float] | None = None
     region_margin: float = 0.5
     report_coast_s: float | None = 1.0
-    belief_support: float | None = None
-    belief_radius: float = 0.45
-    report_belief: float | None = None
-    confirm_score: float | None = None
     support_sigma: float = 0.2
     support_exclusion: float = 0.4
     support_confidence: float = 0.5
@@ -361,7 +208,7 @@ class TrackerConfig:
     contest_radius: float = 0.5
 
     def __post_init__(self) -> None:
-        for name in (
+        positive = (
             "process_noise",
             "measurement_sigma",
             "initial_velocity_sigma",
@@ -372,24 +219,13 @@ class TrackerConfig:
             "support_sigma",
             "support_exclusion",
             "moved_distance",
-        ):
-            object.__setattr__(self, name, _finite_positive(getattr(self, name), name))
-        for name in ("region_margin", "reid_distance"):
-            object.__setattr__(self, name, _finite_positive(getattr(self, name), name, allow_zero=True))
-        for name in ("report_coast_s", "revive_after_s", "contest_gate"):
-            if getattr(self, name) is not None:
-                object.__setattr__(self, name, _finite_positive(getattr(self, name), name, allow_zero=True))
-        object.__setattr__(self, "contest_radius", _finite_positive(self.contest_radius, "contest_radius"))
-        object.__setattr__(self, "belief_radius", _finite_positive(self.belief_radius, "belief_radius"))
-        object.__setattr__(
-            self, "support_min_speed", _finite_positive(self.support_min_speed, "support_min_speed", allow_zero=True)
+            "contest_radius",
         )
-        for name in ("belief_support", "confirm_score", "report_belief"):
-            v = getattr(self, name)
-            if v is not None:
-                v = _finite_positive(v, name)
-                if v > 1:
-                    raise ValueError(f"TrackerConfig.{name} must be in (0, 1] or None, got {v!r}")
+        optional = ("report_coast_s", "revive_after_s", "contest_gate")  # None: off
+        for name in (*positive, "region_margin", "reid_distance", "support_min_speed", *optional):
+            value = getattr(self, name)
+            if value is not None or name not in optional:
+                v = check_real(value, f"TrackerConfig.{name}", low=0.0, low_open=name in positive)
                 object.__setattr__(self, name, v)
         for name, lo_open, hi_open in (
             ("delete_score", False, True),
@@ -397,25 +233,22 @@ class TrackerConfig:
             ("birth_min_score", False, False),
             ("support_confidence", True, False),
         ):
-            v = _finite_positive(getattr(self, name), name, allow_zero=True)
-            if v > 1 or (hi_open and v == 1) or (lo_open and v == 0):
-                lo = "(0" if lo_open else "[0"
-                hi = "1)" if hi_open else "1]"
-                raise ValueError(f"TrackerConfig.{name} must be in {lo}, {hi}, got {v!r}")
+            v = check_real(
+                getattr(self, name), f"TrackerConfig.{name}", low=0.0, high=1.0, low_open=lo_open, high_open=hi_open
+            )
             object.__setattr__(self, name, v)
         if not isinstance(self.prefer_confirmed, bool):
             raise TypeError(f"TrackerConfig.prefer_confirmed must be a bool, got {self.prefer_confirmed!r}")
-        object.__setattr__(self, "confirm_hits", _count(self.confirm_hits, "confirm_hits"))
-        object.__setattr__(self, "confirm_window", _count(self.confirm_window, "confirm_window"))
-        object.__setattr__(self, "tentative_max_misses", _count(self.tentative_max_misses, "tentative_max_misses"))
+        for name in ("confirm_hits", "confirm_window", "tentative_max_misses"):
+            object.__setattr__(self, name, check_int(getattr(self, name), f"TrackerConfig.{name}", minimum=1))
         if self.confirm_hits > self.confirm_window:
             raise ValueError(
                 f"TrackerConfig.confirm_hits ({self.confirm_hits}) must not exceed confirm_window "
                 f"({self.confirm_window})"
             )
         if self.region is not None:
-            reg = tuple(float(v) for v in self.region)
-            if len(reg) != 4 or not all(math.isfinite(v) for v in reg) or not (reg[0] < reg[1] and reg[2] < reg[3]):
+            reg = tuple(check_real(v, "TrackerConfig.region") for v in self.region)
+            if len(reg) != 4 or not (reg[0] < reg[1] and reg[2] < reg[3]):
                 raise ValueError(
                     f"TrackerConfig.region must be (x_min, x_max, y_min, y_max) with min < max, got {self.region!r}"
                 )
@@ -449,8 +282,7 @@ class Track:
         Whether the track has passed the M-of-N confirmation.
     measurement : int
         Index (into this update's ``positions``) of the position assigned to the track in this frame, its
-        birth's included; -1 when none was (a coasting track, or one updated from the belief, step 4b, or from a
-        support position, step 4c).
+        birth's included; -1 when none was (a coasting track, or one updated from a support position, step 4c).
     supported : bool
         Whether a support position (step 4c) was this frame's hit.
     age_s : float
@@ -497,7 +329,6 @@ class _State:
     age: int = 1
     confirmed: bool = False
     coast_s: float = 0.0
-    support: float = 1.0
     measurement: int = -1
     supported: bool = False
     age_s: float = 0.0
@@ -505,11 +336,18 @@ class _State:
     lost: bool = False
 
 
+def _check_ego(ego: object) -> None:
+    """``ego`` is None or a finite :class:`pfpeople.sensors.Pose2D` (TypeError / ValueError otherwise)."""
+    if ego is None:
+        return
+    if not isinstance(ego, Pose2D):
+        raise TypeError(f"ego must be a pfpeople.sensors.Pose2D or None, got {type(ego).__name__}")
+    if not all(math.isfinite(v) for v in (ego.x, ego.y, ego.yaw)):
+        raise ValueError(f"ego must be finite, got {ego!r}")
+
+
 def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[np.float64]:
-    try:
-        z = np.asarray(positions, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be an (M, 2) array of numbers: {exc}") from None
+    z = check_real_array(positions, name)  # TypeError for complex, bool or string elements
     if z.size == 0:
         return np.zeros((0, 2))
     if z.ndim != 2 or z.shape[1] != 2:
@@ -522,10 +360,7 @@ def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[n
 def _check_scores(scores: ArrayLike | None, m: int) -> NDArray[np.float64]:
     if scores is None:
         return np.ones(m)
-    try:
-        s = np.asarray(scores, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"scores must be an (M,) array of numbers in [0, 1]: {exc}") from None
+    s = check_real_array(scores, "scores")
     if s.size == 0 and m == 0:
         return np.zeros(0)
     if s.shape != (m,):
@@ -533,15 +368,6 @@ def _check_scores(scores: ArrayLike | None, m: int) -> NDArray[np.float64]:
     if not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s > 1):
         raise ValueError("scores must be finite and in [0, 1]")
     return s
-
-
-def _check_dt(dt: Any) -> float:
-    if isinstance(dt, bool) or not isinstance(dt, int | float | np.integer | np.floating):
-        raise TypeError(f"dt must be a number of seconds, got {type(dt).__name__}")
-    v = float(dt)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"dt must be finite and > 0 s (time going backwards is dt <= 0), got {dt!r}")
-    return v
 
 
 class MultiPersonTracker:
@@ -593,15 +419,9 @@ class MultiPersonTracker:
         Coasting tracks are included, up to ``config.report_coast_s`` of coasting when that is set.
         """
         rc = self.config.report_coast_s
-        rb = self.config.report_belief
         rc = math.inf if rc is None else rc + 1e-9
-        rb = -1.0 if rb is None else rb
         return self._snapshots(
-            [
-                i
-                for i, m in enumerate(self._meta)
-                if m.confirmed and not m.lost and (m.misses == 0 or (m.coast_s <= rc and m.support >= rb))
-            ]
+            [i for i, m in enumerate(self._meta) if m.confirmed and not m.lost and (m.misses == 0 or m.coast_s <= rc)]
         )
 
     def _snapshots(self, idx: list[int]) -> list[Track]:
@@ -645,8 +465,6 @@ class MultiPersonTracker:
         *,
         scores: ArrayLike | None = None,
         ego: Pose2D | None = None,
-        belief: ArrayLike | None = None,
-        spec: GridSpec | None = None,
         support: ArrayLike | None = None,
     ) -> list[Track]:
         """Advance the tracks by one frame.
@@ -662,12 +480,6 @@ class MultiPersonTracker:
             Confidence of each position in [0, 1] (e.g. the belief at a grid peak); None counts each as 1.
         ego : Pose2D, optional
             Pose of the current sensor frame in the previous one (m, m, rad); None: the sensor stood still.
-        belief : array_like, shape (nx, ny), optional
-            The fused belief grid of this frame (probability of a person per cell, current sensor frame), used
-            with ``config.belief_support`` to update confirmed tracks that no position was assigned to (step
-            4b of the module docstring). Ignored when ``config.belief_support`` is None.
-        spec : GridSpec, optional
-            Geometry of ``belief`` (required with it).
         support : array_like, shape (K, 2), optional
             Support positions (m, current sensor frame) for confirmed tracks left without a hit (step 4c).
 
@@ -682,23 +494,13 @@ class MultiPersonTracker:
             ``positions`` or ``support`` not (M, 2) or not finite; ``scores`` of the wrong shape or outside [0, 1];
             ``dt`` not finite and positive; ``ego`` not finite.
         TypeError
-            ``ego`` not a Pose2D, ``dt`` not a number, ``spec`` not a GridSpec.
+            ``ego`` not a Pose2D, ``dt`` not a number.
         """
         z = _check_positions(positions)
         c = _check_scores(scores, z.shape[0])
         sup = np.zeros((0, 2)) if support is None else _check_positions(support, "support")
-        dt = _check_dt(dt)
-        grid = None
-        if belief is not None and (self.config.belief_support is not None or self.config.report_belief is not None):
-            if not isinstance(spec, GridSpec):
-                raise TypeError(f"spec must be the GridSpec of belief, got {type(spec).__name__}")
-            grid = spec.check_grid(belief, "belief")
-        if ego is not None:
-            if not isinstance(ego, Pose2D):
-                raise TypeError(f"ego must be a pfpeople.sensors.Pose2D or None, got {type(ego).__name__}")
-            if not all(math.isfinite(v) for v in (ego.x, ego.y, ego.yaw)):
-                raise ValueError(f"ego must be finite, got {ego!r}")
-        cfg = self.config
+        dt = check_real(dt, "dt", low=0.0, low_open=True)
+        _check_ego(ego)
         if self._meta:
             if ego is not None and (ego.x != 0.0 or ego.y != 0.0 or ego.yaw != 0.0):
                 self._apply_ego(ego)
@@ -708,26 +510,52 @@ class MultiPersonTracker:
         n_old = len(self._meta)
         meas_of = np.full(n_old, -1, dtype=np.intp)
         meas_of[rows] = cols
-        assigned = meas_of.copy()  # before step 4b's belief hits
+        assigned = meas_of.copy()  # before step 4c's support hits
         conf = np.zeros(n_old)
         conf[rows] = c[cols]
-        if grid is not None and spec is not None:
-            g_rows, g_pos, g_conf = self._belief_measurements(grid, spec, z, meas_of)
-            if g_rows.size and cfg.belief_support is not None:
-                self._correct(g_rows, np.arange(g_rows.size, dtype=np.intp), g_pos)
-                meas_of[g_rows] = n_old  # any value >= 0: a hit
-                conf[g_rows] = g_conf
+        supported = self._support_hits(sup, z, meas_of, conf)
+        was_confirmed = [m.confirmed for m in self._meta]
+        self._score_and_confirm(dt, meas_of, assigned, conf, supported)
+        if n_old:
+            far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= self.config.moved_distance
+            for j in np.flatnonzero(far).tolist():
+                self._meta[j].moved = True
+            if self.config.reid_distance > 0:
+                self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
+        self._delete()
+        self._birth(z, c, cols)
+        return self.confirmed()
+
+    def _support_hits(
+        self, sup: NDArray[np.float64], z: NDArray[np.float64], meas_of: NDArray[np.intp], conf: NDArray[np.float64]
+    ) -> NDArray[np.bool_]:
+        """Step 4c: the confirmed tracks without a hit updated by support positions ``sup`` (K, 2); ``meas_of``
+        and ``conf`` (per track row) marked for them. Returns which rows a support position continued."""
+        n_old = len(meas_of)
         supported = np.zeros(n_old, dtype=bool)
-        if sup.shape[0] and n_old:
-            s_rows, s_cols = self._support(sup, z, meas_of)
-            if s_rows.size:
-                self._correct(s_rows, s_cols, sup, sigma=cfg.support_sigma)
-                meas_of[s_rows] = n_old
-                conf[s_rows] = cfg.support_confidence
-                supported[s_rows] = True
+        if not (sup.shape[0] and n_old):
+            return supported
+        s_rows, s_cols = self._support(sup, z, meas_of)
+        if s_rows.size:
+            self._correct(s_rows, s_cols, sup, sigma=self.config.support_sigma)
+            meas_of[s_rows] = n_old  # any value >= 0: a hit
+            conf[s_rows] = self.config.support_confidence
+            supported[s_rows] = True
+        return supported
+
+    def _score_and_confirm(
+        self,
+        dt: float,
+        meas_of: NDArray[np.intp],
+        assigned: NDArray[np.intp],
+        conf: NDArray[np.float64],
+        supported: NDArray[np.bool_],
+    ) -> None:
+        """Steps 5-6 for the tracks of the previous frame: age, hits and misses, existence score, confirmation
+        (M of N) and loss (``revive_after_s``)."""
+        cfg = self.config
         decay = math.exp(-dt / cfg.score_tau)
         lose_after = math.inf if cfg.revive_after_s is None else cfg.revive_after_s + 1e-9
-        was_confirmed = [m.confirmed for m in self._meta]
         for i, m in enumerate(self._meta):
             m.age += 1
             m.age_s += dt
@@ -740,8 +568,6 @@ class MultiPersonTracker:
                 m.misses = 0
                 m.coast_s = 0.0
                 m.score += cfg.hit_gain * float(conf[i]) * (1.0 - m.score)
-                if not m.confirmed and cfg.confirm_score is not None and conf[i] >= cfg.confirm_score:
-                    m.confirmed = True
             else:
                 m.misses += 1
                 m.coast_s += dt
@@ -749,15 +575,6 @@ class MultiPersonTracker:
                 m.lost = m.lost or (m.confirmed and m.coast_s > lose_after)
             if not m.confirmed and m.age <= cfg.confirm_window and m.hits >= cfg.confirm_hits:
                 m.confirmed = True
-        if n_old:
-            far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= cfg.moved_distance
-            for j in np.flatnonzero(far).tolist():
-                self._meta[j].moved = True
-            if cfg.reid_distance > 0:
-                self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
-        self._delete()
-        self._birth(z, c, cols)
-        return self.confirmed()
 
     def _reidentify(self, new: list[int]) -> None:
         """Step 6b: give the tracks ``new`` (rows confirmed in this frame) the ids of lost tracks.
@@ -919,60 +736,6 @@ class MultiPersonTracker:
         others = near.sum(axis=0)[None, :] - near[idx]  # other tracks near each measurement, per row
         return np.asarray(coasting[:, None] & (others > 0) & (dist2 > cfg.contest_gate**2))
 
-    def _belief_measurements(
-        self, grid: NDArray[np.float64], spec: GridSpec, z: NDArray[np.float64], meas_of: NDArray[np.intp]
-    ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
-        """Positions read from the belief grid for confirmed tracks without an assigned position (step 4b).
-
-        Returns the track rows, their measured positions ``(K, 2)`` and confidences ``(K,)``.
-        """
-        cfg = self.config
-        thr = 2.0 if cfg.belief_support is None else cfg.belief_support
-        rad = cfg.belief_radius
-        for i, m in enumerate(self._meta):
-            m.support = 1.0 if meas_of[i] >= 0 else 0.0
-        cand = [i for i, m in enumerate(self._meta) if m.confirmed and meas_of[i] < 0]
-        if not cand:
-            return np.zeros(0, dtype=np.intp), np.zeros((0, 2)), np.zeros(0)
-        res = spec.resolution
-        h = math.ceil(rad / res)
-        out_rows: list[int] = []
-        out_pos: list[tuple[float, float]] = []
-        out_conf: list[float] = []
-        for i in cand:
-            px, py = float(self._s[i, 0]), float(self._s[i, 1])
-            # a position of this frame near the track: the association kept it from this track (gated, or given to
-            # another one); the belief around it is that position's, not evidence for this track
-            if z.shape[0] and float(np.min((z[:, 0] - px) ** 2 + (z[:, 1] - py) ** 2)) <= rad * rad:
-                continue
-            ci = math.floor((px - spec.x0) / res)
-            cj = math.floor((py - spec.y0) / res)
-            i0, i1 = max(ci - h, 0), min(ci + h + 1, spec.nx)
-            j0, j1 = max(cj - h, 0), min(cj + h + 1, spec.ny)
-            if i0 >= i1 or j0 >= j1:
-                continue
-            win = grid[i0:i1, j0:j1]
-            xs = spec.x0 + (np.arange(i0, i1) + 0.5) * res
-            ys = spec.y0 + (np.arange(j0, j1) + 0.5) * res
-            near = (xs[:, None] - px) ** 2 + (ys[None, :] - py) ** 2 <= rad * rad
-            if not near.any():
-                continue
-            w = np.where(near, win, 0.0)
-            peak = float(w.max())
-            self._meta[i].support = peak
-            if peak < thr:
-                continue
-            w = np.where(w >= 0.5 * peak, w, 0.0)
-            tot = float(w.sum())
-            out_rows.append(i)
-            out_pos.append((float((w.sum(axis=1) @ xs) / tot), float((w.sum(axis=0) @ ys) / tot)))
-            out_conf.append(peak)
-        return (
-            np.array(out_rows, dtype=np.intp),
-            np.array(out_pos, dtype=float).reshape(-1, 2),
-            np.array(out_conf, dtype=float),
-        )
-
     def _correct(
         self, rows: NDArray[np.intp], cols: NDArray[np.intp], z: NDArray[np.float64], *, sigma: float | None = None
     ) -> None:
@@ -1024,10 +787,9 @@ class MultiPersonTracker:
         self._s = np.concatenate([self._s, s0])
         self._p = np.concatenate([self._p, np.broadcast_to(p0, (new.size, 4, 4))])
         self._origin = np.concatenate([self._origin, z[new]])
-        cs = cfg.confirm_score
         for j in new:
             st = _State(id=self._next_id, score=cfg.hit_gain * float(c[j]), measurement=int(j))
-            st.confirmed = cfg.confirm_hits <= 1 or (cs is not None and float(c[j]) >= cs)
+            st.confirmed = cfg.confirm_hits <= 1
             self._meta.append(st)
             self._next_id += 1
 

@@ -48,7 +48,7 @@ from numpy.typing import NDArray
 from gridbridge.ego_motion import velocity_displacement
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
-from gridbridge.validation import check_number
+from gridbridge.validation import check_int, check_real
 from pfpeople.output import RunData
 
 __all__ = [
@@ -108,15 +108,11 @@ class ViewOptions:
 
     def __post_init__(self) -> None:
         for name in ("width_px", "height_px"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise TypeError(f"ViewOptions.{name} must be an integer, got {type(v).__name__}")
-            if v < 160 or v > 7680 or v % 2:
+            v = check_int(getattr(self, name), f"ViewOptions.{name}", minimum=160, maximum=7680)
+            if v % 2:
                 raise ValueError(f"ViewOptions.{name} must be an even number of pixels in [160, 7680], got {v}")
         for name in ("dpi", "fps"):
-            v = getattr(self, name)
-            if check_number(v, f"ViewOptions.{name}") <= 0:
-                raise ValueError(f"ViewOptions.{name} must be positive and finite, got {v}")
+            check_real(getattr(self, name), f"ViewOptions.{name}", low=0.0, low_open=True)
 
 
 def read_tracks(path: str | Path) -> dict[str, NDArray[Any]]:

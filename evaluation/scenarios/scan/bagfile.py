@@ -14,7 +14,7 @@ driver's bag would have them):
   frame, header = the scan's stamp (person ids are in the CSV).
 
 Beside the bag: ``<name>_gt.csv`` (scan_index, stamp_ns, person_id, x_<frame>_m, y_<frame>_m, hit_beams, speed_mps; see
-:mod:`evaluation.gt_csv`) and ``<name>.toml``, a ``pfpeople run`` configuration (driver and detectors on the
+:mod:`pfpeople.gt_csv`) and ``<name>.toml``, a ``pfpeople run`` configuration (driver and detectors on the
 first laser, odometry ``/odom``, the laser's field of view and range in each detector's model).
 """
 

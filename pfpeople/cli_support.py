@@ -22,6 +22,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from pfpeople.extras import MissingExtraError
+
 __all__ = ["SubcommandParser", "build_parser", "examples", "package_version", "run", "verbosity_parser"]
 
 
@@ -159,6 +161,6 @@ def run(prog: str, description: str, commands: ModuleType, argv: Sequence[str] |
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     try:
         return int(args.func(args) or 0)
-    except (ValueError, OSError, KeyError) as exc:  # bad input or files: a message, not a traceback
+    except (ValueError, OSError, KeyError, MissingExtraError) as exc:  # bad input or files, a missing extra
         print(f"{prog} {args.command}: error: {exc}", file=sys.stderr)
         return 2

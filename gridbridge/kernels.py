@@ -1,0 +1,348 @@
+"""Compiled kernels of the grid-filter step (:mod:`gridbridge.jit`), each with its numpy twin elsewhere.
+
+=====================  ===========================================  ==========================================
+kernel                 numpy twin                                   agreement (``tests/test_kernels_grid.py``)
+=====================  ===========================================  ==========================================
+:func:`predict_paper`  :func:`gridbridge.people_motion._predict_paper`  bit for bit (same sums, same order)
+:func:`convolve_const` ``scipy.ndimage.convolve(mode="constant")``  1e-12 (scipy sums the taps in its order)
+:func:`warp_bilinear`  :func:`gridbridge.ego_motion.warp_belief`     1e-12 (scipy's spline weights, BLAS sum)
+:func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
+:func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
+:func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
+                       and :func:`scatter_max`                      the two kernels)
+=====================  ===========================================  ==========================================
+
+Grids are ``(nx, ny)`` float64 arrays; ``grid = (x0, y0, resolution)`` (m) places cell ``[i, j]``'s centre at
+``(x0 + (i + 0.5) r, y0 + (j + 0.5) r)`` in the sensor frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gridbridge.jit import jit
+
+__all__ = [
+    "convolve_const",
+    "fuse_update",
+    "gaussian_args",
+    "point_map",
+    "predict_paper",
+    "scatter_max",
+    "warp_bilinear",
+]
+
+
+@jit
+def _padded(bel: NDArray[np.float64], rad: int, outside: float) -> NDArray[np.float64]:
+    nx, ny = bel.shape
+    out = np.full((nx + 2 * rad, ny + 2 * rad), outside)
+    out[rad : rad + nx, rad : rad + ny] = bel
+    return out
+
+
+@jit
+def _tap_values(kernel: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """The distinct off-centre nonzero values of a kernel and, per tap, the index of its value (-1: no tap)."""
+    side = kernel.shape[0]
+    rad = side // 2
+    values = np.zeros(side * side)
+    n_values = 0
+    slot = np.full((side, side), -1, dtype=np.intp)
+    for a in range(side):
+        for b in range(side):
+            k = kernel[a, b]
+            if k == 0.0 or (a == rad and b == rad):
+                continue
+            for v in range(n_values):
+                if values[v] == k:
+                    slot[a, b] = v
+            if slot[a, b] < 0:
+                values[n_values] = k
+                slot[a, b] = n_values
+                n_values += 1
+    return values[:n_values], slot
+
+
+@jit
+def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+    """The paper's people prediction, eq. 6 with eq. 8: ``bel' = p_stay bel + P_col (1 - bel)``.
+
+    Parameters
+    ----------
+    bel : ndarray, shape (nx, ny)
+        bel(x_{t-1}).
+    kernel : ndarray, shape (2R + 1, 2R + 1)
+        The paper kernel (centre: p_stationary; off-centre entries below 1).
+    outside : float
+        Belief beyond the border.
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        ``P_col = S / (1 + S)``, ``S = sum_k q_k / (1 - q_k)``, ``q_k = p_k bel_k`` over the off-centre nonzero
+        taps in row-major order (the numpy code's order, tap by tap over the whole grid).
+
+    Notes
+    -----
+    ``q / (1 - q)`` depends only on the tap's value and the source cell's belief, and the kernel is radially
+    symmetric, so it is computed once per distinct tap value over the padded grid (8 values for the paper's
+    37 taps) and each tap adds its shifted copy: the same numbers added in the same order, without a division
+    per tap and cell.
+    """
+    nx, ny = bel.shape
+    side = kernel.shape[0]
+    rad = side // 2
+    padded = _padded(bel, rad, outside)
+    px, py = padded.shape
+    values, slot = _tap_values(kernel)
+    n_values = values.size
+    odds = np.empty((n_values, px, py))  # q / (1 - q) of every padded cell, per tap value
+    for v in range(n_values):
+        k = values[v]
+        for i in range(px):
+            for j in range(py):
+                q = k * padded[i, j]
+                odds[v, i, j] = q / (1.0 - q)
+    s = np.zeros((nx, ny))
+    for a in range(side):
+        for b in range(side):
+            if slot[a, b] < 0:
+                continue
+            src = odds[slot[a, b]]
+            for i in range(nx):
+                row, srow = s[i], src[2 * rad - a + i]
+                for j in range(ny):
+                    row[j] += srow[2 * rad - b + j]
+    p_stay = kernel[rad, rad]
+    out = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            p_col = s[i, j] / (1.0 + s[i, j])
+            out[i, j] = p_stay * bel[i, j] + p_col * (1.0 - bel[i, j])
+    return out
+
+
+@jit
+def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+    """``sum_k T(c <- k) bel_k`` (the linear people prediction) with ``outside`` beyond the border, clipped to
+    [0, 1]: ``scipy.ndimage.convolve(bel, kernel, mode="constant", cval=outside)`` to round-off."""
+    nx, ny = bel.shape
+    side = kernel.shape[0]
+    rad = side // 2
+    padded = _padded(bel, rad, outside)
+    s = np.zeros((nx, ny))
+    for a in range(side):
+        for b in range(side):
+            k = kernel[a, b]
+            if k == 0.0:
+                continue
+            for i in range(nx):
+                src = padded[2 * rad - a + i]
+                row = s[i]
+                for j in range(ny):
+                    row[j] += k * src[2 * rad - b + j]
+    for i in range(nx):
+        for j in range(ny):
+            s[i, j] = min(max(s[i, j], 0.0), 1.0)
+    return s
+
+
+@jit
+def warp_bilinear(
+    bel: NDArray[np.float64],
+    grid: tuple[float, float, float],
+    poses: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    outside: float,
+) -> NDArray[np.float64]:
+    """The sensor-motion prediction (eqs. 10-11): weighted bilinear backward warps of ``bel``, clipped to [0, 1].
+
+    Parameters
+    ----------
+    bel : ndarray, shape (nx, ny)
+        Belief in the old sensor frame.
+    grid : tuple
+        ``(x0, y0, resolution)`` (m).
+    poses : ndarray, shape (S, 3)
+        Displacements ``(dx, dy, dtheta)`` of the new sensor frame in the old one (m, m, rad).
+    weights : ndarray, shape (S,)
+        Normalised weights.
+    outside : float
+        Belief read beyond the border (bilinear taps outside the grid read it).
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        ``sum_s w_s bel_old(R(dtheta_s) p + t_s)`` at every new cell centre p.
+    """
+    x0, y0, res = grid
+    inv = 1.0 / res  # a product, not numpy's quotient: coordinates within an ulp, the loop vectorised
+    nx, ny = bel.shape
+    flat = _padded(bel, 2, outside).ravel()  # taps beyond the border read ``outside``; indices clamped into the pad
+    width = ny + 4
+    one, below = np.uint64(1), np.uint64(width)
+    out = np.zeros((nx, ny))
+    for s in range(poses.shape[0]):
+        tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
+        for i in range(nx):
+            px = x0 + (i + 0.5) * res
+            row = out[i]
+            for j in range(ny):
+                py = y0 + (j + 0.5) * res
+                u = (tx + c * px - sn * py - x0) * inv - 0.5
+                v = (ty + sn * px + c * py - y0) * inv - 0.5
+                fi, fj = np.floor(u), np.floor(v)
+                fu, fv = u - fi, v - fj
+                # an unsigned index: no wrap-around test for negative indices
+                t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
+                # scipy's order: taps (0, 0), (0, 1), (1, 0), (1, 1), each times the x then the y weight
+                val = flat[t] * (1.0 - fu) * (1.0 - fv)
+                val += flat[t + one] * (1.0 - fu) * fv
+                val += flat[t + below] * fu * (1.0 - fv)
+                val += flat[t + below + one] * fu * fv
+                row[j] += ws * val
+    for i in range(nx):
+        for j in range(ny):
+            out[i, j] = min(max(out[i, j], 0.0), 1.0)
+    return out
+
+
+@jit
+def fuse_update(
+    fired: NDArray[np.float64],
+    covered: NDArray[np.bool_],
+    ppv: NDArray[np.float64],
+    fnr: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per-detector likelihoods and their De Morgan fusion (eqs. 13-14, soft firing), in one pass.
+
+    Parameters
+    ----------
+    fired : ndarray, shape (D, nx, ny)
+        Firing weights in [0, 1].
+    covered : ndarray of bool, shape (D, nx, ny)
+        Fields of view.
+    ppv, fnr : ndarray, shape (D,)
+        Each detector's precision and false-negative rate.
+
+    Returns
+    -------
+    per_det : ndarray, shape (D, nx, ny)
+        P(D_i | p): ``q PPV + (1 - q) FNR`` where covered, 0.5 elsewhere.
+    fused : ndarray, shape (nx, ny)
+        ``L = 1 - A - N0 (1 - B) + N0 min FNR`` clipped to [0, 1]; 0.5 where no detector covers the cell
+        (:func:`gridbridge.measurement.fuse_detectors`).
+    """
+    d, nx, ny = fired.shape
+    per_det = np.empty((d, nx, ny))
+    fused = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            a, n0, b, min_fnr, any_cov = 1.0, 1.0, 1.0, np.inf, False
+            for k in range(d):
+                q = fired[k, i, j]
+                if covered[k, i, j]:
+                    per_det[k, i, j] = q * ppv[k] + (1.0 - q) * fnr[k]
+                    a *= q * (1.0 - ppv[k]) + (1.0 - q) * (1.0 - fnr[k])
+                    n0 *= 1.0 - q
+                    b *= 1.0 - fnr[k]
+                    min_fnr = min(min_fnr, fnr[k])
+                    any_cov = True
+                else:  # an uncovered detector's factors are 1
+                    per_det[k, i, j] = 0.5
+            if any_cov:
+                f = (1.0 - a) - n0 * (1.0 - b) + n0 * min_fnr
+                fused[i, j] = min(max(f, 0.0), 1.0)
+            else:
+                fused[i, j] = 0.5
+    return per_det, fused
+
+
+@jit
+def point_map(
+    fired: NDArray[np.float64],
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    grid: tuple[float, float, float],
+    radius: float,
+) -> None:
+    """Point detections (m, sensor frame): their cells and the cells whose centre lies within ``radius`` (m) set
+    to 1 in ``fired`` (nx, ny) (:func:`gridbridge.measurement.detection_map`, bit for bit)."""
+    x0, y0, res = grid
+    nx, ny = fired.shape
+    for p in range(x.size):
+        fi, fj = math.floor((x[p] - x0) / res), math.floor((y[p] - y0) / res)
+        if 0 <= fi < nx and 0 <= fj < ny:
+            fired[int(fi), int(fj)] = 1.0
+    if radius <= 0.0:
+        return
+    for p in range(x.size):
+        for i in range(nx):
+            dx = x0 + (i + 0.5) * res - x[p]
+            for j in range(ny):
+                dy = y0 + (j + 0.5) * res - y[p]
+                if dx**2 + dy**2 <= radius**2:
+                    fired[i, j] = 1.0
+
+
+@jit
+def gaussian_args(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    grid: tuple[float, float, float],
+    shape: tuple[int, int],
+    mount: tuple[float, float],
+    sigmas: tuple[float, float],
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """The exponents ``-d^T S^-1 d / 2`` of Gaussian detections (m, sensor frame) in the cells within 3 sd.
+
+    As :func:`gridbridge.measurement.detection_map` computes them (window of 3 sd, the same arithmetic), except
+    that cells whose exponent is below ``-4.5 - 1e-6`` are left out: their value would fall below the cutoff
+    ``exp(-4.5)`` and be set to 0 there anyway. ``mount`` is the detector's ``(x, y)`` (m), ``sigmas`` its
+    ``(range, lateral)`` sd (m). Returns the flat cells and the exponents, one pair per (detection, cell).
+    """
+    x0, y0, res = grid
+    nx, ny = shape
+    s_range, s_lat = sigmas
+    reach = 3.0 * max(s_range, s_lat)
+    cells = np.empty(x.size * nx * ny, dtype=np.intp)
+    args = np.empty(x.size * nx * ny)
+    n = 0
+    for p in range(x.size):
+        px, py = x[p], y[p]
+        i0 = max(math.floor(((px - reach) - x0) / res), 0)
+        j0 = max(math.floor(((py - reach) - y0) / res), 0)
+        i1 = min(math.floor(((px + reach) - x0) / res), nx - 1)
+        j1 = min(math.floor(((py + reach) - y0) / res), ny - 1)
+        phi = math.atan2(py - mount[1], px - mount[0])
+        c, s = math.cos(phi), math.sin(phi)
+        for i in range(i0, i1 + 1):
+            xs = x0 + (i + 0.5) * res - px
+            for j in range(j0, j1 + 1):
+                ys = y0 + (j + 0.5) * res - py
+                along = (c * xs + s * ys) / s_range
+                across = (-s * xs + c * ys) / s_lat
+                arg = -0.5 * (along**2 + across**2)
+                if arg >= -4.5 - 1e-6:
+                    cells[n] = i * ny + j
+                    args[n] = arg
+                    n += 1
+    return cells[:n], args[:n]
+
+
+@jit
+def scatter_max(
+    fired: NDArray[np.float64], cells: NDArray[np.intp], values: NDArray[np.float64], cutoff: float
+) -> None:
+    """``fired.flat[c] = max(fired.flat[c], v)`` per pair, then values below ``cutoff`` set to 0."""
+    flat = fired.ravel()
+    for k in range(cells.size):
+        if values[k] > flat[cells[k]]:
+            flat[cells[k]] = values[k]
+    for k in range(flat.size):
+        if flat[k] < cutoff:
+            flat[k] = 0.0
