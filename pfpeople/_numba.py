@@ -1,8 +1,9 @@
-"""Optional numba compilation of the front end's kernels, with a pure-numpy fallback.
+"""The front end's compiled kernels (segmentation, segment features, far leg blobs, the clutter map's free-space
+tracing): their switch, numpy's summation order, and the warm-up before a run.
 
-The kernels (segmentation and segment features, the clutter map's free-space tracing) are written twice: a
-numba-compiled loop and the numpy code that came before it. :data:`ENABLED` selects the compiled one when numba
-imports and the environment variable ``PFPEOPLE_NUMBA`` is not ``0``; both give the same floats bit for bit
+The switch is :mod:`gridbridge.jit`'s, scope ``"pfpeople"`` (numba importable and ``PFPEOPLE_NUMBA`` not
+``0``): :func:`enabled` is read at every call, ``gridbridge.jit.override(on, "pfpeople")`` switches within a
+process. Each kernel has a numpy twin (the code that came before it) and both give the same floats bit for bit
 (``tests/test_numba_kernels.py``): the compiled loops add in numpy's order (:func:`pairwise_sum` is numpy's
 pairwise summation, which ``np.add.reduce`` and ``np.add.reduceat`` use) and leave the transcendental functions
 whose numpy implementation may be vectorised differently (``arctan2``, ``cos``, ``sin``) to numpy.
@@ -10,33 +11,23 @@ whose numpy implementation may be vectorised differently (``arctan2``, ``cos``, 
 
 from __future__ import annotations
 
-import importlib.util
-import os
-from collections.abc import Callable
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["AVAILABLE", "ENABLED", "njit", "pairwise_sum", "warm_up"]
+from gridbridge import jit as _jit
 
-#: numba is installed.
-AVAILABLE: bool = importlib.util.find_spec("numba") is not None
-#: The compiled kernels are used (numba is installed and ``PFPEOPLE_NUMBA`` is not ``"0"``); numba is imported
-#: only then.
-ENABLED: bool = AVAILABLE and os.environ.get("PFPEOPLE_NUMBA", "1").strip() != "0"
+__all__ = ["AVAILABLE", "enabled", "njit", "pairwise_sum", "warm_up"]
 
-_numba: Any = None
-if ENABLED:
-    import numba as _numba
+#: numba imports.
+AVAILABLE: bool = _jit.AVAILABLE
+#: The decorator of the kernels (``numba.njit(cache=True, nogil=True, error_model="numpy")``; the function itself
+#: without numba).
+njit = _jit.jit
 
 
-def njit(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """``numba.njit(cache=True)`` of ``fn`` when :data:`ENABLED`, else ``fn`` itself (the fallback does not call
-    it; run as Python it computes the same)."""
-    if _numba is None:
-        return fn
-    return _numba.njit(cache=True, nogil=True)(fn)
+def enabled() -> bool:
+    """True when the front end's compiled kernels are used (:func:`gridbridge.jit.enabled` of ``"pfpeople"``)."""
+    return _jit.enabled("pfpeople")
 
 
 @njit
@@ -76,9 +67,9 @@ def warm_up() -> None:
 
     The first compiled call of a process starts numba's code generator (about half a second; loading each cached
     kernel then takes milliseconds, compiling one the first time about a second). Nothing happens when
-    :data:`ENABLED` is False.
+    :func:`enabled` is False.
     """
-    if not ENABLED:
+    if not enabled():
         return
     from pfpeople.clutter_kernels import update_evidence
     from pfpeople.detectors import _kernels

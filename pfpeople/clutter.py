@@ -415,7 +415,7 @@ class StaticClutterMap:
         cells, inside = self.cell_of(self.pose.apply(pts))
         hc = cells[inside & ~human]
         s = self.evidence.reshape(-1)
-        if _numba.ENABLED and s.base is self.evidence:  # the same as below, compiled (pfpeople.clutter_kernels)
+        if _numba.enabled() and s.base is self.evidence:  # the same as below, compiled (pfpeople.clutter_kernels)
             ru, origin, n_free = self._ray_dirs(rays, lengths)
             decrement = c.free_rate * step
             params = np.array([c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, decrement, c.s_min])

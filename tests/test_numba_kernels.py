@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gridbridge import jit
 from pfpeople import _numba
 from pfpeople.detectors import segments as seg
 from pfpeople.sensors import LaserScan
 
-pytestmark = pytest.mark.skipif(not _numba.ENABLED, reason="numba is not installed or PFPEOPLE_NUMBA=0")
+pytestmark = pytest.mark.skipif(not _numba.enabled(), reason="numba is not installed or PFPEOPLE_NUMBA=0")
 
 
 def _scans(n: int = 40) -> list[LaserScan]:
@@ -35,10 +36,10 @@ def _scans(n: int = 40) -> list[LaserScan]:
 
 
 def _both(fn, monkeypatch):  # type: ignore[no-untyped-def]
-    monkeypatch.setattr(_numba, "ENABLED", True)
-    compiled = fn()
-    monkeypatch.setattr(_numba, "ENABLED", False)
-    return compiled, fn()
+    with jit.override(True, "pfpeople"):
+        compiled = fn()
+    with jit.override(False, "pfpeople"):
+        return compiled, fn()
 
 
 def _same_segments(a: seg.Segments, b: seg.Segments) -> None:
@@ -87,22 +88,22 @@ def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatc
         free = pts[np.isfinite(pts).all(axis=1)][::7] * 1.5
         people = pts[np.isfinite(pts).all(axis=1)][:: max(1, pts.shape[0] // 3)][:3]
         ego = Pose2D(x=float(rng.normal(0, 0.3)), y=float(rng.normal(0, 0.3)), yaw=float(rng.normal(0, 0.1)))
-        for enabled, m in maps.items():
-            monkeypatch.setattr(_numba, "ENABLED", enabled)
-            m.update(pts, ego=ego, exclude=people, dt=0.05 + 0.01 * (k % 5), free=free)
+        for on, m in maps.items():
+            with jit.override(on, "pfpeople"):
+                m.update(pts, ego=ego, exclude=people, dt=0.05 + 0.01 * (k % 5), free=free)
         assert maps[True].evidence.tobytes() == maps[False].evidence.tobytes()
     assert np.any(maps[True].evidence != maps[True].config.unknown_evidence)
 
 
 def test_warm_up_and_disabled_fallback() -> None:
-    """``warm_up`` loads the kernels; with ``PFPEOPLE_NUMBA=0`` numba is not imported and the numpy paths run."""
+    """``warm_up`` loads the kernels; with ``PFPEOPLE_NUMBA=0`` the numpy paths run (nothing to warm up)."""
     import subprocess
     import sys
 
     _numba.warm_up()
     code = (
         "import sys; from pfpeople import _numba; from pfpeople.detectors import segments; "
-        "assert not _numba.ENABLED and 'numba' not in sys.modules; _numba.warm_up(); print('ok')"
+        "assert not _numba.enabled(); _numba.warm_up(); print('ok')"
     )
     env = {**__import__("os").environ, "PFPEOPLE_NUMBA": "0"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)

@@ -198,7 +198,7 @@ def far_leg_blobs(scan: LaserScan, params: LegDetectorParams) -> tuple[NDArray[n
     segs = segment_scan(scan, params=p.segmentation, min_points=1)  # every run: they cover every valid beam
     if not len(segs):
         return none, none
-    if _numba.ENABLED:
+    if _numba.enabled():
         inc = abs(scan.angle_increment)
         par = np.array([p.far_max_points, p.far_from, p.far_min_jump, p.far_leg_width, inc, p.far_max_width, 0.0])
         keep, small, centres = _kernels.far_blobs(

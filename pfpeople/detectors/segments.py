@@ -212,7 +212,7 @@ def segment_scan(
             range_after=np.zeros(0),
             n_invalid=n_invalid,
         )
-    if _numba.ENABLED:
+    if _numba.enabled():
         pts, kb, starts, counts, before, after, n_small = _kernels.jump_segments(
             x, y, r, beams, float(p.jump_distance), int(min_points)
         )
@@ -312,7 +312,7 @@ def segment_features(segments: Segments) -> NDArray[np.float64]:
         return np.zeros((0, len(FEATURE_NAMES)))
     if np.any(segments.counts < 3):
         raise ValueError("segments must have at least 3 points each for segment_features")
-    if _numba.ENABLED:
+    if _numba.enabled():
         return _features_compiled(segments)
     return _features_numpy(segments)
 
