@@ -121,3 +121,24 @@ def test_far_leg_blobs_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) ->
                 assert x.shape == y.shape and x.tobytes() == y.tobytes()
             found += len(c[1])
     assert found > 0
+
+
+def test_pipeline_run_same_outputs_compiled_and_numpy(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A whole ``pfpeople run`` (simulated 768-beam wheelchair scene, starter config) writes the same tables with
+    the front end's kernels and with their numpy twins."""
+    from evaluation.scenarios.scan import write_scene_bag
+    from pfpeople.bag.config import load_config
+    from pfpeople.bag.inspect import inspect_path, starter_config
+    from pfpeople.bag.reader import BagSource
+    from pfpeople.pipeline import Pipeline
+
+    sb = write_scene_bag("wheelchair", tmp_path / "scene", frames=40)
+    cfg_path = tmp_path / "starter.toml"
+    cfg_path.write_text(starter_config(inspect_path(sb.bag)), encoding="utf-8")
+    cfg = load_config(cfg_path)
+    for on in (True, False):
+        with jit.override(on, "pfpeople"), BagSource(sb.bag) as src:
+            Pipeline(cfg, front_process=False).run(src, tmp_path / f"run_{on}")
+    for name in ("people.csv", "tracks.csv", "detections.csv", "support.csv", "scans.npy", "grids.npy"):
+        assert (tmp_path / "run_True" / name).read_bytes() == (tmp_path / "run_False" / name).read_bytes(), name
+    assert len((tmp_path / "run_True" / "detections.csv").read_text().splitlines()) > 10
