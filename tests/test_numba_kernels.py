@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -35,7 +39,7 @@ def _scans(n: int = 40) -> list[LaserScan]:
     return out
 
 
-def _both(fn, monkeypatch):  # type: ignore[no-untyped-def]
+def _both(fn: Callable[[], Any], monkeypatch: pytest.MonkeyPatch) -> tuple[Any, Any]:
     with jit.override(True, "pfpeople"):
         compiled = fn()
     with jit.override(False, "pfpeople"):
@@ -123,7 +127,7 @@ def test_far_leg_blobs_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) ->
     assert found > 0
 
 
-def test_pipeline_run_same_outputs_compiled_and_numpy(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_pipeline_run_same_outputs_compiled_and_numpy(tmp_path: Path) -> None:
     """A whole ``pfpeople run`` (simulated 768-beam wheelchair scene, starter config) writes the same tables with
     the front end's kernels and with their numpy twins."""
     from evaluation.scenarios.scan import write_scene_bag
