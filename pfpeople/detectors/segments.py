@@ -331,28 +331,45 @@ def _features_compiled(segments: Segments) -> NDArray[np.float64]:
 
 def _features_numpy(segments: Segments) -> NDArray[np.float64]:
     """:func:`segment_features` in numpy (the fallback without numba; the compiled kernels' reference)."""
-    S = len(segments)
-    pts = segments.points
-    starts, counts = segments.starts, segments.counts
+    pts, starts, counts, sid = segments.points, segments.starts, segments.counts, segments.segment_ids
     n = counts.astype(float)
-    sid = segments.segment_ids
-    first = pts[starts]
-    last = pts[starts + counts - 1]
+    first, last = pts[starts], pts[starts + counts - 1]
+    c, d, sxx, syy, sxy, std, linearity = _spread(pts, starts, n, sid)
+    avg_median_dev, distance = _median_features(pts, starts, counts, n, sid)
+    width = np.hypot(*(last - first).T)
+    radius, circularity = _circle_fit(pts, starts, n, sid, c, d, (sxx, syy, sxy), linearity)
+    boundary_length, boundary_regularity = _boundary(pts, n, sid)
+    mean_curvature, mean_angle_diff = _triples(pts, n, sid)
+    iav, iav_std = _inscribed_angle(pts, starts, counts, n, sid, first, last)
+    columns = (n, std, avg_median_dev, width, linearity, circularity, radius, boundary_length, boundary_regularity)
+    return np.column_stack((*columns, mean_curvature, mean_angle_diff, iav, iav_std, distance))
 
-    # centroid, spread and scatter matrix
+
+_F = NDArray[np.float64]
+
+
+def _spread(pts: _F, starts: NDArray[np.intp], n: _F, sid: NDArray[np.intp]) -> tuple[_F, _F, _F, _F, _F, _F, _F]:
+    """Centroid ``c`` (S, 2), centred points ``d`` (N, 2), the scatter sums ``sxx, syy, sxy``, ``std`` and
+    ``linearity`` (the smallest eigenvalue of the scatter matrix: squared residuals of the total-least-squares
+    line)."""
     c = _segment_sum(pts, starts) / n[:, None]
     d = pts - c[sid]
     sxx = _segment_sum(d[:, 0] ** 2, starts)
     syy = _segment_sum(d[:, 1] ** 2, starts)
     sxy = _segment_sum(d[:, 0] * d[:, 1], starts)
     std = np.sqrt((sxx + syy) / (n - 1.0))
-    # smallest eigenvalue of [[sxx, sxy], [sxy, syy]] = squared residuals of the total-least-squares line
     half_tr = 0.5 * (sxx + syy)
     disc = np.sqrt(np.maximum(0.25 * (sxx - syy) ** 2 + sxy**2, 0.0))
     linearity = np.maximum(half_tr - disc, 0.0)
+    return c, d, sxx, syy, sxy, std, linearity
 
-    # coordinate-wise median (sort points of each segment by (segment, coordinate))
-    med = np.empty((S, 2))
+
+def _median_features(
+    pts: _F, starts: NDArray[np.intp], counts: NDArray[np.intp], n: _F, sid: NDArray[np.intp]
+) -> tuple[_F, _F]:
+    """``avg_median_dev`` and ``distance`` from the coordinate-wise median (points sorted by (segment,
+    coordinate))."""
+    med = np.empty((len(starts), 2))
     lo = starts + (counts - 1) // 2
     hi = starts + counts // 2
     for k in range(2):
@@ -360,13 +377,24 @@ def _features_numpy(segments: Segments) -> NDArray[np.float64]:
         srt = pts[order, k]
         med[:, k] = 0.5 * (srt[lo] + srt[hi])
     avg_median_dev = _segment_sum(np.hypot(*(pts - med[sid]).T), starts) / n
-    distance = np.hypot(med[:, 0], med[:, 1])
+    return avg_median_dev, np.hypot(med[:, 0], med[:, 1])
 
-    width = np.hypot(*(last - first).T)
 
-    # algebraic circle fit (Kasa): minimise sum (x^2 + y^2 + D x + E y + G)^2, in centred coordinates
+def _circle_fit(
+    pts: _F,
+    starts: NDArray[np.intp],
+    n: _F,
+    sid: NDArray[np.intp],
+    c: _F,
+    d: _F,
+    scatter: tuple[_F, _F, _F],
+    linearity: _F,
+) -> tuple[_F, _F]:
+    """``radius`` (capped at :data:`RADIUS_CAP`) and ``circularity`` of the algebraic (Kasa) circle fit, which
+    minimises ``sum (x^2 + y^2 + D x + E y + G)^2`` in centred coordinates; a degenerate fit gives the line's
+    residuals."""
+    suu, svv, suv = scatter
     z = d[:, 0] ** 2 + d[:, 1] ** 2
-    suu, svv, suv = sxx, syy, sxy
     suz = _segment_sum(d[:, 0] * z, starts)
     svz = _segment_sum(d[:, 1] * z, starts)
     det = suu * svv - suv**2
@@ -381,9 +409,12 @@ def _features_numpy(segments: Segments) -> NDArray[np.float64]:
     centre = c + np.column_stack((a_c, b_c))
     resid = np.where(ok[sid], radius[sid] - np.hypot(*(pts - centre[sid]).T), 0.0)
     circularity = np.where(ok, _segment_sum(resid**2, starts), linearity)
-    radius = np.minimum(radius, RADIUS_CAP)
+    return np.minimum(radius, RADIUS_CAP), circularity
 
-    # consecutive steps inside segments
+
+def _boundary(pts: _F, n: _F, sid: NDArray[np.intp]) -> tuple[_F, _F]:
+    """``boundary_length`` and ``boundary_regularity`` from the consecutive steps inside each segment."""
+    S = len(n)
     step = np.hypot(*np.diff(pts, axis=0).T)  # (N-1,)
     same = sid[1:] == sid[:-1]
     step_in = np.where(same, step, 0.0)
@@ -391,10 +422,14 @@ def _features_numpy(segments: Segments) -> NDArray[np.float64]:
     step_sum = np.bincount(sid[:-1][same], weights=step_in[same], minlength=S)
     step_sq = np.bincount(sid[:-1][same], weights=step_in[same] ** 2, minlength=S)
     n_steps = n - 1.0
-    boundary_length = step_sum
-    boundary_regularity = np.sqrt(np.maximum(step_sq - step_sum**2 / n_steps, 0.0) / np.maximum(n_steps - 1, 1))
+    regularity = np.sqrt(np.maximum(step_sq - step_sum**2 / n_steps, 0.0) / np.maximum(n_steps - 1, 1))
+    return step_sum.astype(np.float64, copy=False), regularity
 
-    # consecutive triples (right, mid, left) inside segments: curvature and turning angle
+
+def _triples(pts: _F, n: _F, sid: NDArray[np.intp]) -> tuple[_F, _F]:
+    """``mean_curvature`` (signed Menger curvature) and ``mean_angle_diff`` (turning angle) over the
+    consecutive triples (right, mid, left) inside each segment, divided by ``n``."""
+    S = len(n)
     right, mid, left = pts[:-2], pts[1:-1], pts[2:]
     tri_ok = sid[:-2] == sid[2:]
     ml = left - mid
@@ -410,8 +445,15 @@ def _features_numpy(segments: Segments) -> NDArray[np.float64]:
     tri_seg = sid[1:-1][tri_ok]
     mean_curvature = np.bincount(tri_seg, weights=curv[tri_ok], minlength=S) / n
     mean_angle_diff = np.bincount(tri_seg, weights=th[tri_ok], minlength=S) / n
+    return mean_curvature, mean_angle_diff
 
-    # inscribed angle at interior points between the first and the last point of the segment
+
+def _inscribed_angle(
+    pts: _F, starts: NDArray[np.intp], counts: NDArray[np.intp], n: _F, sid: NDArray[np.intp], first: _F, last: _F
+) -> tuple[_F, _F]:
+    """``iav`` and ``iav_std``: the inscribed angle at the interior points between each segment's first and
+    last point (rad)."""
+    S = len(n)
     interior = np.ones(pts.shape[0], dtype=bool)
     interior[starts] = False
     interior[starts + counts - 1] = False
@@ -423,27 +465,7 @@ def _features_numpy(segments: Segments) -> NDArray[np.float64]:
     n_int = n - 2.0
     iav = s1 / n_int
     s2 = np.bincount(iseg, weights=(ang - iav[iseg]) ** 2, minlength=S)
-    iav_std = np.sqrt(s2 / np.maximum(n_int - 1.0, 1.0))
-
-    out = np.column_stack(
-        (
-            n,
-            std,
-            avg_median_dev,
-            width,
-            linearity,
-            circularity,
-            radius,
-            boundary_length,
-            boundary_regularity,
-            mean_curvature,
-            mean_angle_diff,
-            iav,
-            iav_std,
-            distance,
-        )
-    )
-    return out
+    return iav, np.sqrt(s2 / np.maximum(n_int - 1.0, 1.0))
 
 
 #: The latest (scan, params, segments, features): two detectors on one scan (legs, boosted) share them.
