@@ -662,6 +662,20 @@ class Pipeline:
                 bag_input=bag_input,
             )
 
+    def _run_info(self, bag: BagSource, max_frames: int | None, metadata: Mapping[str, Any] | None) -> RunInfo:
+        """What the sinks are opened with: the configuration, the bag, the grid, the detectors and the mounts."""
+        return RunInfo(
+            config=self.config,
+            bag=bag,
+            spec=self.spec,
+            grid_frame=self.grid_frame,
+            detector_names=tuple(d.name for d in self.config.detectors),
+            detector_models=tuple(self.models),
+            frame_mounts=dict(self.frame_mounts),
+            max_frames=max_frames,
+            metadata=dict(metadata or {}),
+        )
+
     def _run(
         self,
         bag: BagSource,
@@ -690,17 +704,7 @@ class Pipeline:
             *self._extra_sinks,
         ]
         self.prepare(bag)
-        info = RunInfo(
-            config=self.config,
-            bag=bag,
-            spec=self.spec,
-            grid_frame=self.grid_frame,
-            detector_names=tuple(d.name for d in self.config.detectors),
-            detector_models=tuple(self.models),
-            frame_mounts=dict(self.frame_mounts),
-            max_frames=max_frames,
-            metadata=dict(metadata or {}),
-        )
+        info = self._run_info(bag, max_frames, metadata)
         opened: list[Sink] = []
         if sinks:  # nothing is open to record a failure here: it simply raises
             open_sinks(sinks[:1], info, opened)
