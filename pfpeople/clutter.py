@@ -75,6 +75,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from gridbridge.geometry import Pose2D, near_any, rotate
+from gridbridge.validation import check_int, check_real
 from pfpeople import _numba
 from pfpeople.clutter_kernels import update_evidence
 from pfpeople.scanmatch import ScanOdometry
@@ -90,13 +91,8 @@ __all__ = [
 
 
 def _check_number(value: object, name: str, *, allow_zero: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
-    v = float(value)
-    if not math.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
-        kind = "non-negative" if allow_zero else "positive"
-        raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")
-    return v
+    """A finite number > 0 (>= 0 with ``allow_zero``): :func:`gridbridge.validation.check_real`."""
+    return check_real(value, name, low=0.0, low_open=not allow_zero)
 
 
 def _positions(values: ArrayLike, name: str, *, drop_nonfinite: bool = False) -> NDArray[np.float64]:
@@ -214,17 +210,10 @@ class ClutterConfig:
         ):
             _check_number(getattr(self, name), f"ClutterConfig.{name}", allow_zero=True)
         for name, low in (("free_stride", 1), ("protect_cells", 0), ("query_cells", 0)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-                raise TypeError(f"ClutterConfig.{name} must be an int, got {type(v).__name__}")
-            if v < low or v > 5:
-                raise ValueError(f"ClutterConfig.{name} must be in [{low}, 5], got {v!r}")
+            check_int(getattr(self, name), f"ClutterConfig.{name}", minimum=low, maximum=5)
         if self.unknown_evidence > self.s_max:
             raise ValueError("ClutterConfig.unknown_evidence must be <= s_max")
-        if isinstance(self.s_min, bool) or not isinstance(self.s_min, (int, float)):
-            raise TypeError(f"ClutterConfig.s_min must be a number, got {type(self.s_min).__name__}")
-        if not (math.isfinite(self.s_min) and self.s_min <= 0.0):
-            raise ValueError(f"ClutterConfig.s_min must be finite and <= 0, got {self.s_min!r}")
+        check_real(self.s_min, "ClutterConfig.s_min", high=0.0)
         if self.s_max < self.static_time:
             raise ValueError("ClutterConfig.s_max must be >= static_time")
         if self.static_threshold > 1.0:
@@ -614,11 +603,7 @@ class MovingPeople:
         self.min_distance = _check_number(min_distance, "min_distance", allow_zero=True)
         self.window = None if window is None else _check_number(window, "window")
         self.default_dt = _check_number(default_dt, "default_dt")
-        if isinstance(max_missed, bool) or not isinstance(max_missed, (int, np.integer)):
-            raise TypeError(f"max_missed must be an int, got {type(max_missed).__name__}")
-        if max_missed < 0:
-            raise ValueError(f"max_missed must be >= 0, got {max_missed!r}")
-        self.max_missed = int(max_missed)
+        self.max_missed = check_int(max_missed, "max_missed", minimum=0)
         self.pose = Pose2D()
         self.time = 0.0
         self._pos = np.zeros((0, 2))

@@ -100,7 +100,7 @@ from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
-from gridbridge.validation import check_choice, check_positive, check_probability
+from gridbridge.validation import check_choice, check_int, check_positive, check_probability
 from pfpeople import kernels
 from pfpeople.buffers import BufferPool
 from pfpeople.motion import (
@@ -751,6 +751,5 @@ def _arrays(st: ParticleState) -> tuple[NDArray[np.float64], ...]:
 
 
 def _check_count(value: int, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
+    """A count >= 1: :func:`gridbridge.validation.check_int`."""
+    return check_int(value, name, minimum=1)

@@ -68,6 +68,7 @@ from gridbridge.classifiers import classify_frame
 from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
+from gridbridge.validation import check_int
 from pfpeople import _numba
 from pfpeople.adapters import (
     ADAPTERS,
@@ -153,8 +154,8 @@ def default_odometry(
 
 
 def _check_max_frames(max_frames: int | None) -> None:
-    if max_frames is not None and (isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < 0):
-        raise ValueError(f"max_frames must be a non-negative integer or None, got {max_frames!r}")
+    if max_frames is not None:
+        check_int(max_frames, "max_frames", minimum=0)
 
 
 class Pipeline:

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge import jit
+from gridbridge.validation import check_int
 from pfpeople import kernels
 from pfpeople.buffers import BufferPool
 
@@ -61,10 +62,7 @@ def _normalised_cumsum(weights: ArrayLike) -> NDArray[np.float64]:
 
 
 def _count(n: int | None, size: int) -> int:
-    m = size if n is None else n
-    if isinstance(m, bool) or not isinstance(m, int | np.integer) or m < 0:
-        raise ValueError(f"n must be a non-negative integer, got {n!r}")
-    return int(m)
+    return check_int(size if n is None else n, "n", minimum=0)
 
 
 def _need_rng(rng: np.random.Generator | None) -> np.random.Generator:

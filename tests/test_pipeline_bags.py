@@ -300,7 +300,7 @@ def test_without_odometry_the_robot_stands_and_it_is_logged_once(
     assert caplog.text.count("taken as standing") == 1
     with BagSource(bag) as src:
         assert Pipeline(config(odometry=False)).run(src, None, max_frames=0)[0].frames == 0
-        with pytest.raises(ValueError, match="max_frames must be a non-negative integer"):
+        with pytest.raises(ValueError, match="max_frames must be an integer >= 0"):
             Pipeline(config(odometry=False)).run(src, None, max_frames=-1)
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
+from gridbridge.validation import check_number
 from pfpeople.detectors.legs import PairingParams, people_and_single_legs
 from pfpeople.detectors.segments import FEATURE_NAMES, SegmentationParams
 from pfpeople.detectors.training import boost_scores, scan_features
@@ -110,10 +111,7 @@ class BoostedSegmentDetector:
         path = Path(model_path) if model_path is not None else default_model_path()
         if not path.is_file():
             raise FileNotFoundError(f"boosted model file not found: {path}")
-        if isinstance(threshold, bool) or not isinstance(threshold, int | float | np.floating | np.integer):
-            raise TypeError(f"threshold must be a number, got {threshold!r} ({type(threshold).__name__})")
-        if not np.isfinite(threshold):
-            raise ValueError(f"threshold must be finite, got {threshold!r}")
+        threshold = check_number(threshold, "threshold")
         self.model_path = path
         self.threshold = float(threshold)
         self.pairing = pairing if pairing is not None else PairingParams()

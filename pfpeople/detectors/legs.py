@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 
 from gridbridge.geometry import near_any
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
-from gridbridge.validation import check_positive
+from gridbridge.validation import check_int, check_positive
 from pfpeople import _numba
 from pfpeople.detectors import _kernels
 from pfpeople.detectors.segments import (
@@ -131,15 +131,13 @@ class LegDetectorParams:
     far_isolation: float = 0.8
 
     def __post_init__(self) -> None:
-        if isinstance(self.far_max_points, bool) or not isinstance(self.far_max_points, int) or self.far_max_points < 1:
-            raise ValueError(f"LegDetectorParams.far_max_points must be an integer >= 1, got {self.far_max_points!r}")
+        check_int(self.far_max_points, "LegDetectorParams.far_max_points", minimum=1)
         if not (isinstance(self.far_from, int | float) and self.far_from > 0):  # inf: off
             raise ValueError(f"LegDetectorParams.far_from must be a positive number (m) or inf, got {self.far_from!r}")
         check_positive(self.far_max_width, "LegDetectorParams.far_max_width")
         check_positive(self.far_min_jump, "LegDetectorParams.far_min_jump", allow_zero=True)
         check_positive(self.far_isolation, "LegDetectorParams.far_isolation", allow_zero=True)
-        if isinstance(self.min_points, bool) or not isinstance(self.min_points, int) or self.min_points < 3:
-            raise ValueError(f"LegDetectorParams.min_points must be an integer >= 3, got {self.min_points!r}")
+        check_int(self.min_points, "LegDetectorParams.min_points", minimum=3)
         for name in ("far_leg_width", "min_width", "min_radius", "max_linearity", "max_circularity", "min_iav"):
             check_positive(getattr(self, name), f"LegDetectorParams.{name}", allow_zero=True)
         for name in ("max_width", "max_radius", "max_iav"):

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.validation import check_positive
+from gridbridge.validation import check_int, check_positive
 from pfpeople import _numba
 from pfpeople.detectors import _kernels
 from pfpeople.sensors import LaserScan
@@ -112,8 +112,7 @@ class SegmentationParams:
 
     def __post_init__(self) -> None:
         check_positive(self.jump_distance, "SegmentationParams.jump_distance")
-        if isinstance(self.min_points, bool) or not isinstance(self.min_points, int) or self.min_points < 3:
-            raise ValueError(f"SegmentationParams.min_points must be an integer >= 3, got {self.min_points!r}")
+        check_int(self.min_points, "SegmentationParams.min_points", minimum=3)
         if math.isnan(self.max_range) or self.max_range <= 0:
             raise ValueError(f"SegmentationParams.max_range must be positive, got {self.max_range!r}")
 
@@ -198,8 +197,8 @@ def segment_scan(
     p = params if params is not None else SegmentationParams()
     if min_points is None:
         min_points = p.min_points
-    elif isinstance(min_points, bool) or not isinstance(min_points, int) or min_points < 1:
-        raise ValueError(f"min_points must be an integer >= 1, got {min_points!r}")
+    else:
+        min_points = check_int(min_points, "min_points", minimum=1)
     beams, r, x, y = _valid_points(scan, p.max_range)
     n_invalid = int(scan.ranges.size - beams.size)
     if beams.size == 0:
