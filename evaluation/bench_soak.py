@@ -203,6 +203,8 @@ def _bag_main(frames: int, workdir: str | None) -> int:
 
     if frames < 10:
         raise SystemExit(f"--bag-frames must be at least 10, got {frames}")
+    if workdir is not None:
+        Path(workdir).mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         r = soak_bag(frames, Path(tmp))
     print(f"bag soak: {r.command}")
