@@ -59,6 +59,39 @@ def cell(x: float, y: float, grid: tuple[float, float, float, int, int]) -> int:
 
 
 @jit
+def _into_pose(
+    x: float, y: float, vx: float, vy: float, poses: NDArray[np.float64], p: int
+) -> tuple[float, float, float, float]:
+    """A particle's position and velocity in the frame of sampled pose ``p`` (``poses``: rows x, y, cos, sin)."""
+    c, s = poses[2, p], poses[3, p]
+    xr = x - poses[0, p]
+    yr = y - poses[1, p]
+    return c * xr + s * yr, c * yr - s * xr, c * vx + s * vy, c * vy - s * vx
+
+
+@jit
+def _keep(
+    out: tuple[NDArray[np.float64], ...],
+    cells: NDArray[np.intp],
+    mass: NDArray[np.float64],
+    counts: NDArray[np.intp],
+    j: int,
+    x: float,
+    y: float,
+    vx: float,
+    vy: float,
+    w: float,
+    c: int,
+) -> None:
+    """Write particle ``j`` (position, velocity, weight) into ``out`` in cell ``c``, counted in ``mass`` and
+    ``counts``."""
+    out[0][j], out[1][j], out[2][j], out[3][j], out[4][j] = x, y, vx, vy, w
+    cells[j] = c
+    mass[c] += w
+    counts[c] += 1
+
+
+@jit
 def select_moving(u: NDArray[np.float64], p_stat: float) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
     """The walkers of the paper's motion prior: indices with ``u >= p_stat`` and their speed uniforms
     ``(u - p_stat) / (1 - p_stat)`` (:func:`pfpeople.motion.sample_velocity_prior`'s arithmetic)."""
@@ -242,19 +275,11 @@ def move_ego_compact(
         prior[c1] += w[k]
         n_inside += 1
         if ego:
-            c, s = poses[2, p], poses[3, p]
-            xr = xk - poses[0, p]
-            yr = yk - poses[1, p]
-            xk, yk = c * xr + s * yr, c * yr - s * xr
-            vxk, vyk = c * vxk + s * vyk, c * vyk - s * vxk
+            xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
         ck = cell(xk, yk, grid)
         if ck < 0:
             continue
-        wk = w[k]
-        out[0][j], out[1][j], out[2][j], out[3][j], out[4][j] = xk, yk, vxk, vyk, wk
-        cells[j] = ck
-        mass[ck] += wk
-        counts[ck] += 1
+        _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, w[k], ck)
         j += 1
     return j, n_inside
 
@@ -317,19 +342,11 @@ def ego_compact(
         if check_first and cell(xk, yk, grid) < 0:
             continue
         if ego:
-            c, s = poses[2, p], poses[3, p]
-            xr = xk - poses[0, p]
-            yr = yk - poses[1, p]
-            xk, yk = c * xr + s * yr, c * yr - s * xr
-            vxk, vyk = c * vxk + s * vyk, c * vyk - s * vxk
+            xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
         ck = cell(xk, yk, grid)
         if ck < 0:
             continue
-        wk = w[k]
-        out[0][j], out[1][j], out[2][j], out[3][j], out[4][j] = xk, yk, vxk, vyk, wk
-        cells[j] = ck
-        mass[ck] += wk
-        counts[ck] += 1
+        _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, w[k], ck)
         j += 1
     return j
 
