@@ -376,7 +376,6 @@ class StaticClutterMap:
         TypeError
             For an ``ego`` that is not a :class:`Pose2D`.
         """
-        c = self.config
         pts = _positions(points, "points", drop_nonfinite=True)
         if ego is not None and not isinstance(ego, Pose2D):
             raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
@@ -386,6 +385,28 @@ class StaticClutterMap:
         if ego is not None and self.updates:
             self.pose = self.pose.compose(ego)
         self._recentre()
+        pts, human, rays, lengths = self._rays(pts, people, free)
+        cells, inside = self.cell_of(self.pose.apply(pts))
+        s = self.evidence.reshape(-1)
+        if _numba.enabled() and s.base is self.evidence:  # the same as below, compiled (pfpeople.clutter_kernels)
+            self._evidence_compiled(s, cells, inside, human, rays, lengths, step)
+        else:
+            self._evidence_numpy(s, cells, inside, human, rays, lengths, step)
+        # the latest returns, for the queries (all returns, people's too: a query looks at what is there now)
+        self._hit_cells = cells[inside]
+        self._hit_xy = pts[inside]
+        self._hit_tree = None  # built by the first query
+        self._people = people
+        self._scores = None
+        self.updates += 1
+
+    def _rays(
+        self, pts: NDArray[np.float64], people: NDArray[np.float64], free: ArrayLike | None
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
+        """The returns within ``max_range`` (M, 2), which of them lie near a person, and the traced rays (every
+        ``free_stride``-th return up to ``free_margin`` before it, the no-return beams and the returns beyond the
+        map up to ``max_range``) with their lengths (m, sensor frame)."""
+        c = self.config
         r = np.hypot(pts[:, 0], pts[:, 1])
         far = r > c.max_range  # returns beyond the map: the beam crossed free space up to max_range
         far_pts = pts[far] * (c.max_range / r[far])[:, None]
@@ -401,39 +422,58 @@ class StaticClutterMap:
         lengths = np.concatenate(
             (r[beams] - c.free_margin, np.minimum(np.hypot(fr_pts[:, 0], fr_pts[:, 1]), c.max_range))
         )
-        cells, inside = self.cell_of(self.pose.apply(pts))
+        return pts, human, rays, lengths
+
+    def _evidence_compiled(
+        self,
+        s: NDArray[np.float64],
+        cells: NDArray[np.intp],
+        inside: NDArray[np.bool_],
+        human: NDArray[np.bool_],
+        rays: NDArray[np.float64],
+        lengths: NDArray[np.float64],
+        step: float,
+    ) -> None:
+        """The evidence update of one scan by :func:`pfpeople.clutter_kernels.update_evidence` (the same values
+        as :meth:`_evidence_numpy`)."""
+        c = self.config
+        ru, origin, n_free = self._ray_dirs(rays, lengths)
+        params = np.array(
+            [c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, c.free_rate * step, c.s_min]
+        )
+        nb = np.asarray(self._neighbours, dtype=np.intp)
+        update_evidence(
+            s, self.n, cells[inside & ~human], cells[inside & human], ru, n_free, self._steps, origin, nb, params
+        )
+
+    def _evidence_numpy(
+        self,
+        s: NDArray[np.float64],
+        cells: NDArray[np.intp],
+        inside: NDArray[np.bool_],
+        human: NDArray[np.bool_],
+        rays: NDArray[np.float64],
+        lengths: NDArray[np.float64],
+        step: float,
+    ) -> None:
+        """The evidence update of one scan (module docstring): relax towards unknown, hits, free cells."""
+        c = self.config
         hc = cells[inside & ~human]
-        s = self.evidence.reshape(-1)
-        if _numba.enabled() and s.base is self.evidence:  # the same as below, compiled (pfpeople.clutter_kernels)
-            ru, origin, n_free = self._ray_dirs(rays, lengths)
-            decrement = c.free_rate * step
-            params = np.array([c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, decrement, c.s_min])
-            hum = cells[inside & human]
-            nb = np.asarray(self._neighbours, dtype=np.intp)
-            update_evidence(s, self.n, hc, hum, ru, n_free, self._steps, origin, nb, params)
-        else:
-            ncell = self.n * self.n
-            free_mask = np.zeros(ncell, dtype=bool)
-            free_mask[self._ray_cells(rays, lengths)] = True
-            free_mask[cells[inside & human]] = True
-            # cells next to a return are not carved free by the beams that pass beside it (thin objects)
-            for off in self._neighbours:
-                free_mask[(hc + off) % ncell] = False
-            s0 = c.unknown_evidence
-            s -= s0
-            s *= math.exp(-step / c.forget_time)  # every cell relaxes towards unknown; observed ones change below
-            s += s0
-            hit = np.unique(hc)
-            s[hit] = np.minimum(s[hit] + step, c.s_max)
-            fr = np.flatnonzero(free_mask)
-            s[fr] = np.maximum(s[fr] - c.free_rate * step, c.s_min)
-        # the latest returns, for the queries (all returns, people's too: a query looks at what is there now)
-        self._hit_cells = cells[inside]
-        self._hit_xy = pts[inside]
-        self._hit_tree = None  # built by the first query
-        self._people = people
-        self._scores = None
-        self.updates += 1
+        ncell = self.n * self.n
+        free_mask = np.zeros(ncell, dtype=bool)
+        free_mask[self._ray_cells(rays, lengths)] = True
+        free_mask[cells[inside & human]] = True
+        # cells next to a return are not carved free by the beams that pass beside it (thin objects)
+        for off in self._neighbours:
+            free_mask[(hc + off) % ncell] = False
+        s0 = c.unknown_evidence
+        s -= s0
+        s *= math.exp(-step / c.forget_time)  # every cell relaxes towards unknown; observed ones change below
+        s += s0
+        hit = np.unique(hc)
+        s[hit] = np.minimum(s[hit] + step, c.s_max)
+        fr = np.flatnonzero(free_mask)
+        s[fr] = np.maximum(s[fr] - c.free_rate * step, c.s_min)
 
     def _ray_cells(self, rays: NDArray[np.float64], lengths: NDArray[np.float64]) -> NDArray[np.intp]:
         """Flat indices of the map cells sampled along rays from the sensor (one sample per cell length).
@@ -802,20 +842,7 @@ class ClutterSuppressor:
         dets = [_positions(d, f"detections[{i}]") for i, d in enumerate(detections)]
         extra = _positions(exclude if exclude is not None else np.zeros((0, 2)), "exclude")
         t0 = time.perf_counter()
-        ok = True
-        if ego is None:
-            if self._backoff > 0:  # the matcher failed lately: skip it (ego unknown, the map restarts)
-                self._backoff -= 1
-                self.odometry.skip(points)  # the next attempt is matched against this scan
-                ego, ok = Pose2D(), False
-            else:
-                st = self.odometry.update(points)
-                ego, ok = st.ego, st.ok or self.scans == 0
-                if ok:
-                    self._failures = 0
-                else:
-                    self._failures += 1
-                    self._backoff = min(2 ** (self._failures - 1), self.max_backoff) - 1
+        ego, ok = (ego, True) if ego is not None else self._scan_ego(points)
         t1 = time.perf_counter()
         if not ok:
             self.map.forget()
@@ -834,6 +861,22 @@ class ClutterSuppressor:
         self.odometry_s += t1 - t0
         self.map_s += t2 - t1
         return SuppressionStep(keep=keep, ego=ego, ego_ok=ok, excluded=excluded)
+
+    def _scan_ego(self, points: ArrayLike) -> tuple[Pose2D, bool]:
+        """The ego-motion from the scan matcher, and whether it is known (with the back-off after failures: a
+        skipped scan's ego is unknown and becomes the next match's reference)."""
+        if self._backoff > 0:  # the matcher failed lately: skip it (ego unknown, the map restarts)
+            self._backoff -= 1
+            self.odometry.skip(points)  # the next attempt is matched against this scan
+            return Pose2D(), False
+        st = self.odometry.update(points)
+        ok = st.ok or self.scans == 0
+        if ok:
+            self._failures = 0
+        else:
+            self._failures += 1
+            self._backoff = min(2 ** (self._failures - 1), self.max_backoff) - 1
+        return st.ego, ok
 
     def is_clutter(self, positions: ArrayLike) -> NDArray[np.bool_]:
         """``(M,)`` which positions (m, laser frame of the latest :meth:`step`) are static clutter: static in
