@@ -257,34 +257,14 @@ def setup_sensors(
         no grid frame is configured, or the default grid is too large for the filter.
     """
     c = config
-    types: dict[str, Sequence[str]] = {c.driver: (*LASER_TYPES, *IMAGE_TYPES)}
-    for d in c.detectors:
-        kind_types = input_types.get(d.kind)
-        if kind_types is not None:
-            types[d.topic] = kind_types
-    if c.odometry:
-        types[c.odometry] = ODOMETRY_TYPES
-    bag.require(run_topics(c), types=types)
+    bag.require(run_topics(c), types=_required_types(c, input_types))
     first = _first_messages(bag, [c.driver, *(d.topic for d in c.detectors)])
     ids = {t: m.frame_id for t, m in first.items()}
     grid_frame = c.grid_frame or ids.get(c.driver, "")
     if not grid_frame:
         raise ValueError(f"driver topic {c.driver!r} has no frame_id; set [frames] grid_frame in the config")
     tf = read_tf(c, bag, _needed_lookups(c, grid_frame, ids))
-    detectors: list[DetectorConfig] = []
-    mounts: list[Pose2D] = []
-    frame_mounts: dict[str, Pose2D] = {grid_frame: Pose2D()}
-    for d in c.detectors:
-        if d.kind in laser_kinds and d.topic in first:
-            d = with_scan_fov(d, first[d.topic].msg)
-        src = d.frame or ids.get(d.topic, "") or grid_frame
-        try:
-            mount = tf.lookup(grid_frame, src)
-        except TfLookupError as exc:
-            raise ValueError(f"detector {d.name!r}: {exc}") from None
-        detectors.append(d)
-        mounts.append(mount)
-        frame_mounts[src] = mount
+    detectors, mounts, frame_mounts = _detector_mounts(c, tf, grid_frame, first, laser_kinds)
     base_to_grid: Pose2D | None = None
     if c.odometry:
         try:
@@ -313,6 +293,47 @@ def setup_sensors(
         spec=spec,
         first=first,
     )
+
+
+def _required_types(c: BagConfig, input_types: Mapping[str, Sequence[str] | None]) -> dict[str, Sequence[str]]:
+    """The message types each run topic must carry: the driver's, each detector kind's, the odometry's."""
+    types: dict[str, Sequence[str]] = {c.driver: (*LASER_TYPES, *IMAGE_TYPES)}
+    for d in c.detectors:
+        kind_types = input_types.get(d.kind)
+        if kind_types is not None:
+            types[d.topic] = kind_types
+    if c.odometry:
+        types[c.odometry] = ODOMETRY_TYPES
+    return types
+
+
+def _detector_mounts(
+    c: BagConfig, tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage], laser_kinds: Collection[str]
+) -> tuple[list[DetectorConfig], list[Pose2D], dict[str, Pose2D]]:
+    """Each detector (a laser's with its scan's field of view), its mount in the grid frame from TF, and the mounts
+    by frame (the grid frame's own included).
+
+    Raises
+    ------
+    ValueError
+        A detector whose frame TF does not connect to the grid frame, naming the detector.
+    """
+    ids = {t: m.frame_id for t, m in first.items()}
+    detectors: list[DetectorConfig] = []
+    mounts: list[Pose2D] = []
+    frame_mounts: dict[str, Pose2D] = {grid_frame: Pose2D()}
+    for d in c.detectors:
+        if d.kind in laser_kinds and d.topic in first:
+            d = with_scan_fov(d, first[d.topic].msg)
+        src = d.frame or ids.get(d.topic, "") or grid_frame
+        try:
+            mount = tf.lookup(grid_frame, src)
+        except TfLookupError as exc:
+            raise ValueError(f"detector {d.name!r}: {exc}") from None
+        detectors.append(d)
+        mounts.append(mount)
+        frame_mounts[src] = mount
+    return detectors, mounts, frame_mounts
 
 
 def _needed_lookups(c: BagConfig, grid_frame: str, ids: Mapping[str, str]) -> list[tuple[str, str]]:
