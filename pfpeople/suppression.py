@@ -127,24 +127,36 @@ class ClutterStage:
                 continue
             mount = self.adapters[idx[0]].mount  # the laser's pose in the grid frame
             ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
+            points = scan.points()  # once: the map's update and its static returns
             st = sup.step(
-                scan.points(),
+                points,
                 [f.sensor for k in idx if (f := found[k]) is not None],
                 ego=ego,
                 stamp_ns=stamp_ns,
                 dt=dt,
                 free=scan.free_rays(sup.map.config.max_range),
             )
-            self.scan_static[topic] = sup.map.static_points(scan.points())
+            self.scan_static[topic] = sup.map.static_points(points)
             for k, keep in zip(idx, st.keep, strict=True):
                 static[k] = ~keep
-                d = kept[k]
-                kept[k] = d[keep] if d is not None and len(d) else d
-                count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
-                f = found[k]
-                if f is not None and c.tracking.single_legs:  # only a tracker that takes single legs needs them
-                    sst = sup.is_clutter(f.support_sensor) if len(f.support) else np.zeros(0, dtype=bool)
-                    self.support_static[k] = sst
+                kept[k] = self._keep(k, keep, kept[k], found[k], sup)
             if topic == c.driver and st.ego_ok and ego is None:
                 driver_ego = mount.compose(st.ego).compose(mount.inverse())
         return kept, static, driver_ego
+
+    def _keep(
+        self,
+        k: int,
+        keep: NDArray[np.bool_],
+        grid: NDArray[np.float64] | None,
+        found: Detections | None,
+        sup: Any,
+    ) -> NDArray[np.float64] | None:
+        """Detector ``k``'s detections (grid frame) less the suppressed ones, counted; its support positions'
+        static flags set when the tracker takes single legs."""
+        count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
+        if found is not None and self.config.tracking.single_legs:  # only such a tracker needs them
+            self.support_static[k] = (
+                sup.is_clutter(found.support_sensor) if len(found.support) else np.zeros(0, dtype=bool)
+            )
+        return grid[keep] if grid is not None and len(grid) else grid
