@@ -352,6 +352,39 @@ def write_table(rows: Sequence[Mapping[str, Any]], path: str | Path, columns: Se
     return p
 
 
+def _run_dirs(out_dir: str | Path, names: Sequence[str], overwrite: bool) -> list[Path]:
+    """The bags' run directories under ``out_dir`` (created), checked before anything runs.
+
+    Raises
+    ------
+    FileExistsError
+        Without ``overwrite``, when a run directory already holds a run (its ``run.json`` or error file).
+    """
+    out = check_out_dir(out_dir).absolute()
+    run_dirs = [out / n for n in names]
+    if not overwrite:
+        held = [str(d) for d in run_dirs if (d / "run.json").exists() or (d / ERROR_FILE).exists()]
+        if held:
+            raise FileExistsError(f"run directories already hold runs (use overwrite): {held}")
+    out.mkdir(parents=True, exist_ok=True)
+    return run_dirs
+
+
+def _lost_row(bag: str | Path, run_dir: Path, exc: BaseException) -> dict[str, Any]:
+    """The table row of a bag whose task failed (the function raised, or its worker died)."""
+    return {
+        "bag": str(bag),
+        "run_dir": str(run_dir),
+        "status": "failed",
+        "frames": _frames_from_record(run_dir),
+        "fps": math.nan,
+        "wall_s": math.nan,
+        "cpu_s": math.nan,
+        "people_per_frame": math.nan,
+        "error": f"{type(exc).__name__}: {exc}",
+    }
+
+
 def run_batch(
     bags: Sequence[str | Path],
     config: BagConfig,
@@ -395,14 +428,8 @@ def run_batch(
         raise TypeError(f"config must be a BagConfig, got {type(config).__name__}")
     if client is None:
         check_cluster_args(scheduler, workers)
-    out = check_out_dir(out_dir).absolute()
     names = run_dir_names(bags)
-    run_dirs = [out / n for n in names]
-    if not overwrite:
-        held = [str(d) for d in run_dirs if (d / "run.json").exists() or (d / ERROR_FILE).exists()]
-        if held:
-            raise FileExistsError(f"run directories already hold runs (use overwrite): {held}")
-    out.mkdir(parents=True, exist_ok=True)
+    run_dirs = _run_dirs(out_dir, names, overwrite)
     args = [(str(Path(b).absolute()), config, str(d)) for b, d in zip(bags, run_dirs, strict=True)]
     keys = [f"pfpeople-batch-{k}-{n}-{time.time_ns()}" for k, n in enumerate(names)]
 
@@ -410,17 +437,7 @@ def run_batch(
         return run_bag(bag, cfg, run_dir, max_frames=max_frames, overwrite=overwrite)
 
     def lost(i: int, exc: BaseException) -> dict[str, Any]:
-        return {
-            "bag": str(bags[i]),
-            "run_dir": str(run_dirs[i]),
-            "status": "failed",
-            "frames": _frames_from_record(run_dirs[i]),
-            "fps": math.nan,
-            "wall_s": math.nan,
-            "cpu_s": math.nan,
-            "people_per_frame": math.nan,
-            "error": f"{type(exc).__name__}: {exc}",
-        }
+        return _lost_row(bags[i], run_dirs[i], exc)
 
     def go(c: Any) -> list[dict[str, Any]]:
         rows = run_tasks(c, task, args, keys=keys, on_error=lost, progress=progress, desc="bags")
