@@ -560,24 +560,14 @@ def train_from_directory(
     train_pos = [s for scans in train_bags.values() for s in scans]
     test_pos = [s for f in test_positive for s in _every(load_labelled_scans(data_dir / f), scan_step)]
     neg = {t: _every(v, scan_step) for t, v in load_scans(data_dir / negative, NEGATIVE_TOPICS).items()}
-    train_neg: list[LaserScan] = []
-    test_neg: list[LaserScan] = []
-    for topic in NEGATIVE_TOPICS:
-        scans = neg[topic]
-        cut = len(scans) - round(p.holdout_fraction * len(scans))
-        train_neg += scans[:cut]
-        test_neg += scans[cut:]
+    train_neg, test_neg = _split_negatives(neg, p.holdout_fraction)
     log.info("train: %d positive scans, %d negative scans", len(train_pos), len(train_neg))
     block = _block("train", train_pos, train_neg, p, seg)
     model = train_boost(np.concatenate((block.X, block.aug_X)), np.concatenate((block.y, block.aug_y)), params=p)
     metrics: dict[str, object] = {"threshold": 0.0, "train": segment_metrics(boost_scores(model, block.X), block.y)}
     counts: dict[str, object] = {"train": block.counts}
     if test_pos or test_neg:
-        Xte, yte, cte = build_training_set(test_pos, test_neg, match_radius=p.match_radius, segmentation=seg)
-        m_test = segment_metrics(boost_scores(model, Xte), yte)
-        m_test["false_leg_segments_per_negative_scan"] = m_test["fp"] / max(len(test_neg), 1)
-        metrics["test"] = m_test
-        counts["test"] = cte
+        metrics["test"], counts["test"] = _test_metrics(model, test_pos, test_neg, p, seg)
     lobo = None
     if leave_one_out and len(train_bags) >= 2:
         lobo = leave_one_bag_out(train_bags, neg, params=p, segmentation=seg)
@@ -599,6 +589,35 @@ def train_from_directory(
     sidecar = _sidecar(model_path, seg, p, data_dir, files, split, counts, metrics, lobo)
     (out_dir / f"{name}.json").write_text(json.dumps(_json_safe(sidecar), indent=2, sort_keys=False) + "\n")
     return sidecar
+
+
+def _split_negatives(
+    neg: Mapping[str, Sequence[LaserScan]], holdout_fraction: float
+) -> tuple[list[LaserScan], list[LaserScan]]:
+    """The people-free scans for training and for the test: the last ``holdout_fraction`` of each topic held out."""
+    train_neg: list[LaserScan] = []
+    test_neg: list[LaserScan] = []
+    for topic in NEGATIVE_TOPICS:
+        scans = list(neg[topic])
+        cut = len(scans) - round(holdout_fraction * len(scans))
+        train_neg += scans[:cut]
+        test_neg += scans[cut:]
+    return train_neg, test_neg
+
+
+def _test_metrics(
+    model: Any,
+    test_pos: Sequence[LabelledScan],
+    test_neg: Sequence[LaserScan],
+    p: BoostTrainingParams,
+    seg: SegmentationParams,
+) -> tuple[dict[str, float], object]:
+    """The segment metrics of ``model`` on the held-out scans, with false leg segments per negative scan, and
+    the held-out segment counts."""
+    Xte, yte, cte = build_training_set(test_pos, test_neg, match_radius=p.match_radius, segmentation=seg)
+    m_test = segment_metrics(boost_scores(model, Xte), yte)
+    m_test["false_leg_segments_per_negative_scan"] = m_test["fp"] / max(len(test_neg), 1)
+    return m_test, cte
 
 
 def _check_training_files(
