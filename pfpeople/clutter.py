@@ -199,7 +199,8 @@ class ClutterConfig:
             "max_dt",
             "self_travel",
         ):
-            _check_number(getattr(self, name), f"ClutterConfig.{name}")
+            # stored as floats: an integer from a TOML file (``unknown_evidence = 0``) would make an integer map
+            object.__setattr__(self, name, _check_number(getattr(self, name), f"ClutterConfig.{name}"))
         for name in (
             "recentre_distance",
             "free_margin",
@@ -208,12 +209,12 @@ class ClutterConfig:
             "unknown_evidence",
             "self_range",
         ):
-            _check_number(getattr(self, name), f"ClutterConfig.{name}", allow_zero=True)
+            object.__setattr__(self, name, _check_number(getattr(self, name), f"ClutterConfig.{name}", allow_zero=True))
         for name, low in (("free_stride", 1), ("protect_cells", 0), ("query_cells", 0)):
             check_int(getattr(self, name), f"ClutterConfig.{name}", minimum=low, maximum=5)
         if self.unknown_evidence > self.s_max:
             raise ValueError("ClutterConfig.unknown_evidence must be <= s_max")
-        check_real(self.s_min, "ClutterConfig.s_min", high=0.0)
+        object.__setattr__(self, "s_min", check_real(self.s_min, "ClutterConfig.s_min", high=0.0))
         if self.s_max < self.static_time:
             raise ValueError("ClutterConfig.s_max must be >= static_time")
         if self.static_threshold > 1.0:

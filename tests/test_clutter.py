@@ -82,6 +82,18 @@ def test_static_post_becomes_static_and_stays(rng: np.random.Generator) -> None:
     assert m.static_score(np.zeros((0, 2))).shape == (0,)
 
 
+def test_integer_settings_from_a_config_file_give_the_same_map() -> None:
+    """``unknown_evidence = 0`` in TOML is an int: the map must still hold fractions of seconds (it held none)."""
+    as_float = StaticClutterMap(replace(CFG, unknown_evidence=0.0, s_min=-1.0))
+    as_int = StaticClutterMap(replace(CFG, unknown_evidence=0, s_min=-1))
+    for _ in range(2 * FRAMES_TO_STATIC):  # from 0 s of evidence (not 1) the post needs longer
+        for m in (as_float, as_int):
+            m.update(ray_cast(Pose2D(), post()), dt=DT)
+    assert as_int.evidence.dtype == np.float64
+    np.testing.assert_array_equal(as_int.evidence, as_float.evidence)
+    assert as_int.evidence.max() > 0.5 and as_int.is_static(POST[None, :]).tolist() == [True]
+
+
 def test_person_walking_into_seen_free_space_is_not_static() -> None:
     """The area is watched empty for 3 s, then a person walks across it at 1 m/s (and keeps walking)."""
     m = StaticClutterMap(CFG)
