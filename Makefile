@@ -3,7 +3,7 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: setup demo test lint bench clean
+.PHONY: setup demo test lint bench model clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -30,6 +30,12 @@ lint: setup
 bench: setup
 	$(BIN)/python -m evaluation.bench_grid
 	$(BIN)/python -m evaluation.bench_particles
+
+model: setup  ## retrain the shipped boosted classifier (pfpeople/models/boosted_legs.*); needs ../shared/data
+	for s in corridor crowd lobby wheelchair; do \
+		$(BIN)/pfpeople-eval simulate-bag $$s --seed 100 --out build/sim-train/$$s --overwrite --no-progress; done
+	$(BIN)/pfpeople train-detector --data-dir ../shared/data/leg_tracker --people-bags build/sim-train \
+		--out pfpeople/models/
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -404,6 +404,7 @@ def scene_logs(
         log, row = _negative_2_all(bag, work, frames)
         return [*logs, log], [*rows, row], ""
     if scene == "positive_bags":
+        from evaluation.scenarios.scan.training import training_people_bags
         from pfpeople.bag.config import load_config
         from pfpeople.bag.inspect import inspect_path, starter_config
         from pfpeople.detectors.training import train_from_directory
@@ -411,6 +412,7 @@ def scene_logs(
         logs, rows = [], []
         present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
         work.mkdir(parents=True, exist_ok=True)
+        people = training_people_bags(work / "sim-train")  # as the shipped model (make model)
         for k in present:
             bag = leg / f"positive_{k}_extracted.bag"
             nm = f"positive_{k}"
@@ -418,7 +420,9 @@ def scene_logs(
             write_labelled_people_csv(bag, gt)
             others = [f"positive_{j}_extracted.bag" for j in present if j != k]
             model = work / "models" / f"without_{nm}.yml"
-            train_from_directory(leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False)
+            train_from_directory(
+                leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False, people_bags=people
+            )
             cfg_path = work / f"{nm}.toml"  # as the README: pfpeople inspect BAG --write-config
             cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
             cfg = load_config(cfg_path)

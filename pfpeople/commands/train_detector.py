@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from pfpeople.cli_support import examples
+from pfpeople.detectors.people_bags import find_people_bags
 from pfpeople.detectors.segments import SegmentationParams
 from pfpeople.detectors.training import POSITIVE_BAGS, BoostTrainingParams, train_from_directory
 
@@ -17,13 +19,17 @@ def register(subparsers: Any) -> None:
         "train-detector",
         epilog=examples(
             "pfpeople train-detector --data-dir ../shared/data/leg_tracker --out pfpeople/models/",
+            "pfpeople train-detector --data-dir ../shared/data/leg_tracker --people-bags sim-train --out models/",
         ),
         help="train the boosted laser segment classifier (detector 2) from labelled bags",
         description=(
             "Train cv2.ml.Boost on leg_tracker's positive_*_extracted.bag (labelled legs) and negative_2.bag "
             "(no people); write <name>.yml and <name>.json (data with SHA-256, parameters, metrics). By default it "
             "trains on all six labelled bags and all of negative_2 and records a leave-one-bag-out evaluation "
-            "(each positive bag held out in turn, negatives of another laser and time period)."
+            "(each positive bag held out in turn, negatives of another laser and time period). --people-bags adds "
+            "bags annotated with people's centres (every <name>.bag below the folder with <name>_gt.csv beside it, "
+            "as pfpeople-eval simulate-bag writes them): segments within 0.3 m of a person the laser saw are legs, "
+            "segments farther than 1 m from everyone are not."
         ),
     )
     p.add_argument("--data-dir", required=True, help="folder with the leg_tracker bags")
@@ -32,6 +38,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--train-positive", nargs="+", default=list(POSITIVE_BAGS), help="default: all six")
     p.add_argument("--test-positive", nargs="*", default=[], help="bags held out of training (default: none)")
     p.add_argument("--negative", default="negative_2.bag")
+    p.add_argument("--people-bags", type=Path, default=None, metavar="DIR", help="bags annotated with people")
+    p.add_argument("--people-topic", default="/scan", help="their LaserScan topic (default: %(default)s)")
     d = BoostTrainingParams()
     p.add_argument("--boost-type", default=d.boost_type, choices=["real", "gentle", "discrete", "logit"])
     p.add_argument("--weak-count", type=int, default=d.weak_count)
@@ -77,6 +85,8 @@ def _run(args: argparse.Namespace) -> int:
         segmentation=SegmentationParams(jump_distance=args.jump_distance),
         leave_one_out=not args.no_leave_one_out,
         scan_step=args.scan_step,
+        people_bags=find_people_bags(args.people_bags) if args.people_bags is not None else (),
+        people_topic=args.people_topic,
     )
     lobo = side["leave_one_bag_out"]
     print(json.dumps({"model": side["model_file"], "metrics": side["metrics"]}, indent=2, default=str))

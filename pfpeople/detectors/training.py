@@ -28,6 +28,7 @@ import hashlib
 import json
 import logging
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -39,6 +40,7 @@ from numpy.typing import NDArray
 
 from gridbridge.validation import check_int, check_positive, check_probability
 from pfpeople.detectors._bags import LabelledScan, load_labelled_scans, load_scans
+from pfpeople.detectors.people_bags import PeopleScan, load_people_scans, people_training_set
 from pfpeople.detectors.segments import (
     FEATURE_NAMES,
     SegmentationParams,
@@ -96,6 +98,10 @@ class BoostTrainingParams:
         on all of it; the leave-one-bag-out evaluation makes its own blocks).
     seed : int
         Seed of the negative sub-sampling (and of the augmentation noise).
+    person_radius, clear_radius : float
+        Labels of the bags annotated with people's centres (:mod:`pfpeople.detectors.people_bags`): a segment
+        within ``person_radius`` (m) of a person some beam reached is a positive, one farther than
+        ``clear_radius`` from every person a negative, the rest are skipped.
     augment_noise : tuple of float
         Range-noise sds (m): every training scan is also used once per value with that much Gaussian noise added
         to its returns (:func:`noisy_scan`), so the classifier learns legs and clutter as lasers noisier than the
@@ -104,25 +110,22 @@ class BoostTrainingParams:
 
     Notes
     -----
-    Defaults chosen on every labelled bag and every benchmark scene, not on one. In the pooled
-    :func:`leave_one_bag_out` F1 (all six bags, 10 negatives per positive) 100 trees of depth 2 (0.48) beat depth
-    3 (0.46) and 200 trees (0.47). More negatives per positive move the operating point (pooled leave-one-bag-out
-    segment recall / F1 / false leg segments per held-out negative scan: 3 -> 0.77 / 0.43 / 2.7, 6 -> 0.66 / 0.45
-    / 1.8, 10 -> 0.59 / 0.48 / 1.25; false people per held-out negative scan 0.51 for 3, 0.27 for 10), and the
-    people recall on the real person_following_outdoor_1 (never trained on) drops with them: 0.60 / 0.43 / 0.37
-    (the model trained on positive_1 alone: 0.48). 3 keeps the false people of the earlier model on negative_2 and
-    gains recall on every benchmark scene; after the recommended pipeline it also has fewer false people there.
+    Defaults chosen on every labelled bag and every benchmark scene, not on one (``docs/ablations.md``, "The
+    boosted classifier's training"): 200 trees of depth 3, since the model learns the simulated scans as well as
+    the recordings (100 trees of depth 2 were best on the recordings alone); 3 negatives per positive.
     """
 
     boost_type: str = "gentle"
-    weak_count: int = 100
-    max_depth: int = 2
+    weak_count: int = 200
+    max_depth: int = 3
     weight_trim_rate: float = 0.0
     match_radius: float = 0.15
     negatives_per_positive: float = 3.0
     holdout_fraction: float = 0.0
     seed: int = 0
     augment_noise: tuple[float, ...] = (0.01, 0.02, 0.03)
+    person_radius: float = 0.3
+    clear_radius: float = 1.0
 
     def __post_init__(self) -> None:
         if self.boost_type not in _BOOST_TYPES:
@@ -137,6 +140,10 @@ class BoostTrainingParams:
         object.__setattr__(self, "augment_noise", tuple(self.augment_noise))
         for v in self.augment_noise:
             check_positive(v, "BoostTrainingParams.augment_noise")
+        check_positive(self.person_radius, "BoostTrainingParams.person_radius")
+        check_positive(self.clear_radius, "BoostTrainingParams.clear_radius")
+        if self.person_radius >= self.clear_radius:
+            raise ValueError("BoostTrainingParams.person_radius must be below clear_radius")
 
 
 _BOOST_TYPES = {
@@ -355,6 +362,32 @@ def _block(
     return _Block(name, X, y, c, len(positives) + len(negatives), aug_X=aX, aug_y=ay, **where)
 
 
+def _people_block(
+    scans: Sequence[PeopleScan], p: BoostTrainingParams, seg: SegmentationParams, real_positives: int
+) -> _Block:
+    """The labelled segments of scans annotated with people (no noisy copies: they have their own noise), sub-sampled
+    (``numpy.random.default_rng([seed, 2])``) to ``real_positives`` positives and the negatives in the same
+    proportion, so that they weigh as much as the labelled legs of the recordings (with their noisy copies): in the
+    simulated bags a person yields ten times as many segments as a labelled leg_tracker scan, and unweighted they
+    took the recordings' leg recall from 0.90 to 0.68 (positive_1, a bag trained on)."""
+    X, y, c = people_training_set(
+        list(scans), person_radius=p.person_radius, clear_radius=p.clear_radius, segmentation=seg
+    )
+    pos, neg = np.flatnonzero(y == 1), np.flatnonzero(y == 0)
+    if pos.size > real_positives:
+        rng = np.random.default_rng([p.seed, 2])
+        n_neg = round(neg.size * real_positives / pos.size)
+        keep = np.concatenate((rng.choice(pos, real_positives, replace=False), rng.choice(neg, n_neg, replace=False)))
+        X, y = X[np.sort(keep)], y[np.sort(keep)]
+        c = {**c, "kept_positives": int(real_positives), "kept_negatives": int(n_neg)}
+    return _Block("people bags", X, y, c, len(scans))
+
+
+def _real_positives(blocks: Sequence[_Block]) -> int:
+    """Labelled leg segments of ``blocks``, their noisy copies included."""
+    return int(sum(np.count_nonzero(b.y == 1) + np.count_nonzero(b.aug_y == 1) for b in blocks))
+
+
 def _blocks_positive(
     bags: Mapping[str, Sequence[LabelledScan]], p: BoostTrainingParams, seg: SegmentationParams
 ) -> list[_Block]:
@@ -413,6 +446,7 @@ def leave_one_bag_out(
     params: BoostTrainingParams | None = None,
     segmentation: SegmentationParams | None = None,
     n_periods: int = 2,
+    people: Sequence[PeopleScan] = (),
 ) -> dict[str, Any]:
     """Leave-one-bag-out evaluation: the classifier's segment metrics on each positive bag it was not trained on.
 
@@ -433,6 +467,8 @@ def leave_one_bag_out(
         Segmentation of every scan.
     n_periods : int
         Time periods per negative topic.
+    people : sequence of PeopleScan
+        Scans annotated with people (:mod:`pfpeople.detectors.people_bags`), in every fold's training set.
 
     Returns
     -------
@@ -451,25 +487,29 @@ def leave_one_bag_out(
         _block(f"{topic}#{period}", [], scans, p, seg, topic=topic, period=period)
         for topic, period, scans in negative_blocks(negatives, n_periods=n_periods)
     ]
-    out = _lobo_blocks(pos, neg, p)
+    out = _lobo_blocks(pos, neg, p, [_people_block(people, p, seg, _real_positives(pos))] if people else [])
     return {
         "scheme": (
             f"each positive bag held out in turn; negatives cut into topic x {n_periods} time periods, fold i tests "
             "on block i and trains on the blocks of the other topics in the other periods"
+            + (f", and on all {len(people)} scans annotated with people" if people else "")
         ),
         **out,
     }
 
 
-def _lobo_blocks(pos: Sequence[_Block], neg: Sequence[_Block], p: BoostTrainingParams) -> dict[str, Any]:
-    """The folds of :func:`leave_one_bag_out` on precomputed features."""
+def _lobo_blocks(
+    pos: Sequence[_Block], neg: Sequence[_Block], p: BoostTrainingParams, extra: Sequence[_Block] = ()
+) -> dict[str, Any]:
+    """The folds of :func:`leave_one_bag_out` on precomputed features; ``extra`` blocks (the bags annotated with
+    people) are in every fold's training set and never tested on."""
     if not neg:
         raise ValueError("leave-one-bag-out needs negative scans")
     folds: list[dict[str, Any]] = []
     for i, held in enumerate(pos):
         test_neg = neg[i % len(neg)]
         train_neg = _train_negatives(neg, test_neg)
-        train = [b for b in pos if b is not held] + train_neg
+        train = [b for b in pos if b is not held] + train_neg + list(extra)
         Xtr = np.concatenate([b.X for b in train] + [b.aug_X for b in train])
         ytr = np.concatenate([b.y for b in train] + [b.aug_y for b in train])
         model = train_boost(Xtr, ytr, params=p)
@@ -522,8 +562,11 @@ def train_from_directory(
     segmentation: SegmentationParams | None = None,
     leave_one_out: bool = True,
     scan_step: int = 1,
+    people_bags: Sequence[tuple[str | Path, str | Path]] = (),
+    people_topic: str = "/scan",
 ) -> dict[str, object]:
-    """Train on the leg_tracker bags in ``data_dir``; write ``<name>.yml`` (OpenCV) and ``<name>.json``.
+    """Train on the leg_tracker bags in ``data_dir`` (and bags annotated with people); write ``<name>.yml``
+    (OpenCV) and ``<name>.json``.
 
     Parameters
     ----------
@@ -545,6 +588,12 @@ def train_from_directory(
         training bags) and record it in the sidecar.
     scan_step : int
         Use every ``scan_step``-th scan of each bag and topic (1 = all; larger for quick tests).
+    people_bags : sequence of (bag, ground-truth CSV)
+        Bags annotated with people's centres (:mod:`pfpeople.detectors.people_bags`, e.g.
+        :func:`~pfpeople.detectors.people_bags.find_people_bags`), trained on (and in every leave-one-bag-out
+        fold's training set), never tested on.
+    people_topic : str
+        Their LaserScan topic.
 
     Returns
     -------
@@ -556,39 +605,93 @@ def train_from_directory(
     seg = segmentation if segmentation is not None else SegmentationParams()
     data_dir, out_dir = Path(data_dir), Path(out_dir)
     files = _check_training_files(data_dir, train_positive, test_positive, negative, scan_step)
-    train_bags = {f: _every(load_labelled_scans(data_dir / f), scan_step) for f in train_positive}
-    train_pos = [s for scans in train_bags.values() for s in scans]
-    test_pos = [s for f in test_positive for s in _every(load_labelled_scans(data_dir / f), scan_step)]
-    neg = {t: _every(v, scan_step) for t, v in load_scans(data_dir / negative, NEGATIVE_TOPICS).items()}
-    train_neg, test_neg = _split_negatives(neg, p.holdout_fraction)
-    log.info("train: %d positive scans, %d negative scans", len(train_pos), len(train_neg))
-    block = _block("train", train_pos, train_neg, p, seg)
-    model = train_boost(np.concatenate((block.X, block.aug_X)), np.concatenate((block.y, block.aug_y)), params=p)
-    metrics: dict[str, object] = {"threshold": 0.0, "train": segment_metrics(boost_scores(model, block.X), block.y)}
-    counts: dict[str, object] = {"train": block.counts}
-    if test_pos or test_neg:
-        metrics["test"], counts["test"] = _test_metrics(model, test_pos, test_neg, p, seg)
+    data = _TrainingData.load(data_dir, train_positive, test_positive, negative, scan_step, p.holdout_fraction)
+    people = [s for bag, gt in people_bags for s in load_people_scans(bag, gt, topic=people_topic, scan_step=scan_step)]
+    log.info("train: %d positive, %d negative, %d people-annotated scans", *data.sizes()[:2], len(people))
+    blocks = [_block("train", data.train_pos, data.train_neg, p, seg)]
+    blocks += [_people_block(people, p, seg, _real_positives(blocks))] if people else []
+    model = train_boost(
+        np.concatenate([b.X for b in blocks] + [b.aug_X for b in blocks]),
+        np.concatenate([b.y for b in blocks] + [b.aug_y for b in blocks]),
+        params=p,
+    )
+    metrics: dict[str, object] = {
+        "threshold": 0.0,
+        "train": segment_metrics(boost_scores(model, blocks[0].X), blocks[0].y),
+    }
+    counts: dict[str, object] = {"train": blocks[0].counts, **({"people_bags": blocks[1].counts} if people else {})}
+    if data.test_pos or data.test_neg:
+        metrics["test"], counts["test"] = _test_metrics(model, data.test_pos, data.test_neg, p, seg)
     lobo = None
-    if leave_one_out and len(train_bags) >= 2:
-        lobo = leave_one_bag_out(train_bags, neg, params=p, segmentation=seg)
+    if leave_one_out and len(data.train_bags) >= 2:
+        lobo = leave_one_bag_out(data.train_bags, data.neg, params=p, segmentation=seg, people=people)
     out_dir.mkdir(parents=True, exist_ok=True)
     model_path = out_dir / f"{name}.yml"
     model.save(str(model_path))
-    split = {
-        "train_positive": list(train_positive),
-        "test_positive": list(test_positive),
-        "negative": negative,
-        "negative_topics": list(NEGATIVE_TOPICS),
-        "negative_holdout": f"last {p.holdout_fraction:g} of each topic",
-        "scan_step": scan_step,
-        "train_positive_scans": len(train_pos),
-        "train_negative_scans": len(train_neg),
-        "test_positive_scans": len(test_pos),
-        "test_negative_scans": len(test_neg),
-    }
+    split = data.split(train_positive, test_positive, negative, scan_step, p.holdout_fraction)
+    split["people_scans"] = len(people)
     sidecar = _sidecar(model_path, seg, p, data_dir, files, split, counts, metrics, lobo)
+    sidecar["people_data"] = _people_entries(people_bags)
     (out_dir / f"{name}.json").write_text(json.dumps(_json_safe(sidecar), indent=2, sort_keys=False) + "\n")
     return sidecar
+
+
+@dataclass
+class _TrainingData:
+    """The leg_tracker scans of one training run: labelled bags, and the people-free bag split for the test."""
+
+    train_bags: dict[str, list[LabelledScan]]
+    test_pos: list[LabelledScan]
+    neg: dict[str, list[LaserScan]]
+    train_neg: list[LaserScan]
+    test_neg: list[LaserScan]
+
+    @property
+    def train_pos(self) -> list[LabelledScan]:
+        return [s for scans in self.train_bags.values() for s in scans]
+
+    @classmethod
+    def load(
+        cls,
+        data_dir: Path,
+        train_positive: Sequence[str],
+        test_positive: Sequence[str],
+        negative: str,
+        scan_step: int,
+        holdout_fraction: float,
+    ) -> _TrainingData:
+        train_bags = {f: _every(load_labelled_scans(data_dir / f), scan_step) for f in train_positive}
+        test_pos = [s for f in test_positive for s in _every(load_labelled_scans(data_dir / f), scan_step)]
+        neg = {t: _every(v, scan_step) for t, v in load_scans(data_dir / negative, NEGATIVE_TOPICS).items()}
+        train_neg, test_neg = _split_negatives(neg, holdout_fraction)
+        return cls(train_bags, test_pos, neg, train_neg, test_neg)
+
+    def sizes(self) -> tuple[int, int, int, int]:
+        """Scans: training positive, training negative, test positive, test negative."""
+        return len(self.train_pos), len(self.train_neg), len(self.test_pos), len(self.test_neg)
+
+    def split(
+        self,
+        train_positive: Sequence[str],
+        test_positive: Sequence[str],
+        negative: str,
+        scan_step: int,
+        holdout_fraction: float,
+    ) -> dict[str, object]:
+        """The sidecar's ``split`` entry."""
+        n = self.sizes()
+        return {
+            "train_positive": list(train_positive),
+            "test_positive": list(test_positive),
+            "negative": negative,
+            "negative_topics": list(NEGATIVE_TOPICS),
+            "negative_holdout": f"last {holdout_fraction:g} of each topic",
+            "scan_step": scan_step,
+            "train_positive_scans": n[0],
+            "train_negative_scans": n[1],
+            "test_positive_scans": n[2],
+            "test_negative_scans": n[3],
+        }
 
 
 def _split_negatives(
@@ -667,12 +770,27 @@ def _sidecar(
         "segmentation": asdict(seg),
         "params": asdict(p),
         "seed": p.seed,
-        "data": [{"file": f, "bytes": (data_dir / f).stat().st_size, "sha256": _sha256(data_dir / f)} for f in files],
+        "data": [{**_file_entry(data_dir / f), "file": f} for f in files],
         "split": split,
         "counts": counts,
         "metrics": metrics,
         "leave_one_bag_out": lobo,
     }
+
+
+def _file_entry(path: Path) -> dict[str, object]:
+    """A data file of the sidecar: its path, size and SHA-256."""
+    return {"file": str(path), "bytes": path.stat().st_size, "sha256": _sha256(path)}
+
+
+def _people_entries(pairs: Sequence[tuple[str | Path, str | Path]]) -> list[dict[str, object]]:
+    """The sidecar entries of the people-annotated bags and their ground truth, named relative to the folder
+    that holds them all (the model's record does not depend on where that folder was)."""
+    files = [Path(f) for pair in pairs for f in pair]
+    if not files:
+        return []
+    root = Path(os.path.commonpath([str(f.parent) for f in files]))
+    return [{**_file_entry(f), "file": f.relative_to(root).as_posix()} for f in files]
 
 
 def _json_safe(value: Any) -> Any:
