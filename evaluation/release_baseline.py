@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 #: The last release that landed (round three, stop 1); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "7693ad8"
+PREVIOUS_RELEASE = "7f3bd66"
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -6,7 +6,7 @@ class                     method                                                
 :class:`LegDetector`      geometric leg candidates paired into people (Bellotto & Hu)  measured (1)
 :class:`BoostedSegment    boosted segment classifier (Arras et al.; Spinello &         measured (1)
 Detector`                 Siegwart), trained by ``pfpeople train-detector`` on the
-                          six labelled leg_tracker bags
+                          six labelled leg_tracker bags and simulated scans
 :class:`HogCameraDetec    OpenCV HOG + flat-ground range (Stein et al. 2003)           PPV 0.95, FNR 0.50
 tor`                                                                                  (Table 1)
 ========================  ==========================================================  =====================

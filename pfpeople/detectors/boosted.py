@@ -8,9 +8,11 @@ with a score above ``threshold`` are legs; legs become people with the same pair
 single legs).
 
 The shipped model ``pfpeople/models/boosted_legs.yml`` (with its JSON sidecar of data, parameters, metrics and
-leave-one-bag-out evaluation) is trained on all six labelled leg_tracker bags and loads by default through
-``importlib.resources``. Single legs (``PairingParams.count_single_legs``) are off by default, as for the
-leg-pattern detector (figures in :mod:`pfpeople.detectors.legs`).
+leave-one-bag-out evaluation) is trained on all six labelled leg_tracker bags, negative_2 and the simulated bags of
+:mod:`evaluation.scenarios.scan.training` (a moving robot among furniture and people who stand and walk, as lasers
+are specified; ``make model``), and loads by default through ``importlib.resources``. Single legs
+(``PairingParams.count_single_legs``) are off by default, as for the leg-pattern detector (figures in
+:mod:`pfpeople.detectors.legs`).
 """
 
 from __future__ import annotations
@@ -94,7 +96,7 @@ class BoostedSegmentDetector:
     pairing : PairingParams, optional
         How legs become people (shared with :class:`~pfpeople.detectors.legs.LegDetector`).
     model : DetectorModel, optional
-        PPV / FNR and field of view for the grid; default PPV 0.90, FNR 0.55 as measured on the labelled data
+        PPV / FNR and field of view for the grid; default the values measured on the labelled data
         (:data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`), 180 deg.
     """
 

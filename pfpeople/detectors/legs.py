@@ -344,7 +344,7 @@ class LegDetector:
     params : LegDetectorParams, optional
         Thresholds; defaults documented in the module docstring.
     model : DetectorModel, optional
-        PPV / FNR, field of view and range used by the grid. Default: PPV 0.80, FNR 0.60 as measured on the
+        PPV / FNR, field of view and range used by the grid. Default: the values measured on the
         labelled data (:data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`), 180 deg field of view, unbounded
         range; a pipeline run takes the field of view and range from the LaserScan.
 
