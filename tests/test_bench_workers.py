@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from evaluation import bench_grid, bench_particles, bench_raycast, release_baseline
+from evaluation import bench_ego_motion, bench_grid, bench_particles, bench_raycast, release_baseline
 from evaluation.release_baseline import BaselineError, release_checkout, run_worker
 
 
@@ -77,6 +77,14 @@ def test_raycast_worker_and_driver(capsys: pytest.CaptureFixture[str]) -> None:
     out = capsys.readouterr().out.splitlines()
     assert out[2].split() == ["this", "numpy", "numpy/this"]
     assert out[-1] == "wheelchair: the same ranges in every run and code: yes"  # compiled == numpy, bit for bit
+
+
+def test_ego_motion_worker_and_driver(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench_ego_motion.main(["--worker", "--calls", "50"]) == 0
+    assert _last_json(capsys)["us"] > 0
+    assert bench_ego_motion.main(["--calls", "50", "--repeat", "1", "--baseline", "none"]) == 0
+    line = capsys.readouterr().out.splitlines()[-1]
+    assert line.startswith("ego_motion_sigma_points: this ") and "baseline" not in line
 
 
 def _git(repo: Path, *args: str) -> str:
