@@ -11,8 +11,9 @@ Every run is a worker process (``--worker``) that runs the whole pipeline (bag r
 clutter map, the filter, classification, tracking and the run directory) and prints one JSON line: frames,
 wall-clock seconds, frames per second, the real-time factor (recorded seconds processed per wall-clock second),
 the CPU time per frame of the same span and the real-time factor it gives (steadier than the wall clock on a
-loaded machine), the filter step's CPU time (ms per frame), the peak resident memory of the worker process
-and, with ``--stages``, the CPU time of each stage (:mod:`evaluation.stage_timer`).
+loaded machine), the filter step's CPU time (ms per frame), the peak resident memory of the worker process,
+the BLAS threads per library during the run (``BLAS``, :mod:`pfpeople.blas`) and, with ``--stages``, the CPU
+time of each stage (:mod:`evaluation.stage_timer`).
 With ``--baseline REV`` (default :data:`evaluation.release_baseline.PREVIOUS_RELEASE`; ``none`` skips it) the
 same worker also runs with the release's packages (:func:`evaluation.release_baseline.run_worker`), interleaved
 with this checkout's runs, and each row shows the same-run ratios ``this / release`` of both real-time factors
@@ -20,8 +21,11 @@ and whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``det
 
     python -m evaluation.bench_pipeline [--cases wheelchair lobby person_following] [--filters grid particle]
         [--max-frames N] [--repeat N] [--baseline REV|none] [--stages] [--data ../shared/data] [--work DIR]
-        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000] [--motion-model paper persistent]
+        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000] [--motion-model paper persistent] [--busy N]
     python -m evaluation.bench_pipeline --worker --bag BAG --config CFG --filter grid --out RUN [--stages] ...
+
+``--busy N`` loads the machine the same for every code measured: N processes spin on a core each while the runs
+go (on this 2-core machine ``--busy 1`` leaves the pipeline one core, as other jobs often do).
 
 Wall-clock figures depend on the machine; tests never assert them.
 """
@@ -32,12 +36,15 @@ import argparse
 import filecmp
 import importlib.util
 import json
+import os
 import resource
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -111,6 +118,18 @@ def _worker_config(args: argparse.Namespace) -> Any:
     return replace(cfg, filter=filt)
 
 
+def _blas_threads(summary: Any) -> int | None:
+    """The BLAS threads per library of the run: its record (``stats.blas_threads``), or, for code that limits
+    none, what threadpoolctl sees now (None without threadpoolctl)."""
+    if hasattr(summary, "blas_threads"):
+        return int(summary.blas_threads)
+    try:
+        from threadpoolctl import threadpool_info
+    except ImportError:
+        return None
+    return max((int(i["num_threads"]) for i in threadpool_info() if i.get("user_api") == "blas"), default=0)
+
+
 def worker(args: argparse.Namespace) -> dict[str, Any]:
     """Run one case in this process and return its figures (see the module docstring)."""
     from pfpeople.bag.reader import BagSource
@@ -140,6 +159,7 @@ def worker(args: argparse.Namespace) -> dict[str, Any]:
         "cpu_rtf": span / pipe.cpu_s if pipe.cpu_s > 0 else float("nan"),
         "filter_cpu_ms": 1e3 * pipe.filter_cpu_s / max(n, 1),
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "blas_threads": _blas_threads(summary),
         "n_particles": getattr(pipe.filter, "n_particles", None),
         "motion_model": getattr(pipe.filter, "motion_model", None),
         "stages_ms": {k: 1e3 * v / max(n, 1) for k, v in stages.items()},
@@ -161,6 +181,9 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--particles", nargs="+", type=int, default=[None], help="particle counts")
     ap.add_argument("--motion-model", nargs="+", default=[None], choices=("paper", "persistent"))
     ap.add_argument("--json", default=None, help="also write every run's figures to this JSON file")
+    ap.add_argument(
+        "--busy", type=int, default=0, help="load the machine: N processes spinning on a core each while it measures"
+    )
     w = ap.add_argument_group("worker (one run in this process, one JSON line out)")
     w.add_argument("--worker", action="store_true")
     w.add_argument("--bag", help="the bag")
@@ -227,7 +250,7 @@ def _recall(run_dir: Path, gt: Path, real: bool) -> str:
 
 HEAD = (
     f"{'case':<17}{'filter':<9}{'variant':<12}{'code':<9}{'frames':>7}{'wall s':>8}{'fps':>8}{'RT x':>8}"
-    f"{'ratio':>7}{'CPU ms':>8}{'CPU RT':>8}{'ratio':>7}{'filt ms':>8}{'RSS MB':>8}  same  recall"
+    f"{'ratio':>7}{'CPU ms':>8}{'CPU RT':>8}{'ratio':>7}{'filt ms':>8}{'RSS MB':>8}{'BLAS':>5}  same  recall"
 )
 
 
@@ -235,7 +258,7 @@ def _row(case: str, kind: str, label: str, code: str, r: dict[str, Any], ratios:
     return (
         f"{case:<17}{kind:<9}{label:<12}{code:<9}{r['frames']:>7}{r['elapsed_s']:>8.2f}{r['fps']:>8.1f}"
         f"{r['rtf']:>8.1f}{ratios[0]:>7}{r['cpu_ms']:>8.2f}{r['cpu_rtf']:>8.1f}{ratios[1]:>7}"
-        f"{r['filter_cpu_ms']:>8.3f}{r['peak_rss_mb']:>8.0f}  {rest}"
+        f"{r['filter_cpu_ms']:>8.3f}{r['peak_rss_mb']:>8.0f}{r.get('blas_threads') or '-':>5}  {rest}"
     )
 
 
@@ -318,6 +341,20 @@ def _summary(case: str, kind: str, v: tuple[Any, ...], runs: list[dict[str, Any]
     print(f"  {'whole frame (CPU)':<30}" + "".join(f"{med('cpu_ms', c):>10.3f}" for c in codes), flush=True)
 
 
+@contextmanager
+def busy_loops(n: int) -> Iterator[None]:
+    """``n`` processes that each spin on a core while the block runs (``python -c "while True: pass"``): the
+    load of other jobs on a shared machine, the same for every code measured."""
+    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(max(n, 0))]
+    try:
+        yield
+    finally:
+        for p in procs:
+            p.kill()
+        for p in procs:
+            p.wait()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     a = _parser().parse_args(argv)
@@ -329,7 +366,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     roots = _roots(a)
     print(f"code: {', '.join(f'{c} = {p}' for c, p in roots.items())}")
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"load: {a.busy} busy-loop process(es) while measuring; load average before: {load}")
     print(HEAD, flush=True)
+    with busy_loops(a.busy):
+        every = _measure_all(a, roots)
+    if a.json:
+        Path(a.json).write_text(json.dumps(every, indent=1), encoding="utf-8")
+    return 0
+
+
+def _measure_all(a: argparse.Namespace, roots: dict[str, Path]) -> list[dict[str, Any]]:
+    """Every case, filter and variant of ``a`` with every code of ``roots``: the runs' figures."""
     every: list[dict[str, Any]] = []
     for case in a.cases:
         spec = _case(case, a)
@@ -349,9 +397,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 runs = _measure(case, kind, v, spec, a, roots)
                 _summary(case, kind, v, runs, a.stages)
                 every += [dict(r, case=case, filter=kind, variant=_label(v)) for r in runs]
-    if a.json:
-        Path(a.json).write_text(json.dumps(every, indent=1), encoding="utf-8")
-    return 0
+    return every
 
 
 if __name__ == "__main__":

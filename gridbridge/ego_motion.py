@@ -109,13 +109,15 @@ def velocity_displacement(
     w = np.asarray(omega, dtype=float)
     turning = np.abs(w) > _OMEGA_EPS
     w_safe = np.where(turning, w, 1.0)
+    wdt = w * dt
+    sin_wdt, one_minus_cos = np.sin(wdt), 1.0 - np.cos(wdt)  # once each, for Thrun's and the lateral terms
     # Thrun's terms first, the lateral ones added after: with vy = 0 the result is bit-identical to vy-free code.
-    dx = np.where(turning, v / w_safe * np.sin(w * dt), v * dt)
-    dy = np.where(turning, v / w_safe * (1.0 - np.cos(w * dt)), 0.0)
+    dx = np.where(turning, v / w_safe * sin_wdt, v * dt)
+    dy = np.where(turning, v / w_safe * one_minus_cos, 0.0)
     lat = np.asarray(vy, dtype=float)
     if np.any(lat != 0.0):
-        dx = dx - np.where(turning, lat / w_safe * (1.0 - np.cos(w * dt)), 0.0)
-        dy = dy + np.where(turning, lat / w_safe * np.sin(w * dt), lat * dt)
+        dx = dx - np.where(turning, lat / w_safe * one_minus_cos, 0.0)
+        dy = dy + np.where(turning, lat / w_safe * sin_wdt, lat * dt)
     dtheta = (w + np.asarray(gamma, dtype=float)) * dt
     return dx, dy, np.broadcast_to(dtheta, np.broadcast(dx, dtheta).shape).copy()
 
@@ -157,22 +159,20 @@ def _sigma_points_cached(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:func:`ego_motion_sigma_points` (read-only arrays), cached: a robot's odometry repeats from frame to frame."""
     variances = noise.variances(odo.v, odo.omega)
-    mean = np.array([odo.v, odo.omega, 0.0])
-    nodes = [mean]
-    weights = [1.0]
+    mean = (float(odo.v), float(odo.omega), 0.0)
     active = [k for k, var in enumerate(variances) if var > 0.0]
-    weights[0] = 1.0 - len(active) / 3.0
+    centre = 1.0 - len(active) / 3.0
+    nodes: list[tuple[float, ...]] = [mean] if centre > 0.0 else []  # a centre of weight 0 (3 noisy controls): out
+    weights = [centre] if centre > 0.0 else []
     for k in active:
         step = math.sqrt(3.0 * variances[k])
         for sign in (1.0, -1.0):
-            node = mean.copy()
-            node[k] += sign * step
-            nodes.append(node)
+            node = list(mean)
+            node[k] += sign * step  # the float64 sum numpy's in-place add gave
+            nodes.append(tuple(node))
             weights.append(1.0 / 6.0)
-    controls = np.array(nodes)
+    controls = np.array(nodes).reshape(-1, 3)
     w = np.array(weights)
-    keep = w > 0.0
-    controls, w = controls[keep], w[keep]
     dx, dy, dth = velocity_displacement(controls[:, 0], controls[:, 1], dt, controls[:, 2], vy=odo.vy)
     poses, weights = np.column_stack((dx, dy, dth)), w / w.sum()
     poses.setflags(write=False)

@@ -28,8 +28,9 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
 #: Whether numba could be imported.
 AVAILABLE: bool = _numba is not None
 
-#: The packages with kernels; each can be switched alone (the tests compare one package's paths at a time).
-SCOPES = ("gridbridge", "pfpeople")
+#: The packages with kernels (``evaluation``: the scan simulator's ray caster); each can be switched alone (the
+#: tests compare one package's paths at a time).
+SCOPES = ("gridbridge", "pfpeople", "evaluation")
 
 _on = AVAILABLE and os.environ.get("PFPEOPLE_NUMBA", "1").strip() != "0"
 _state = dict.fromkeys(SCOPES, _on)

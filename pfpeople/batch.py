@@ -41,6 +41,7 @@ from typing import Any
 
 from gridbridge.validation import check_int
 from pfpeople.bag.config import BagConfig
+from pfpeople.blas import resolve_blas_threads
 from pfpeople.extras import require
 
 __all__ = [
@@ -236,10 +237,11 @@ def run_bag(
     *,
     max_frames: int | None = None,
     overwrite: bool = False,
+    blas_threads: int | None = None,
 ) -> dict[str, Any]:
     """Run the pipeline over one bag into ``run_dir``; never raises for a bad bag: returns its row.
 
-    See the module docstring for the row.
+    See the module docstring for the row; ``blas_threads`` is :class:`pfpeople.pipeline.Pipeline`'s.
     """
     from pfpeople.bag.reader import BagSource
     from pfpeople.pipeline import Pipeline
@@ -260,7 +262,7 @@ def run_bag(
     try:
         with BagSource(bag) as src:
             # one process per bag: a batch runs its bags in parallel, one per core
-            summary, _ = Pipeline(config, front_process=False).run(
+            summary, _ = Pipeline(config, front_process=False, blas_threads=blas_threads).run(
                 src, out, max_frames=max_frames, overwrite=overwrite, metadata={"command": "pfpeople batch"}
             )
         row.update(status="complete", frames=summary.frames, fps=summary.fps, people_per_frame=_people_per_frame(out))
@@ -397,6 +399,7 @@ def run_batch(
     max_frames: int | None = None,
     overwrite: bool = False,
     progress: bool = True,
+    blas_threads: int | None = None,
 ) -> list[dict[str, Any]]:
     """Run the pipeline over every bag, one Dask task per bag (see the module docstring).
 
@@ -416,6 +419,9 @@ def run_batch(
         Replace existing runs; without it, existing run directories are an error before anything runs.
     progress : bool
         A progress bar over completed bags (:func:`pfpeople.progress.progress_bar`).
+    blas_threads : int, optional
+        BLAS threads per worker process during a run (:mod:`pfpeople.blas`; 0: no limit). None: this process's
+        ``PFPEOPLE_BLAS_THREADS``, else 1 (resolved here, so remote workers use the same).
 
     Returns
     -------
@@ -428,13 +434,14 @@ def run_batch(
         raise TypeError(f"config must be a BagConfig, got {type(config).__name__}")
     if client is None:
         check_cluster_args(scheduler, workers)
+    threads = resolve_blas_threads(blas_threads)
     names = run_dir_names(bags)
     run_dirs = _run_dirs(out_dir, names, overwrite)
     args = [(str(Path(b).absolute()), config, str(d)) for b, d in zip(bags, run_dirs, strict=True)]
     keys = [f"pfpeople-batch-{k}-{n}-{time.time_ns()}" for k, n in enumerate(names)]
 
     def task(bag: str, cfg: BagConfig, run_dir: str) -> dict[str, Any]:
-        return run_bag(bag, cfg, run_dir, max_frames=max_frames, overwrite=overwrite)
+        return run_bag(bag, cfg, run_dir, max_frames=max_frames, overwrite=overwrite, blas_threads=threads)
 
     def lost(i: int, exc: BaseException) -> dict[str, Any]:
         return _lost_row(bags[i], run_dirs[i], exc)

@@ -24,7 +24,15 @@ from typing import Any
 
 from pfpeople.extras import MissingExtraError
 
-__all__ = ["SubcommandParser", "build_parser", "examples", "package_version", "run", "verbosity_parser"]
+__all__ = [
+    "SubcommandParser",
+    "add_blas_threads_argument",
+    "build_parser",
+    "examples",
+    "package_version",
+    "run",
+    "verbosity_parser",
+]
 
 
 def package_version() -> str:
@@ -101,6 +109,25 @@ def examples(*lines: str) -> str:
         The epilog text.
     """
     return "Examples:\n" + "".join(f"  {line}\n" for line in lines)
+
+
+def add_blas_threads_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--blas-threads N`` (:mod:`pfpeople.blas`) to a subcommand that runs the pipeline.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser; the value lands in ``args.blas_threads`` (None when not given).
+    """
+    parser.add_argument(
+        "--blas-threads",
+        type=int,
+        metavar="N",
+        help="BLAS threads per process during a run (numpy's and scipy's OpenBLAS, limited with threadpoolctl; the "
+        "front-end process too). Default: $PFPEOPLE_BLAS_THREADS, else 1: on a busy machine a BLAS thread per core "
+        "only waits for a core (the particle filter ran 2.5x slower so), and the results are the same. 0: no "
+        "limit (OpenBLAS's own thread per core, or $OPENBLAS_NUM_THREADS)",
+    )
 
 
 def build_parser(prog: str, description: str, commands: ModuleType) -> argparse.ArgumentParser:

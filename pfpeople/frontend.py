@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 
 from pfpeople.adapters import Detections
 from pfpeople.bag.sync import Frame
+from pfpeople.blas import blas_threads_in_use
 from pfpeople.odometry import EgoMotion
 from pfpeople.run_state import RunSummary
 from pfpeople.sensors import Pose2D
@@ -54,7 +55,7 @@ from pfpeople.sensors import Pose2D
 __all__ = ["FRONT_COUNTERS", "FrontProcess", "FrontResult", "front_process_available"]
 
 #: The :class:`~pfpeople.run_state.RunSummary` fields the front end updates (the back end: ``frames``, ``sync``,
-#: ``elapsed_s``, ``error``, and ``mount_changes``, from the TF it reads along the frames).
+#: ``elapsed_s``, ``error``, ``blas_threads``, and ``mount_changes``, from the TF it reads along the frames).
 FRONT_COUNTERS = (
     "no_data",
     "empty_scans",
@@ -71,6 +72,7 @@ FRONT_COUNTERS = (
     "suppressed",
     "laser_odometry_frames",
     "ego_motion",
+    "front_blas_threads",
 )
 
 
@@ -208,6 +210,7 @@ def _child(
         root.removeHandler(h)
     records = _Records()
     root.addHandler(records)
+    summary.front_blas_threads = blas_threads_in_use()  # the limit of the run, inherited through the fork
     it = iter(frames())
     try:
         while True:

@@ -85,6 +85,7 @@ from pfpeople.bag.config import BagConfig, FilterConfig
 from pfpeople.bag.reader import BadScanError, BagMessage, BagSource, MessageDataError
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import MountWatch, TfBuffer
+from pfpeople.blas import blas_threads_in_use, limit_blas, resolve_blas_threads
 from pfpeople.filters import build_classifier, build_people_tracker
 from pfpeople.frontend import FrontProcess, FrontResult, front_process_available
 from pfpeople.mot.people import point_like, support_positions
@@ -189,11 +190,17 @@ class Pipeline:
         front_process_available` says it can and no front-end part (``detectors``, ``adapters``,
         ``odometry_factory``) is given: the state of those would be in the child process, out of the caller's
         sight. True: ask for it (one process, with a warning, where it cannot run); False: one process.
+    blas_threads : int, optional
+        BLAS threads per process while the frames run (:mod:`pfpeople.blas`: numpy's and scipy's OpenBLAS limited
+        with threadpoolctl, the front-end process included; the libraries' own counts restored after). None
+        (default): the environment variable ``PFPEOPLE_BLAS_THREADS``, else 1; 0: no limit. Same results, and
+        on a loaded machine no BLAS thread waits for a busy core.
 
     Raises
     ------
     ValueError
-        If ``detectors`` names a detector that is not in the config.
+        If ``detectors`` names a detector that is not in the config, or ``blas_threads`` (or
+        ``PFPEOPLE_BLAS_THREADS``) is not an integer >= 0.
     """
 
     def __init__(
@@ -208,9 +215,12 @@ class Pipeline:
         sink_factory: SinkFactory | None = None,
         sinks: Sequence[Sink] = (),
         front_process: bool | None = None,
+        blas_threads: int | None = None,
     ) -> None:
         self.config = config
         self.front_process = front_process
+        #: BLAS threads per process during the frames (0: no limit; :func:`pfpeople.blas.resolve_blas_threads`).
+        self.blas_threads = resolve_blas_threads(blas_threads)
         self._given = dict(detectors or {})
         unknown = set(self._given) - {d.name for d in config.detectors}
         if unknown:
@@ -514,23 +524,25 @@ class Pipeline:
                 yield from itertools.islice(synced(source, assembler(), watch_mounts=False), max_frames)
 
         sync = assembler()
-        t0 = time.perf_counter()
-        try:
-            frames = itertools.islice(synced(bag, sync), max_frames)
-            if self._two_processes(bag):
-                front = FrontProcess(child_frames, self._front, self.summary)
-                try:
+        with limit_blas(self.blas_threads):  # the front-end process, forked in here, inherits the limit
+            self.summary.blas_threads = self.summary.front_blas_threads = blas_threads_in_use()
+            t0 = time.perf_counter()
+            try:
+                frames = itertools.islice(synced(bag, sync), max_frames)
+                if self._two_processes(bag):
+                    front = FrontProcess(child_frames, self._front, self.summary)
+                    try:
+                        for frame in frames:
+                            yield self._back(frame, front.take(frame))
+                    finally:
+                        front.close()
+                else:
                     for frame in frames:
-                        yield self._back(frame, front.take(frame))
-                finally:
-                    front.close()
-            else:
-                for frame in frames:
-                    yield self._process(frame)
-        finally:
-            self.summary.elapsed_s = time.perf_counter() - t0
-            self.summary.sync = sync.stats
-            self._log_ego_motion()
+                        yield self._process(frame)
+            finally:
+                self.summary.elapsed_s = time.perf_counter() - t0
+                self.summary.sync = sync.stats
+                self._log_ego_motion()
 
     def _sync_policies(self) -> dict[str, str]:
         """How each non-driver topic joins the frames (the detectors' ``assign``, odometry interpolated); logs the

@@ -112,6 +112,10 @@ class RunSummary:
     counts, per detector, the frames placed with a mount other than the one read before the run;
     ``frame_id_changes`` the messages in a frame other than the detector's first one (each placed by its own
     frame's mount), ``frame_id_unplaced`` those of them TF does not place (no data).
+
+    ``blas_threads`` is the most threads a BLAS library of the run's process would use while the frames ran
+    (:mod:`pfpeople.blas`: 1 by default; 0: no BLAS library found), ``front_blas_threads`` the same in the front
+    end's process (:mod:`pfpeople.frontend`; the run's own process when there is one).
     """
 
     frames: int = 0
@@ -133,6 +137,8 @@ class RunSummary:
     laser_odometry_frames: int = 0
     ego_motion: dict[str, int] = field(default_factory=_ego_counts)
     sync: dict[str, dict[str, int]] = field(default_factory=dict)
+    blas_threads: int = 0
+    front_blas_threads: int = 0
     error: str | None = None
 
     @property

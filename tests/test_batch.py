@@ -69,6 +69,7 @@ def test_one_corrupt_bag_does_not_stop_the_others(tmp_path: Path, client: Any, b
         assert r["frames"] == N_SCANS and run.meta["status"] == "complete" and r["error"] == ""
         assert r["people_per_frame"] == pytest.approx(float(np.mean(run.frames["n_people"])), abs=1e-12)
         assert r["fps"] > 0 and r["wall_s"] > 0
+        assert run.meta["stats"]["blas_threads"] == 1  # pfpeople.blas: one BLAS thread per worker during a run
     bad = rows[1]
     assert bad["error"].startswith("BagReadError: ") and "corrupt.bag" in bad["error"]
     assert "truncated or corrupt after" in bad["error"]

@@ -45,8 +45,20 @@ def test_driver_runs_workers_without_baseline(
     js = tmp_path / "runs.json"
     argv = ["--cases", "wheelchair", "person_following", "--filters", "grid"]
     argv += ["--max-frames", "6", "--baseline", "none", "--work", str(tiny_scene), "--data", str(tmp_path)]
-    assert bench_pipeline.main([*argv, "--json", str(js)]) == 0
+    assert bench_pipeline.main([*argv, "--json", str(js), "--busy", "1"]) == 0
     text = capsys.readouterr().out
     assert "person_following: skipped" in text and "median RT factor: this" in text and "release" not in text
+    assert "load: 1 busy-loop process(es) while measuring" in text
     runs = json.loads(js.read_text())
     assert [(r["case"], r["code"], r["frames"], r["same_outputs"]) for r in runs] == [("wheelchair", "this", 6, "-")]
+    assert runs[0]["blas_threads"] in (0, 1)  # pfpeople.blas: one thread per library (0: no BLAS library seen)
+
+
+def test_busy_loops_end_with_the_block() -> None:
+    import psutil
+
+    before = {p.pid for p in psutil.Process().children()}
+    with bench_pipeline.busy_loops(2):
+        spinning = [p for p in psutil.Process().children() if p.pid not in before]
+        assert len(spinning) == 2 and all(p.is_running() for p in spinning)
+    assert not any(p.is_running() and p.status() != psutil.STATUS_ZOMBIE for p in spinning)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from evaluation import bench_grid, bench_particles, release_baseline
+from evaluation import bench_ego_motion, bench_grid, bench_particles, bench_raycast, release_baseline
 from evaluation.release_baseline import BaselineError, release_checkout, run_worker
 
 
@@ -66,6 +66,25 @@ def test_grid_worker_and_table(capsys: pytest.CaptureFixture[str]) -> None:
     lines = bench_grid.table({"now": data, "release": rel})
     assert lines[2].split()[6] == "2.00" and "release 100 MB" in lines[-1]
     assert bench_grid.table({"now": data, "release": None})[2].split()[5] == "-"
+
+
+def test_raycast_worker_and_driver(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench_raycast.main(["--worker", "--frames", "3", "--scenes", "wheelchair", "--clock", "cpu"]) == 0
+    data = _last_json(capsys)
+    fig = data["scenes"]["wheelchair"]
+    assert data["random_ms"] > 0 and fig["cast_ms"] > 0 and fig["loop_ms"] > 0 and len(fig["sha256"]) == 64
+    assert bench_raycast.main(["--frames", "3", "--scenes", "wheelchair", "--repeat", "1", "--baseline", "none"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[2].split() == ["this", "numpy", "numpy/this"]
+    assert out[-1] == "wheelchair: the same ranges in every run and code: yes"  # compiled == numpy, bit for bit
+
+
+def test_ego_motion_worker_and_driver(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench_ego_motion.main(["--worker", "--calls", "50"]) == 0
+    assert _last_json(capsys)["us"] > 0
+    assert bench_ego_motion.main(["--calls", "50", "--repeat", "1", "--baseline", "none"]) == 0
+    line = capsys.readouterr().out.splitlines()[-1]
+    assert line.startswith("ego_motion_sigma_points: this ") and "baseline" not in line
 
 
 def _git(repo: Path, *args: str) -> str:

@@ -16,6 +16,7 @@ from gridbridge import (
     velocity_displacement,
     warp_belief,
 )
+from gridbridge.ego_motion import _sigma_points_cached
 
 
 def test_velocity_displacement_hand_values() -> None:
@@ -97,3 +98,63 @@ def test_sigma_points_match_control_moments() -> None:
 def test_bad_input(call: object, name: str) -> None:
     with pytest.raises(ValueError, match=name):
         call()  # type: ignore[operator]
+
+
+def _reference_velocity_displacement(v, omega, dt, gamma=0.0, vy=0.0):  # type: ignore[no-untyped-def]
+    """The velocity model as written before its sine and cosine were shared (the reference for bit identity)."""
+    v, w = np.asarray(v, dtype=float), np.asarray(omega, dtype=float)
+    turning = np.abs(w) > 1e-9
+    w_safe = np.where(turning, w, 1.0)
+    dx = np.where(turning, v / w_safe * np.sin(w * dt), v * dt)
+    dy = np.where(turning, v / w_safe * (1.0 - np.cos(w * dt)), 0.0)
+    lat = np.asarray(vy, dtype=float)
+    if np.any(lat != 0.0):
+        dx = dx - np.where(turning, lat / w_safe * (1.0 - np.cos(w * dt)), 0.0)
+        dy = dy + np.where(turning, lat / w_safe * np.sin(w * dt), lat * dt)
+    dtheta = (w + np.asarray(gamma, dtype=float)) * dt
+    return dx, dy, np.broadcast_to(dtheta, np.broadcast(dx, dtheta).shape).copy()
+
+
+def _reference_sigma_points(odo, dt, noise):  # type: ignore[no-untyped-def]
+    """The sigma points as built before (numpy rows, a zero-weight centre dropped by a mask)."""
+    variances = noise.variances(odo.v, odo.omega)
+    mean = np.array([odo.v, odo.omega, 0.0])
+    nodes, weights = [mean], [1.0]
+    active = [k for k, var in enumerate(variances) if var > 0.0]
+    weights[0] = 1.0 - len(active) / 3.0
+    for k in active:
+        step = math.sqrt(3.0 * variances[k])
+        for sign in (1.0, -1.0):
+            node = mean.copy()
+            node[k] += sign * step
+            nodes.append(node)
+            weights.append(1.0 / 6.0)
+    controls, w = np.array(nodes), np.array(weights)
+    keep = w > 0.0
+    controls, w = controls[keep], w[keep]
+    dx, dy, dth = _reference_velocity_displacement(controls[:, 0], controls[:, 1], dt, controls[:, 2], vy=odo.vy)
+    return np.column_stack((dx, dy, dth)), w / w.sum()
+
+
+def test_sigma_points_and_velocity_model_are_bit_identical_to_the_reference() -> None:
+    """The sigma points are built with Python floats and the velocity model computes its sine and cosine once:
+    the same floats as before, bit for bit (straight lines, |omega| at the threshold, no lateral speed, one to
+    three noisy controls)."""
+    rng = np.random.default_rng(26)
+    for _ in range(1500):
+        v = float(rng.choice([0.0, -0.0, rng.normal(0.0, 1.0), rng.uniform(-3.0, 3.0)]))
+        w = float(rng.choice([0.0, -0.0, 1e-10, 1e-9, -2e-9, rng.normal(0.0, 1.0)]))
+        vy = float(rng.choice([0.0, -0.0, rng.normal(0.0, 0.3)]))
+        dt = float(rng.choice([0.1, 0.1333333333, rng.uniform(0.001, 1.0)]))
+        alphas = {f"alpha{k}": float(rng.choice([0.0, rng.uniform(0.0, 0.01)])) for k in range(1, 7)}
+        noise = SensorMotionNoise(**alphas)
+        odo = Odometry(v=v, omega=w, vy=vy)
+        # uncached: the cache takes Odometry(v=-0.0) for Odometry(v=0.0) (equal), whose poses' zeros differ in sign
+        ours, ref = _sigma_points_cached.__wrapped__(odo, dt, noise), _reference_sigma_points(odo, dt, noise)
+        for got, want in zip(ours, ref, strict=True):
+            assert got.shape == want.shape and got.tobytes() == want.tobytes()
+        vv, ww, gg = rng.normal(0.0, 1.0, 7), rng.choice([0.0, 1e-10, 0.5, -2.0], 7), rng.normal(0.0, 0.1, 7)
+        for lat in (0.0, vy, rng.normal(0.0, 0.2, 7)):
+            got3 = velocity_displacement(vv, ww, dt, gg, vy=lat)
+            want3 = _reference_velocity_displacement(vv, ww, dt, gg, vy=lat)
+            assert all(g.tobytes() == r.tobytes() for g, r in zip(got3, want3, strict=True))

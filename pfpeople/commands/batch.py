@@ -19,7 +19,7 @@ from typing import Any
 
 from pfpeople.bag.config import BagConfig, builtin_config_path, load_config
 from pfpeople.batch import check_table_path, quiet_dask_logs, run_batch, write_table
-from pfpeople.cli_support import examples
+from pfpeople.cli_support import add_blas_threads_argument, examples
 
 
 def _config(args: argparse.Namespace) -> BagConfig:
@@ -46,6 +46,7 @@ def _run(args: argparse.Namespace) -> int:
         max_frames=args.max_frames,
         overwrite=args.overwrite,
         progress=not args.no_progress,
+        blas_threads=args.blas_threads,
     )
     write_table(rows, table)
     failed = [r for r in rows if r["status"] != "complete"]
@@ -78,4 +79,5 @@ def register(subparsers: Any) -> None:
     p.add_argument("--max-frames", type=int, default=None, help="stop each run after N frames")
     p.add_argument("--overwrite", action="store_true", help="replace existing runs in OUT")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_blas_threads_argument(p)
     p.set_defaults(func=_run)

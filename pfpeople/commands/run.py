@@ -25,7 +25,7 @@ from typing import Any
 from pfpeople.bag.config import BagConfig, DetectorConfig, builtin_config_path, load_config
 from pfpeople.bag.reader import BagReadError, BagSource
 from pfpeople.bag.writer import BAG_FORMATS, check_bag_out
-from pfpeople.cli_support import examples
+from pfpeople.cli_support import add_blas_threads_argument, examples
 from pfpeople.output import RunInterrupted, check_output_paths, interrupt_signals
 from pfpeople.pipeline import Pipeline
 from pfpeople.sinks import standard_sinks
@@ -89,7 +89,12 @@ def _run_checked(args: argparse.Namespace) -> int:
         with BagSource(args.bag) as bag:
             args._out = out
             factory = functools.partial(standard_sinks, scans=not args.no_scans)
-            pipeline = Pipeline(cfg, front_process=False if args.one_process else None, sink_factory=factory)
+            pipeline = Pipeline(
+                cfg,
+                front_process=False if args.one_process else None,
+                sink_factory=factory,
+                blas_threads=args.blas_threads,
+            )
             summary, _ = pipeline.run(
                 bag,
                 out,
@@ -182,4 +187,5 @@ def register(subparsers: Any) -> None:
         help="run everything in this process (default: with 2+ cores the detectors and the static-clutter map run in a "
         "second process, ahead of the filter; same results)",
     )
+    add_blas_threads_argument(p)
     p.set_defaults(func=_run)

@@ -10,9 +10,10 @@ A beam from the origin of the scan frame along the unit direction ``d = (cos a, 
   (beams parallel to the segment miss it).
 
 All (beam, primitive) pairs whose bearings can meet are evaluated at once as flat arrays (no Python loop
-over beams or primitives); the range of a beam is the smallest positive ``t``. Timing:
-``python -c "from evaluation.scenarios.scan.raycast import _benchmark; _benchmark()"`` (768 beams, 40
-circles, 30 segments: 1.2-2 ms on the shared 2-core machine, about 5 ms without the bearing windows).
+over beams or primitives); the range of a beam is the smallest positive ``t``. With evenly spaced beams the
+windows' pairs are intersected by a compiled loop (:mod:`.raycast_kernels`; the numpy code with
+``PFPEOPLE_NUMBA=0``: the same ranges and hits bit for bit). Timing: ``python -m evaluation.bench_raycast``
+(this code compiled, its numpy code and the previous release, same run; ``docs/speed.md``).
 
 Reported ranges (REP-117 conventions, which most ROS 1/2 laser drivers follow): a beam without a return
 (nothing hit, a hit beyond ``range_max`` or a random dropout) reads ``no_return``: ``"inf"`` (+Inf,
@@ -31,6 +32,9 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from evaluation.scenarios.scan.raycast_kernels import first_hits
+from gridbridge import jit as _jit
 
 __all__ = ["NO_RETURN_KINDS", "beam_angles", "cast_rays", "measure_ranges", "no_return_value"]
 
@@ -51,31 +55,139 @@ def beam_angles(angle_min: float, angle_max: float, n_beams: int) -> NDArray[np.
     return np.linspace(angle_min, angle_max, int(n_beams))
 
 
-def _window_pairs(
-    lo: NDArray[np.float64], hi: NDArray[np.float64], inc: float, n: int, bounds: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """(beam, primitive) index pairs for beams ``i`` with ``lo_k <= i inc <= hi_k`` (angles from the first beam)
-    and ``bounds[k, 0] <= i <= bounds[k, 1]``."""
-    i0 = np.maximum(np.clip(np.ceil(lo / inc - 1e-9), 0, n).astype(np.int64), bounds[:, 0])
-    i1 = np.minimum(np.clip(np.floor(hi / inc + 1e-9), -1, n - 1).astype(np.int64), bounds[:, 1])
-    counts = np.maximum(i1 - i0 + 1, 0)
-    total = int(counts.sum())
-    prim = np.repeat(np.arange(lo.size, dtype=np.int64), counts)
-    first = np.repeat(np.cumsum(counts) - counts, counts)
-    beam = np.repeat(i0, counts) + (np.arange(total, dtype=np.int64) - first)
-    return beam, prim
-
-
-def _candidates(
+def _window_bounds(
     rel: NDArray[np.float64], half: NDArray[np.float64], inc: float, n: int, bounds: NDArray[np.int64]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Pairs for angular windows ``[rel - half, rel + half]`` (rel in [0, 2 pi) from the first beam), as is
-    and shifted by -+2 pi (a window across the first beam's bearing)."""
-    parts = [
-        _window_pairs(rel - half + shift, rel + half + shift, inc, n, bounds)
-        for shift in (0.0, -2 * math.pi, 2 * math.pi)
-    ]
-    return np.concatenate([b for b, _ in parts]), np.concatenate([p for _, p in parts])
+    """The beams that can see each primitive: for angular windows ``[rel - half, rel + half]`` (rel in [0, 2 pi)
+    from the first beam), as is and shifted by -+2 pi (a window across the first beam's bearing), the first and
+    last beam ``i`` with ``lo <= i inc <= hi`` and ``bounds[k, 0] <= i <= bounds[k, 1]``.
+
+    Returns
+    -------
+    first, last : ndarray of int64, shape (3, K)
+        Per shift (0, -2 pi, +2 pi) and primitive; no beam where ``last < first``.
+    """
+    shifts = np.array([[0.0], [-2 * math.pi], [2 * math.pi]])
+    lo, hi = rel - half + shifts, rel + half + shifts
+    first = np.maximum(np.clip(np.ceil(lo / inc - 1e-9), 0, n).astype(np.int64), bounds[:, 0])
+    last = np.minimum(np.clip(np.floor(hi / inc + 1e-9), -1, n - 1).astype(np.int64), bounds[:, 1])
+    return first, last
+
+
+def _window_pairs(first: NDArray[np.int64], last: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(beam, primitive) index pairs of :func:`_window_bounds`'s windows: per shift, primitive by primitive, beams
+    ascending."""
+    beams, prims = [], []
+    for i0, i1 in zip(first, last, strict=True):
+        counts = np.maximum(i1 - i0 + 1, 0)
+        total = int(counts.sum())
+        prims.append(np.repeat(np.arange(i0.size, dtype=np.int64), counts))
+        start = np.repeat(np.cumsum(counts) - counts, counts)
+        beams.append(np.repeat(i0, counts) + (np.arange(total, dtype=np.int64) - start))
+    return np.concatenate(beams), np.concatenate(prims)
+
+
+def _all_pairs(n: int, bounds: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Every (beam, primitive) pair within ``bounds``, beam by beam (unevenly spaced beams)."""
+    k = bounds.shape[0]
+    bi, pi_ = np.repeat(np.arange(n), k), np.tile(np.arange(k), n)
+    inside = (bi >= bounds[pi_, 0]) & (bi <= bounds[pi_, 1])
+    return bi[inside], pi_[inside]
+
+
+def _circle_windows(
+    circ: NDArray[np.float64], a0: float, inc: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Bearing windows ``(rel, half)`` of the circles: a circle at distance ``d`` spans ``theta_c +- asin(r / d)``."""
+    cx, cy, r = circ[:, 0], circ[:, 1], circ[:, 2]
+    d = np.hypot(cx, cy)
+    outside = d > r
+    half = np.arcsin(np.clip(r / np.where(outside, d, 1.0), 0.0, 1.0)) + 0.5 * inc
+    half = np.where(outside, half, -1.0)  # a laser inside a circle sees nothing of it
+    return np.mod(np.arctan2(cy, cx) - a0, 2.0 * math.pi), half
+
+
+def _segment_windows(
+    seg: NDArray[np.float64], a0: float, inc: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Bearing windows ``(mid, half)`` of the segments: the shorter arc between the end points' bearings."""
+    th0 = np.arctan2(seg[:, 1], seg[:, 0])
+    th1 = np.arctan2(seg[:, 3], seg[:, 2])
+    diff = np.mod(th1 - th0 + math.pi, 2.0 * math.pi) - math.pi
+    return np.mod(th0 + 0.5 * diff - a0, 2.0 * math.pi), 0.5 * np.abs(diff) + inc
+
+
+def _windows(
+    circ: NDArray[np.float64],
+    seg: NDArray[np.float64],
+    a0: float,
+    inc: float,
+    n: int,
+    bounds: tuple[NDArray[np.int64], NDArray[np.int64]],
+) -> tuple[NDArray[np.int64], ...]:
+    """:func:`_window_bounds` of the circles and the segments, in one pass: ``c_first, c_last, s_first, s_last``."""
+    (c_rel, c_half), (s_rel, s_half) = _circle_windows(circ, a0, inc), _segment_windows(seg, a0, inc)
+    first, last = _window_bounds(
+        np.concatenate((c_rel, s_rel)), np.concatenate((c_half, s_half)), inc, n, np.concatenate(bounds)
+    )
+    k = len(circ)
+    return first[:, :k], last[:, :k], first[:, k:], last[:, k:]
+
+
+def _evenly_spaced(a: NDArray[np.float64], inc: float) -> bool:
+    """Whether the beams ``a`` are ``inc`` apart (within 1e-9 rad; ``np.allclose``, its quick case first)."""
+    d = np.diff(a)
+    if math.isfinite(inc) and bool(np.all(np.abs(d - inc) <= 1e-9)):  # implies np.allclose's answer
+        return True
+    return bool(np.allclose(d, inc, rtol=0.0, atol=1e-9))
+
+
+def _circle_hits(
+    cos_a: NDArray[np.float64],
+    sin_a: NDArray[np.float64],
+    circ: NDArray[np.float64],
+    bi: NDArray[np.int64],
+    pi_: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    """The pairs ``(bi, pi_)`` whose beam meets its circle in front of the laser: beams, circles, ranges."""
+    dx, dy = cos_a[bi], sin_a[bi]
+    px, py, pr = circ[pi_, 0], circ[pi_, 1], circ[pi_, 2]
+    b = dx * px + dy * py
+    disc = b * b - (px * px + py * py - pr * pr)
+    ok = disc >= 0.0
+    t = b - np.sqrt(np.where(ok, disc, 0.0))
+    keep = ok & (t > 0.0)
+    return bi[keep], pi_[keep], t[keep]
+
+
+def _segment_hits(
+    cos_a: NDArray[np.float64],
+    sin_a: NDArray[np.float64],
+    seg: NDArray[np.float64],
+    bi: NDArray[np.int64],
+    pi_: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    """The pairs ``(bi, pi_)`` whose beam crosses its segment in front of the laser: beams, segments, ranges."""
+    dx, dy = cos_a[bi], sin_a[bi]
+    sx, sy = seg[pi_, 0], seg[pi_, 1]
+    ex, ey = seg[pi_, 2] - sx, seg[pi_, 3] - sy
+    den = dx * ey - dy * ex  # d x e
+    ok = np.abs(den) > 1e-12
+    sden = np.where(ok, den, 1.0)
+    t = (sx * ey - sy * ex) / sden  # (p0 x e) / (d x e)
+    s = (sx * dy - sy * dx) / sden  # (p0 x d) / (d x e)
+    keep = ok & (t > 0.0) & (s >= 0.0) & (s <= 1.0)
+    return bi[keep], pi_[keep], t[keep]
+
+
+def _beam_bounds(given: ArrayLike | None, k: int, n: int, name: str) -> NDArray[np.int64]:
+    """``circle_beams`` / ``segment_beams`` of :func:`cast_rays` as a (k, 2) array (default: every beam)."""
+    if given is None:
+        return np.broadcast_to(np.array([0, n - 1], dtype=np.int64), (k, 2))
+    b = np.asarray(given, dtype=np.int64).reshape(-1, 2)
+    if b.shape[0] != k:
+        raise ValueError(f"cast_rays: {name} must have one [first, last] row per primitive ({k}), got {b.shape[0]}")
+    return b
 
 
 def cast_rays(
@@ -90,8 +202,9 @@ def cast_rays(
 
     Only the (beam, primitive) pairs whose bearings can meet are intersected: a circle at distance ``d``
     spans the bearings ``theta_c +- asin(r / d)``, a segment the shorter arc between its end points' bearings.
-    With evenly spaced ``angles`` (as a laser's) these windows become beam index ranges; otherwise every pair
-    is tested. The result is the same either way.
+    With evenly spaced ``angles`` (as a laser's) these windows become beam index ranges, intersected by a compiled
+    loop (:mod:`evaluation.scenarios.scan.raycast_kernels`; the numpy code with ``PFPEOPLE_NUMBA=0``, the same
+    result bit for bit); otherwise every pair is tested. The result is the same either way.
 
     Parameters
     ----------
@@ -121,75 +234,28 @@ def cast_rays(
     if n == 0:
         return best, hit
     inc = (a[-1] - a[0]) / (n - 1) if n > 1 else 1.0
-    even = n > 1 and inc > 0 and bool(np.allclose(np.diff(a), inc, rtol=0.0, atol=1e-9))
+    even = n > 1 and inc > 0 and _evenly_spaced(a, inc)
     cos_a, sin_a = np.cos(a), np.sin(a)
-    all_beams = np.array([0, n - 1], dtype=np.int64)
-
-    def _bounds(given: ArrayLike | None, k: int, name: str) -> NDArray[np.int64]:
-        if given is None:
-            return np.broadcast_to(all_beams, (k, 2))
-        b = np.asarray(given, dtype=np.int64).reshape(-1, 2)
-        if b.shape[0] != k:
-            raise ValueError(f"cast_rays: {name} must have one [first, last] row per primitive ({k}), got {b.shape[0]}")
-        return b
-
-    cb = _bounds(circle_beams, len(circ), "circle_beams")
-    sb = _bounds(segment_beams, len(seg), "segment_beams")
-    two_pi = 2.0 * math.pi
-    beams: list[NDArray[np.int64]] = []
-    prims: list[NDArray[np.int64]] = []
-    ts: list[NDArray[np.float64]] = []
+    cb = _beam_bounds(circle_beams, len(circ), n, "circle_beams")
+    sb = _beam_bounds(segment_beams, len(seg), n, "segment_beams")
+    if even:
+        c_lo, c_hi, s_lo, s_hi = _windows(circ, seg, a[0], inc, n, (cb, sb))
+        if _jit.enabled("evaluation"):
+            first_hits(cos_a, sin_a, circ, c_lo, c_hi, seg, s_lo, s_hi, best, hit)
+            return best, hit
+        c_pairs, s_pairs = _window_pairs(c_lo, c_hi), _window_pairs(s_lo, s_hi)
+    else:
+        c_pairs, s_pairs = _all_pairs(n, cb), _all_pairs(n, sb)
+    found = []
     if len(circ):
-        cx, cy, r = circ[:, 0], circ[:, 1], circ[:, 2]
-        if even:
-            d = np.hypot(cx, cy)
-            outside = d > r
-            half = np.arcsin(np.clip(r / np.where(outside, d, 1.0), 0.0, 1.0)) + 0.5 * inc
-            half = np.where(outside, half, -1.0)  # a laser inside a circle sees nothing of it
-            rel = np.mod(np.arctan2(cy, cx) - a[0], two_pi)
-            bi, pi_ = _candidates(rel, half, inc, n, cb)
-        else:
-            bi, pi_ = np.repeat(np.arange(n), len(circ)), np.tile(np.arange(len(circ)), n)
-            inside = (bi >= cb[pi_, 0]) & (bi <= cb[pi_, 1])
-            bi, pi_ = bi[inside], pi_[inside]
-        dx, dy = cos_a[bi], sin_a[bi]
-        px, py, pr = cx[pi_], cy[pi_], r[pi_]
-        b = dx * px + dy * py
-        disc = b * b - (px * px + py * py - pr * pr)
-        ok = disc >= 0.0
-        t = b - np.sqrt(np.where(ok, disc, 0.0))
-        keep = ok & (t > 0.0)
-        beams.append(bi[keep])
-        prims.append(pi_[keep])
-        ts.append(t[keep])
+        found.append(_circle_hits(cos_a, sin_a, circ, *c_pairs))
     if len(seg):
-        x0, y0 = seg[:, 0], seg[:, 1]
-        if even:
-            th0 = np.arctan2(y0, x0)
-            th1 = np.arctan2(seg[:, 3], seg[:, 2])
-            diff = np.mod(th1 - th0 + math.pi, two_pi) - math.pi
-            mid = np.mod(th0 + 0.5 * diff - a[0], two_pi)
-            bi, pi_ = _candidates(mid, 0.5 * np.abs(diff) + inc, inc, n, sb)
-        else:
-            bi, pi_ = np.repeat(np.arange(n), len(seg)), np.tile(np.arange(len(seg)), n)
-            inside = (bi >= sb[pi_, 0]) & (bi <= sb[pi_, 1])
-            bi, pi_ = bi[inside], pi_[inside]
-        dx, dy = cos_a[bi], sin_a[bi]
-        sx, sy = x0[pi_], y0[pi_]
-        ex, ey = seg[pi_, 2] - sx, seg[pi_, 3] - sy
-        den = dx * ey - dy * ex  # d x e
-        ok = np.abs(den) > 1e-12
-        sden = np.where(ok, den, 1.0)
-        t = (sx * ey - sy * ex) / sden  # (p0 x e) / (d x e)
-        s = (sx * dy - sy * dx) / sden  # (p0 x d) / (d x e)
-        keep = ok & (t > 0.0) & (s >= 0.0) & (s <= 1.0)
-        beams.append(bi[keep])
-        prims.append(pi_[keep] + len(circ))
-        ts.append(t[keep])
-    if beams:
-        bi = np.concatenate(beams)
-        pi_ = np.concatenate(prims)
-        t = np.concatenate(ts)
+        bi, pi_, t = _segment_hits(cos_a, sin_a, seg, *s_pairs)
+        found.append((bi, pi_ + len(circ), t))
+    if found:
+        bi = np.concatenate([f[0] for f in found])
+        pi_ = np.concatenate([f[1] for f in found])
+        t = np.concatenate([f[2] for f in found])
         np.minimum.at(best, bi, t)
         win = t == best[bi]
         hit[bi[win]] = pi_[win]
@@ -269,19 +335,3 @@ def measure_ranges(
         lost |= rng.random(r.size) < dropout
     out = np.where(lost, miss, noisy)
     return np.where(~lost & (noisy < range_min), -np.inf, out)
-
-
-def _benchmark() -> None:  # pragma: no cover - a timing command, not a test
-    import timeit
-
-    rng = np.random.default_rng(0)
-    a = beam_angles(-0.75 * math.pi, 0.75 * math.pi, 768)
-    circles = np.column_stack((rng.uniform(-8, 8, (40, 2)), rng.uniform(0.02, 0.08, 40)))
-    segments = rng.uniform(-8, 8, (30, 4))
-    n = 500
-    sec = timeit.timeit(lambda: cast_rays(a, circles=circles, segments=segments), number=n) / n
-    print(f"cast_rays: 768 beams, 40 circles, 30 segments: {1e3 * sec:.3f} ms per scan")
-
-
-if __name__ == "__main__":  # pragma: no cover
-    _benchmark()
