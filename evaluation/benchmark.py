@@ -351,6 +351,53 @@ def write_labelled_people_csv(bag: Path, out: Path) -> int:
     return n
 
 
+def _positive_bags_logs(leg: Path, work: Path, frames: int | None) -> tuple[list[ReplayLog], list[BenchRow], str]:
+    """Scene ``positive_bags``: each labelled leg_tracker bag run as the README says, with a boosted model trained
+    without it (and with the simulated training scenes, as the shipped model)."""
+    from evaluation.scenarios.scan.training import training_people_bags
+    from pfpeople.bag.config import load_config
+    from pfpeople.bag.inspect import inspect_path, starter_config
+    from pfpeople.detectors.training import train_from_directory
+
+    logs, rows = [], []
+    present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
+    work.mkdir(parents=True, exist_ok=True)
+    people = training_people_bags(work / "sim-train")  # as the shipped model (make model)
+    for k in present:
+        bag = leg / f"positive_{k}_extracted.bag"
+        nm = f"positive_{k}"
+        gt = work / f"{nm}_gt.csv"
+        write_labelled_people_csv(bag, gt)
+        others = [f"positive_{j}_extracted.bag" for j in present if j != k]
+        model = work / "models" / f"without_{nm}.yml"
+        train_from_directory(
+            leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False, people_bags=people
+        )
+        cfg_path = work / f"{nm}.toml"  # as the README: pfpeople inspect BAG --write-config
+        cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
+        cfg = load_config(cfg_path)
+        dets = tuple(
+            replace(d, params={**dict(d.params), "model_path": str(model)})
+            if d.kind in ("boosted", "single-legs")
+            else d
+            for d in cfg.detectors
+        )
+        log, row = _pipeline_log(
+            bag,
+            replace(cfg, detectors=dets),
+            work / f"{nm}_run",
+            gt=gt,
+            recall_only=True,
+            name=nm,
+            max_frames=frames,
+        )
+        logs.append(log)
+        rows.append(row)
+    if not logs:
+        return [], [], f"no positive_*_extracted.bag in {leg}"
+    return logs, rows, ""
+
+
 def scene_logs(
     scene: str, *, data: Path, work: Path, frames: int | None = None, scan_seed: int | None = None
 ) -> tuple[list[ReplayLog], list[BenchRow], str]:
@@ -404,48 +451,7 @@ def scene_logs(
         log, row = _negative_2_all(bag, work, frames)
         return [*logs, log], [*rows, row], ""
     if scene == "positive_bags":
-        from evaluation.scenarios.scan.training import training_people_bags
-        from pfpeople.bag.config import load_config
-        from pfpeople.bag.inspect import inspect_path, starter_config
-        from pfpeople.detectors.training import train_from_directory
-
-        logs, rows = [], []
-        present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
-        work.mkdir(parents=True, exist_ok=True)
-        people = training_people_bags(work / "sim-train")  # as the shipped model (make model)
-        for k in present:
-            bag = leg / f"positive_{k}_extracted.bag"
-            nm = f"positive_{k}"
-            gt = work / f"{nm}_gt.csv"
-            write_labelled_people_csv(bag, gt)
-            others = [f"positive_{j}_extracted.bag" for j in present if j != k]
-            model = work / "models" / f"without_{nm}.yml"
-            train_from_directory(
-                leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False, people_bags=people
-            )
-            cfg_path = work / f"{nm}.toml"  # as the README: pfpeople inspect BAG --write-config
-            cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
-            cfg = load_config(cfg_path)
-            dets = tuple(
-                replace(d, params={**dict(d.params), "model_path": str(model)})
-                if d.kind in ("boosted", "single-legs")
-                else d
-                for d in cfg.detectors
-            )
-            log, row = _pipeline_log(
-                bag,
-                replace(cfg, detectors=dets),
-                work / f"{nm}_run",
-                gt=gt,
-                recall_only=True,
-                name=nm,
-                max_frames=frames,
-            )
-            logs.append(log)
-            rows.append(row)
-        if not logs:
-            return [], [], f"no positive_*_extracted.bag in {leg}"
-        return logs, rows, ""
+        return _positive_bags_logs(leg, work, frames)
     raise ValueError(f"unknown scene {scene!r}; scenes: {', '.join(SCENES)}")
 
 

@@ -387,6 +387,27 @@ def _lost_row(bag: str | Path, run_dir: Path, exc: BaseException) -> dict[str, A
     }
 
 
+def _check_batch(bags: Sequence[str | Path], config: object, cluster: tuple[Any, Any] | None) -> None:
+    """:func:`run_batch`'s arguments: some bags, a :class:`BagConfig`, and (without a client) the cluster's."""
+    if not bags:
+        raise ValueError("no bags given")
+    if not isinstance(config, BagConfig):
+        raise TypeError(f"config must be a BagConfig, got {type(config).__name__}")
+    if cluster is not None:
+        check_cluster_args(*cluster)
+
+
+def _batch_tasks(
+    bags: Sequence[str | Path], config: BagConfig, out_dir: str | Path, overwrite: bool
+) -> tuple[list[Path], list[tuple[str, BagConfig, str]], list[str]]:
+    """The run directories (checked), the task arguments (absolute bag paths) and unique task keys."""
+    names = run_dir_names(bags)
+    run_dirs = _run_dirs(out_dir, names, overwrite)
+    args = [(str(Path(b).absolute()), config, str(d)) for b, d in zip(bags, run_dirs, strict=True)]
+    keys = [f"pfpeople-batch-{k}-{n}-{time.time_ns()}" for k, n in enumerate(names)]
+    return run_dirs, args, keys
+
+
 def run_batch(
     bags: Sequence[str | Path],
     config: BagConfig,
@@ -413,32 +434,22 @@ def run_batch(
         Run directories go to ``out_dir / <bag stem>`` (created).
     client : distributed.Client, optional
         Use this client; otherwise one from :func:`dask_client` (``scheduler``, ``workers``, ``processes``).
-    max_frames : int, optional
-        Stop each run after this many frames.
-    overwrite : bool
-        Replace existing runs; without it, existing run directories are an error before anything runs.
+    max_frames, overwrite : int or None, bool
+        Stop each run after this many frames; replace existing runs (else they are an error before anything runs).
     progress : bool
         A progress bar over completed bags (:func:`pfpeople.progress.progress_bar`).
     blas_threads : int, optional
-        BLAS threads per worker process during a run (:mod:`pfpeople.blas`; 0: no limit). None: this process's
-        ``PFPEOPLE_BLAS_THREADS``, else 1 (resolved here, so remote workers use the same).
+        BLAS threads per worker process during a run (:mod:`pfpeople.blas`; 0: no limit; None: this process's
+        ``PFPEOPLE_BLAS_THREADS``, else 1, resolved here so that remote workers use the same).
 
     Returns
     -------
     list of dict
         One row per bag (:data:`ROW_COLUMNS`), in the order of ``bags``.
     """
-    if not bags:
-        raise ValueError("no bags given")
-    if not isinstance(config, BagConfig):
-        raise TypeError(f"config must be a BagConfig, got {type(config).__name__}")
-    if client is None:
-        check_cluster_args(scheduler, workers)
+    _check_batch(bags, config, None if client is not None else (scheduler, workers))
     threads = resolve_blas_threads(blas_threads)
-    names = run_dir_names(bags)
-    run_dirs = _run_dirs(out_dir, names, overwrite)
-    args = [(str(Path(b).absolute()), config, str(d)) for b, d in zip(bags, run_dirs, strict=True)]
-    keys = [f"pfpeople-batch-{k}-{n}-{time.time_ns()}" for k, n in enumerate(names)]
+    run_dirs, args, keys = _batch_tasks(bags, config, out_dir, overwrite)
 
     def task(bag: str, cfg: BagConfig, run_dir: str) -> dict[str, Any]:
         return run_bag(bag, cfg, run_dir, max_frames=max_frames, overwrite=overwrite, blas_threads=threads)

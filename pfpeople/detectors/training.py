@@ -509,10 +509,7 @@ def _lobo_blocks(
     for i, held in enumerate(pos):
         test_neg = neg[i % len(neg)]
         train_neg = _train_negatives(neg, test_neg)
-        train = [b for b in pos if b is not held] + train_neg + list(extra)
-        Xtr = np.concatenate([b.X for b in train] + [b.aug_X for b in train])
-        ytr = np.concatenate([b.y for b in train] + [b.aug_y for b in train])
-        model = train_boost(Xtr, ytr, params=p)
+        model = _train_blocks([b for b in pos if b is not held] + train_neg + list(extra), p)
         Xte = np.concatenate([held.X, test_neg.X])
         yte = np.concatenate([held.y, test_neg.y])
         m = _fold_metrics(boost_scores(model, Xte), yte, test_neg.n_scans)
@@ -566,34 +563,28 @@ def train_from_directory(
     people_topic: str = "/scan",
 ) -> dict[str, object]:
     """Train on the leg_tracker bags in ``data_dir`` (and bags annotated with people); write ``<name>.yml``
-    (OpenCV) and ``<name>.json``.
+    (OpenCV) and ``<name>.json`` into ``out_dir``.
 
     Parameters
     ----------
     data_dir, out_dir : str or Path
         Folder of the bags; folder of the model and its sidecar.
     params : BoostTrainingParams, optional
-        Classifier, sampling and hold-out parameters.
     train_positive, test_positive : sequence of str
-        Labelled bags to train on and to test on (default: train on all of :data:`POSITIVE_BAGS`, test on none).
+        Labelled bags to train on and to test on (default: all of :data:`POSITIVE_BAGS`; none).
     negative : str
-        The people-free bag (topics :data:`NEGATIVE_TOPICS`); its last ``params.holdout_fraction`` per topic is
-        held out for the test metrics.
+        The people-free bag (topics :data:`NEGATIVE_TOPICS`); the last ``params.holdout_fraction`` of each topic
+        is held out for the test metrics.
     name : str
         File stem of the model.
     segmentation : SegmentationParams, optional
-        Segmentation of every scan.
     leave_one_out : bool
-        Also run :func:`leave_one_bag_out` over ``train_positive`` and every scan of ``negative`` (at least two
-        training bags) and record it in the sidecar.
+        Also run :func:`leave_one_bag_out` (at least two training bags) and record it in the sidecar.
     scan_step : int
         Use every ``scan_step``-th scan of each bag and topic (1 = all; larger for quick tests).
     people_bags : sequence of (bag, ground-truth CSV)
-        Bags annotated with people's centres (:mod:`pfpeople.detectors.people_bags`, e.g.
-        :func:`~pfpeople.detectors.people_bags.find_people_bags`), trained on (and in every leave-one-bag-out
-        fold's training set), never tested on.
-    people_topic : str
-        Their LaserScan topic.
+        Bags annotated with people's centres (:mod:`pfpeople.detectors.people_bags`), trained on (in every
+        leave-one-bag-out fold too), never tested on; ``people_topic`` is their LaserScan topic.
 
     Returns
     -------
@@ -603,18 +594,36 @@ def train_from_directory(
     """
     p = params if params is not None else BoostTrainingParams()
     seg = segmentation if segmentation is not None else SegmentationParams()
-    data_dir, out_dir = Path(data_dir), Path(out_dir)
+    data_dir, model_path = Path(data_dir), Path(out_dir) / f"{name}.yml"
     files = _check_training_files(data_dir, train_positive, test_positive, negative, scan_step)
     data = _TrainingData.load(data_dir, train_positive, test_positive, negative, scan_step, p.holdout_fraction)
     people = [s for bag, gt in people_bags for s in load_people_scans(bag, gt, topic=people_topic, scan_step=scan_step)]
+    model, metrics, counts = _fit(data, people, p, seg)
+    lobo = None
+    if leave_one_out and len(data.train_bags) >= 2:
+        lobo = leave_one_bag_out(data.train_bags, data.neg, params=p, segmentation=seg, people=people)
+    split = data.split(train_positive, test_positive, negative, scan_step, p.holdout_fraction, len(people))
+    sidecar = _sidecar(model_path, seg, p, data_dir, files, split, counts, metrics, lobo, people_bags)
+    _write_model(model, model_path, sidecar)
+    return sidecar
+
+
+def _write_model(model: cv2.ml.Boost, path: Path, sidecar: Mapping[str, object]) -> None:
+    """``path`` (the OpenCV model) and its JSON sidecar beside it, the folder made if needed."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    model.save(str(path))
+    path.with_suffix(".json").write_text(json.dumps(_json_safe(sidecar), indent=2, sort_keys=False) + "\n")
+
+
+def _fit(
+    data: _TrainingData, people: Sequence[PeopleScan], p: BoostTrainingParams, seg: SegmentationParams
+) -> tuple[cv2.ml.Boost, dict[str, object], dict[str, object]]:
+    """The model trained on the recordings (with their noisy copies) and the people-annotated scans, its segment
+    metrics on the recordings' training scans (and on the held-out ones), and the segment counts."""
     log.info("train: %d positive, %d negative, %d people-annotated scans", *data.sizes()[:2], len(people))
     blocks = [_block("train", data.train_pos, data.train_neg, p, seg)]
     blocks += [_people_block(people, p, seg, _real_positives(blocks))] if people else []
-    model = train_boost(
-        np.concatenate([b.X for b in blocks] + [b.aug_X for b in blocks]),
-        np.concatenate([b.y for b in blocks] + [b.aug_y for b in blocks]),
-        params=p,
-    )
+    model = _train_blocks(blocks, p)
     metrics: dict[str, object] = {
         "threshold": 0.0,
         "train": segment_metrics(boost_scores(model, blocks[0].X), blocks[0].y),
@@ -622,18 +631,14 @@ def train_from_directory(
     counts: dict[str, object] = {"train": blocks[0].counts, **({"people_bags": blocks[1].counts} if people else {})}
     if data.test_pos or data.test_neg:
         metrics["test"], counts["test"] = _test_metrics(model, data.test_pos, data.test_neg, p, seg)
-    lobo = None
-    if leave_one_out and len(data.train_bags) >= 2:
-        lobo = leave_one_bag_out(data.train_bags, data.neg, params=p, segmentation=seg, people=people)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    model_path = out_dir / f"{name}.yml"
-    model.save(str(model_path))
-    split = data.split(train_positive, test_positive, negative, scan_step, p.holdout_fraction)
-    split["people_scans"] = len(people)
-    sidecar = _sidecar(model_path, seg, p, data_dir, files, split, counts, metrics, lobo)
-    sidecar["people_data"] = _people_entries(people_bags)
-    (out_dir / f"{name}.json").write_text(json.dumps(_json_safe(sidecar), indent=2, sort_keys=False) + "\n")
-    return sidecar
+    return model, metrics, counts
+
+
+def _train_blocks(blocks: Sequence[_Block], p: BoostTrainingParams) -> cv2.ml.Boost:
+    """:func:`train_boost` on the features of ``blocks`` and of their noisy copies."""
+    X = np.concatenate([b.X for b in blocks] + [b.aug_X for b in blocks])
+    y = np.concatenate([b.y for b in blocks] + [b.aug_y for b in blocks])
+    return train_boost(X, y, params=p)
 
 
 @dataclass
@@ -677,6 +682,7 @@ class _TrainingData:
         negative: str,
         scan_step: int,
         holdout_fraction: float,
+        people_scans: int,
     ) -> dict[str, object]:
         """The sidecar's ``split`` entry."""
         n = self.sizes()
@@ -691,6 +697,7 @@ class _TrainingData:
             "train_negative_scans": n[1],
             "test_positive_scans": n[2],
             "test_negative_scans": n[3],
+            "people_scans": people_scans,
         }
 
 
@@ -759,9 +766,10 @@ def _sidecar(
     counts: dict[str, object],
     metrics: dict[str, object],
     lobo: object,
+    people_bags: Sequence[tuple[str | Path, str | Path]] = (),
 ) -> dict[str, object]:
     """The model's sidecar: data files with sizes and SHA-256, features, parameters, seed, split, counts and
-    metrics."""
+    metrics, and the people-annotated bags."""
     return {
         "model_file": model_path.name,
         "classifier": "cv2.ml.Boost",
@@ -775,6 +783,7 @@ def _sidecar(
         "counts": counts,
         "metrics": metrics,
         "leave_one_bag_out": lobo,
+        "people_data": _people_entries(people_bags),
     }
 
 
