@@ -48,8 +48,11 @@ def test_scans_carry_their_own_rows_of_the_ground_truth(sim_bags: Path) -> None:
     for k, item in zip((0, 5, 10), scans, strict=True):
         mine = rows[rows["scan_index"] == k]
         assert item.people.shape == (mine.size, 2)
-        np.testing.assert_allclose(np.sort(item.people[:, 0]), np.sort(mine["x_laser_m"]), atol=1e-9)
-        np.testing.assert_array_equal(np.sort(item.seen), np.sort(mine["hit_beams"] > 0))
+        mine = mine[np.argsort(mine["x_laser_m"])]
+        order = np.argsort(item.people[:, 0])
+        np.testing.assert_allclose(item.people[order, 0], mine["x_laser_m"], atol=1e-9)
+        np.testing.assert_allclose(item.people[order, 1], mine["y_laser_m"], atol=1e-9)
+        np.testing.assert_array_equal(item.seen[order], mine["hit_beams"] > 0)  # each person's own flag
     X, y, counts = people_training_set(scans)
     assert X.shape == (y.size, X.shape[1]) and counts["positives"] == int(y.sum()) > 0
     assert counts["negatives"] == int(np.count_nonzero(y == 0)) > 0
