@@ -377,8 +377,10 @@ def _people_block(
     if pos.size > real_positives:
         rng = np.random.default_rng([p.seed, 2])
         n_neg = round(neg.size * real_positives / pos.size)
-        keep = np.concatenate((rng.choice(pos, real_positives, replace=False), rng.choice(neg, n_neg, replace=False)))
-        X, y = X[np.sort(keep)], y[np.sort(keep)]
+        keep = np.sort(
+            np.concatenate((rng.choice(pos, real_positives, replace=False), rng.choice(neg, n_neg, replace=False)))
+        )
+        X, y = X[keep], y[keep]
         c = {**c, "kept_positives": int(real_positives), "kept_negatives": int(n_neg)}
     return _Block("people bags", X, y, c, len(scans))
 
