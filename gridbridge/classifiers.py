@@ -212,8 +212,7 @@ def classify_peaks(
     check_positive(min_separation, "min_separation")
     check_positive(centroid_radius, "centroid_radius", allow_zero=True)
     smooth = check_positive(check_number(smooth, "smooth"), "smooth", allow_zero=True)
-    is_max, value = peak_maxima(grid, spec, min_separation, smooth)
-    cand = np.argwhere((value > threshold) & is_max)
+    cand, values = _ordered_candidates(grid, spec, threshold, min_separation, smooth)
     if len(cand) == 0:
         return People(
             positions=np.zeros((0, 2)),
@@ -221,11 +220,39 @@ def classify_peaks(
             sizes=np.zeros(0, dtype=np.int64),
             mask=np.zeros(spec.shape, dtype=bool),
         )
-    values = value[cand[:, 0], cand[:, 1]]
-    order = np.lexsort((cand[:, 1], cand[:, 0], -values))
-    cand, values = cand[order], values[order]
     kept = _suppress_non_maxima(cand, spec, min_separation)
     return _peak_people(grid, spec, cand[kept], values[kept], threshold, centroid_radius)
+
+
+def _ordered_candidates(
+    grid: NDArray[np.float64], spec: GridSpec, threshold: float, min_separation: float, smooth: float
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Step 1 of :func:`classify_peaks`: the candidate peaks in decreasing belief order.
+
+    Parameters
+    ----------
+    grid : ndarray, shape (nx, ny)
+        The checked belief grid.
+    spec : GridSpec
+    threshold : float
+        A candidate's belief must be strictly above it.
+    min_separation : float
+        Sets the local-maximum window (m, :func:`peak_maxima`).
+    smooth : float
+        Standard deviation (cells) of the Gaussian the maxima are found on; 0: the belief itself.
+
+    Returns
+    -------
+    cand : ndarray of int, shape (K, 2)
+        The candidates' cells ``(i, j)``, by decreasing belief (ties: row-major cell order).
+    values : ndarray, shape (K,)
+        Their beliefs (with ``smooth > 0`` the largest belief within one cell), in the same order.
+    """
+    is_max, value = peak_maxima(grid, spec, min_separation, smooth)
+    cand = np.argwhere((value > threshold) & is_max)
+    values = value[cand[:, 0], cand[:, 1]]
+    order = np.lexsort((cand[:, 1], cand[:, 0], -values))
+    return cand[order], values[order]
 
 
 def _suppress_non_maxima(cand: NDArray[np.intp], spec: GridSpec, min_separation: float) -> list[int]:

@@ -273,7 +273,16 @@ def _structure(connectivity: int) -> NDArray[np.bool_]:
 
 
 def _grow(belief: NDArray[np.float64], labels: NDArray[np.intp], params: BlobParams) -> None:
-    """Steps 2-3 of the module docstring, in place on ``labels``."""
+    """Steps 2-3 of the module docstring, in place on ``labels``.
+
+    Parameters
+    ----------
+    belief : ndarray, shape (nx, ny)
+        Probability of a person per cell.
+    labels : ndarray of int, shape (nx, ny)
+        The seed blobs' labels (1, 2, ...; 0: no blob); the grown and the new blobs are written into it.
+    params : BlobParams
+    """
     offsets = _OFFSETS_8 if params.connectivity == 8 else _OFFSETS_4
     shifted_p = [_shift(belief, di, dj, np.nan) for di, dj in offsets]
     rejected = np.zeros(belief.shape, dtype=bool)
@@ -288,24 +297,7 @@ def _grow(belief: NDArray[np.float64], labels: NDArray[np.intp], params: BlobPar
         for lab in np.unique(labels[ndimage.binary_dilation(unassigned & touching, structure=_structure(8))]):
             if lab == 0:
                 continue
-            d_min = np.full(belief.shape, np.inf)
-            d_max = np.zeros(belief.shape)
-            p_sum = np.zeros(belief.shape)
-            count = np.zeros(belief.shape)
-            for lab_n, p_n in zip(shifted_lab, shifted_p, strict=True):
-                adj = unassigned & (lab_n == lab)
-                d = np.abs(belief - np.where(adj, p_n, 0.0))
-                d_min = np.where(adj, np.minimum(d_min, d), d_min)
-                d_max = np.where(adj, np.maximum(d_max, d), d_max)
-                p_sum += np.where(adj, p_n, 0.0)
-                count += adj
-            has = count > 0
-            if params.growth_compare == "closest":
-                d_lab = d_min
-            elif params.growth_compare == "all":
-                d_lab = d_max
-            else:
-                d_lab = np.abs(belief - p_sum / np.maximum(count, 1))
+            has, d_lab = _blob_difference(belief, int(lab), unassigned, shifted_lab, shifted_p, params.growth_compare)
             better = has & (d_lab < best_d)  # labels ascend: ties stay with the lower label
             best_d = np.where(better, d_lab, best_d)
             best_lab = np.where(better, lab, best_lab)
@@ -316,9 +308,84 @@ def _grow(belief: NDArray[np.float64], labels: NDArray[np.intp], params: BlobPar
         if not join.any():
             break
     rejected &= labels == 0
-    if not rejected.any():
-        return
-    # New blobs: components of rejected cells linked when neighbours differ by < growth_threshold.
+    if rejected.any():
+        _new_blobs(belief, labels, rejected, offsets, shifted_p, params.growth_threshold)
+
+
+def _blob_difference(
+    belief: NDArray[np.float64],
+    lab: int,
+    unassigned: NDArray[np.bool_],
+    shifted_lab: list[NDArray[np.intp]],
+    shifted_p: list[NDArray[np.float64]],
+    compare: str,
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """One growth pass's difference of each unassigned cell to its neighbouring cells of blob ``lab`` (step 2).
+
+    Parameters
+    ----------
+    belief : ndarray, shape (nx, ny)
+        Probability of a person per cell.
+    lab : int
+        The blob's label.
+    unassigned : ndarray of bool, shape (nx, ny)
+        Cells in no blob yet.
+    shifted_lab, shifted_p : list of ndarray, each (nx, ny)
+        Per neighbour offset, the labels (0 outside the grid) and the beliefs (NaN outside) of that neighbour.
+    compare : {'closest', 'mean', 'all'}
+        ``BlobParams.growth_compare``.
+
+    Returns
+    -------
+    has : ndarray of bool, shape (nx, ny)
+        Unassigned cells with a neighbour in the blob.
+    d_lab : ndarray, shape (nx, ny)
+        Their probability difference to the blob (meaningful where ``has``).
+    """
+    d_min = np.full(belief.shape, np.inf)
+    d_max = np.zeros(belief.shape)
+    p_sum = np.zeros(belief.shape)
+    count = np.zeros(belief.shape)
+    for lab_n, p_n in zip(shifted_lab, shifted_p, strict=True):
+        adj = unassigned & (lab_n == lab)
+        d = np.abs(belief - np.where(adj, p_n, 0.0))
+        d_min = np.where(adj, np.minimum(d_min, d), d_min)
+        d_max = np.where(adj, np.maximum(d_max, d), d_max)
+        p_sum += np.where(adj, p_n, 0.0)
+        count += adj
+    has = count > 0
+    if compare == "closest":
+        return has, d_min
+    if compare == "all":
+        return has, d_max
+    return has, np.abs(belief - p_sum / np.maximum(count, 1))
+
+
+def _new_blobs(
+    belief: NDArray[np.float64],
+    labels: NDArray[np.intp],
+    rejected: NDArray[np.bool_],
+    offsets: tuple[tuple[int, int], ...],
+    shifted_p: list[NDArray[np.float64]],
+    threshold: float,
+) -> None:
+    """Step 3, in place on ``labels``: the rejected cells' new blobs, numbered after the existing labels.
+
+    Parameters
+    ----------
+    belief : ndarray, shape (nx, ny)
+        Probability of a person per cell.
+    labels : ndarray of int, shape (nx, ny)
+        The grown blobs' labels.
+    rejected : ndarray of bool, shape (nx, ny)
+        Visited cells that joined no blob.
+    offsets : tuple of (di, dj)
+        The neighbour offsets of ``connectivity``.
+    shifted_p : list of ndarray, each (nx, ny)
+        Per offset, the neighbour's belief (NaN outside the grid).
+    threshold : float
+        ``BlobParams.growth_threshold``: neighbouring rejected cells differing by less are linked.
+    """
     flat = np.flatnonzero(rejected)
     index = np.full(belief.size, -1, dtype=np.intp)
     index[flat] = np.arange(flat.size)
@@ -327,7 +394,7 @@ def _grow(belief: NDArray[np.float64], labels: NDArray[np.intp], params: BlobPar
     cols: list[NDArray[np.intp]] = []
     for (di, dj), p_n in zip(offsets, shifted_p, strict=True):
         other = _shift(index_grid, di, dj, -1)
-        edge = rejected & (other >= 0) & (np.abs(belief - np.nan_to_num(p_n)) < params.growth_threshold)
+        edge = rejected & (other >= 0) & (np.abs(belief - np.nan_to_num(p_n)) < threshold)
         rows.append(index_grid[edge])
         cols.append(other[edge])
     r, c = np.concatenate(rows), np.concatenate(cols)
@@ -356,6 +423,8 @@ def _make_blobs(
     *,
     select_all: bool,
 ) -> list[Blob]:
+    """Step 4: one :class:`Blob` per label ``1 .. labels.max()`` of ``labels`` ``(nx, ny)``, with the selection
+    rules it fails (none with ``select_all``); positions in metres, ``spec``'s sensor frame."""
     n_labels = int(labels.max())
     if n_labels == 0:
         return []
@@ -380,17 +449,8 @@ def _make_blobs(
         mean = float(means[k])
         rejected: list[str] = []
         if not select_all:
-            if neighbours and not mean > float(np.mean([means[n - 1] for n in neighbours])):
-                rejected.append(RULE_MEAN)
-            if not float(p.min()) > params.min_cell_probability:
-                rejected.append(RULE_MIN_CELL)
-            if cells.shape[0] > params.small_blob_cells:
-                if int(on_border.sum()) > params.max_border_cells:
-                    rejected.append(RULE_BORDER)
-                if not (height < params.max_extent_cells and width < params.max_extent_cells):
-                    rejected.append(RULE_EXTENT)
-                if min(height, width) / max(height, width) < params.min_aspect_ratio:
-                    rejected.append(RULE_ASPECT)
+            neighbour_means = [means[n - 1] for n in neighbours]
+            rejected = _failed_rules(params, mean, neighbour_means, p, int(on_border.sum()), height, width)
         blobs.append(
             Blob(
                 label=int(lab),
@@ -410,6 +470,51 @@ def _make_blobs(
             )
         )
     return blobs
+
+
+def _failed_rules(
+    params: BlobParams,
+    mean: float,
+    neighbour_means: list[np.float64],
+    p: NDArray[np.float64],
+    border_cells: int,
+    height: int,
+    width: int,
+) -> list[str]:
+    """The selection rules (step 4 of the module docstring) a blob fails, in the order of the module docstring.
+
+    Parameters
+    ----------
+    params : BlobParams
+    mean : float
+        The blob's mean probability.
+    neighbour_means : list of float
+        The mean probabilities of its neighbouring blobs (may be empty).
+    p : ndarray, shape (n,)
+        The probabilities of its ``n`` cells.
+    border_cells : int
+        Its cells on the grid border.
+    height, width : int
+        Its bounding box's extents along i and j (cells).
+
+    Returns
+    -------
+    list of str
+        The ``RULE_*`` names of the failed rules (empty: the blob is a person).
+    """
+    rejected: list[str] = []
+    if neighbour_means and not mean > float(np.mean(neighbour_means)):
+        rejected.append(RULE_MEAN)
+    if not float(p.min()) > params.min_cell_probability:
+        rejected.append(RULE_MIN_CELL)
+    if p.shape[0] > params.small_blob_cells:
+        if border_cells > params.max_border_cells:
+            rejected.append(RULE_BORDER)
+        if not (height < params.max_extent_cells and width < params.max_extent_cells):
+            rejected.append(RULE_EXTENT)
+        if min(height, width) / max(height, width) < params.min_aspect_ratio:
+            rejected.append(RULE_ASPECT)
+    return rejected
 
 
 def _check_spec(belief: ArrayLike, spec: GridSpec | None) -> tuple[NDArray[np.float64], GridSpec]:

@@ -394,21 +394,7 @@ class RunWriter:
         self.path.mkdir(parents=True, exist_ok=True)
         self._lock_fh: IO[str] | None = self._lock()
         try:
-            if (self.path / "run.json").exists():
-                if not overwrite:
-                    raise FileExistsError(f"output directory {str(self.path)!r} already holds a run (use overwrite)")
-                for name in RUN_FILES:
-                    (self.path / name).unlink(missing_ok=True)
-            else:
-                others = sorted(
-                    p.name for p in self.path.iterdir() if p.name != LOCK_NAME and not p.name.startswith(".run.json.")
-                )
-                if others:
-                    listing = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
-                    raise FileExistsError(
-                        f"output directory {str(self.path)!r} is not empty and holds no run.json ({listing}): "
-                        "not writing into it; choose a new or empty directory"
-                    )
+            self._clear_or_refuse(overwrite)
         except BaseException:
             self._unlock()
             raise
@@ -444,6 +430,31 @@ class RunWriter:
         except OSError as exc:
             self._unlock()
             raise _named_os_error(exc, self.path) from exc
+
+    def _clear_or_refuse(self, overwrite: bool) -> None:
+        """Make the locked directory ready for a new run: remove a previous run's files (with ``overwrite``).
+
+        Raises
+        ------
+        FileExistsError
+            The directory holds a run and ``overwrite`` is false, or it holds other files and no ``run.json``
+            (naming up to 5 of them).
+        """
+        if (self.path / "run.json").exists():
+            if not overwrite:
+                raise FileExistsError(f"output directory {str(self.path)!r} already holds a run (use overwrite)")
+            for name in RUN_FILES:
+                (self.path / name).unlink(missing_ok=True)
+            return
+        others = sorted(
+            p.name for p in self.path.iterdir() if p.name != LOCK_NAME and not p.name.startswith(".run.json.")
+        )
+        if others:
+            listing = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
+            raise FileExistsError(
+                f"output directory {str(self.path)!r} is not empty and holds no run.json ({listing}): "
+                "not writing into it; choose a new or empty directory"
+            )
 
     def _lock(self) -> IO[str]:
         """Take the directory's lock (non-blocking, :func:`pfpeople.locks.acquire`); refuse when a live process
@@ -527,19 +538,9 @@ class RunWriter:
         added to ``run.json`` ``scans.topics``). ``particles``: the filter's particles ``(x, y)`` (m, grid frame),
         subsampled into ``particles.npy`` (:func:`particle_records`).
         """
-        if self._closed:
-            raise RuntimeError("RunWriter is closed")
-        belief = self.spec.check_grid(belief, "belief")
-        if len(detections) != len(self.detector_names):
-            raise ValueError(f"detections must have {len(self.detector_names)} entries, got {len(detections)}")
-        people = np.asarray(people, dtype=float).reshape(-1, 2)
-        sizes = list(people_size) or [0] * len(people)
-        probs = list(people_probability) or [math.nan] * len(people)
+        belief, people, sizes, probs = self._check_frame(belief, detections, people, people_size, people_probability)
         key = (frame, driver_index, stamp_ns, bag_time_ns)
-        no_data = [n for n, d in zip(self.detector_names, detections, strict=True) if d is None]
-        v, w, vy = _odometry_row(odometry)
-        flags = (int(odometry is not None), int(forced), len(people), ";".join(no_data))
-        row = (*key, f"{dt_s:.9g}", f"{v:.9g}", f"{w:.9g}", f"{vy:.9g}", *flags)
+        row = self._frames_row(key, dt_s, odometry, forced, len(people), detections)
         with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
             self._run_steps(
                 [
@@ -559,6 +560,57 @@ class RunWriter:
                 ]
             )
             self.n_frames += 1
+
+    def _check_frame(
+        self,
+        belief: NDArray[np.float64],
+        detections: Sequence[NDArray[np.float64] | None],
+        people: NDArray[np.float64],
+        people_size: Sequence[int],
+        people_probability: Sequence[float],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], list[int], list[float]]:
+        """Check :meth:`write_frame`'s inputs: the belief grid ``(nx, ny)``, one ``detections`` entry per detector.
+
+        Returns
+        -------
+        belief : ndarray, shape (nx, ny)
+        people : ndarray, shape (K, 2)
+            The people positions (m, grid frame).
+        sizes, probs : list
+            Per person, its cells (default 0) and its probability (default NaN).
+
+        Raises
+        ------
+        RuntimeError
+            The writer is closed.
+        ValueError
+            A bad belief grid, or a ``detections`` of the wrong length.
+        """
+        if self._closed:
+            raise RuntimeError("RunWriter is closed")
+        belief = self.spec.check_grid(belief, "belief")
+        if len(detections) != len(self.detector_names):
+            raise ValueError(f"detections must have {len(self.detector_names)} entries, got {len(detections)}")
+        people = np.asarray(people, dtype=float).reshape(-1, 2)
+        sizes = list(people_size) or [0] * len(people)
+        probs = list(people_probability) or [math.nan] * len(people)
+        return belief, people, sizes, probs
+
+    def _frames_row(
+        self,
+        key: tuple[int, int, int, int],
+        dt_s: float,
+        odometry: Odometry | tuple[float, ...] | None,
+        forced: bool,
+        n_people: int,
+        detections: Sequence[NDArray[np.float64] | None],
+    ) -> tuple[Any, ...]:
+        """The frame's row of ``frames.csv`` (:data:`FRAME_COLUMNS`): ``key``, ``dt_s`` and the odometry as
+        ``%.9g``, whether it had odometry, ``forced``, ``n_people`` and the detectors without data (``;``-joined)."""
+        no_data = [n for n, d in zip(self.detector_names, detections, strict=True) if d is None]
+        v, w, vy = _odometry_row(odometry)
+        flags = (int(odometry is not None), int(forced), n_people, ";".join(no_data))
+        return (*key, f"{dt_s:.9g}", f"{v:.9g}", f"{w:.9g}", f"{vy:.9g}", *flags)
 
     def _run_steps(self, steps: Sequence[tuple[str, Callable[[], object]]]) -> None:
         """Run each ``(file name, step)`` in order; an ``OSError`` is re-raised naming the file (not the path: this

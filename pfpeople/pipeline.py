@@ -689,6 +689,30 @@ class Pipeline:
             metadata=dict(metadata or {}),
         )
 
+    def _run_sinks(
+        self,
+        out_dir: str | Path | None,
+        bag_out: str | Path | None,
+        *,
+        bag_format: str | None,
+        overwrite: bool,
+        progress: bool,
+        bag_input: bool,
+    ) -> list[Sink]:
+        """The run's sinks, in write order: the sink factory's (run directory, result bag, progress; see
+        :meth:`run` for the arguments), then the extra sinks."""
+        return [
+            *self._sink_factory(
+                out_dir,
+                bag_out=bag_out,
+                bag_format=bag_format,
+                overwrite=overwrite,
+                progress=progress,
+                with_input=bag_input,
+            ),
+            *self._extra_sinks,
+        ]
+
     def _run(
         self,
         bag: BagSource,
@@ -705,17 +729,9 @@ class Pipeline:
     ) -> tuple[RunSummary, list[FrameResult]]:
         _check_max_frames(max_frames)
         check_output_paths(getattr(bag, "paths", ()), out_dir=out_dir, bag_out=bag_out)
-        sinks = [
-            *self._sink_factory(
-                out_dir,
-                bag_out=bag_out,
-                bag_format=bag_format,
-                overwrite=overwrite,
-                progress=progress,
-                with_input=bag_input,
-            ),
-            *self._extra_sinks,
-        ]
+        sinks = self._run_sinks(
+            out_dir, bag_out, bag_format=bag_format, overwrite=overwrite, progress=progress, bag_input=bag_input
+        )
         self.prepare(bag)
         info = self._run_info(bag, max_frames, metadata)
         opened: list[Sink] = []

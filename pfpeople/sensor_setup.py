@@ -276,13 +276,7 @@ def setup_sensors(
             frame_mounts[c.base_frame] = tf.lookup(grid_frame, c.base_frame)
         except TfLookupError:
             pass
-    if c.grid is not None:
-        spec = c.grid
-    else:
-        lasers = [c.driver, *(d.topic for d in c.detectors if d.kind in laser_kinds)]
-        spec = default_grid(tf, grid_frame, first, lasers)
-        check_run_limits(spec, c.filter, len(c.detectors))
-        log.info("grid from the lasers' fields of view: %s", spec)
+    spec = c.grid if c.grid is not None else _lasers_grid(c, tf, grid_frame, first, laser_kinds)
     return SensorSetup(
         tf=tf,
         grid_frame=grid_frame,
@@ -293,6 +287,25 @@ def setup_sensors(
         spec=spec,
         first=first,
     )
+
+
+def _lasers_grid(
+    c: BagConfig, tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage], laser_kinds: Collection[str]
+) -> GridSpec:
+    """The default grid (no ``[grid]`` configured): the one covering the lasers' fields of view
+    (:func:`default_grid`; the driver's and the laser detectors' first scans ``first``), checked against the
+    filter's limits.
+
+    Raises
+    ------
+    ValueError
+        If that grid is too large for the filter (:func:`check_run_limits`).
+    """
+    lasers = [c.driver, *(d.topic for d in c.detectors if d.kind in laser_kinds)]
+    spec = default_grid(tf, grid_frame, first, lasers)
+    check_run_limits(spec, c.filter, len(c.detectors))
+    log.info("grid from the lasers' fields of view: %s", spec)
+    return spec
 
 
 def _required_types(c: BagConfig, input_types: Mapping[str, Sequence[str] | None]) -> dict[str, Sequence[str]]:

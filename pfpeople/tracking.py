@@ -232,6 +232,40 @@ class BlobTracker:
     def _best(blobs: list[Blob], ref: NDArray[np.float64]) -> Blob:
         return max(blobs, key=lambda b: (b.max_probability, -float(np.linalg.norm(b.centroid - ref))))
 
+    def _follow(self, cands: list[Blob], labels: NDArray[np.intp]) -> tuple[Blob | None, Rule]:
+        """Rules 1-3 of the module docstring: the candidate that continues the track, and the rule that chose it.
+
+        Parameters
+        ----------
+        cands : list of Blob
+            The frame's candidate blobs.
+        labels : ndarray of int, shape (nx, ny)
+            The frame's blob label image (the result's ``labels``).
+
+        Returns
+        -------
+        chosen : Blob or None
+            None: no candidate continues the track (rule 4).
+        rule : str
+            ``"nearest"``, ``"overlap"`` or ``"neighbour"``; ``"idle"`` with no blob chosen.
+        """
+        assert self._ref_centroid is not None and self._ref_mask is not None
+        ref = self._ref_centroid
+        near = [b for b in cands if float(np.linalg.norm(b.centroid - ref)) <= self.params.gate]
+        if near:
+            return self._best(near, ref), "nearest"
+        # Blobs are the labels of the result's label image: read the labels under the previous blob.
+        under = set(np.unique(labels[self._ref_mask]).tolist())
+        over = [b for b in cands if b.label in under]
+        if over:
+            return self._best(over, ref), "overlap"
+        ring = ndimage.binary_dilation(self._ref_mask, structure=np.ones((3, 3), dtype=bool))
+        near_ring = set(np.unique(labels[ring]).tolist())
+        adj = [b for b in cands if b.label in near_ring]
+        if adj:
+            return self._best(adj, ref), "neighbour"
+        return None, "idle"
+
     def update(self, result: ClassificationResult, *, transform: ArrayLike | None = None) -> TrackFrame:
         """Process one classified grid.
 
@@ -262,23 +296,7 @@ class BlobTracker:
         if self.active:
             if t is not None:
                 self._move_reference(t)
-            assert self._ref_centroid is not None and self._ref_mask is not None
-            ref = self._ref_centroid
-            near = [b for b in cands if float(np.linalg.norm(b.centroid - ref)) <= self.params.gate]
-            if near:
-                chosen, rule = self._best(near, ref), "nearest"
-            else:
-                # Blobs are the labels of the result's label image: read the labels under the previous blob.
-                under = set(np.unique(result.labels[self._ref_mask]).tolist())
-                over = [b for b in cands if b.label in under]
-                if over:
-                    chosen, rule = self._best(over, ref), "overlap"
-                else:
-                    ring = ndimage.binary_dilation(self._ref_mask, structure=np.ones((3, 3), dtype=bool))
-                    near_ring = set(np.unique(result.labels[ring]).tolist())
-                    adj = [b for b in cands if b.label in near_ring]
-                    if adj:
-                        chosen, rule = self._best(adj, ref), "neighbour"
+            chosen, rule = self._follow(cands, result.labels)
             if chosen is None:
                 self._lost += 1
                 if self._lost > self.params.max_lost_frames:
@@ -342,18 +360,7 @@ def track_sequence(
         bad; its ``partial`` attribute holds the frames tracked before it.
     """
     spec = GridSpec() if spec is None else spec
-    if results is None:
-        if beliefs is None:
-            raise ValueError("beliefs or results is required")
-        n = len(beliefs)
-        source = "beliefs"
-    else:
-        n = len(results)
-        source = "results"
-        if beliefs is not None and len(beliefs) != n:
-            raise ValueError(f"beliefs has {len(beliefs)} frames but results has {n}")
-    if transforms is not None and len(transforms) != n:
-        raise ValueError(f"transforms has {len(transforms)} entries for {n} frames")
+    n, source = _sequence_length(beliefs, results, transforms)
     tracker = BlobTracker(spec, params=params)
     frames: list[TrackFrame] = []
     for k in range(n):
@@ -369,3 +376,37 @@ def track_sequence(
             partial = TrackResult(frames=frames)
             raise TrackingError(f"{source}[{k}] (or transforms[{k}]): {err}", index=k, partial=partial) from err
     return TrackResult(frames=frames)
+
+
+def _sequence_length(
+    beliefs: Sequence[ArrayLike] | None,
+    results: Sequence[ClassificationResult] | None,
+    transforms: Sequence[ArrayLike | None] | None,
+) -> tuple[int, str]:
+    """The number of frames of :func:`track_sequence`'s inputs, and which of them is tracked.
+
+    Returns
+    -------
+    n : int
+        The number of frames.
+    source : str
+        ``"results"`` when given, else ``"beliefs"``.
+
+    Raises
+    ------
+    ValueError
+        Neither ``beliefs`` nor ``results`` given, or the inputs' lengths differ.
+    """
+    if results is None:
+        if beliefs is None:
+            raise ValueError("beliefs or results is required")
+        n = len(beliefs)
+        source = "beliefs"
+    else:
+        n = len(results)
+        source = "results"
+        if beliefs is not None and len(beliefs) != n:
+            raise ValueError(f"beliefs has {len(beliefs)} frames but results has {n}")
+    if transforms is not None and len(transforms) != n:
+        raise ValueError(f"transforms has {len(transforms)} entries for {n} frames")
+    return n, source

@@ -75,15 +75,33 @@ def tracker_inputs(
     sel = (value > low.threshold) & (value <= high) & is_max
     if not np.any(sel):
         return pos, sc
-    r = spec.resolution
     cand = np.argwhere(sel)
     values = value[cand[:, 0], cand[:, 1]]
+    kept = _weak_maxima(cand, values, (low.min_separation / spec.resolution) ** 2 - 1e-9)
+    if len(pos) and kept:  # a peak the people already hold (a classifier with hysteresis keeps people below high)
+        kept = _not_held(cand, kept, pos, spec, 0.5 * low.min_separation)
+    x, y = _centroids(grid, spec, cand[kept], low.centroid_radius, 0.5 * low.threshold)
+    return np.concatenate([pos, np.column_stack((x, y))]), np.concatenate([sc, values[kept]])
+
+
+def _weak_maxima(cand: NDArray[np.intp], values: NDArray[np.float64], sep2: float) -> list[int]:
+    """The weaker local maxima kept by non-maximum suppression among themselves (module docstring).
+
+    Parameters
+    ----------
+    cand : ndarray of int, shape (K, 2)
+        The weaker maxima's cells ``(i, j)``, in row-major order.
+    values : ndarray, shape (K,)
+        Their beliefs.
+    sep2 : float
+        The squared suppression distance (cells^2): a maximum closer than it to a kept one is dropped.
+
+    Returns
+    -------
+    list of int
+        Indices into ``cand`` of the kept maxima, by decreasing belief (ties: row-major order).
+    """
     order = np.lexsort((cand[:, 1], cand[:, 0], -values))
-    sep2 = (low.min_separation / r) ** 2 - 1e-9
-    reach = math.floor(low.centroid_radius / r + 1e-9)
-    di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
-    disk = (di**2 + dj**2) * r * r <= low.centroid_radius**2 + 1e-12
-    di, dj = di[disk], dj[disk]
     kept: list[int] = []
     cl = cand.tolist()
     for k in order.tolist():
@@ -91,16 +109,52 @@ def tracker_inputs(
         if any((i - cl[m][0]) ** 2 + (j - cl[m][1]) ** 2 < sep2 for m in kept):
             continue
         kept.append(k)
-    if len(pos) and kept:  # a peak the people already hold (a classifier with hysteresis keeps people below high)
-        kc = cand[kept]
-        kx, ky = spec.cell_centre(kc[:, 0], kc[:, 1])
-        d2 = (kx[:, None] - pos[None, :, 0]) ** 2 + (ky[:, None] - pos[None, :, 1]) ** 2
-        kept = [k for k, near in zip(kept, (d2 < (0.5 * low.min_separation) ** 2).any(axis=1), strict=True) if not near]
-    ci, cj = cand[kept, 0], cand[kept, 1]
+    return kept
+
+
+def _not_held(
+    cand: NDArray[np.intp], kept: list[int], pos: NDArray[np.float64], spec: GridSpec, radius: float
+) -> list[int]:
+    """The kept maxima whose cell centre is ``radius`` (m) or farther from every person position ``pos`` (P, 2)
+    (m, grid frame); ``cand`` (K, 2) cells, ``kept`` indices into it (order kept)."""
+    kc = cand[kept]
+    kx, ky = spec.cell_centre(kc[:, 0], kc[:, 1])
+    d2 = (kx[:, None] - pos[None, :, 0]) ** 2 + (ky[:, None] - pos[None, :, 1]) ** 2
+    near: NDArray[np.bool_] = np.any(d2 < radius**2, axis=1)
+    return [k for k, n in zip(kept, near, strict=True) if not n]
+
+
+def _centroids(
+    grid: NDArray[np.float64], spec: GridSpec, peaks: NDArray[np.intp], radius: float, floor: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each peak's position: the belief-weighted mean of the cell centres within ``radius`` of it.
+
+    Parameters
+    ----------
+    grid : ndarray, shape (nx, ny)
+        The belief (zero outside the observed cells with ``only_observed``).
+    spec : GridSpec
+    peaks : ndarray of int, shape (K, 2)
+        The peaks' cells ``(i, j)``.
+    radius : float
+        The centroid disk's radius (m).
+    floor : float
+        Cells of a lower belief are left out (half the lower threshold).
+
+    Returns
+    -------
+    x, y : ndarray, shape (K,)
+        The positions (m, grid frame).
+    """
+    r = spec.resolution
+    reach = math.floor(radius / r + 1e-9)
+    di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    disk = (di**2 + dj**2) * r * r <= radius**2 + 1e-12
+    di, dj = di[disk], dj[disk]
+    ci, cj = peaks[:, 0], peaks[:, 1]
     ii, jj = ci[:, None] + di[None, :], cj[:, None] + dj[None, :]  # (K, D) cells of each centroid disk
     ok = (ii >= 0) & (ii < spec.nx) & (jj >= 0) & (jj < spec.ny)
     w = grid[np.clip(ii, 0, spec.nx - 1), np.clip(jj, 0, spec.ny - 1)]
-    w = np.where(ok & (w >= 0.5 * low.threshold), w, 0.0)
+    w = np.where(ok & (w >= floor), w, 0.0)
     tot = w.sum(axis=1)
-    x, y = spec.cell_centre((w * ii).sum(axis=1) / tot, (w * jj).sum(axis=1) / tot)
-    return np.concatenate([pos, np.column_stack((x, y))]), np.concatenate([sc, values[kept]])
+    return spec.cell_centre((w * ii).sum(axis=1) / tot, (w * jj).sum(axis=1) / tot)

@@ -35,12 +35,9 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
    ``observed_tracks_only`` (the recommended mode's default, ``[tracking] observed_tracks_only``) a track without
    a hit in this frame is left out while its predicted position lies in no cell a detector observes (behind a
    270 deg laser, beyond its range): the rule the coasting people above follow. It lives on in the tracker and
-   keeps its id. Without evidence there, its constant-velocity prediction was mostly wrong: ``pfpeople run``, the
-   scan-level scenes, MOTA of ``tracks.csv`` on wheelchair / corridor / crowd 0.530 / 0.652 / 0.574 -> 0.572 /
-   0.664 / 0.652 (wheelchair seeds 1 and 2: 0.586 -> 0.610, 0.496 -> 0.546), the followed person of
-   person_following 0.963 -> 0.962 of the scans, the ETH/UCY replays (every cell observed) unchanged. With
-   ``see_through`` and the frame's laser scans (``views``), a track or a coasting person without a hit in this
-   frame is also left out where a laser sees through its predicted position (:mod:`pfpeople.mot.freespace`).
+   keeps its id. Without evidence there, its constant-velocity prediction was mostly wrong. With ``see_through``
+   and the frame's laser scans (``views``), a track or a coasting person without a hit in this frame is also
+   left out where a laser sees through its predicted position (:mod:`pfpeople.mot.freespace`).
 
 Why, with the figures: ``docs/ablations.md``, "The reported people".
 """
@@ -312,16 +309,51 @@ class PeopleTracker:
         tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support)
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
-        # the coasting tracks that may be reported (as tracks, or below as people) and whose place a laser sees
-        # through: each tested once
         gone: set[int] = set()
         if views and self.see_through:
-            may_show = [t for t in self.tracker.tracks if t.confirmed and 0 < t.misses]
-            shown = {t.id for t in tracks}
-            gone = _seen_through_ids([t for t in may_show if t.id in shown or t.misses <= self.coast_frames], views)
+            gone = self._seen_through(tracks, views)
             tracks = [t for t in tracks if t.id not in gone]
         if self.people == "classified":
             return TrackedFrame(people=found, tracks=tracks, coasted=0)
+        people, coasted = self._reported(found, grid, spec, observed, gone)
+        return TrackedFrame(people=people, tracks=tracks, coasted=coasted)
+
+    def _seen_through(self, tracks: Sequence[Track], views: Sequence[LaserView]) -> set[int]:
+        """The ids of the coasting tracks that may be reported (as ``tracks``, or as people through a miss) and
+        whose predicted place a laser of ``views`` sees through; each is tested once (``see_through``)."""
+        may_show = [t for t in self.tracker.tracks if t.confirmed and 0 < t.misses]
+        shown = {t.id for t in tracks}
+        return _seen_through_ids([t for t in may_show if t.id in shown or t.misses <= self.coast_frames], views)
+
+    def _reported(
+        self,
+        found: People,
+        grid: NDArray[np.float64],
+        spec: GridSpec,
+        observed: ArrayLike | None,
+        gone: set[int],
+    ) -> tuple[People, int]:
+        """The reported people of ``people = "confirmed"`` (step 2 of the module docstring).
+
+        Parameters
+        ----------
+        found : People
+            The classifier's people of this frame (after ``snap_radius``; m, grid frame).
+        grid : ndarray, shape (nx, ny)
+            The frame's belief grid (the coasting people's scores).
+        spec : GridSpec
+        observed : array_like of bool, shape (nx, ny), optional
+            Cells some detector observes; None: every cell.
+        gone : set of int
+            Ids of tracks whose place a laser sees through (not reported through a miss).
+
+        Returns
+        -------
+        people : People
+            The confirmed classified people, then the coasting ones (size 0 cells).
+        coasted : int
+            How many of them are coasting.
+        """
         n = len(found.positions)
         wait = self.static_confirm_s - 1e-9
         alive = [t for t in self.tracker.tracks if t.confirmed and (t.moved or t.age_s >= wait)]
@@ -337,7 +369,7 @@ class PeopleTracker:
             sizes=np.concatenate((np.asarray(found.sizes, dtype=np.int64)[ok], np.zeros(len(coast), np.int64))),
             mask=mask,
         )
-        return TrackedFrame(people=people, tracks=tracks, coasted=len(coast))
+        return people, len(coast)
 
     def _coasting(
         self, alive: Sequence[Track], kept: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | None

@@ -370,6 +370,18 @@ def _check_scores(scores: ArrayLike | None, m: int) -> NDArray[np.float64]:
     return s
 
 
+def _hits_per_row(
+    n_old: int, rows: NDArray[np.intp], cols: NDArray[np.intp], c: NDArray[np.float64]
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Per track row of the previous frame (``n_old``), its assigned measurement (-1: none) and that one's
+    confidence (0: none), from the assignment ``rows`` -> ``cols`` and the confidences ``c`` (M,)."""
+    meas_of = np.full(n_old, -1, dtype=np.intp)
+    meas_of[rows] = cols
+    conf = np.zeros(n_old)
+    conf[rows] = c[cols]
+    return meas_of, conf
+
+
 class MultiPersonTracker:
     """Tracks many people with constant-velocity Kalman filters, gated optimal assignment and M-of-N rules.
 
@@ -502,29 +514,36 @@ class MultiPersonTracker:
         dt = check_real(dt, "dt", low=0.0, low_open=True)
         _check_ego(ego)
         if self._meta:
-            if ego is not None and (ego.x != 0.0 or ego.y != 0.0 or ego.yaw != 0.0):
-                self._apply_ego(ego)
-            self._predict(dt)
+            self._move_and_predict(ego, dt)
         rows, cols = self._associate(z)
         self._correct(rows, cols, z)
         n_old = len(self._meta)
-        meas_of = np.full(n_old, -1, dtype=np.intp)
-        meas_of[rows] = cols
+        meas_of, conf = _hits_per_row(n_old, rows, cols, c)
         assigned = meas_of.copy()  # before step 4c's support hits
-        conf = np.zeros(n_old)
-        conf[rows] = c[cols]
         supported = self._support_hits(sup, z, meas_of, conf)
         was_confirmed = [m.confirmed for m in self._meta]
         self._score_and_confirm(dt, meas_of, assigned, conf, supported)
         if n_old:
-            far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= self.config.moved_distance
-            for j in np.flatnonzero(far).tolist():
-                self._meta[j].moved = True
-            if self.config.reid_distance > 0:
-                self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
+            self._motion_and_reid(n_old, was_confirmed)
         self._delete()
         self._birth(z, c, cols)
         return self.confirmed()
+
+    def _move_and_predict(self, ego: Pose2D | None, dt: float) -> None:
+        """Steps 1-2: move the tracks into the current sensor frame (``ego``: it in the previous one; None or the
+        identity: unmoved) and predict them ``dt`` s (> 0) ahead."""
+        if ego is not None and (ego.x != 0.0 or ego.y != 0.0 or ego.yaw != 0.0):
+            self._apply_ego(ego)
+        self._predict(dt)
+
+    def _motion_and_reid(self, n_old: int, was_confirmed: list[bool]) -> None:
+        """Step 7 for the ``n_old`` tracks of the previous frame (``moved`` once ``moved_distance`` from their
+        birth position), then step 6b for those confirmed in this frame (``was_confirmed``: per row, before)."""
+        far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= self.config.moved_distance
+        for j in np.flatnonzero(far).tolist():
+            self._meta[j].moved = True
+        if self.config.reid_distance > 0:
+            self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
 
     def _support_hits(
         self, sup: NDArray[np.float64], z: NDArray[np.float64], meas_of: NDArray[np.intp], conf: NDArray[np.float64]

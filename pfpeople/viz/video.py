@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Generator, Sequence
 from pathlib import Path
+from typing import Any
 
 import imageio.v3 as iio
 import imageio_ffmpeg
@@ -60,19 +61,7 @@ def write_animation(
     if not frames:
         raise ValueError("write_animation: no frames selected")
     opts = renderer.options
-    writer = None
-    if mp4 is not None:
-        Path(mp4).parent.mkdir(parents=True, exist_ok=True)
-        writer = imageio_ffmpeg.write_frames(
-            str(mp4),
-            (opts.width_px, opts.height_px),
-            fps=opts.fps,
-            codec="libx264",
-            pix_fmt_out="yuv420p",
-            macro_block_size=1,
-            quality=7,
-        )
-        writer.send(None)
+    writer = _mp4_writer(mp4, opts.width_px, opts.height_px, opts.fps) if mp4 is not None else None
     stride = max(1, math.ceil(len(frames) / GIF_MAX_FRAMES)) if gif is not None else 1
     if gif is not None and stride > 1:
         log.info("GIF %s: %d frames selected, keeping every %d-th", gif, len(frames), stride)
@@ -90,7 +79,43 @@ def write_animation(
         if writer is not None:
             writer.close()
     if gif is not None:
-        Path(gif).parent.mkdir(parents=True, exist_ok=True)
-        duration_ms = 1000.0 * stride / opts.fps
-        iio.imwrite(gif, np.stack(gif_frames), plugin="pillow", duration=duration_ms, loop=0)
+        _write_gif(gif, gif_frames, 1000.0 * stride / opts.fps)
     return {"mp4_frames": n_mp4, "gif_frames": len(gif_frames)}
+
+
+def _mp4_writer(mp4: str | Path, width_px: int, height_px: int, fps: float) -> Generator[None, Any, None]:
+    """A started imageio-ffmpeg writer of ``mp4`` (its folder created): H.264, yuv420p, quality 7.
+
+    Parameters
+    ----------
+    mp4 : path
+        The output file.
+    width_px, height_px : int
+        The frame size (pixels).
+    fps : float
+        The frame rate (frames per second).
+
+    Returns
+    -------
+    generator
+        ``send`` each frame (RGB uint8, ``(height_px, width_px, 3)``) to it, then ``close`` it.
+    """
+    Path(mp4).parent.mkdir(parents=True, exist_ok=True)
+    writer = imageio_ffmpeg.write_frames(
+        str(mp4),
+        (width_px, height_px),
+        fps=fps,
+        codec="libx264",
+        pix_fmt_out="yuv420p",
+        macro_block_size=1,
+        quality=7,
+    )
+    writer.send(None)
+    return writer
+
+
+def _write_gif(gif: str | Path, frames: list[NDArray[np.uint8]], duration_ms: float) -> None:
+    """Write ``frames`` (RGB uint8 images of one shape) to ``gif`` (its folder created), each shown
+    ``duration_ms`` ms, looping."""
+    Path(gif).parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(gif, np.stack(frames), plugin="pillow", duration=duration_ms, loop=0)
