@@ -92,6 +92,38 @@ def _keep(
 
 
 @jit
+def _next_pose(p: int, n_pose: int) -> int:
+    """The pose of the next particle: ``p + 1`` wrapped to 0 at ``n_pose`` (``k mod S`` without a division)."""
+    p += 1
+    return 0 if p == n_pose else p
+
+
+@jit
+def _move_keep(
+    out: tuple[NDArray[np.float64], ...],
+    cells: NDArray[np.intp],
+    mass: NDArray[np.float64],
+    counts: NDArray[np.intp],
+    j: int,
+    state: tuple[float, float, float, float, float],
+    poses: NDArray[np.float64],
+    p: int,
+    ego: bool,
+    grid: tuple[float, float, float, int, int],
+) -> int:
+    """One particle's sensor motion (pose ``p`` when ``ego``) and, if it is inside the grid after it, its write to
+    column ``j`` (:func:`_keep`). ``state = (x, y, vx, vy, w)``. Returns the next free column."""
+    xk, yk, vxk, vyk, wk = state
+    if ego:
+        xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
+    ck = cell(xk, yk, grid)
+    if ck < 0:
+        return j
+    _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, wk, ck)
+    return j + 1
+
+
+@jit
 def select_moving(u: NDArray[np.float64], p_stat: float) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
     """The walkers of the paper's motion prior: indices with ``u >= p_stat`` and their speed uniforms
     ``(u - p_stat) / (1 - p_stat)`` (:func:`pfpeople.motion.sample_velocity_prior`'s arithmetic)."""
@@ -258,9 +290,7 @@ def move_ego_compact(
     n_inside = 0
     p = -1
     for k in range(x.size):
-        p += 1  # k mod S, without an integer division per particle
-        if p == n_pose:
-            p = 0
+        p = _next_pose(p, n_pose)
         vxk = 0.0
         vyk = 0.0
         if k == nxt:
@@ -274,13 +304,7 @@ def move_ego_compact(
             continue
         prior[c1] += w[k]
         n_inside += 1
-        if ego:
-            xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
-        ck = cell(xk, yk, grid)
-        if ck < 0:
-            continue
-        _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, w[k], ck)
-        j += 1
+        j = _move_keep(out, cells, mass, counts, j, (xk, yk, vxk, vyk, w[k]), poses, p, ego, grid)
     return j, n_inside
 
 
@@ -335,19 +359,11 @@ def ego_compact(
     j = start
     p = -1
     for k in range(w.size):
-        p += 1  # k mod S, without an integer division per particle
-        if p == n_pose:
-            p = 0
+        p = _next_pose(p, n_pose)
         xk, yk, vxk, vyk = src[0, k], src[1, k], src[2, k], src[3, k]
         if check_first and cell(xk, yk, grid) < 0:
             continue
-        if ego:
-            xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
-        ck = cell(xk, yk, grid)
-        if ck < 0:
-            continue
-        _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, w[k], ck)
-        j += 1
+        j = _move_keep(out, cells, mass, counts, j, (xk, yk, vxk, vyk, w[k]), poses, p, ego, grid)
     return j
 
 
