@@ -99,31 +99,6 @@ def _next_pose(p: int, n_pose: int) -> int:
 
 
 @jit
-def _move_keep(
-    out: tuple[NDArray[np.float64], ...],
-    cells: NDArray[np.intp],
-    mass: NDArray[np.float64],
-    counts: NDArray[np.intp],
-    j: int,
-    state: tuple[float, float, float, float, float],
-    poses: NDArray[np.float64],
-    p: int,
-    ego: bool,
-    grid: tuple[float, float, float, int, int],
-) -> int:
-    """One particle's sensor motion (pose ``p`` when ``ego``) and, if it is inside the grid after it, its write to
-    column ``j`` (:func:`_keep`). ``state = (x, y, vx, vy, w)``. Returns the next free column."""
-    xk, yk, vxk, vyk, wk = state
-    if ego:
-        xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
-    ck = cell(xk, yk, grid)
-    if ck < 0:
-        return j
-    _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, wk, ck)
-    return j + 1
-
-
-@jit
 def select_moving(u: NDArray[np.float64], p_stat: float) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
     """The walkers of the paper's motion prior: indices with ``u >= p_stat`` and their speed uniforms
     ``(u - p_stat) / (1 - p_stat)`` (:func:`pfpeople.motion.sample_velocity_prior`'s arithmetic)."""
@@ -286,8 +261,7 @@ def move_ego_compact(
     n_pose = poses.shape[1]
     m = 0
     nxt = moving[0] if moving.size else x.size
-    j = 0
-    n_inside = 0
+    j = n_inside = 0
     p = -1
     for k in range(x.size):
         p = _next_pose(p, n_pose)
@@ -304,7 +278,13 @@ def move_ego_compact(
             continue
         prior[c1] += w[k]
         n_inside += 1
-        j = _move_keep(out, cells, mass, counts, j, (xk, yk, vxk, vyk, w[k]), poses, p, ego, grid)
+        if ego:
+            xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
+        ck = cell(xk, yk, grid)
+        if ck < 0:
+            continue
+        _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, w[k], ck)
+        j += 1
     return j, n_inside
 
 
@@ -341,10 +321,8 @@ def ego_compact(
         Also drop particles already outside before the sensor motion (those that left in the people motion).
     grid : tuple
         ``(x0, y0, resolution, nx, ny)``.
-    out : tuple of 5 ndarrays, shape (C,) each
-        x, y, vx, vy, w; the kept particles go to entries ``start, start + 1, ...``.
-    cells : ndarray of intp, shape (C,)
-        Receives their cells.
+    out, cells : tuple of 5 ndarrays (x, y, vx, vy, w) and ndarray of intp, shape (C,) each
+        The kept particles and their cells, written to entries ``start, start + 1, ...``.
     start : int
         First column written.
     mass, counts : ndarray, shape (n_cells,)
@@ -356,14 +334,19 @@ def ego_compact(
         One past the last column written.
     """
     n_pose = poses.shape[1]
-    j = start
-    p = -1
+    j, p = start, -1
     for k in range(w.size):
         p = _next_pose(p, n_pose)
         xk, yk, vxk, vyk = src[0, k], src[1, k], src[2, k], src[3, k]
         if check_first and cell(xk, yk, grid) < 0:
             continue
-        j = _move_keep(out, cells, mass, counts, j, (xk, yk, vxk, vyk, w[k]), poses, p, ego, grid)
+        if ego:
+            xk, yk, vxk, vyk = _into_pose(xk, yk, vxk, vyk, poses, p)
+        ck = cell(xk, yk, grid)
+        if ck < 0:
+            continue
+        _keep(out, cells, mass, counts, j, xk, yk, vxk, vyk, w[k], ck)
+        j += 1
     return j
 
 
