@@ -109,6 +109,7 @@ class FilterSpec:
             return build_filter(cfg, spec, detectors)
         if self.kind == "grid":
             return GridFilter(spec, detectors=detectors, form=self.form)
+        from pfpeople.components import PEOPLE_SAMPLERS
         from pfpeople.particle_filter import ParticleFilter
 
         return ParticleFilter(
@@ -116,7 +117,7 @@ class FilterSpec:
             detectors=detectors,
             n_particles=self.n_particles,
             rng=np.random.default_rng(seed),
-            motion_model=self.motion_model,
+            people_motion=PEOPLE_SAMPLERS[self.motion_model](),
         )
 
 

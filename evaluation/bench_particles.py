@@ -97,8 +97,24 @@ def _time_steps(step: Callable[[], object], warmup: int, repeats: int) -> tuple[
     return 1e3 * statistics.median(times), flags
 
 
-def _pf_case(n: int, warmup: int, repeats: int, **kwargs: object) -> tuple[float, float]:
-    pf = ParticleFilter(n_particles=n, rng=np.random.default_rng(2015), **kwargs)  # type: ignore[arg-type]
+def _particle_filter(n: int, **resampling: Any) -> ParticleFilter:
+    """The benchmark's particle filter with ``n`` particles, resampling as ``resampling`` says (``ess_threshold``,
+    ``resampler``: a scheme name or callable): through the components of this checkout
+    (:class:`pfpeople.components.Resampling`) or, in a release without them, the constructor's keywords."""
+    try:
+        from pfpeople.components import Resampling
+    except ImportError:  # a release before the components: its keywords
+        return ParticleFilter(n_particles=n, rng=np.random.default_rng(2015), **resampling)
+    policy = Resampling(
+        scheme=resampling.pop("resampler", "systematic"), ess_threshold=resampling.pop("ess_threshold", 0.5)
+    )
+    if resampling:
+        raise TypeError(f"unknown resampling settings {sorted(resampling)}")
+    return ParticleFilter(n_particles=n, rng=np.random.default_rng(2015), resampling=policy)
+
+
+def _pf_case(n: int, warmup: int, repeats: int, **resampling: Any) -> tuple[float, float]:
+    pf = _particle_filter(n, **resampling)
     ms, flags = _time_steps(lambda: pf.step(DETECTIONS, ODOMETRY, DT), warmup, repeats)
     frac = float(np.mean(flags))
     return ms, frac

@@ -118,6 +118,15 @@ def _worker_config(args: argparse.Namespace) -> Any:
     return replace(cfg, filter=filt)
 
 
+def _motion_model(filt: Any) -> str | None:
+    """The people-motion model of a particle filter by its configuration name (None for the grid filter): its
+    sampler's ``name`` (:mod:`pfpeople.components`), or the ``motion_model`` of a release without components."""
+    people = getattr(filt, "people_motion", None)
+    if people is not None:
+        return str(getattr(people, "name", type(people).__name__))
+    return getattr(filt, "motion_model", None)
+
+
 def _blas_threads(summary: Any) -> int | None:
     """The BLAS threads per library of the run: its record (``stats.blas_threads``), or, for code that limits
     none, what threadpoolctl sees now (None without threadpoolctl)."""
@@ -161,7 +170,7 @@ def worker(args: argparse.Namespace) -> dict[str, Any]:
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "blas_threads": _blas_threads(summary),
         "n_particles": getattr(pipe.filter, "n_particles", None),
-        "motion_model": getattr(pipe.filter, "motion_model", None),
+        "motion_model": _motion_model(pipe.filter),
         "stages_ms": {k: 1e3 * v / max(n, 1) for k, v in stages.items()},
     }
 

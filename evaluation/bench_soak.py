@@ -50,6 +50,7 @@ from numpy.typing import NDArray  # noqa: E402
 
 from gridbridge import GridFilter, GridSpec, Odometry  # noqa: E402
 from gridbridge.params import PAPER_DETECTORS  # noqa: E402
+from pfpeople.components import PersistentSampling  # noqa: E402
 from pfpeople.particle_filter import ParticleFilter  # noqa: E402
 
 __all__ = ["SoakResult", "main", "soak", "soak_modes"]
@@ -74,7 +75,7 @@ def soak_modes() -> dict[str, Factory]:
         "grid-linear": lambda rng: GridFilter(spec, detectors=PAPER_DETECTORS, form="linear"),
         "particle": lambda rng: ParticleFilter(spec, detectors=PAPER_DETECTORS, n_particles=5000, rng=rng),
         "particle-persistent": lambda rng: ParticleFilter(
-            spec, detectors=PAPER_DETECTORS, n_particles=5000, rng=rng, motion_model="persistent"
+            spec, detectors=PAPER_DETECTORS, n_particles=5000, rng=rng, people_motion=PersistentSampling()
         ),
     }
 

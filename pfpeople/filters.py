@@ -61,9 +61,10 @@ PEAK_KEEP = 0.5
 #: mode the births of a few steps accumulate before a resampling (pipeline benchmark: the filter step ~20 % faster,
 #: accuracy unchanged); the paper mode resamples whenever births overflow, as in round one.
 DEFAULT_OVERFLOW = {"recommended": 0.1, "paper": 0.0}
-#: Default people-motion sampler of the particle filter per mode (see FilterConfig.motion_model): in the
-#: recommended mode walkers keep heading and speed (precision and tracks on every scene, README "Recommended
-#: particles"); the paper mode samples the paper's memoryless model, the grid filter's prediction.
+#: Default people-motion sampler of the particle filter per mode (see FilterConfig.motion_model; the names of
+#: :data:`pfpeople.components.PEOPLE_SAMPLERS`): in the recommended mode walkers keep heading and speed (precision
+#: and tracks on every scene, README "Recommended particles"); the paper mode samples the paper's memoryless
+#: model, the grid filter's prediction.
 DEFAULT_MOTION_MODEL = {"recommended": "persistent", "paper": "paper"}
 #: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
 DEFAULT_GRID_RANGE_M = 10.0
@@ -167,15 +168,18 @@ def build_filter(
         }
     if config.kind == "grid":
         return GridFilter(spec, detectors=models, prediction=pred, ego_motion=ego, **kwargs)
+    from pfpeople.components import PEOPLE_SAMPLERS, Resampling
     from pfpeople.particle_filter import ParticleFilter
 
+    people = PEOPLE_SAMPLERS[config.motion_model or DEFAULT_MOTION_MODEL[config.mode]](motion=PeopleMotion())
+    overflow = config.max_overflow if config.max_overflow is not None else DEFAULT_OVERFLOW[config.mode]
     return ParticleFilter(
         spec,
         detectors=models,
         n_particles=config.particles_for(spec.n_cells),
         rng=np.random.default_rng(config.seed),
-        motion_model=config.motion_model or DEFAULT_MOTION_MODEL[config.mode],  # type: ignore[arg-type]
-        max_overflow=config.max_overflow if config.max_overflow is not None else DEFAULT_OVERFLOW[config.mode],
+        people_motion=people,
+        resampling=Resampling(max_overflow=overflow),
         **kwargs,
     )
 

@@ -92,6 +92,13 @@ def _keep(
 
 
 @jit
+def _next_pose(p: int, n_pose: int) -> int:
+    """The pose of the next particle: ``p + 1`` wrapped to 0 at ``n_pose`` (``k mod S`` without a division)."""
+    p += 1
+    return 0 if p == n_pose else p
+
+
+@jit
 def select_moving(u: NDArray[np.float64], p_stat: float) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
     """The walkers of the paper's motion prior: indices with ``u >= p_stat`` and their speed uniforms
     ``(u - p_stat) / (1 - p_stat)`` (:func:`pfpeople.motion.sample_velocity_prior`'s arithmetic)."""
@@ -254,13 +261,10 @@ def move_ego_compact(
     n_pose = poses.shape[1]
     m = 0
     nxt = moving[0] if moving.size else x.size
-    j = 0
-    n_inside = 0
+    j = n_inside = 0
     p = -1
     for k in range(x.size):
-        p += 1  # k mod S, without an integer division per particle
-        if p == n_pose:
-            p = 0
+        p = _next_pose(p, n_pose)
         vxk = 0.0
         vyk = 0.0
         if k == nxt:
@@ -317,10 +321,8 @@ def ego_compact(
         Also drop particles already outside before the sensor motion (those that left in the people motion).
     grid : tuple
         ``(x0, y0, resolution, nx, ny)``.
-    out : tuple of 5 ndarrays, shape (C,) each
-        x, y, vx, vy, w; the kept particles go to entries ``start, start + 1, ...``.
-    cells : ndarray of intp, shape (C,)
-        Receives their cells.
+    out, cells : tuple of 5 ndarrays (x, y, vx, vy, w) and ndarray of intp, shape (C,) each
+        The kept particles and their cells, written to entries ``start, start + 1, ...``.
     start : int
         First column written.
     mass, counts : ndarray, shape (n_cells,)
@@ -332,12 +334,9 @@ def ego_compact(
         One past the last column written.
     """
     n_pose = poses.shape[1]
-    j = start
-    p = -1
+    j, p = start, -1
     for k in range(w.size):
-        p += 1  # k mod S, without an integer division per particle
-        if p == n_pose:
-            p = 0
+        p = _next_pose(p, n_pose)
         xk, yk, vxk, vyk = src[0, k], src[1, k], src[2, k], src[3, k]
         if check_first and cell(xk, yk, grid) < 0:
             continue

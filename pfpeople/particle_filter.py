@@ -5,11 +5,12 @@ probability of holding a person, i.e. the grid filter's belief. One step (same i
 :meth:`gridbridge.GridFilter.step`; :meth:`ParticleFilter.predict` is phases 1-2 and the empty-cell prior of
 phase 4, :meth:`ParticleFilter.update` the rest, each phase one private method):
 
-1. **People motion** (eqs. 5-9, sampling form; :mod:`pfpeople.motion`). Optionally (``redraw_in_cell``) each
-   particle is first re-drawn uniformly inside its cell. Particles that leave the grid are dropped. Inflow: the
-   grid reads belief ``outside`` (0.5) beyond its border, so the mass entering inside cell c is
-   ``outside * sum_{k outside} T(c <- k)`` with the integrated kernel T (computed once per (grid, dt) as a
-   convolution of an all-zero grid with ``cval=outside``); it is born as particles in those cells.
+1. **People motion** (eqs. 5-9, sampling form: the ``people_motion`` component, :mod:`pfpeople.components`).
+   Optionally (its ``redraw_in_cell``) each particle is first re-drawn uniformly inside its cell. Particles that
+   leave the grid are dropped. Inflow: the grid reads belief ``outside`` (0.5) beyond its border, so the mass
+   entering inside cell c is ``outside * sum_{k outside} T(c <- k)`` with the integrated kernel T (computed once
+   per (grid, dt) as a convolution of an all-zero grid with ``cval=outside``); it is born as particles in those
+   cells.
 2. **Sensor motion** (eqs. 10-11). Each particle samples Thrun's velocity motion model and moves into the new
    sensor frame with rotation. Particles that leave are dropped. Inflow: the grid's warp reads ``outside``
    beyond the border, so the entering mass is ``warp_belief(zeros, outside=outside)`` (the grid's own sigma
@@ -25,10 +26,10 @@ phase 4, :meth:`ParticleFilter.update` the rest, each phase one private method):
    exceeds ``BIRTH_FLOOR`` (1e-12), ``n_birth`` particles are born there sharing that mass, uniform in the cell,
    with velocities from the motion prior (as Nuss et al.). Below the floor the cell's posterior is set to 0
    (the mass ignored is below 1e-12 per cell).
-5. **Resampling** (:func:`pfpeople.resampling.resample_by_cell`) when ESS = (sum w)^2 / sum w^2 falls below
-   ``ess_threshold * n_particles`` or births pushed the count above ``(1 + max_overflow) * n_particles``. It
-   restores exactly ``n_particles`` particles, keeps every cell's mass, and keeps at least one particle in every
-   cell with mass.
+5. **Resampling** (:func:`pfpeople.resampling.resample_by_cell`; the ``resampling`` component) when
+   ESS = (sum w)^2 / sum w^2 falls below ``ess_threshold * n_particles`` or births pushed the count above
+   ``(1 + max_overflow) * n_particles``. It restores exactly ``n_particles`` particles, keeps every cell's mass,
+   and keeps at least one particle in every cell with mass.
 
 Births at the border fill the free slots (particles that left): each inflow cell gets one particle plus a share
 of the free slots in proportion to its mass (the people-motion births use half of the free slots, the
@@ -39,16 +40,16 @@ more than a step usually frees, so with ``max_overflow = 0`` most steps resample
 of a few steps accumulate: on the person-following bag 29 % of the steps resample (22 % for the count, 8 % for
 the ESS), with a median ESS of 0.93 N between resamplings, and the filter step costs about a fifth less.
 
-Equivalence (tested in ``tests/test_pf_equivalence.py``): with ``motion_model="paper"``,
-``redraw_in_cell=True`` and a standing robot, the expected rasterised prior equals the linear grid filter's
-prior with the integrated kernel (``GridFilter(form="linear")``): the PF is an unbiased Monte Carlo estimate of
-that prediction, with error ~ 1/sqrt(N). With the robot moving, the grid's bilinear warp (applied to a belief
+Equivalence (tested in ``tests/test_pf_equivalence.py``): with ``PaperSampling(redraw_in_cell=True)`` and a
+standing robot, the expected rasterised prior equals the linear grid filter's prior with the integrated kernel
+(``GridFilter(form="linear")``): the PF is an unbiased Monte Carlo estimate of that prediction, with error
+~ 1/sqrt(N). With the robot moving, the grid's bilinear warp (applied to a belief
 assumed uniform within cells) and its sigma points are approximations that the particles do not make, which
 leaves a floor.
 
-Ego-motion poses: with at most ``ego_pool`` particles every particle draws its own displacement; above, a pool
-of ``ego_pool`` i.i.d. exact draws is shared (particle k uses draw k mod ``ego_pool``), so each particle's
-displacement is still an exact draw while the cost of the trigonometry stays fixed.
+Ego-motion poses (the ``ego_motion`` component): with at most ``pool`` particles every particle draws its own
+displacement; above, ``pool`` i.i.d. exact draws are shared (particle k uses draw k mod ``pool``), so each
+particle's displacement is still an exact draw while the cost of the trigonometry stays fixed.
 
 Compiled step: with numba (and ``PFPEOPLE_NUMBA`` not ``0``, :mod:`gridbridge.jit`) phases 1-2 run as one pass
 over the particles (:mod:`pfpeople.kernels`: people motion, sensor motion, the particles that left dropped, both
@@ -67,10 +68,9 @@ Use at least about 5 particles per cell.
 from __future__ import annotations
 
 import logging
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,8 +83,6 @@ from gridbridge import (
     GridSpec,
     Likelihood,
     Odometry,
-    PeopleMotion,
-    SensorMotionNoise,
     as_odometry,
     bayes_update,
     ego_motion_sigma_points,
@@ -95,26 +93,17 @@ from gridbridge import (
     warp_belief,
 )
 from gridbridge.components import Appearance, BeliefBounds
-from gridbridge.ego_motion import _OMEGA_EPS
 from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
-from gridbridge.validation import check_choice, check_int, check_positive, check_probability
+from gridbridge.validation import check_int, check_probability
 from pfpeople import kernels
 from pfpeople.buffers import BufferPool
-from pfpeople.motion import (
-    PersistentMotion,
-    apply_ego_motion,
-    move_paper,
-    move_persistent,
-    redraw_in_cells,
-    sample_ego_poses,
-    sample_velocity_prior,
-    speeds_from_uniform,
-)
+from pfpeople.components import PaperSampling, PeopleSampler, Resampling, VelocityEgoSampling
+from pfpeople.motion import apply_ego_motion, redraw_in_cells, sample_velocity_prior, speeds_from_uniform
 from pfpeople.particles import ParticleState, uniform_in_cells
-from pfpeople.resampling import RESAMPLERS, effective_sample_size, get_resampler, resample_by_cell, resample_state
+from pfpeople.resampling import resample_by_cell, resample_state
 
 __all__ = ["BIRTH_FLOOR", "ParticleFilter", "ParticleStep"]
 
@@ -157,7 +146,10 @@ class ParticleStep(FilterStep):
 
 
 class ParticleFilter:
-    """People particle filter whose rasterised weights are the semantic grid's belief.
+    """People particle filter whose rasterised weights are the semantic grid's belief, composed of components.
+
+    The model is in the components (:mod:`pfpeople.components` for the particle side, the update's shared with
+    :class:`gridbridge.GridFilter`), each defaulting to the paper's; the filter is the loop of the module docstring.
 
     Parameters
     ----------
@@ -165,39 +157,18 @@ class ParticleFilter:
         The grid (default: the paper's 30 x 30 cells of 0.3 m).
     detectors : sequence of DetectorModel
         Detector models, in the order of the detections passed to :meth:`step`.
-    motion : PeopleMotion, optional
-        People motion model (Table 1).
-    noise : SensorMotionNoise, optional
-        Odometry noise of the velocity motion model.
     n_particles : int
-        Particle count N restored by every resampling (between resamplings up to ``(1 + max_overflow) N``); at
-        least the number of grid cells.
+        Particle count N restored by every resampling (between resamplings up to ``(1 + max_overflow) N``, see
+        ``resampling``); at least the number of grid cells.
     rng : numpy.random.Generator
         The only source of randomness: same seed, same output.
-    motion_model : {"paper", "persistent"}
-        People-motion sampler (see :mod:`pfpeople.motion`).
-    persistent : PersistentMotion, optional
-        Parameters of the persistent model.
-    resampler : {"systematic", "stratified", "residual", "multinomial"} or callable
-        Resampling scheme (:mod:`pfpeople.resampling`); a callable ``f(weights, n, rng=rng) -> ancestors``
-        may be given (e.g. a baseline for benchmarks).
-    ess_threshold : float
-        Resample when ESS < ``ess_threshold * n_particles``; a value above 1 resamples every step, 0 only on
-        overflow.
-    max_overflow : float
-        Births may push the count up to ``(1 + max_overflow) * n_particles`` before they trigger a resampling
-        (0: every overflow resamples). A slack lets the births of several steps accumulate, so that a step
-        resamples only every few steps when the weights stay even (see the module docstring).
-    redraw_in_cell : bool
-        Re-draw each particle uniformly in its cell before the people motion (the grid's assumption).
-    initial : float
-        Initial belief of every cell.
-    outside : float
-        Belief outside the grid (0.5 in the paper).
-    n_birth : int
-        Particles born in an empty cell whose posterior has mass.
-    ego_pool : int
-        Largest number of distinct ego-motion draws per step (see the module docstring).
+    people_motion : PeopleSampler, optional
+        People motion in sampling form (default :class:`~pfpeople.components.PaperSampling`: the paper's
+        memoryless model; :class:`~pfpeople.components.PersistentSampling`: walkers keep heading and speed).
+    ego_motion : VelocityEgoSampling, optional
+        Sensor motion in sampling form (default: the default odometry noise, at most 4096 draws per step).
+    resampling : Resampling, optional
+        When and how to resample (default: systematic when ESS < N / 2 or the births overflow N).
     likelihood : DetectionLikelihood, optional
         Detections -> per-cell likelihood (default: the paper's De Morgan fusion, shared with the grid filter).
     appearance : Appearance, optional
@@ -205,6 +176,19 @@ class ParticleFilter:
         empty cells).
     bounds : BeliefBounds, optional
         Clamp of the posterior.
+    initial : float
+        Initial belief of every cell.
+    outside : float
+        Belief outside the grid (0.5 in the paper): the inflow across the border in both motions.
+    n_birth : int
+        Particles born in an empty cell whose posterior has mass.
+
+    Attributes
+    ----------
+    motion : PeopleMotion
+        ``people_motion.motion``: the prior of the births' velocities and the kernel of the border inflow.
+    noise : SensorMotionNoise
+        ``ego_motion.noise``: also the grid's sigma points of the border inflow and the empty-cell prior.
     """
 
     def __init__(
@@ -212,52 +196,30 @@ class ParticleFilter:
         spec: GridSpec | None = None,
         *,
         detectors: Sequence[DetectorModel] = PAPER_DETECTORS,
-        motion: PeopleMotion | None = None,
-        noise: SensorMotionNoise | None = None,
         n_particles: int = 10_000,
         rng: np.random.Generator,
-        motion_model: Literal["paper", "persistent"] = "paper",
-        persistent: PersistentMotion | None = None,
-        resampler: str | Callable[..., NDArray[np.intp]] = "systematic",
-        ess_threshold: float = 0.5,
-        max_overflow: float = 0.0,
-        redraw_in_cell: bool = False,
-        initial: float = 0.5,
-        outside: float = 0.5,
-        n_birth: int = 2,
-        ego_pool: int = 4096,
+        people_motion: PeopleSampler | None = None,
+        ego_motion: VelocityEgoSampling | None = None,
+        resampling: Resampling | None = None,
         likelihood: DetectionLikelihood | None = None,
         appearance: Appearance | None = None,
         bounds: BeliefBounds | None = None,
+        initial: float = 0.5,
+        outside: float = 0.5,
+        n_birth: int = 2,
     ) -> None:
-        self.spec, self.detectors, self.motion, self.noise = filter_models(spec, detectors, motion, noise)
-        self.n_particles = _check_count(n_particles, "n_particles")
-        self.max_overflow = check_positive(max_overflow, "max_overflow", allow_zero=True)
-        check_grid_size(self.spec.nx, self.spec.ny, self.spec.resolution, v_max=self.motion.v_max, dt=self.motion.dt)
-        # the memory of the largest count between resamplings
-        most = math.ceil(self.n_particles * (1.0 + self.max_overflow))
-        where = "n_particles" if self.max_overflow == 0 else "n_particles x (1 + max_overflow)"
-        check_particles(most, n_cells=self.spec.n_cells, n_detectors=len(self.detectors), where=where)
-        if self.n_particles < self.spec.n_cells:
-            raise ValueError(
-                f"n_particles must be at least the number of grid cells ({self.spec.n_cells}), got {n_particles}"
-            )
+        components = _sampling_components(people_motion, ego_motion, resampling)
+        self.people_motion, self.ego_motion, self.resampling = components
+        self.spec, self.detectors, self.motion, self.noise = filter_models(
+            spec, detectors, self.people_motion.motion, self.ego_motion.noise
+        )
+        self.n_particles = self._checked_count(n_particles)
         if not isinstance(rng, np.random.Generator):
             raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
         self.rng = rng
-        self.motion_model = check_choice(motion_model, "motion_model", ("paper", "persistent"))
-        self.persistent = PersistentMotion() if persistent is None else persistent
-        if isinstance(resampler, str):
-            check_choice(resampler, "resampler", tuple(RESAMPLERS))
-        elif not callable(resampler):
-            raise ValueError(f"resampler must be a name in {tuple(RESAMPLERS)} or a callable, got {resampler!r}")
-        self.resampler = resampler
-        self.ess_threshold = check_positive(ess_threshold, "ess_threshold", allow_zero=True)
-        self.redraw_in_cell = bool(redraw_in_cell)
         self.initial = check_probability(initial, "initial")
         self.outside = check_probability(outside, "outside")
         self.n_birth = _check_count(n_birth, "n_birth")
-        self.ego_pool = _check_count(ego_pool, "ego_pool")
         self.likelihood, self.appearance, self.bounds = update_components(likelihood, appearance, bounds)
         self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
         self._inflow_cache: dict[float, NDArray[np.float64]] = {}
@@ -272,6 +234,18 @@ class ParticleFilter:
         #: Steps whose resampling was skipped because every weight was 0 (logged as a warning).
         self.resampling_skipped = 0
         self.reset()
+
+    def _checked_count(self, n_particles: int) -> int:
+        """``n_particles`` checked: a count of at least the grid's cells whose largest count between resamplings
+        fits the memory limits (:func:`gridbridge.limits.check_particles`)."""
+        n = _check_count(n_particles, "n_particles")
+        check_grid_size(self.spec.nx, self.spec.ny, self.spec.resolution, v_max=self.motion.v_max, dt=self.motion.dt)
+        where = "n_particles" if self.resampling.max_overflow == 0 else "n_particles x (1 + max_overflow)"
+        most = self.resampling.capacity(n)
+        check_particles(most, n_cells=self.spec.n_cells, n_detectors=len(self.detectors), where=where)
+        if n < self.spec.n_cells:
+            raise ValueError(f"n_particles must be at least the number of grid cells ({self.spec.n_cells}), got {n}")
+        return n
 
     # ------------------------------------------------------------------ state
 
@@ -420,12 +394,9 @@ class ParticleFilter:
     def _predict_people(self, st: ParticleState, dt: float) -> _PeopleMoved:
         """Phase 1: people motion of ``st`` (fields replaced), and the births of the inflow across the border."""
         spec, n_cells = self.spec, self.spec.n_cells
-        if self.redraw_in_cell:
+        if self.people_motion.redraw_in_cell:
             redraw_in_cells(st, spec, rng=self.rng)
-        if self.motion_model == "paper":
-            move_paper(st, self.motion, dt, rng=self.rng)
-        else:
-            move_persistent(st, self.motion, self.persistent, dt, rng=self.rng)
+        self.people_motion.move(st, dt, rng=self.rng)
         # Particles that left are dropped; to compress the arrays once per step they are only masked here.
         cells = spec.flat_index(st.x, st.y)
         inside = cells >= 0
@@ -453,7 +424,7 @@ class ParticleFilter:
             return st, np.concatenate((cells, moved.born_cells)), moved.prior.copy(), poses, pose_w
         for part in (st, born):
             if part.size:
-                sampled = sample_ego_poses(odo, dt, self.noise, min(part.size, self.ego_pool), rng=self.rng)
+                sampled = self.ego_motion.poses(odo, dt, part.size, rng=self.rng)
                 apply_ego_motion(part, sampled)
         cells = spec.flat_index(st.x, st.y)
         inside = inside & (cells >= 0)
@@ -476,10 +447,10 @@ class ParticleFilter:
         self, dt: float
     ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int | None]:
         """Phase 1's draws (those of the numpy path, in its order): the particles to move (re-drawn in their cells
-        with ``redraw_in_cell``), the indices and velocities (m/s) of those that move and, for the paper's model,
-        how many of those are inside the grid after the motion (None for the others)."""
-        st = self.state
-        if self.motion_model == "paper" and not self.redraw_in_cell:
+        with ``redraw_in_cell``), the indices and velocities (m/s) of those that move and, for the paper's model
+        without the re-draw, how many of those are inside the grid after the motion (None for the others)."""
+        st, people = self.state, self.people_motion
+        if type(people) is PaperSampling and not people.redraw_in_cell:
             u = self.rng.random(out=self._pool.take(st.size))  # sample_velocity_prior's draws, in its order
             p_stat = self.motion.p_stationary
             if p_stat >= 1.0:
@@ -491,24 +462,12 @@ class ParticleFilter:
             vx, vy, n_in = kernels.walker_velocities(st.x, st.y, moving, speed, heading_u, dt, self._grid())
             return st, moving, vx, vy, int(n_in)
         moved = st.shallow_copy()
-        if self.redraw_in_cell:
+        if people.redraw_in_cell:
             redraw_in_cells(moved, self.spec, rng=self.rng)
         x, y = moved.x, moved.y  # the positions the motion starts from (the kernel moves them)
-        if self.motion_model == "paper":
-            moved.vx, moved.vy = sample_velocity_prior(self.motion, moved.size, rng=self.rng)
-        else:
-            move_persistent(moved, self.motion, self.persistent, dt, rng=self.rng)
+        people.move(moved, dt, rng=self.rng)  # its velocities (its positions are the kernel's to compute)
         before = ParticleState(x=x, y=y, vx=moved.vx, vy=moved.vy, w=st.w)
         return before, np.arange(st.size, dtype=np.intp), moved.vx, moved.vy, None
-
-    def _ego_rows(self, odo: Odometry | None, dt: float, size: int) -> NDArray[np.float64]:
-        """``min(size, ego_pool)`` sampled sensor displacements as rows dx, dy, cos(dtheta), sin(dtheta)
-        (:func:`sample_ego_poses`'s draws and arithmetic, compiled)."""
-        dt = check_positive(dt, "dt")
-        o = Odometry() if odo is None else odo
-        sd = np.sqrt(np.asarray(self.noise.variances(o.v, o.omega), dtype=np.float64))
-        e = self.rng.standard_normal((3, min(size, self.ego_pool)))
-        return kernels.ego_rows(e, sd, (float(o.v), float(o.omega), float(o.vy)), dt, _OMEGA_EPS)
 
     def _predict_compiled(self, odo: Odometry | None, dt: float) -> _Compiled:
         """Phases 1-2 in one pass over the particles (compiled), bit-identical to the numpy path.
@@ -554,7 +513,10 @@ class ParticleFilter:
         prior_born = np.bincount(born_cells, weights=born.w, minlength=n_cells)
         poses, pose_w = ego_motion_sigma_points(odo, dt, self.noise)
         moves = bool(np.any(poses != 0.0))
-        rows = [self._ego_rows(odo, dt, part.size) if moves and part.size else _NO_POSES for part in (before, born)]
+        sample = self.ego_motion.rows
+        rows = [
+            sample(odo, dt, part.size, rng=self.rng) if moves and part.size else _NO_POSES for part in (before, born)
+        ]
         cap = max(before.size, self.n_particles) + (3 + self.n_birth) * n_cells + 8
         buf, cells = tuple(self._pool.take(cap) for _ in range(5)), self._pool.take_index(cap)
         mass, counts = np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp)
@@ -693,8 +655,7 @@ class ParticleFilter:
         logs a warning and counts it in :attr:`resampling_skipped`.
         """
         n_target = self.n_particles
-        overflow = st.size > n_target * (1.0 + self.max_overflow)
-        if not (overflow or effective_sample_size(st.w) < self.ess_threshold * n_target):
+        if not self.resampling.due(st.w, n_target):
             return st, False
         total = float(st.w.sum())
         if not total > 0.0:
@@ -703,16 +664,15 @@ class ParticleFilter:
                 "particle filter: total weight %g, resampling skipped (%d steps so far)", total, self.resampling_skipped
             )
             return st, False
-        n_cells = self.spec.n_cells
+        n_cells, fn = self.spec.n_cells, self.resampling.resampler
         if jit.enabled("pfpeople"):
-            fn = get_resampler(self.resampler) if isinstance(self.resampler, str) else self.resampler
             rows = (st.x, st.y, st.vx, st.vy)
             out = resample_state(
                 cells, st.w, n_target, rows, n_cells=n_cells, rng=self.rng, resampler=fn, pool=self._pool
             )
             self._pool.give(*_arrays(st), cells)  # the prediction's arrays: reused once nothing holds them
             return ParticleState(x=out[0], y=out[1], vx=out[2], vy=out[3], w=out[4]), True
-        anc, new_w = resample_by_cell(cells, st.w, n_target, n_cells=n_cells, rng=self.rng, resampler=self.resampler)
+        anc, new_w = resample_by_cell(cells, st.w, n_target, n_cells=n_cells, rng=self.rng, resampler=fn)
         st = st.take(anc)
         st.w = new_w
         return st, True
@@ -748,6 +708,22 @@ def _owner(a: NDArray[np.float64]) -> object:
 
 def _arrays(st: ParticleState) -> tuple[NDArray[np.float64], ...]:
     return (st.x, st.y, st.vx, st.vy, st.w)
+
+
+def _sampling_components(
+    people_motion: object, ego_motion: object, resampling: object
+) -> tuple[PeopleSampler, VelocityEgoSampling, Resampling]:
+    """The particle side's components, checked (``TypeError`` naming the argument), the paper's by default."""
+    people = PaperSampling() if people_motion is None else people_motion
+    if not isinstance(people, PeopleSampler):
+        raise TypeError(f"people_motion must be a PeopleSampler component, got {type(people).__name__}")
+    ego = VelocityEgoSampling() if ego_motion is None else ego_motion
+    if not isinstance(ego, VelocityEgoSampling):
+        raise TypeError(f"ego_motion must be a VelocityEgoSampling component, got {type(ego).__name__}")
+    policy = Resampling() if resampling is None else resampling
+    if not isinstance(policy, Resampling):
+        raise TypeError(f"resampling must be a Resampling component, got {type(policy).__name__}")
+    return people, ego, policy
 
 
 def _check_count(value: int, name: str) -> int:

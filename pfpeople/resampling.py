@@ -222,23 +222,40 @@ def resample_by_cell(
     if c.shape != w.shape or c.ndim != 1:
         raise ValueError(f"cells and weights must be 1-D of equal length, got {c.shape} and {w.shape}")
     if jit.enabled("pfpeople"):
-        ancestors, cell_mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=fn)
-        new_cells = c[ancestors]
-        n_new = np.bincount(new_cells, minlength=n_cells)
-        share = np.divide(cell_mass, n_new, out=np.zeros(n_cells), where=n_new > 0)
-        return ancestors, share[new_cells]
+        ancestors, mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=fn)
+    else:
+        forced, mass = _forced_numpy(c, w, n, n_cells, rng)
+        k = forced.size
+        rest = fn(w, n - k, rng=rng) if n > k else np.zeros(0, dtype=np.intp)
+        ancestors = np.concatenate((forced, rest))
+    return ancestors, _shares(c[ancestors], mass, n_cells)
+
+
+def _shares(new_cells: NDArray[np.intp], mass: NDArray[np.float64], n_cells: int) -> NDArray[np.float64]:
+    """The new weights (n,): each cell's mass ``mass`` (n_cells,) shared equally by its new particles, whose cells
+    are ``new_cells`` (n,)."""
+    n_new = np.bincount(new_cells, minlength=n_cells)
+    share = np.divide(mass, n_new, out=np.zeros(n_cells), where=n_new > 0)
+    return share[new_cells]
+
+
+def _forced_numpy(
+    c: NDArray[np.intp], w: NDArray[np.float64], n: int, n_cells: int, rng: np.random.Generator
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Checks of :func:`resample_by_cell` and its one ancestor per occupied cell, drawn within the cell by weight
+    (numpy). Returns the forced ancestors (K,), sorted by cell, and the mass per cell (n_cells,)."""
     if not np.all(np.isfinite(w)) or (w.size and w.min() < 0.0):
         raise ValueError("weights must be finite and non-negative")
     if c.size and (c.min() < 0 or c.max() >= n_cells):
         raise ValueError(f"cells must lie in [0, {n_cells})")
-    mass = np.bincount(c, weights=w, minlength=n_cells)
+    mass = np.bincount(c, weights=w, minlength=n_cells).astype(np.float64, copy=False)
     occupied = np.flatnonzero(mass > 0.0)
     k = occupied.size
     if k == 0:
         raise ValueError("weights are all zero: nothing to resample")
     if n < k:
         raise ValueError(f"n={n} particles cannot keep one in each of the {k} cells holding mass")
-    # One particle per occupied cell, by weight within the cell: sort by cell (radix sort on small ints).
+    # Sort by cell (radix sort on small ints); the draw is a position in the cell's stretch of the running sum.
     key = c.astype(np.int16 if n_cells <= np.iinfo(np.int16).max else np.int32)
     order = np.argsort(key, kind="stable")
     cum = np.cumsum(w[order])
@@ -249,13 +266,7 @@ def resample_by_cell(
     target = before[occupied] + rng.random(k) * mass[occupied]
     pos = np.searchsorted(cum, target, side="right")
     pos = np.clip(pos, start[occupied], end[occupied] - 1)
-    forced = order[pos]
-    rest = fn(w, n - k, rng=rng) if n > k else np.zeros(0, dtype=np.intp)
-    ancestors = np.concatenate((forced, rest))
-    new_cells = c[ancestors]
-    n_new = np.bincount(new_cells, minlength=n_cells)
-    share = np.divide(mass, n_new, out=np.zeros(n_cells), where=n_new > 0)
-    return ancestors, share[new_cells]
+    return order[pos], mass
 
 
 def _forced_compiled(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from evaluation import bench_pipeline
@@ -62,3 +63,15 @@ def test_busy_loops_end_with_the_block() -> None:
         spinning = [p for p in psutil.Process().children() if p.pid not in before]
         assert len(spinning) == 2 and all(p.is_running() for p in spinning)
     assert not any(p.is_running() and p.status() != psutil.STATUS_ZOMBIE for p in spinning)
+
+
+def test_worker_names_the_motion_model_of_this_checkout_and_of_a_release() -> None:
+    from types import SimpleNamespace
+
+    from gridbridge import GridFilter
+    from pfpeople import ParticleFilter, PersistentSampling
+
+    pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(0), people_motion=PersistentSampling())
+    assert bench_pipeline._motion_model(pf) == "persistent"
+    assert bench_pipeline._motion_model(SimpleNamespace(motion_model="paper")) == "paper"  # a release's filter
+    assert bench_pipeline._motion_model(GridFilter()) is None

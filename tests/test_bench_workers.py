@@ -147,3 +147,17 @@ def test_default_baseline_is_a_revision_of_this_repository() -> None:
     ]
     assert subprocess.run(git, capture_output=True, check=False).returncode == 0
     assert sys.executable  # the worker runs with this interpreter
+
+
+def test_particle_worker_builds_the_filter_with_either_constructor(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The worker's shim: this checkout's components, or a release's keywords when it has no components."""
+    from pfpeople.components import Resampling
+
+    pf = bench_particles._particle_filter(900, ess_threshold=2.0, resampler=bench_particles.filterpy_systematic)
+    assert pf.resampling == Resampling(scheme=bench_particles.filterpy_systematic, ess_threshold=2.0)
+    assert bench_particles._particle_filter(900).resampling == Resampling()
+    calls: list[dict] = []
+    monkeypatch.setitem(sys.modules, "pfpeople.components", None)  # a release before the components
+    monkeypatch.setattr(bench_particles, "ParticleFilter", lambda **kw: calls.append(kw))
+    bench_particles._particle_filter(900, ess_threshold=2.0)
+    assert calls[0]["n_particles"] == 900 and calls[0]["ess_threshold"] == 2.0 and "resampling" not in calls[0]

@@ -26,6 +26,7 @@ from gridbridge import (
 )
 from gridbridge.ego_motion import odometry_pose
 from gridbridge.geometry import Pose2D
+from pfpeople.components import PaperSampling, VelocityEgoSampling
 from pfpeople.motion import apply_ego_motion, sample_ego_poses
 from pfpeople.odometry import odometry_between
 from pfpeople.output import RunWriter, load_run
@@ -160,7 +161,12 @@ def test_particle_ego_motion_moves_particles_by_a_pure_sideways_motion() -> None
     np.testing.assert_array_equal(spec.flat_index(st.x, st.y), cells - 1)
     # Through the particle filter: its rasterised sensor prior is the blob one cell further in -y.
     bel, (i, j) = _blob(spec)
-    pf = ParticleFilter(spec, motion=PeopleMotion(p_stationary=1.0), noise=NOISELESS, rng=np.random.default_rng(13))
+    pf = ParticleFilter(
+        spec,
+        people_motion=PaperSampling(motion=PeopleMotion(p_stationary=1.0)),
+        ego_motion=VelocityEgoSampling(noise=NOISELESS),
+        rng=np.random.default_rng(13),
+    )
     pf.reset(bel)
     pred = pf.predict(odo, 0.3)
     assert np.unravel_index(np.argmax(pred.sensor_prior), spec.shape) == (i, j - 1)

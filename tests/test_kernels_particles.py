@@ -13,20 +13,24 @@ from evaluation.bench_particles import filterpy_systematic
 from gridbridge import GridSpec, Odometry, jit
 from gridbridge.components import Appearance, BeliefBounds
 from pfpeople.buffers import BufferPool
+from pfpeople.components import PaperSampling, PersistentSampling, Resampling
 from pfpeople.particle_filter import ParticleFilter
 from pfpeople.resampling import resample_by_cell
 
 pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
 
 DETECTIONS = [np.array([[3.0, 0.5], [5.0, -1.0]]), np.array([[3.1, 0.4]]), np.array([[4.0, 0.0]])]
+EVERY_STEP = 2.0  # an ESS threshold above 1: every step resamples
 CONFIGS = [
     {},
-    {"max_overflow": 0.1},
-    {"motion_model": "persistent"},
-    {"redraw_in_cell": True, "ess_threshold": 2.0},
-    {"resampler": "stratified", "ess_threshold": 2.0},
-    {"resampler": "residual", "appearance": Appearance(), "bounds": BeliefBounds()},
-    {"resampler": filterpy_systematic, "ess_threshold": 2.0},  # a callable (returning fewer than asked)
+    {"resampling": Resampling(max_overflow=0.1)},
+    {"people_motion": PersistentSampling()},
+    {"people_motion": PaperSampling(redraw_in_cell=True), "resampling": Resampling(ess_threshold=EVERY_STEP)},
+    {"people_motion": PersistentSampling(redraw_in_cell=True)},
+    {"resampling": Resampling(scheme="stratified", ess_threshold=EVERY_STEP)},
+    {"resampling": Resampling(scheme="residual"), "appearance": Appearance(), "bounds": BeliefBounds()},
+    # a callable (returning fewer than asked)
+    {"resampling": Resampling(scheme=filterpy_systematic, ess_threshold=EVERY_STEP)},
 ]
 
 
@@ -82,7 +86,7 @@ def test_a_state_with_particles_outside_the_grid_gives_the_same_bits() -> None:
 def test_step_records_are_never_written_by_later_steps() -> None:
     """The buffer pool reuses only arrays nothing else holds: a kept ParticleStep keeps its values."""
     with jit.override(True):
-        pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(3), ess_threshold=2.0)
+        pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(3), resampling=Resampling(ess_threshold=2.0))
         kept = [pf.step(DETECTIONS, Odometry(v=0.4, omega=0.1), 0.1) for _ in range(3)]
         copies = [(s.particles.x.copy(), s.particles.w.copy()) for s in kept]
         view = kept[-1].particles.vx[:5]

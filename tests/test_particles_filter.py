@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 
-from gridbridge import FilterStep, GridFilter, GridSpec, Odometry, PeopleMotion, rasterise
+from gridbridge import FilterStep, GridFilter, GridSpec, Odometry, PeopleMotion, SensorMotionNoise, rasterise
+from gridbridge.components import VelocityEgoMotion
 from gridbridge.limits import ResourceLimitError
+from pfpeople.components import PaperSampling, PeopleSampler, PersistentSampling, Resampling, VelocityEgoSampling
 from pfpeople.particle_filter import ParticleFilter, ParticleStep
 from pfpeople.particles import ParticleState, uniform_in_cells
 
+RNG = np.random.default_rng(0)
 DETS = [np.array([[3.0, 0.5], [5.0, -1.0]]), np.array([[3.1, 0.4]]), np.array([[4.0, 0.0]])]
 
 
@@ -39,7 +44,7 @@ def test_step_returns_filter_stages_and_particles_matching_posterior() -> None:
 
 
 def test_resampling_keeps_count_and_cell_mass() -> None:
-    pf = ParticleFilter(n_particles=5000, rng=np.random.default_rng(2), ess_threshold=2.0)  # every step
+    pf = ParticleFilter(n_particles=5000, rng=np.random.default_rng(2), resampling=Resampling(ess_threshold=2.0))
     for _ in range(3):
         out = pf.step(DETS, Odometry(v=0.4, omega=-0.2), 0.1)
         assert out.resampled
@@ -51,7 +56,8 @@ def test_overflow_slack_lets_births_accumulate_up_to_the_bound() -> None:
     """With ``max_overflow`` births accumulate: the count grows above N between resamplings, never above
     (1 + max_overflow) N after a step, and a resampling restores exactly N; the mass stays the posterior."""
     n, slack = 5000, 0.1
-    pf = ParticleFilter(n_particles=n, rng=np.random.default_rng(2), ess_threshold=0.0, max_overflow=slack)
+    slack_policy = Resampling(ess_threshold=0.0, max_overflow=slack)
+    pf = ParticleFilter(n_particles=n, rng=np.random.default_rng(2), resampling=slack_policy)
     sizes, resampled = [], []
     for _ in range(12):
         out = pf.step(DETS, Odometry(v=0.4, omega=-0.2), 0.1)
@@ -64,9 +70,9 @@ def test_overflow_slack_lets_births_accumulate_up_to_the_bound() -> None:
     assert 0 < sum(resampled) < len(resampled)
     # The memory limit counts the largest count between resamplings, and says so.
     with pytest.raises(ResourceLimitError, match=r"n_particles x \(1 \+ max_overflow\) = 300000000"):
-        ParticleFilter(n_particles=150_000_000, rng=np.random.default_rng(0), max_overflow=1.0)
+        ParticleFilter(n_particles=150_000_000, rng=np.random.default_rng(0), resampling=Resampling(max_overflow=1.0))
     # Without the slack every step whose births overflow resamples back to N.
-    pf0 = ParticleFilter(n_particles=n, rng=np.random.default_rng(2), ess_threshold=0.0)
+    pf0 = ParticleFilter(n_particles=n, rng=np.random.default_rng(2), resampling=Resampling(ess_threshold=0.0))
     for _ in range(4):
         out = pf0.step(DETS, Odometry(v=0.4, omega=-0.2), 0.1)
         assert out.particles.size <= n
@@ -75,13 +81,13 @@ def test_overflow_slack_lets_births_accumulate_up_to_the_bound() -> None:
 def test_same_seed_same_output() -> None:
     outs = []
     for _ in range(2):
-        pf = ParticleFilter(n_particles=3000, rng=np.random.default_rng(42), motion_model="persistent")
+        pf = ParticleFilter(n_particles=3000, rng=np.random.default_rng(42), people_motion=PersistentSampling())
         for _ in range(3):
             out = pf.step(DETS, (0.3, 0.1), 0.1)
         outs.append(out)
     np.testing.assert_array_equal(outs[0].posterior, outs[1].posterior)
     np.testing.assert_array_equal(outs[0].particles.x, outs[1].particles.x)
-    pf = ParticleFilter(n_particles=3000, rng=np.random.default_rng(43), motion_model="persistent")
+    pf = ParticleFilter(n_particles=3000, rng=np.random.default_rng(43), people_motion=PersistentSampling())
     for _ in range(3):
         other = pf.step(DETS, (0.3, 0.1), 0.1)
     assert not np.array_equal(other.posterior, outs[0].posterior)
@@ -97,7 +103,8 @@ def test_reset_restores_initial_belief() -> None:
 
 def _empty_block_filters(motion: PeopleMotion, n: int, seed: int) -> tuple[ParticleFilter, GridFilter, tuple]:
     spec = GridSpec()
-    pf = ParticleFilter(spec, motion=motion, n_particles=n, rng=np.random.default_rng(seed), redraw_in_cell=True)
+    people = PaperSampling(motion=motion, redraw_in_cell=True)
+    pf = ParticleFilter(spec, people_motion=people, n_particles=n, rng=np.random.default_rng(seed))
     gf = GridFilter(spec, motion=motion, form="linear")
     centre = spec.to_cell(4.05, 0.15)
     ci, cj = int(centre[0]), int(centre[1])
@@ -155,11 +162,8 @@ def test_particle_state_checks() -> None:
         ({"n_particles": 0}, "n_particles must be a positive integer"),
         ({"n_particles": -5}, "n_particles must be a positive integer"),
         ({"n_particles": 100}, "n_particles must be at least the number of grid cells"),
-        ({"resampler": "magic"}, "resampler must be one of"),
-        ({"motion_model": "teleport"}, "motion_model must be one of"),
-        ({"ess_threshold": float("nan")}, "ess_threshold"),
         ({"n_birth": 0}, "n_birth"),
-        ({"max_overflow": -0.1}, "max_overflow"),
+        ({"outside": 1.5}, "outside"),
     ],
 )
 def test_bad_constructor_arguments(kwargs: dict, match: str) -> None:
@@ -168,11 +172,64 @@ def test_bad_constructor_arguments(kwargs: dict, match: str) -> None:
         ParticleFilter(**args)
 
 
-def test_wrong_constructor_types_are_type_errors() -> None:
-    with pytest.raises(TypeError, match=r"rng must be a numpy\.random\.Generator"):
-        ParticleFilter(n_particles=1000, rng=3)  # type: ignore[arg-type]
-    with pytest.raises(TypeError, match="motion must be a PeopleMotion"):
-        ParticleFilter(n_particles=1000, motion=1.4, rng=np.random.default_rng(0))  # type: ignore[arg-type]
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: Resampling(scheme="magic"), r"Resampling\.scheme must be one of"),
+        (lambda: Resampling(ess_threshold=float("nan")), r"Resampling\.ess_threshold"),
+        (lambda: Resampling(max_overflow=-0.1), r"Resampling\.max_overflow"),
+        (lambda: VelocityEgoSampling(pool=0), r"VelocityEgoSampling\.pool"),
+    ],
+)
+def test_bad_component_values(make: Callable[[], object], match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: ParticleFilter(n_particles=1000, rng=3), r"rng must be a numpy\.random\.Generator"),
+        (lambda: ParticleFilter(rng=RNG, people_motion=PeopleMotion()), "people_motion must be a PeopleSampler"),
+        (lambda: ParticleFilter(rng=RNG, people_motion="persistent"), "people_motion must be a PeopleSampler"),
+        (lambda: ParticleFilter(rng=RNG, ego_motion=VelocityEgoMotion()), "ego_motion must be a VelocityEgoSampling"),
+        (lambda: ParticleFilter(rng=RNG, resampling="systematic"), "resampling must be a Resampling"),
+        (lambda: ParticleFilter(rng=RNG, likelihood=0.5), "likelihood must be a DetectionLikelihood"),
+        (lambda: PaperSampling(motion=1.4), r"PaperSampling\.motion must be a PeopleMotion"),
+        (lambda: PaperSampling(redraw_in_cell=1), r"PaperSampling\.redraw_in_cell must be a bool"),
+        (lambda: PersistentSampling(persistent=PeopleMotion()), r"PersistentSampling\.persistent must be a Persis"),
+        (lambda: VelocityEgoSampling(noise=0.1), r"VelocityEgoSampling\.noise must be a SensorMotionNoise"),
+        (lambda: Resampling(scheme=3), r"Resampling\.scheme must be a name in .* or a callable, got int"),
+    ],
+)
+def test_wrong_constructor_and_component_types_are_type_errors(make: Callable[[], object], match: str) -> None:
+    with pytest.raises(TypeError, match=match):
+        make()
+
+
+def test_default_components_are_the_papers() -> None:
+    pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(0))
+    assert pf.people_motion == PaperSampling(motion=PeopleMotion(), redraw_in_cell=False)
+    assert pf.ego_motion == VelocityEgoSampling(noise=SensorMotionNoise(), pool=4096)
+    assert pf.resampling == Resampling(scheme="systematic", ess_threshold=0.5, max_overflow=0.0)
+    assert pf.motion is pf.people_motion.motion and pf.noise is pf.ego_motion.noise
+
+
+def test_a_new_people_sampler_plugs_in() -> None:
+    """Any object with the PeopleSampler interface is a people motion; here everyone stands still."""
+
+    class Standing:
+        motion = PeopleMotion()
+        redraw_in_cell = False
+
+        def move(self, state: ParticleState, dt: float, *, rng: np.random.Generator) -> None:
+            state.vx, state.vy = np.zeros(state.size), np.zeros(state.size)
+
+    pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(0), people_motion=Standing())
+    x0 = pf.state.x.copy()
+    pf.predict(None, 0.1)
+    assert isinstance(pf.people_motion, PeopleSampler)
+    np.testing.assert_array_equal(pf.state.x[: x0.size], x0)  # nobody moved; the border's births follow
 
 
 def test_bad_step_input_changes_nothing() -> None:

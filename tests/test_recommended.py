@@ -16,11 +16,20 @@ from gridbridge import GridFilter, GridSpec
 from gridbridge.classifiers import PeakClassifier, classify_peaks
 from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction
 from gridbridge.likelihoods import DeMorganLikelihood, IndependentLikelihood
-from gridbridge.params import CALIBRATED_LASER_DETECTORS, PAPER_DETECTORS
-from pfpeople import ParticleFilter
+from gridbridge.params import CALIBRATED_LASER_DETECTORS, PAPER_DETECTORS, PeopleMotion, SensorMotionNoise
+from pfpeople import ParticleFilter, PersistentMotion
 from pfpeople.bag.config import ClassifierConfig, FilterConfig, config_from_mapping
 from pfpeople.bag.reader import BagSource
-from pfpeople.filters import BELIEF_MIN, DEFAULT_OVERFLOW, PEAK_THRESHOLD, build_classifier, build_filter, grid_for_scan
+from pfpeople.components import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling, Resampling, VelocityEgoSampling
+from pfpeople.filters import (
+    BELIEF_MIN,
+    DEFAULT_MOTION_MODEL,
+    DEFAULT_OVERFLOW,
+    PEAK_THRESHOLD,
+    build_classifier,
+    build_filter,
+    grid_for_scan,
+)
 from pfpeople.mot import TRACK_COLUMNS
 from pfpeople.output import load_run
 from pfpeople.pipeline import Pipeline
@@ -40,6 +49,31 @@ def test_grid_for_scan_hand_values() -> None:
         grid_for_scan(1.0, -1.0, 5.0)
 
 
+@pytest.mark.parametrize(
+    ("mode", "motion_model", "max_overflow"),
+    [("recommended", "persistent", 0.1), ("paper", "paper", 0.0)],
+)
+def test_particle_components_from_the_config_are_the_previous_defaults(
+    mode: str, motion_model: str, max_overflow: float
+) -> None:
+    """The ``[filter]`` keys map to the components that the former constructor's defaults and keywords built:
+    ``motion_model`` to the sampler (the paper's ``PeopleMotion``, the default ``PersistentMotion``), the
+    default noise and a pool of 4096 draws, systematic resampling below half the count and the mode's slack."""
+    pf = build_filter(FilterConfig(kind="particle", mode=mode), GridSpec(), PAPER_DETECTORS)  # type: ignore[arg-type]
+    assert isinstance(pf, ParticleFilter)
+    if motion_model == "persistent":
+        assert pf.people_motion == PersistentSampling(motion=PeopleMotion(), persistent=PersistentMotion())
+    else:
+        assert pf.people_motion == PaperSampling(motion=PeopleMotion(), redraw_in_cell=False)
+    assert pf.people_motion.name == motion_model == DEFAULT_MOTION_MODEL[mode]  # type: ignore[attr-defined]
+    assert pf.ego_motion == VelocityEgoSampling(noise=SensorMotionNoise(), pool=4096)
+    assert pf.resampling == Resampling(scheme="systematic", ess_threshold=0.5, max_overflow=max_overflow)
+    assert max_overflow == DEFAULT_OVERFLOW[mode] and pf.n_birth == 2
+    for name, cls in PEOPLE_SAMPLERS.items():
+        cfg = FilterConfig(kind="particle", mode=mode, motion_model=name)  # type: ignore[arg-type]
+        assert type(build_filter(cfg, GridSpec(), PAPER_DETECTORS).people_motion) is cls  # type: ignore[union-attr]
+
+
 def test_build_filter_composes_the_modes() -> None:
     spec = GridSpec()
     paper = build_filter(FilterConfig(mode="paper"), spec, PAPER_DETECTORS)
@@ -56,12 +90,15 @@ def test_build_filter_composes_the_modes() -> None:
     pf = build_filter(FilterConfig(kind="particle"), spec, CALIBRATED_LASER_DETECTORS)
     assert isinstance(pf, ParticleFilter) and isinstance(pf.likelihood, IndependentLikelihood)
     assert pf.n_particles == cfg.particles_for(spec.n_cells)
-    assert pf.max_overflow == DEFAULT_OVERFLOW["recommended"] > 0 and pf.motion_model == "persistent"
+    assert pf.resampling.max_overflow == DEFAULT_OVERFLOW["recommended"] > 0
+    assert isinstance(pf.people_motion, PersistentSampling)
     paper_pf = build_filter(FilterConfig(kind="particle", mode="paper"), spec, PAPER_DETECTORS)
-    assert paper_pf.max_overflow == 0.0 and paper_pf.motion_model == "paper"  # the grid's prediction, sampled
+    assert isinstance(paper_pf, ParticleFilter) and paper_pf.resampling.max_overflow == 0.0
+    assert isinstance(paper_pf.people_motion, PaperSampling)  # the grid's prediction, sampled
     explicit = FilterConfig(kind="particle", motion_model="paper")
-    assert build_filter(explicit, spec, CALIBRATED_LASER_DETECTORS).motion_model == "paper"
-    assert build_filter(FilterConfig(kind="particle", max_overflow=0.3), spec, PAPER_DETECTORS).max_overflow == 0.3
+    assert build_filter(explicit, spec, CALIBRATED_LASER_DETECTORS).people_motion == PaperSampling()  # type: ignore[union-attr]
+    overflow = build_filter(FilterConfig(kind="particle", max_overflow=0.3), spec, PAPER_DETECTORS)
+    assert overflow.resampling == Resampling(max_overflow=0.3)  # type: ignore[union-attr]
     with pytest.raises(ValueError, match="form must be 'linear'"):
         build_filter(FilterConfig(kind="particle", form="paper"), spec, CALIBRATED_LASER_DETECTORS)
 
