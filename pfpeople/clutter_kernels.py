@@ -1,5 +1,5 @@
 """Compiled free-space tracing and evidence update of :class:`pfpeople.clutter.StaticClutterMap` (numba; see
-:mod:`pfpeople._numba`).
+:mod:`gridbridge.jit`, scope ``"pfpeople"``).
 
 :func:`update_evidence` does what the numpy code of ``StaticClutterMap.update`` does after the scan's cells are
 known (the free cells along the traced rays, the people's cells, the protection of the cells beside a return,
@@ -14,9 +14,10 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from pfpeople._numba import njit
+from gridbridge import jit as _jit
+from gridbridge.jit import jit as njit
 
-__all__ = ["update_evidence"]
+__all__ = ["update_evidence", "warm_up"]
 
 
 @njit
@@ -57,6 +58,34 @@ def update_evidence(
         ``(s - unknown) * decay + unknown``, hits gain ``dt`` up to ``s_max``, free cells lose the decrement down
         to ``s_min``.
     """
+    free, hit = _marks(n, hit_cells, human_cells, ru, n_free, steps, origin, neighbours)
+    s0, decay, dt, s_max, dec, s_min = params[0], params[1], params[2], params[3], params[4], params[5]
+    for i in range(n * n):
+        v = s[i] - s0
+        v = v * decay
+        v = v + s0
+        if hit[i]:
+            v = v + dt
+            v = v if v <= s_max else s_max
+        if free[i]:
+            v = v - dec
+            v = v if v >= s_min else s_min
+        s[i] = v
+
+
+@njit
+def _marks(
+    n: int,
+    hit_cells: NDArray[np.intp],
+    human_cells: NDArray[np.intp],
+    ru: NDArray[np.float64],
+    n_free: NDArray[np.intp],
+    steps: NDArray[np.float64],
+    origin: NDArray[np.float64],
+    neighbours: NDArray[np.intp],
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:  # pragma: no cover - compiled
+    """The free and the hit cells of one scan, flat (n * n,) each (the arguments are :func:`update_evidence`'s):
+    free along the traced rays and at the people's returns, not beside a hit (``neighbours``)."""
     ncell = n * n
     free = np.zeros(ncell, dtype=np.bool_)
     for b in range(n_free.size):
@@ -72,15 +101,15 @@ def update_evidence(
         hit[c] = True
         for off in neighbours:
             free[(c + off) % ncell] = False
-    s0, decay, dt, s_max, dec, s_min = params[0], params[1], params[2], params[3], params[4], params[5]
-    for i in range(ncell):
-        v = s[i] - s0
-        v = v * decay
-        v = v + s0
-        if hit[i]:
-            v = v + dt
-            v = v if v <= s_max else s_max
-        if free[i]:
-            v = v - dec
-            v = v if v >= s_min else s_min
-        s[i] = v
+    return free, hit
+
+
+def warm_up() -> None:
+    """Load (or compile) :func:`update_evidence` now, so the first scan of a run does not wait for it (nothing
+    happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
+    if not _jit.enabled("pfpeople"):
+        return
+    no = np.zeros(0, dtype=np.intp)
+    params = np.array([1.0, 1.0, 0.1, 20.0, 0.05, -1.0])
+    ev = np.zeros(4)
+    update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)

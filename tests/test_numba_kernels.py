@@ -10,11 +10,13 @@ import numpy as np
 import pytest
 
 from gridbridge import jit
-from pfpeople import _numba
+from gridbridge.kernels import pairwise_sum
+from pfpeople import clutter_kernels
+from pfpeople.detectors import _kernels
 from pfpeople.detectors import segments as seg
 from pfpeople.sensors import LaserScan
 
-pytestmark = pytest.mark.skipif(not _numba.enabled(), reason="numba is not installed or PFPEOPLE_NUMBA=0")
+pytestmark = pytest.mark.skipif(not jit.enabled("pfpeople"), reason="numba is not installed or PFPEOPLE_NUMBA=0")
 
 
 def _scans(n: int = 40) -> list[LaserScan]:
@@ -76,7 +78,7 @@ def test_pairwise_sum_is_numpys_reduceat() -> None:
     for _ in range(50):
         v = rng.normal(size=700) * 10 ** rng.uniform(-3, 3, size=700)
         lo, n = int(rng.integers(0, 300)), int(rng.integers(1, 400))
-        assert v[lo] + _numba.pairwise_sum(v, lo + 1, n - 1) == np.add.reduceat(v, [lo, lo + n])[0]
+        assert v[lo] + pairwise_sum(v, lo + 1, n - 1) == np.add.reduceat(v, [lo, lo + n])[0]
 
 
 def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -104,10 +106,12 @@ def test_warm_up_and_disabled_fallback() -> None:
     import subprocess
     import sys
 
-    _numba.warm_up()
+    _kernels.warm_up()
+    clutter_kernels.warm_up()
     code = (
-        "import sys; from pfpeople import _numba; from pfpeople.detectors import segments; "
-        "assert not _numba.enabled(); _numba.warm_up(); print('ok')"
+        "import sys; from gridbridge import jit; from pfpeople import clutter_kernels; "
+        "from pfpeople.detectors import _kernels, segments; "
+        "assert not jit.enabled('pfpeople'); _kernels.warm_up(); clutter_kernels.warm_up(); print('ok')"
     )
     env = {**__import__("os").environ, "PFPEOPLE_NUMBA": "0"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
