@@ -360,38 +360,70 @@ def pairwise_sum(a: NDArray[np.float64], lo: int, n: int) -> float:  # pragma: n
     Parameters
     ----------
     a : ndarray, shape (N,)
-        The values (any unit; contiguous or not).
+        The values (any unit).
     lo, n : int
         The first index and the number of values (``0 <= lo``, ``lo + n <= N``).
 
     Returns
     -------
     float
-        The sum, bit for bit ``np.add.reduce(a[lo:lo + n])`` of a contiguous float64 slice.
+        The sum, bit for bit ``np.add.reduce(a[lo:lo + n])`` of a contiguous float64 slice (``a[lo:lo + n].sum()``).
+
+    Notes
+    -----
+    numpy halves a block of more than 128 values recursively; here the halves are walked with an explicit stack
+    (the same tree, left half first): a recursive kernel cannot be loaded from numba's cache into a cached
+    caller of another module.
     """
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    f_lo = np.empty(130, dtype=np.intp)  # the frames: a block, and how far it is (0 new, 1 left done, 2 both)
+    f_n = np.empty(130, dtype=np.intp)
+    f_stage = np.zeros(130, dtype=np.intp)
+    vals = np.empty(130)
+    f_lo[0], f_n[0], top, nv = lo, n, 1, 0
+    while top:
+        b_lo, b_n, stage = f_lo[top - 1], f_n[top - 1], f_stage[top - 1]
+        if b_n <= 128:
+            vals[nv] = _pairwise_block(a, b_lo, b_n)
+            nv += 1
+            top -= 1
+            continue
+        n2 = b_n // 2
+        n2 -= n2 % 8
+        if stage == 2:
+            vals[nv - 2] = vals[nv - 2] + vals[nv - 1]
+            nv -= 1
+            top -= 1
+            continue
+        f_stage[top - 1] = stage + 1
+        f_lo[top], f_n[top], f_stage[top] = (b_lo, n2, 0) if stage == 0 else (b_lo + n2, b_n - n2, 0)
+        top += 1
+    return vals[0]
+
+
+@jit
+def _pairwise_block(a: NDArray[np.float64], lo: int, n: int) -> float:  # pragma: no cover - compiled
+    """:func:`pairwise_sum` of at most 128 values: sequential below 8, else 8 accumulators."""
     if n < 8:
         res = 0.0
         for i in range(n):
             res += a[lo + i]
         return res
-    if n <= 128:
-        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-        m = n - n % 8
-        for i in range(8, m, 8):
-            j = lo + i
-            r0 += a[j]
-            r1 += a[j + 1]
-            r2 += a[j + 2]
-            r3 += a[j + 3]
-            r4 += a[j + 4]
-            r5 += a[j + 5]
-            r6 += a[j + 6]
-            r7 += a[j + 7]
-        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-        for i in range(m, n):
-            res += a[lo + i]
-        return res
-    n2 = n // 2
-    n2 -= n2 % 8
-    return pairwise_sum(a, lo, n2) + pairwise_sum(a, lo + n2, n - n2)
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    m = n - n % 8
+    for i in range(8, m, 8):
+        j = lo + i
+        r0 += a[j]
+        r1 += a[j + 1]
+        r2 += a[j + 2]
+        r3 += a[j + 3]
+        r4 += a[j + 4]
+        r5 += a[j + 5]
+        r6 += a[j + 6]
+        r7 += a[j + 7]
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(m, n):
+        res += a[lo + i]
+    return res

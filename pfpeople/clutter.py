@@ -77,7 +77,7 @@ from scipy.spatial import cKDTree
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
 from gridbridge.validation import check_int, check_real
-from pfpeople.clutter_kernels import update_evidence
+from pfpeople.clutter_kernels import ball_means, update_evidence
 from pfpeople.scanmatch import ScanOdometry
 from pfpeople.selfreturns import SelfReturns
 
@@ -572,12 +572,15 @@ class StaticClutterMap:
         out = np.zeros(pos.shape[0])
         if not pos.shape[0] or not self._hit_xy.shape[0]:
             return out
-        if self._hit_tree is None:
-            self._hit_tree = cKDTree(self._hit_xy)
         score = self._return_scores()
-        for m, idx in enumerate(self._hit_tree.query_ball_point(pos, r=self.config.query_radius)):
-            if idx:
-                out[m] = float(score[idx].mean())
+        if _jit.enabled("pfpeople"):  # the same means, by a dense distance test (pfpeople.clutter_kernels)
+            out = ball_means(np.ascontiguousarray(self._hit_xy), score, pos, float(self.config.query_radius))
+        else:
+            if self._hit_tree is None:
+                self._hit_tree = cKDTree(self._hit_xy)
+            for m, idx in enumerate(self._hit_tree.query_ball_point(pos, r=self.config.query_radius)):
+                if idx:
+                    out[m] = float(score[idx].mean())
         if self._people.shape[0]:
             out[near_any(pos, self._people, self.config.exclude_radius)] = 0.0
         return out

@@ -16,8 +16,9 @@ from numpy.typing import NDArray
 
 from gridbridge import jit as _jit
 from gridbridge.jit import jit as njit
+from gridbridge.kernels import pairwise_sum
 
-__all__ = ["update_evidence", "warm_up"]
+__all__ = ["ball_means", "update_evidence", "warm_up"]
 
 
 @njit
@@ -104,12 +105,53 @@ def _marks(
     return free, hit
 
 
+@njit
+def ball_means(
+    xy: NDArray[np.float64], score: NDArray[np.float64], pos: NDArray[np.float64], radius: float
+) -> NDArray[np.float64]:  # pragma: no cover - compiled
+    """Mean ``score`` of the points ``xy`` within ``radius`` of each position, as
+    ``score[cKDTree(xy).query_ball_point(pos, radius)].mean()`` (0 where none).
+
+    Parameters
+    ----------
+    xy : ndarray, shape (H, 2)
+        Points (m).
+    score : ndarray, shape (H,)
+        Their scores.
+    pos : ndarray, shape (M, 2)
+        Query positions (m, the frame of ``xy``).
+    radius : float
+        Query radius (m): a point counts when ``dx * dx + dy * dy <= radius * radius`` (the k-d tree's test).
+
+    Returns
+    -------
+    ndarray, shape (M,)
+        The means: the points in index order (the tree's sorted answer) summed as numpy's mean does
+        (:func:`gridbridge.kernels.pairwise_sum`), divided by their number.
+    """
+    r2 = radius * radius
+    out = np.zeros(pos.shape[0])
+    buf = np.empty(xy.shape[0])
+    for m in range(pos.shape[0]):
+        k = 0
+        for i in range(xy.shape[0]):
+            dx = xy[i, 0] - pos[m, 0]
+            dy = xy[i, 1] - pos[m, 1]
+            if dx * dx + dy * dy <= r2:
+                buf[k] = score[i]
+                k += 1
+        if k:
+            out[m] = pairwise_sum(buf, 0, k) / k
+    return out
+
+
 def warm_up() -> None:
-    """Load (or compile) :func:`update_evidence` now, so the first scan of a run does not wait for it (nothing
-    happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
+    """Load (or compile) :func:`update_evidence` and :func:`ball_means` now, so the first scan of a run does not
+    wait for them (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
     if not _jit.enabled("pfpeople"):
         return
     no = np.zeros(0, dtype=np.intp)
     params = np.array([1.0, 1.0, 0.1, 20.0, 0.05, -1.0])
     ev = np.zeros(4)
     update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)
+    ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)

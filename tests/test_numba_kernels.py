@@ -150,3 +150,42 @@ def test_pipeline_run_same_outputs_compiled_and_numpy(tmp_path: Path) -> None:
     for name in ("people.csv", "tracks.csv", "detections.csv", "support.csv", "scans.npy", "grids.npy"):
         assert (tmp_path / "run_True" / name).read_bytes() == (tmp_path / "run_False" / name).read_bytes(), name
     assert len((tmp_path / "run_True" / "detections.csv").read_text().splitlines()) > 10
+
+
+def test_ball_means_equal_the_trees() -> None:
+    """``ball_means`` is ``score[cKDTree(xy).query_ball_point(pos, r)].mean()`` bit for bit, also for points at
+    exactly the radius (a grid of points and a radius of whole cells) and for clusters of 1 to 300 points."""
+    from scipy.spatial import cKDTree
+
+    from pfpeople.clutter_kernels import ball_means
+
+    rng = np.random.default_rng(5)
+    grid = np.stack(np.meshgrid(np.arange(-5, 6) * 0.25, np.arange(-5, 6) * 0.25), axis=-1).reshape(-1, 2)
+    for k in range(300):
+        n = int(rng.integers(1, 700))
+        xy = rng.normal(0, 10 ** rng.uniform(-1, 0.5), (n, 2)) if k % 3 else grid
+        score = rng.random(xy.shape[0]) * 10 ** rng.uniform(-3, 3)
+        pos = np.concatenate((xy[rng.integers(0, xy.shape[0], 4)], rng.normal(0, 1, (3, 2))))
+        r = 0.5 if k % 3 == 0 else float(rng.uniform(0.05, 3.0))
+        want = np.zeros(pos.shape[0])
+        for m, idx in enumerate(cKDTree(xy).query_ball_point(pos, r=r)):
+            if idx:
+                want[m] = float(score[idx].mean())
+        assert ball_means(np.ascontiguousarray(xy), score, pos, r).tobytes() == want.tobytes()
+
+
+def test_static_scores_compiled_equal_numpy() -> None:
+    """The clutter map's queries (``static_score`` and ``static_points``) agree bit for bit between the paths."""
+    from pfpeople.clutter import StaticClutterMap
+
+    m = StaticClutterMap()
+    rng = np.random.default_rng(12)
+    for scan in _scans(25):
+        pts = scan.points()
+        m.update(pts, dt=0.13)
+        q = np.concatenate((pts[np.isfinite(pts).all(axis=1)][::5], rng.normal(0, 3, (10, 2))))
+        got = {}
+        for on in (True, False):
+            with jit.override(on, "pfpeople"):
+                got[on] = (m.static_score(q).tobytes(), m.static_points(q).tobytes())
+        assert got[True] == got[False]
