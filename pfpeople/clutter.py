@@ -77,7 +77,7 @@ from scipy.spatial import cKDTree
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
 from gridbridge.validation import check_int, check_real
-from pfpeople.clutter_kernels import ball_means, update_evidence
+from pfpeople.clutter_kernels import ball_means, moving_update, update_evidence
 from pfpeople.scanmatch import ScanOdometry
 from pfpeople.selfreturns import SelfReturns
 
@@ -699,12 +699,21 @@ class MovingPeople:
         if ego is not None:
             self.pose = self.pose.compose(ego)
         det = self.pose.apply(det) if det.shape[0] else det
-        self._missed += 1
-        self._start_tracks(det[~self._associate(det)])
-        self._update_motion()
-        alive = self._missed <= self.max_missed
-        for name in ("_pos", "_anchor_a", "_anchor_b", "_t_b", "_missed", "_moving", "_moved_t"):
-            setattr(self, name, getattr(self, name)[alive])
+        names = ("_pos", "_anchor_a", "_anchor_b", "_t_b", "_missed", "_moving", "_moved_t")
+        if _jit.enabled("pfpeople"):  # the same as below, compiled (pfpeople.clutter_kernels)
+            nan = math.nan
+            window, hold = nan if self.window is None else self.window, nan if self.hold is None else self.hold
+            tracks = tuple(getattr(self, name) for name in names)
+            new = moving_update(tracks, det, self.time, self.gate, window, self.min_distance, hold, self.max_missed)
+            for name, value in zip(names, new, strict=True):
+                setattr(self, name, value)
+        else:
+            self._missed += 1
+            self._start_tracks(det[~self._associate(det)])
+            self._update_motion()
+            alive = self._missed <= self.max_missed
+            for name in names:
+                setattr(self, name, getattr(self, name)[alive])
         sel = self._pos[self._moving]
         return self.pose.inverse().apply(sel) if sel.shape[0] else np.zeros((0, 2))
 

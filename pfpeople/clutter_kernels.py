@@ -10,6 +10,7 @@ map, with the same floating-point operations, so the two give the same evidence 
 from __future__ import annotations
 
 import math
+from typing import TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,7 +19,9 @@ from gridbridge import jit as _jit
 from gridbridge.jit import jit as njit
 from gridbridge.kernels import pairwise_sum
 
-__all__ = ["ball_means", "update_evidence", "warm_up"]
+_F: TypeAlias = NDArray[np.float64]
+
+__all__ = ["ball_means", "moving_update", "self_update", "update_evidence", "warm_up"]
 
 
 @njit
@@ -145,9 +148,112 @@ def ball_means(
     return out
 
 
+#: The tracks of :class:`pfpeople.clutter.MovingPeople`: positions, anchors a and b (T, 2) (m), anchor b's time
+#: (T,) (s), missed updates (T,), moving (T,), last time moved (T,) (s).
+_Tracks: TypeAlias = tuple[_F, _F, _F, _F, NDArray[np.int64], NDArray[np.bool_], _F]
+
+
+@njit
+def moving_update(
+    tracks: _Tracks, det: _F, now: float, gate: float, window: float, min_distance: float, hold: float, max_missed: int
+) -> _Tracks:  # pragma: no cover - compiled
+    """``MovingPeople.update``'s track update for the detections ``det`` (M, 2) (m, odometry frame) at time
+    ``now`` (s), as its numpy code does it: the greedy association (closest pairs first, ``np.argsort`` stable
+    order), the new tracks, the anchors every ``window / 2``, the moving flags, the dropped tracks. ``window``
+    and ``hold`` are NaN for None. Returns the new tracks (the arrays given are not changed)."""
+    pos, anc_a, anc_b, t_b, missed, moving, moved_t = tracks
+    pos, missed = pos.copy(), missed + 1
+    used = _associate(pos, missed, det, gate)
+    n_old, m = pos.shape[0], det.shape[0] - int(used.sum())
+    n = n_old + m
+    p2, a2, b2 = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
+    tb2, mi2, mv2, mt2 = np.empty(n), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_), np.empty(n)
+    p2[:n_old], a2[:n_old], b2[:n_old], tb2[:n_old] = pos, anc_a, anc_b, t_b
+    mi2[:n_old], mv2[:n_old], mt2[:n_old] = missed, moving, moved_t
+    q = n_old
+    for k in range(det.shape[0]):
+        if not used[k]:
+            p2[q], a2[q], b2[q] = det[k], det[k], det[k]
+            tb2[q], mi2[q], mv2[q], mt2[q] = now, 0, False, -np.inf
+            q += 1
+    half = 0.5 * window - 1e-9
+    for t in range(n):
+        if window == window and now - tb2[t] >= half:
+            a2[t] = b2[t]
+            b2[t], tb2[t] = p2[t], now
+        if math.hypot(p2[t, 0] - a2[t, 0], p2[t, 1] - a2[t, 1]) >= min_distance:
+            mt2[t] = now
+            mv2[t] = True
+        if hold == hold:
+            mv2[t] = mv2[t] and now - mt2[t] <= hold + 1e-9
+    alive = mi2 <= max_missed
+    return p2[alive], a2[alive], b2[alive], tb2[alive], mi2[alive], mv2[alive], mt2[alive]
+
+
+@njit
+def _associate(pos: _F, missed: NDArray[np.int64], det: _F, gate: float) -> NDArray[np.bool_]:  # pragma: no cover
+    """The association of :func:`moving_update`: tracks (T, 2) take the detections (M, 2) closest pair first
+    within ``gate`` (m); changes ``pos`` and ``missed`` in place, returns which detections were used (M,)."""
+    T, M = pos.shape[0], det.shape[0]
+    used = np.zeros(M, dtype=np.bool_)
+    if T == 0 or M == 0:
+        return used
+    d = np.empty(T * M)
+    for t in range(T):
+        for k in range(M):
+            d[t * M + k] = math.hypot(pos[t, 0] - det[k, 0], pos[t, 1] - det[k, 1])
+    for flat in np.argsort(d, kind="mergesort"):
+        t, k = flat // M, flat % M
+        if d[flat] > gate:
+            break
+        if used[k] or missed[t] == 0:
+            continue
+        used[k] = True
+        pos[t, 0], pos[t, 1], missed[t] = det[k, 0], det[k, 1], 0
+    return used
+
+
+@njit
+def self_update(
+    p: _F,
+    ref: _F,
+    travel: _F,
+    lim: tuple[float, float, float],
+    has_ego: bool,
+    ex: float,
+    ey: float,
+    c: float,
+    s: float,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:  # pragma: no cover - compiled
+    """``SelfReturns.update``'s streaks, as its numpy code does them: ``p`` (N, 2) the scan's end points (m,
+    laser frame; NaN rows), ``ref`` (N, 2) and ``travel`` (N,) each beam's streak (changed in place), ``lim`` =
+    ``(max_range, tolerance, travel)`` (m); with ``has_ego`` the previous laser frame in the current one is
+    ``(ex, ey)`` and rotation ``(c, s)`` (cos, sin of its yaw). Returns the self mask and the finite rows (N,)."""
+    max_range, tol, need = lim
+    n = p.shape[0]
+    mask = np.zeros(n, dtype=np.bool_)
+    finite = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        px, py = p[i, 0], p[i, 1]
+        finite[i] = math.isfinite(px) and math.isfinite(py)
+        valid = finite[i] and math.hypot(px, py) <= max_range
+        same = valid and math.hypot(px - ref[i, 0], py - ref[i, 1]) <= tol
+        if same:
+            if has_ego:
+                mx = ex + c * px - s * py
+                my = ey + s * px + c * py
+                travel[i] = travel[i] + math.hypot(mx - px, my - py)
+        else:
+            ref[i, 0], ref[i, 1] = (px, py) if valid else (math.nan, math.nan)
+            travel[i] = 0.0
+        mask[i] = same and travel[i] >= need
+    return mask, finite
+
+
 def warm_up() -> None:
-    """Load (or compile) :func:`update_evidence` and :func:`ball_means` now, so the first scan of a run does not
-    wait for them (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
+    """Load (or compile) :func:`update_evidence`, :func:`ball_means`, :func:`moving_update` and
+    :func:`self_update` now, so the first scan of a run does not wait for them (nothing happens when
+    ``gridbridge.jit.enabled("pfpeople")`` is False)."""
     if not _jit.enabled("pfpeople"):
         return
     no = np.zeros(0, dtype=np.intp)
@@ -155,3 +261,10 @@ def warm_up() -> None:
     ev = np.zeros(4)
     update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)
     ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
+    e = np.zeros((0, 2))
+    pts, ref = np.zeros((2, 2)), np.full((2, 2), np.nan)
+    self_update(pts, ref, np.zeros(2), (1.0, 0.05, 0.5), True, 0.0, 0.0, 1.0, 0.0)
+    tracks = (e, e, e, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0))
+    moving_update(
+        moving_update(tracks, np.zeros((1, 2)), 0.1, 0.3, 2.0, 0.3, 5.0, 8), np.ones((1, 2)), 0.2, 0.3, 2.0, 0.3, 5.0, 8
+    )
