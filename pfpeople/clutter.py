@@ -77,7 +77,7 @@ from scipy.spatial import cKDTree
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
 from gridbridge.validation import check_int, check_real
-from pfpeople.clutter_kernels import ball_means, moving_update, update_evidence
+from pfpeople.clutter_kernels import ball_means, moving_update, static_lookup, update_evidence
 from pfpeople.scanmatch import ScanOdometry
 from pfpeople.selfreturns import SelfReturns
 
@@ -547,9 +547,17 @@ class StaticClutterMap:
         ok = np.isfinite(pts).all(axis=1)
         if not ok.any():
             return out
+        c = self.config
+        ev = self.evidence.reshape(-1)
+        if _jit.enabled("pfpeople"):  # the same as below, compiled (pfpeople.clutter_kernels)
+            o, yaw = self.origin, self.pose.yaw
+            pose = (self.pose.x, self.pose.y, math.cos(yaw), math.sin(yaw))
+            lim = np.array([c.static_time, c.static_threshold - 1e-9])
+            out[ok] = static_lookup(pts[ok], ev, self.n, pose, (float(o[0]), float(o[1]), 1.0 / c.resolution), lim)
+            return out
         cells, inside = self.cell_of(self.pose.apply(pts[ok]))
-        score = self.evidence.reshape(-1)[cells] / self.config.static_time
-        out[ok] = inside & (score >= self.config.static_threshold - 1e-9)
+        score = ev[cells] / c.static_time
+        out[ok] = inside & (score >= c.static_threshold - 1e-9)
         return out
 
     def static_score(self, positions: ArrayLike) -> NDArray[np.float64]:

@@ -21,7 +21,7 @@ from gridbridge.kernels import pairwise_sum
 
 _F: TypeAlias = NDArray[np.float64]
 
-__all__ = ["ball_means", "moving_update", "self_update", "update_evidence", "warm_up"]
+__all__ = ["ball_means", "moving_update", "self_update", "static_lookup", "update_evidence", "warm_up"]
 
 
 @njit
@@ -250,10 +250,29 @@ def self_update(
     return mask, finite
 
 
+@njit
+def static_lookup(
+    pts: _F, ev: _F, n: int, pose: tuple[float, float, float, float], corner: tuple[float, float, float], lim: _F
+) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    """``StaticClutterMap.static_points`` of the finite points ``pts`` (N, 2) (m, sensor frame), as its numpy
+    code does it: moved into the map frame by ``pose`` = ``(x, y, cos yaw, sin yaw)``, the cell of each from
+    ``corner`` = ``(x0, y0, 1 / resolution)`` in the flat evidence ``ev`` (n * n,) (s), static when inside the
+    window and ``ev / lim[0] >= lim[1]`` (``static_time`` (s), ``static_threshold - 1e-9``). Returns (N,)."""
+    x, y, c, s = pose
+    x0, y0, inv = corner
+    out = np.zeros(pts.shape[0], dtype=np.bool_)
+    for k in range(pts.shape[0]):
+        px, py = pts[k, 0], pts[k, 1]
+        i = math.floor(((x + c * px - s * py) - x0) * inv)
+        j = math.floor(((y + s * px + c * py) - y0) * inv)
+        if i >= 0 and i < n and j >= 0 and j < n:
+            out[k] = ev[i * n + j] / lim[0] >= lim[1]
+    return out
+
+
 def warm_up() -> None:
-    """Load (or compile) :func:`update_evidence`, :func:`ball_means`, :func:`moving_update` and
-    :func:`self_update` now, so the first scan of a run does not wait for them (nothing happens when
-    ``gridbridge.jit.enabled("pfpeople")`` is False)."""
+    """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them
+    (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
     if not _jit.enabled("pfpeople"):
         return
     no = np.zeros(0, dtype=np.intp)
@@ -262,6 +281,7 @@ def warm_up() -> None:
     update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)
     ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
     e = np.zeros((0, 2))
+    static_lookup(np.zeros((1, 2)), np.zeros(4), 2, (0.0, 0.0, 1.0, 0.0), (-1.0, -1.0, 1.0), np.ones(2))
     pts, ref = np.zeros((2, 2)), np.full((2, 2), np.nan)
     self_update(pts, ref, np.zeros(2), (1.0, 0.05, 0.5), True, 0.0, 0.0, 1.0, 0.0)
     tracks = (e, e, e, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0))

@@ -84,11 +84,13 @@ def test_pairwise_sum_is_numpys_reduceat() -> None:
 def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
     """Two maps fed the same scans (a moving sensor, people to exclude, beams without a return) keep the same
     evidence bit for bit, one compiled and one in numpy."""
-    from pfpeople.clutter import StaticClutterMap
+    from pfpeople.clutter import ClutterConfig, StaticClutterMap
     from pfpeople.sensors import Pose2D
 
-    maps = {True: StaticClutterMap(), False: StaticClutterMap()}
+    cfg = ClutterConfig(static_time=0.5)
+    maps = {True: StaticClutterMap(cfg), False: StaticClutterMap(cfg)}
     rng = np.random.default_rng(11)
+    static = 0
     for k, scan in enumerate(_scans(30)):
         pts = scan.points()
         free = pts[np.isfinite(pts).all(axis=1)][::7] * 1.5
@@ -98,6 +100,13 @@ def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatc
             with jit.override(on, "pfpeople"):
                 m.update(pts, ego=ego, exclude=people, dt=0.05 + 0.01 * (k % 5), free=free)
         assert maps[True].evidence.tobytes() == maps[False].evidence.tobytes()
+        q = np.concatenate((pts, rng.normal(0, 20, (50, 2))))  # the map moved: the lookup's pose and window
+        with jit.override(True, "pfpeople"):
+            compiled = maps[True].static_points(q)
+        with jit.override(False, "pfpeople"):
+            assert compiled.tobytes() == maps[True].static_points(q).tobytes()
+        static += int(compiled.sum())
+    assert static > 0
     assert np.any(maps[True].evidence != maps[True].config.unknown_evidence)
 
 
