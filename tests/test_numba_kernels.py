@@ -79,6 +79,11 @@ def test_pairwise_sum_is_numpys_reduceat() -> None:
         v = rng.normal(size=700) * 10 ** rng.uniform(-3, 3, size=700)
         lo, n = int(rng.integers(0, 300)), int(rng.integers(1, 400))
         assert v[lo] + pairwise_sum(v, lo + 1, n - 1) == np.add.reduceat(v, [lo, lo + n])[0]
+    for _ in range(200):  # long blocks: numpy halves them down to 128 values, the kernel walks the same tree
+        n = int(rng.integers(129, 5000))
+        v = rng.normal(size=n + 10) * 10 ** rng.uniform(-5, 5, size=n + 10)
+        lo = int(rng.integers(0, 10))
+        assert pairwise_sum(v, lo, n) == v[lo : lo + n].sum()
 
 
 def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
