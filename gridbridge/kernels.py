@@ -12,6 +12,9 @@ kernel                 numpy twin                                   agreement (`
                        and :func:`scatter_max`                      the two kernels)
 =====================  ===========================================  ==========================================
 
+:func:`pairwise_sum` is numpy's pairwise summation (the order of ``np.add.reduce`` and ``np.add.reduceat``)
+for kernels elsewhere that must add as numpy does (:mod:`pfpeople.detectors._kernels`).
+
 Grids are ``(nx, ny)`` float64 arrays; ``grid = (x0, y0, resolution)`` (m) places cell ``[i, j]``'s centre at
 ``(x0 + (i + 0.5) r, y0 + (j + 0.5) r)`` in the sensor frame.
 """
@@ -29,6 +32,7 @@ __all__ = [
     "convolve_const",
     "fuse_update",
     "gaussian_args",
+    "pairwise_sum",
     "point_map",
     "predict_paper",
     "scatter_max",
@@ -346,3 +350,80 @@ def scatter_max(
     for k in range(flat.size):
         if flat[k] < cutoff:
             flat[k] = 0.0
+
+
+@jit
+def pairwise_sum(a: NDArray[np.float64], lo: int, n: int) -> float:  # pragma: no cover - compiled
+    """``a[lo:lo + n]`` summed in the order of numpy's pairwise summation (``pairwise_sum`` of
+    ``numpy/_core/src/umath/loops_utils.h.src``: 8 accumulators up to 128 values, halves above).
+
+    Parameters
+    ----------
+    a : ndarray, shape (N,)
+        The values (any unit).
+    lo, n : int
+        The first index and the number of values (``0 <= lo``, ``lo + n <= N``).
+
+    Returns
+    -------
+    float
+        The sum, bit for bit ``np.add.reduce(a[lo:lo + n])`` of a contiguous float64 slice (``a[lo:lo + n].sum()``).
+
+    Notes
+    -----
+    numpy halves a block of more than 128 values recursively; here the halves are walked with an explicit stack
+    (the same tree, left half first): a recursive kernel cannot be loaded from numba's cache into a cached
+    caller of another module.
+    """
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    f_lo = np.empty(130, dtype=np.intp)  # the frames: a block, and how far it is (0 new, 1 left done, 2 both)
+    f_n = np.empty(130, dtype=np.intp)
+    f_stage = np.zeros(130, dtype=np.intp)
+    vals = np.empty(130)
+    f_lo[0], f_n[0], top, nv = lo, n, 1, 0
+    while top:
+        b_lo, b_n, stage = f_lo[top - 1], f_n[top - 1], f_stage[top - 1]
+        if b_n <= 128:
+            vals[nv] = _pairwise_block(a, b_lo, b_n)
+            nv += 1
+            top -= 1
+            continue
+        n2 = b_n // 2
+        n2 -= n2 % 8
+        if stage == 2:
+            vals[nv - 2] = vals[nv - 2] + vals[nv - 1]
+            nv -= 1
+            top -= 1
+            continue
+        f_stage[top - 1] = stage + 1
+        f_lo[top], f_n[top], f_stage[top] = (b_lo, n2, 0) if stage == 0 else (b_lo + n2, b_n - n2, 0)
+        top += 1
+    return vals[0]
+
+
+@jit
+def _pairwise_block(a: NDArray[np.float64], lo: int, n: int) -> float:  # pragma: no cover - compiled
+    """:func:`pairwise_sum` of at most 128 values: sequential below 8, else 8 accumulators."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    m = n - n % 8
+    for i in range(8, m, 8):
+        j = lo + i
+        r0 += a[j]
+        r1 += a[j + 1]
+        r2 += a[j + 2]
+        r3 += a[j + 3]
+        r4 += a[j + 4]
+        r5 += a[j + 5]
+        r6 += a[j + 6]
+        r7 += a[j + 7]
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(m, n):
+        res += a[lo + i]
+    return res

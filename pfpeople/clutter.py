@@ -74,10 +74,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
 from gridbridge.validation import check_int, check_real
-from pfpeople import _numba
-from pfpeople.clutter_kernels import update_evidence
+from pfpeople.clutter_kernels import ball_means, moving_update, static_lookup, update_evidence
 from pfpeople.scanmatch import ScanOdometry
 from pfpeople.selfreturns import SelfReturns
 
@@ -377,19 +377,11 @@ class StaticClutterMap:
         TypeError
             For an ``ego`` that is not a :class:`Pose2D`.
         """
-        pts = _positions(points, "points", drop_nonfinite=True)
-        if ego is not None and not isinstance(ego, Pose2D):
-            raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
-        people = _positions(exclude if exclude is not None else np.zeros((0, 2)), "exclude")
-        step = self._dt(dt, stamp_ns)
-        self.last_dt = step
-        if ego is not None and self.updates:
-            self.pose = self.pose.compose(ego)
-        self._recentre()
+        pts, people, step = self._begin_update(points, ego, exclude, dt, stamp_ns)
         pts, human, rays, lengths = self._rays(pts, people, free)
         cells, inside = self.cell_of(self.pose.apply(pts))
         s = self.evidence.reshape(-1)
-        if _numba.enabled() and s.base is self.evidence:  # the same as below, compiled (pfpeople.clutter_kernels)
+        if _jit.enabled("pfpeople") and s.base is self.evidence:  # the same as below, compiled (clutter_kernels)
             self._evidence_compiled(s, cells, inside, human, rays, lengths, step)
         else:
             self._evidence_numpy(s, cells, inside, human, rays, lengths, step)
@@ -400,6 +392,27 @@ class StaticClutterMap:
         self._people = people
         self._scores = None
         self.updates += 1
+
+    def _begin_update(
+        self,
+        points: ArrayLike,
+        ego: Pose2D | None,
+        exclude: ArrayLike | None,
+        dt: float | None,
+        stamp_ns: int | None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        """The checks and the map's motion of :meth:`update`: the finite returns (N, 2) and the people (K, 2)
+        (m, current sensor frame) and the time step (s); the map is moved by ``ego`` and recentred."""
+        pts = _positions(points, "points", drop_nonfinite=True)
+        if ego is not None and not isinstance(ego, Pose2D):
+            raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
+        people = _positions(exclude if exclude is not None else np.zeros((0, 2)), "exclude")
+        step = self._dt(dt, stamp_ns)
+        self.last_dt = step
+        if ego is not None and self.updates:
+            self.pose = self.pose.compose(ego)
+        self._recentre()
+        return pts, people, step
 
     def _rays(
         self, pts: NDArray[np.float64], people: NDArray[np.float64], free: ArrayLike | None
@@ -534,9 +547,17 @@ class StaticClutterMap:
         ok = np.isfinite(pts).all(axis=1)
         if not ok.any():
             return out
+        c = self.config
+        ev = self.evidence.reshape(-1)
+        if _jit.enabled("pfpeople"):  # the same as below, compiled (pfpeople.clutter_kernels)
+            o, yaw = self.origin, self.pose.yaw
+            pose = (self.pose.x, self.pose.y, math.cos(yaw), math.sin(yaw))
+            lim = np.array([c.static_time, c.static_threshold - 1e-9])
+            out[ok] = static_lookup(pts[ok], ev, self.n, pose, (float(o[0]), float(o[1]), 1.0 / c.resolution), lim)
+            return out
         cells, inside = self.cell_of(self.pose.apply(pts[ok]))
-        score = self.evidence.reshape(-1)[cells] / self.config.static_time
-        out[ok] = inside & (score >= self.config.static_threshold - 1e-9)
+        score = ev[cells] / c.static_time
+        out[ok] = inside & (score >= c.static_threshold - 1e-9)
         return out
 
     def static_score(self, positions: ArrayLike) -> NDArray[np.float64]:
@@ -559,12 +580,15 @@ class StaticClutterMap:
         out = np.zeros(pos.shape[0])
         if not pos.shape[0] or not self._hit_xy.shape[0]:
             return out
-        if self._hit_tree is None:
-            self._hit_tree = cKDTree(self._hit_xy)
         score = self._return_scores()
-        for m, idx in enumerate(self._hit_tree.query_ball_point(pos, r=self.config.query_radius)):
-            if idx:
-                out[m] = float(score[idx].mean())
+        if _jit.enabled("pfpeople"):  # the same means, by a dense distance test (pfpeople.clutter_kernels)
+            out = ball_means(np.ascontiguousarray(self._hit_xy), score, pos, float(self.config.query_radius))
+        else:
+            if self._hit_tree is None:
+                self._hit_tree = cKDTree(self._hit_xy)
+            for m, idx in enumerate(self._hit_tree.query_ball_point(pos, r=self.config.query_radius)):
+                if idx:
+                    out[m] = float(score[idx].mean())
         if self._people.shape[0]:
             out[near_any(pos, self._people, self.config.exclude_radius)] = 0.0
         return out
@@ -683,8 +707,29 @@ class MovingPeople:
         if ego is not None:
             self.pose = self.pose.compose(ego)
         det = self.pose.apply(det) if det.shape[0] else det
+        names = ("_pos", "_anchor_a", "_anchor_b", "_t_b", "_missed", "_moving", "_moved_t")
+        if _jit.enabled("pfpeople"):  # the same as below, compiled (pfpeople.clutter_kernels)
+            nan = math.nan
+            window, hold = nan if self.window is None else self.window, nan if self.hold is None else self.hold
+            tracks = tuple(getattr(self, name) for name in names)
+            new = moving_update(tracks, det, self.time, self.gate, window, self.min_distance, hold, self.max_missed)
+            for name, value in zip(names, new, strict=True):
+                setattr(self, name, value)
+        else:
+            self._missed += 1
+            self._start_tracks(det[~self._associate(det)])
+            self._update_motion()
+            alive = self._missed <= self.max_missed
+            for name in names:
+                setattr(self, name, getattr(self, name)[alive])
+        sel = self._pos[self._moving]
+        return self.pose.inverse().apply(sel) if sel.shape[0] else np.zeros((0, 2))
+
+    def _associate(self, det: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Greedy nearest-first association of the detections (M, 2) (m, the first update's frame) with the
+        tracks not yet updated in this scan, within ``gate``: the tracks take the positions; True for the
+        detections used (M,)."""
         used = np.zeros(det.shape[0], dtype=bool)
-        self._missed += 1
         if self._pos.shape[0] and det.shape[0]:
             d = np.hypot(self._pos[:, None, 0] - det[None, :, 0], self._pos[:, None, 1] - det[None, :, 1])
             for flat in np.argsort(d, axis=None, kind="stable"):
@@ -695,7 +740,10 @@ class MovingPeople:
                     continue
                 used[k] = True
                 self._pos[t], self._missed[t] = det[k], 0
-        new = det[~used]
+        return used
+
+    def _start_tracks(self, new: NDArray[np.float64]) -> None:
+        """New tracks at ``new`` (M, 2) (m, the first update's frame), anchored there, not moving."""
         m = new.shape[0]
         self._pos = np.concatenate((self._pos, new))
         self._anchor_a = np.concatenate((self._anchor_a, new))
@@ -704,6 +752,10 @@ class MovingPeople:
         self._missed = np.concatenate((self._missed, np.zeros(m, dtype=int)))
         self._moving = np.concatenate((self._moving, np.zeros(m, dtype=bool)))
         self._moved_t = np.concatenate((self._moved_t, np.full(m, -np.inf)))
+
+    def _update_motion(self) -> None:
+        """Move the anchors every ``window / 2`` and mark the tracks that moved ``min_distance`` from theirs
+        (moving for ``hold`` seconds since they last did)."""
         if self.window is not None:  # every window / 2 the newer anchor becomes the one measured against
             due = self.time - self._t_b >= 0.5 * self.window - 1e-9
             self._anchor_a[due] = self._anchor_b[due]
@@ -713,11 +765,6 @@ class MovingPeople:
         self._moving |= now_moving
         if self.hold is not None:
             self._moving &= self.time - self._moved_t <= self.hold + 1e-9
-        alive = self._missed <= self.max_missed
-        for name in ("_pos", "_anchor_a", "_anchor_b", "_t_b", "_missed", "_moving", "_moved_t"):
-            setattr(self, name, getattr(self, name)[alive])
-        sel = self._pos[self._moving]
-        return self.pose.inverse().apply(sel) if sel.shape[0] else np.zeros((0, 2))
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -69,7 +69,7 @@ from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_int
-from pfpeople import _numba
+from pfpeople import clutter_kernels
 from pfpeople.adapters import (
     ADAPTERS,
     AdapterFactory,
@@ -86,6 +86,7 @@ from pfpeople.bag.reader import BadScanError, BagMessage, BagSource, MessageData
 from pfpeople.bag.sync import Frame, FrameAssembler
 from pfpeople.bag.tf import MountWatch, TfBuffer
 from pfpeople.blas import blas_threads_in_use, limit_blas, resolve_blas_threads
+from pfpeople.detectors import _kernels
 from pfpeople.filters import build_classifier, build_people_tracker
 from pfpeople.frontend import FrontProcess, FrontResult, front_process_available
 from pfpeople.mot.people import point_like, support_positions
@@ -260,7 +261,8 @@ class Pipeline:
 
     def prepare(self, bag: BagSource) -> TfBuffer:
         """Check topics and types, read the TF mounts, build the detector adapters, the filter and the rest."""
-        _numba.warm_up()  # the compiled kernels load here, not in the first frame
+        _kernels.warm_up()  # the front end's compiled kernels load here, not in the first frame
+        clutter_kernels.warm_up()
         c = self.config
         factories = {d.kind: adapter_factory(d.kind, self.adapter_registry) for d in c.detectors}
         setup = self._setup_sensors(

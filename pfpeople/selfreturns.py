@@ -24,11 +24,15 @@ nearer) is not affected.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D
 from gridbridge.validation import check_real
+from pfpeople.clutter_kernels import self_update
 
 __all__ = ["SelfReturns"]
 
@@ -84,6 +88,8 @@ class SelfReturns:
         """
         p = np.asarray(points, dtype=float).reshape(-1, 2)
         n = p.shape[0]
+        if _jit.enabled("pfpeople"):  # the same as below, compiled (pfpeople.clutter_kernels.self_update)
+            return self._update_compiled(p, ego)
         finite = np.isfinite(p).all(axis=1)
         with np.errstate(invalid="ignore"):
             valid = finite & (np.hypot(p[:, 0], p[:, 1]) <= self.max_range)
@@ -99,6 +105,19 @@ class SelfReturns:
         self._ref[restart] = np.where(valid[restart, None], p[restart], np.nan)
         self._travel[restart] = 0.0
         self._mask = same & (self._travel >= self.travel)
+        self._returns, self._returns_self = p[finite], self._mask[finite]
+        return self.mask
+
+    def _update_compiled(self, p: NDArray[np.float64], ego: Pose2D | None) -> NDArray[np.bool_]:
+        """:meth:`update` of the end points ``p`` (N, 2) by :func:`pfpeople.clutter_kernels.self_update`."""
+        if self._ref.shape[0] != p.shape[0]:
+            self._ref = np.full((p.shape[0], 2), np.nan)
+            self._travel = np.zeros(p.shape[0])
+        inv = Pose2D() if ego is None else ego.inverse()
+        c, s = math.cos(inv.yaw), math.sin(inv.yaw)
+        lim = (self.max_range, self.tolerance, self.travel)
+        p = np.ascontiguousarray(p)
+        self._mask, finite = self_update(p, self._ref, self._travel, lim, ego is not None, inv.x, inv.y, c, s)
         self._returns, self._returns_self = p[finite], self._mask[finite]
         return self.mask
 

@@ -79,14 +79,42 @@ class LaserScan:
         length = min(self.range_max, max_range)
         if not math.isfinite(length) or length <= 0.0:
             return np.zeros((0, 2))
-        a = self.angles[self.no_return]
-        return np.column_stack((length * np.cos(a), length * np.sin(a)))
+        c, s = _beam_cos_sin(self.angle_min, self.angle_increment, self.ranges.size)
+        m = self.no_return
+        return np.column_stack((length * c[m], length * s[m]))
 
     def points(self) -> NDArray[np.float64]:
-        """Cartesian end points ``(B, 2)`` in the scan's frame (m); invalid beams give NaN rows."""
-        r = np.where(self.valid, self.ranges, np.nan)
-        a = self.angles
-        return np.column_stack((r * np.cos(a), r * np.sin(a)))
+        """Cartesian end points ``(B, 2)`` in the scan's frame (m); invalid beams give NaN rows.
+
+        Computed once per scan (a new array at every call: the caller may change it); the beams' cosines and
+        sines are shared by the scans of one geometry (:func:`_beam_cos_sin`)."""
+        pts = self.__dict__.get("_points")
+        if pts is None:
+            r = np.where(self.valid, self.ranges, np.nan)
+            c, s = _beam_cos_sin(self.angle_min, self.angle_increment, self.ranges.size)
+            pts = np.column_stack((r * c, r * s))
+            object.__setattr__(self, "_points", pts)
+        return pts.copy()
+
+
+#: Cosines and sines of the beams of the latest scan geometries (a few lasers per run).
+_TRIG: dict[tuple[float, float, int], tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+
+
+def _beam_cos_sin(angle_min: float, angle_increment: float, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``np.cos`` and ``np.sin`` of the bearings ``angle_min + angle_increment * arange(n)`` (rad), shape (n,)
+    each, kept per geometry (read only; the same floats as computed afresh)."""
+    key = (angle_min, angle_increment, n)
+    cs = _TRIG.get(key)
+    if cs is None:
+        if len(_TRIG) >= 16:
+            _TRIG.clear()
+        a = np.asarray(angle_min + angle_increment * np.arange(n), dtype=np.float64)
+        c, s = np.cos(a), np.sin(a)
+        c.flags.writeable = False
+        s.flags.writeable = False
+        cs = _TRIG[key] = (c, s)
+    return cs
 
 
 @dataclass(frozen=True, kw_only=True)

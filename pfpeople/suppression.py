@@ -109,7 +109,6 @@ class ClutterStage:
             The driving laser's scan-matched motion in the grid frame (None when unknown or when ``ego_grid``
             was given).
         """
-        c = self.config
         kept: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
         self.support_static = [None] * len(found)
@@ -121,28 +120,47 @@ class ClutterStage:
         }
         driver_ego: Pose2D | None = None
         for topic, sup in self.suppressors.items():
-            scan = scans.get(topic)
-            idx = [k for k, a in enumerate(self.adapters) if a.config.topic == topic and found[k] is not None]
-            if scan is None or not idx:
-                continue
-            mount = self.adapters[idx[0]].mount  # the laser's pose in the grid frame
-            ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
-            points = scan.points()  # once: the map's update and its static returns
-            st = sup.step(
-                points,
-                [f.sensor for k in idx if (f := found[k]) is not None],
-                ego=ego,
-                stamp_ns=stamp_ns,
-                dt=dt,
-                free=scan.free_rays(sup.map.config.max_range),
-            )
-            self.scan_static[topic] = sup.map.static_points(points)
-            for k, keep in zip(idx, st.keep, strict=True):
-                static[k] = ~keep
-                kept[k] = self._keep(k, keep, kept[k], found[k], sup)
-            if topic == c.driver and st.ego_ok and ego is None:
-                driver_ego = mount.compose(st.ego).compose(mount.inverse())
+            ego = self._step_topic(topic, sup, scans.get(topic), found, ego_grid, dt, stamp_ns, kept, static)
+            driver_ego = ego if ego is not None else driver_ego
         return kept, static, driver_ego
+
+    def _step_topic(
+        self,
+        topic: str,
+        sup: Any,
+        scan: Any,
+        found: Sequence[Detections | None],
+        ego_grid: Pose2D | None,
+        dt: float,
+        stamp_ns: int,
+        kept: list[NDArray[np.float64] | None],
+        static: list[NDArray[np.bool_] | None],
+    ) -> Pose2D | None:
+        """:meth:`step` for one laser ``topic``, its map ``sup`` (:class:`pfpeople.clutter.ClutterSuppressor`)
+        and its scan (:class:`pfpeople.sensors.LaserScan`; None: none in the frame): fills ``kept`` and ``static``
+        of its detectors in place; returns the scan-matched motion (grid frame) when ``topic`` is the driver and
+        the match was used (``ego_grid`` None), else None."""
+        idx = [k for k, a in enumerate(self.adapters) if a.config.topic == topic and found[k] is not None]
+        if scan is None or not idx:
+            return None
+        mount = self.adapters[idx[0]].mount  # the laser's pose in the grid frame
+        ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
+        points = scan.points()  # once: the map's update and its static returns
+        st = sup.step(
+            points,
+            [f.sensor for k in idx if (f := found[k]) is not None],
+            ego=ego,
+            stamp_ns=stamp_ns,
+            dt=dt,
+            free=scan.free_rays(sup.map.config.max_range),
+        )
+        self.scan_static[topic] = sup.map.static_points(points)
+        for k, keep in zip(idx, st.keep, strict=True):
+            static[k] = ~keep
+            kept[k] = self._keep(k, keep, kept[k], found[k], sup)
+        if topic == self.config.driver and st.ego_ok and ego is None:
+            return mount.compose(st.ego).compose(mount.inverse())
+        return None
 
     def _keep(
         self,

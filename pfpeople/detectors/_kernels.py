@@ -1,7 +1,8 @@
-"""Compiled kernels of :mod:`pfpeople.detectors.segments` (numba; see :mod:`pfpeople._numba`).
+"""Compiled kernels of :mod:`pfpeople.detectors.segments` (numba; the switch is :mod:`gridbridge.jit`'s, scope
+``"pfpeople"``, read at every call).
 
 Each kernel computes what the numpy code of its caller computes, in the same order of floating-point
-operations, so the two agree bit for bit: sums of ``np.add.reduceat`` are :func:`pfpeople._numba.pairwise_sum`
+operations, so the two agree bit for bit: sums of ``np.add.reduceat`` are :func:`gridbridge.kernels.pairwise_sum`
 after the first element, sums of ``np.bincount`` are sequential from 0, ``np.maximum`` / ``np.minimum`` keep
 NaN. The angles (``arctan2``) are left to numpy between two kernels.
 """
@@ -9,13 +10,28 @@ NaN. The angles (``arctan2``) are left to numpy between two kernels.
 from __future__ import annotations
 
 import math
+from typing import TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pfpeople._numba import njit, pairwise_sum
+from gridbridge import jit as _jit
+from gridbridge.jit import jit as njit
+from gridbridge.kernels import pairwise_sum
 
-__all__ = ["features_angles", "features_rest", "jump_segments"]
+__all__ = ["far_blobs", "features_angles", "features_rest", "jump_segments", "warm_up"]
+
+#: What :func:`jump_segments` returns: points (P, 2), beams (P,), starts (S,), counts (S,), ranges before and after
+#: (S,), runs dropped.
+_Runs: TypeAlias = tuple[
+    NDArray[np.float64],
+    NDArray[np.intp],
+    NDArray[np.intp],
+    NDArray[np.intp],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    int,
+]
 
 
 @njit
@@ -56,15 +72,7 @@ def jump_segments(
     beams: NDArray[np.intp],
     jump: float,
     min_points: int,
-) -> tuple[
-    NDArray[np.float64],
-    NDArray[np.intp],
-    NDArray[np.intp],
-    NDArray[np.intp],
-    NDArray[np.float64],
-    NDArray[np.float64],
-    int,
-]:  # pragma: no cover - compiled
+) -> _Runs:  # pragma: no cover - compiled
     """The kept runs of consecutive points closer than ``jump`` (m), as in
     :func:`pfpeople.detectors.segments.segment_scan`.
 
@@ -85,20 +93,7 @@ def jump_segments(
         The fields of :class:`~pfpeople.detectors.segments.Segments` (``n_small``: runs dropped).
     """
     n = x.size
-    rs = np.empty(n + 1, dtype=np.intp)  # run starts, then n
-    m = 1
-    rs[0] = 0
-    for i in range(n - 1):
-        if math.hypot(x[i + 1] - x[i], y[i + 1] - y[i]) > jump:
-            rs[m] = i + 1
-            m += 1
-    rs[m] = n
-    kept = 0
-    total = 0
-    for s in range(m):
-        if rs[s + 1] - rs[s] >= min_points:
-            kept += 1
-            total += rs[s + 1] - rs[s]
+    rs, m, kept, total = _runs(x, y, jump, min_points)
     pts = np.empty((total, 2))
     out_beams = np.empty(total, dtype=np.intp)
     starts = np.empty(kept, dtype=np.intp)
@@ -122,6 +117,31 @@ def jump_segments(
             q += 1
         k += 1
     return pts, out_beams, starts, counts, before, after, m - kept
+
+
+@njit
+def _runs(
+    x: NDArray[np.float64], y: NDArray[np.float64], jump: float, min_points: int
+) -> tuple[NDArray[np.intp], int, int, int]:  # pragma: no cover - compiled
+    """The runs of :func:`jump_segments`: their starts ``rs[:m]`` then ``rs[m] = V`` (points closer than ``jump``
+    (m) to the previous one continue a run), their number ``m``, and the number and points of those kept
+    (at least ``min_points`` points)."""
+    n = x.size
+    rs = np.empty(n + 1, dtype=np.intp)  # run starts, then n
+    m = 1
+    rs[0] = 0
+    for i in range(n - 1):
+        if math.hypot(x[i + 1] - x[i], y[i + 1] - y[i]) > jump:
+            rs[m] = i + 1
+            m += 1
+    rs[m] = n
+    kept = 0
+    total = 0
+    for s in range(m):
+        if rs[s + 1] - rs[s] >= min_points:
+            kept += 1
+            total += rs[s + 1] - rs[s]
+    return rs, m, kept, total
 
 
 @njit
@@ -385,23 +405,13 @@ def far_blobs(
         params[4],
         params[5],
     )
-    r = np.empty(N)
-    for p in range(N):
-        r[p] = math.hypot(pts[p, 0], pts[p, 1])
-    x = np.ascontiguousarray(pts[:, 0])
-    y = np.ascontiguousarray(pts[:, 1])
-    sr = _reduceat(r, starts, counts)
-    sx = _reduceat(x, starts, counts)
-    sy = _reduceat(y, starts, counts)
+    r, x, y, sr, centres = _blob_sums(pts, starts, counts)
     keep = np.zeros(R, dtype=np.bool_)
     small = np.zeros(R, dtype=np.bool_)
-    centres = np.empty((R, 2))
     for s in range(R):
         lo, c = starts[s], counts[s]
         hi = lo + c - 1
         cf = float(c)
-        centres[s, 0] = sx[s] / cf
-        centres[s, 1] = sy[s] / cf
         before = range_before[s] if lo > 0 and abs(beams[lo] - beams[lo - 1]) == 1 else math.inf
         after = range_after[s] if hi < N - 1 and abs(beams[hi + 1] - beams[hi]) == 1 else math.inf
         rmin = r[lo]
@@ -414,3 +424,45 @@ def far_blobs(
         width = math.hypot(x[hi] - x[lo], y[hi] - y[lo])
         keep[s] = sm and (cf >= need) and (width <= max_width)
     return keep, small, centres
+
+
+@njit
+def _blob_sums(
+    pts: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp]
+) -> tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]
+]:  # pragma: no cover - compiled
+    """The ranges ``r`` (N,), coordinates ``x``, ``y`` (N,) (m) of the points of :func:`far_blobs`, the runs'
+    range sums ``sr`` (R,) (``np.add.reduceat``'s) and centroids (R, 2) (m)."""
+    N = pts.shape[0]
+    r = np.empty(N)
+    for p in range(N):
+        r[p] = math.hypot(pts[p, 0], pts[p, 1])
+    x = np.ascontiguousarray(pts[:, 0])
+    y = np.ascontiguousarray(pts[:, 1])
+    sr = _reduceat(r, starts, counts)
+    sx = _reduceat(x, starts, counts)
+    sy = _reduceat(y, starts, counts)
+    centres = np.empty((starts.size, 2))
+    for s in range(starts.size):
+        cf = float(counts[s])
+        centres[s, 0] = sx[s] / cf
+        centres[s, 1] = sy[s] / cf
+    return r, x, y, sr, centres
+
+
+def warm_up() -> None:
+    """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them.
+
+    The first compiled call of a process starts numba's code generator (about half a second; loading each cached
+    kernel then takes milliseconds, compiling one the first time about a second). Nothing happens when
+    ``gridbridge.jit.enabled("pfpeople")`` is False.
+    """
+    if not _jit.enabled("pfpeople"):
+        return
+    x = np.array([0.0, 0.01, 0.02, 1.0])
+    beams = np.arange(4, dtype=np.intp)
+    pts, b, starts, counts, r0, r1, _n = jump_segments(x, x, x + 1.0, beams, 0.13, 3)
+    ct, _dt, ci, _di = features_angles(pts, starts, counts)
+    features_rest(pts, starts, counts, np.zeros(ct.size), np.zeros(ci.size))
+    far_blobs(pts, b, starts, counts, r0, r1, np.zeros(7))

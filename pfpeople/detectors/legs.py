@@ -38,10 +38,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge import jit as _jit
 from gridbridge.geometry import near_any
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_int, check_positive
-from pfpeople import _numba
 from pfpeople.detectors import _kernels
 from pfpeople.detectors.segments import (
     FEATURE_NAMES,
@@ -196,7 +196,7 @@ def far_leg_blobs(scan: LaserScan, params: LegDetectorParams) -> tuple[NDArray[n
     segs = segment_scan(scan, params=p.segmentation, min_points=1)  # every run: they cover every valid beam
     if not len(segs):
         return none, none
-    if _numba.enabled():
+    if _jit.enabled("pfpeople"):
         inc = abs(scan.angle_increment)
         par = np.array([p.far_max_points, p.far_from, p.far_min_jump, p.far_leg_width, inc, p.far_max_width, 0.0])
         keep, small, centres = _kernels.far_blobs(

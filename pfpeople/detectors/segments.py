@@ -41,7 +41,7 @@ The two "means" divide by the number of points n, not by the n - 2 triples, as l
 ``calcClusterFeatures`` does (the shipped boosted model was trained on these values).
 
 All features are computed for all segments of a scan at once: by compiled loops
-(:mod:`pfpeople.detectors._kernels`) when numba is enabled (:mod:`pfpeople._numba`), else with
+(:mod:`pfpeople.detectors._kernels`) when numba is enabled (:mod:`gridbridge.jit`, scope ``"pfpeople"``), else with
 ``numpy.add.reduceat`` (no Python loop over segments or points); both give the same floats.
 """
 
@@ -54,8 +54,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge import jit as _jit
 from gridbridge.validation import check_int, check_positive
-from pfpeople import _numba
 from pfpeople.detectors import _kernels
 from pfpeople.sensors import LaserScan
 
@@ -211,7 +211,7 @@ def segment_scan(
             range_after=np.zeros(0),
             n_invalid=n_invalid,
         )
-    if _numba.enabled():
+    if _jit.enabled("pfpeople"):
         pts, kb, starts, counts, before, after, n_small = _kernels.jump_segments(
             x, y, r, beams, float(p.jump_distance), int(min_points)
         )
@@ -311,7 +311,7 @@ def segment_features(segments: Segments) -> NDArray[np.float64]:
         return np.zeros((0, len(FEATURE_NAMES)))
     if np.any(segments.counts < 3):
         raise ValueError("segments must have at least 3 points each for segment_features")
-    if _numba.enabled():
+    if _jit.enabled("pfpeople"):
         return _features_compiled(segments)
     return _features_numpy(segments)
 
