@@ -9,7 +9,7 @@ $(BIN)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e ".[dev]"
-	# HOTA (evaluation.mot_metrics): TrackEval without its declared dependencies, which would replace the
+	# HOTA (evaluation.metrics.clear_mot): TrackEval without its declared dependencies, which would replace the
 	# headless OpenCV build with the GUI one (its HOTA needs only numpy and scipy)
 	$(BIN)/pip install --quiet --no-deps "trackeval==1.3.0"
 	touch $@
@@ -28,8 +28,8 @@ lint: setup
 	$(BIN)/mypy gridbridge pfpeople evaluation
 
 bench: setup
-	$(BIN)/python -m evaluation.bench_grid
-	$(BIN)/python -m evaluation.bench_particles
+	$(BIN)/python -m evaluation.bench.grid
+	$(BIN)/python -m evaluation.bench.particles
 
 model: setup  ## retrain the shipped boosted classifier (pfpeople/models/boosted_legs.*); needs ../shared/data
 	for s in corridor crowd lobby wheelchair; do \

@@ -6,7 +6,7 @@ import sys
 from collections.abc import Sequence
 
 from evaluation import commands
-from pfpeople.cli_support import run
+from pfpeople.cli.support import run
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -4,7 +4,7 @@ Public names other packages and outside tools rely on: :class:`GridSpec`, :class
 :func:`people_motion_kernel`, :func:`predict_people`, :func:`fuse_detectors`, :func:`bayes_update`.
 """
 
-from gridbridge.classify import Blob, BlobParams, ClassificationResult, classify_blobs, classify_threshold
+from gridbridge.blobs import Blob, BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.ego_motion import (
     Odometry,
     ego_motion_sigma_points,

@@ -3,7 +3,7 @@
 ==========================  ==================================================================================
 component                   what it does
 ==========================  ==================================================================================
-:class:`BlobClassifier`     the paper's blob algorithm (Sect. 4; :func:`gridbridge.classify.classify_blobs`)
+:class:`BlobClassifier`     the paper's blob algorithm (Sect. 4; :func:`gridbridge.blobs.classify_blobs`)
 :class:`ThresholdClassifier` connected cells above a threshold, each one person (the paper's "plain" classifier)
 :class:`PeakClassifier`     local maxima above a threshold with non-maximum suppression; the position is the
                             belief-weighted mean of the cells around the peak (sub-cell); separates people
@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from gridbridge.classify import BlobParams, ClassificationResult, classify_blobs, classify_threshold
+from gridbridge.blobs import BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.validation import check_number, check_positive, check_probability
@@ -110,7 +110,7 @@ class Classifier(Protocol):
 
 @dataclass(frozen=True, kw_only=True)
 class BlobClassifier:
-    """The paper's blob classification (Sect. 4) with :class:`~gridbridge.classify.BlobParams`."""
+    """The paper's blob classification (Sect. 4) with :class:`~gridbridge.blobs.BlobParams`."""
 
     params: BlobParams = field(default_factory=BlobParams)
 

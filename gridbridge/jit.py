@@ -1,6 +1,6 @@
 """The switch between compiled (numba) kernels and their pure-numpy twins, shared by every package.
 
-Hot loops live in ``kernels`` modules (:mod:`gridbridge.kernels`, :mod:`pfpeople.kernels`) as plain Python
+Hot loops live in ``kernels`` modules (:mod:`gridbridge.kernels`, :mod:`pfpeople.particle.step_kernels`) as plain Python
 functions compiled with :func:`jit` (``numba.njit(cache=True)``); each has a numpy twin that gives the same
 result (bit for bit where the kernels say so, else within a tolerance the tests check). The compiled kernels
 run when numba is importable and the environment variable ``PFPEOPLE_NUMBA`` is not ``0``; otherwise the

@@ -1,7 +1,8 @@
 """Compiled kernels of the grid-filter step (:mod:`gridbridge.jit`), each with its numpy twin elsewhere.
 
 =====================  ===========================================  ==========================================
-kernel                 numpy twin                                   agreement (``tests/test_kernels_grid.py``)
+kernel                 numpy twin                                   agreement
+(``tests/gridbridge/test_kernels_grid.py``)
 =====================  ===========================================  ==========================================
 :func:`predict_paper`  :func:`gridbridge.people_motion._predict_paper`  bit for bit (same sums, same order)
 :func:`convolve_const` ``scipy.ndimage.convolve(mode="constant")``  1e-12 (scipy sums the taps in its order)
@@ -13,7 +14,7 @@ kernel                 numpy twin                                   agreement (`
 =====================  ===========================================  ==========================================
 
 :func:`pairwise_sum` is numpy's pairwise summation (the order of ``np.add.reduce`` and ``np.add.reduceat``)
-for kernels elsewhere that must add as numpy does (:mod:`pfpeople.detectors._kernels`).
+for kernels elsewhere that must add as numpy does (:mod:`pfpeople.detect.segment_kernels`).
 
 Grids are ``(nx, ny)`` float64 arrays; ``grid = (x0, y0, resolution)`` (m) places cell ``[i, j]``'s centre at
 ``(x0 + (i + 0.5) r, y0 + (j + 0.5) r)`` in the sensor frame.

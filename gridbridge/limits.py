@@ -13,7 +13,7 @@ with a raw ``_ArrayMemoryError``. The checks here are estimates with generous ma
   (not a string, a bool or a complex): a step in milliseconds passed as seconds (``dt = 100``) would ask for a
   people-motion kernel of hundreds of cells radius (minutes and gigabytes per frame for the grid filter, hundreds
   of GiB for the particle filter). Real frame gaps are a fraction of a second, and the pipeline restarts the
-  filter over gaps longer than 2 s (:data:`pfpeople.odometry.MAX_GAP_S`) instead of predicting across them;
+  filter over gaps longer than 2 s (:data:`pfpeople.perception.odometry.MAX_GAP_S`) instead of predicting across them;
 - memory: :func:`estimate_run_bytes` (``BYTES_PER_CELL`` per cell and detector, ``BYTES_PER_PARTICLE`` per
   particle) must fit in :func:`memory_budget_bytes`: half the physical memory, or
   ``$PFPEOPLE_MAX_MEMORY_BYTES``.

@@ -12,7 +12,7 @@ and the update (eq. 12) with the usual reading ``P(D | np) = 1 - P(D | p)``:
 
 so each update multiplies a cell's odds by ``L / (1 - L)``.
 
-Decisions the paper leaves open (tested in ``tests/test_measurement.py``):
+Decisions the paper leaves open (tested in ``tests/gridbridge/test_measurement.py``):
 
 * Soft detections. A detector may fire with probability ``q`` in a cell (the camera's Gaussian position
   uncertainty). The fused likelihood is then the expectation of eqs. 13-14 over independent firing events:

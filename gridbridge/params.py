@@ -172,7 +172,7 @@ PAPER_DETECTORS: tuple[DetectorModel, ...] = (
 )
 
 
-#: The built-in laser detectors (:class:`pfpeople.detectors.LegDetector`, ``BoostedSegmentDetector``,
+#: The built-in laser detectors (:class:`pfpeople.detect.LegDetector`, ``BoostedSegmentDetector``,
 #: ``SingleLegDetector``) with PPV and FNR measured on every labelled recording we have, pooled (2026-12-02, the
 #: boosted model trained on the leg_tracker bags and the simulated bags of ``make model``): ``pfpeople-eval calibrate
 #: --run`` on the scan-level scenes lobby / wheelchair / corridor / crowd (2 cm range noise, seed 0), on the real
@@ -182,7 +182,7 @@ PAPER_DETECTORS: tuple[DetectorModel, ...] = (
 #: 0.96 / 0.68). FNR is the mean of the scenes' pooled miss rate and the real one (legs 0.83 and 0.54: 0.69; boosted
 #: 0.73 and 0.28: 0.51; single legs 0.77 and 0.81: 0.79). Table 1's values (0.95 / 0.30 and 0.50 / 0.40) are the
 #: paper's detectors, not these. Field of view and range come from the LaserScan in a run (see
-#: :mod:`pfpeople.pipeline`).
+#: :mod:`pfpeople.pipeline.runner`).
 CALIBRATED_LASER_DETECTORS: tuple[DetectorModel, ...] = (
     DetectorModel(name="laser-legs", ppv=0.54, fnr=0.69),
     DetectorModel(name="laser-boosted", ppv=0.91, fnr=0.51),

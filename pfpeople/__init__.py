@@ -1,21 +1,21 @@
 """pfpeople: particle-filter fusion of people detectors into a local semantic grid, and what a robot user imports.
 
-The particle filter (:class:`ParticleFilter`, composed of the components of :mod:`pfpeople.components`) has the
+The particle filter (:class:`ParticleFilter`, composed of the components of :mod:`pfpeople.particle.components`) has the
 same ``step`` as :class:`gridbridge.GridFilter` and rasterises into the same grid; :func:`recommended` builds
 the recommended mode's filter, classifier and tracker (:class:`MultiPersonTracker` inside a
-:class:`pfpeople.mot.people.PeopleTracker`) as ``pfpeople run`` does. The built-in detectors live in
-:mod:`pfpeople.detectors`, rosbag input/output in :mod:`pfpeople.bag`, the paper's blob tracker in
-:mod:`pfpeople.tracking`.
+:class:`pfpeople.track.reported_people.PeopleTracker`) as ``pfpeople run`` does. The built-in detectors live in
+:mod:`pfpeople.detect`, rosbag input/output in :mod:`pfpeople.io.bag`, the paper's blob tracker in
+:mod:`pfpeople.track.blob_tracker`.
 """
 
-from pfpeople.components import PaperSampling, PersistentSampling, Resampling, VelocityEgoSampling
-from pfpeople.mot.tracker import MultiPersonTracker, Track, TrackerConfig
-from pfpeople.motion import PersistentMotion
-from pfpeople.particle_filter import ParticleFilter, ParticleStep
-from pfpeople.particles import ParticleState
+from pfpeople.particle.components import PaperSampling, PersistentSampling, Resampling, VelocityEgoSampling
+from pfpeople.particle.filter import ParticleFilter, ParticleStep
+from pfpeople.particle.propagation import PersistentMotion
+from pfpeople.particle.resampling import RESAMPLERS
+from pfpeople.particle.state import ParticleState
 from pfpeople.preset import PeopleFrame, Recommended, recommended
-from pfpeople.resampling import RESAMPLERS
-from pfpeople.tracking import BlobTracker, TrackerParams, track_sequence
+from pfpeople.track.blob_tracker import BlobTracker, TrackerParams, track_sequence
+from pfpeople.track.multi_person import MultiPersonTracker, Track, TrackerConfig
 
 __all__ = [
     "RESAMPLERS",

@@ -11,8 +11,9 @@ builds them.
         frame = people.step([np.array([[3.0, 0.45]]), np.zeros((0, 2)), np.zeros((0, 2))], dt=0.1)
     frame.people.positions, [t.id for t in frame.tracks]
 
-Each ``step`` runs the filter (eqs. 1-14 with the recommended mode's components, :mod:`pfpeople.filters`), the
-peak classifier with hysteresis and the multi-person tracker (:class:`pfpeople.mot.people.PeopleTracker`), the
+Each ``step`` runs the filter (eqs. 1-14 with the recommended mode's components, :mod:`pfpeople.pipeline.assembly`), the
+peak classifier with hysteresis and the multi-person tracker (:class:`pfpeople.track.reported_people.PeopleTracker`),
+the
 same three stages as a run's back end. Positions are in the grid's sensor frame (m, REP-103).
 """
 
@@ -30,11 +31,11 @@ from gridbridge.ego_motion import Odometry, odometry_pose
 from gridbridge.filter import GridFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
-from pfpeople.bag.config import ClassifierConfig, FilterConfig, TrackingConfig
-from pfpeople.filters import build_classifier, build_filter, build_people_tracker
-from pfpeople.mot.people import PeopleTracker
-from pfpeople.mot.tracker import Track
-from pfpeople.particle_filter import ParticleFilter
+from pfpeople.config import ClassifierConfig, FilterConfig, TrackingConfig
+from pfpeople.particle.filter import ParticleFilter
+from pfpeople.pipeline.assembly import build_classifier, build_filter, build_people_tracker
+from pfpeople.track.multi_person import Track
+from pfpeople.track.reported_people import PeopleTracker
 
 __all__ = ["PeopleFrame", "Recommended", "recommended"]
 

@@ -14,10 +14,10 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from pfpeople.bag.config import BagConfig, DetectorConfig
-from pfpeople.bag.reader import BagMessage
-from pfpeople.bag.sync import FrameAssembler
-from pfpeople.detectors.synthetic import render_scan
+from pfpeople.config import BagConfig, DetectorConfig
+from pfpeople.detect.synthetic import render_scan
+from pfpeople.io.bag.reader import BagMessage
+from pfpeople.io.bag.sync import FrameAssembler
 from pfpeople.sensors import Pose2D
 
 T0_NS = 1_000 * 1_000_000_000  # the bags' first stamp (ns)

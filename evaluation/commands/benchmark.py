@@ -1,5 +1,5 @@
 """``pfpeople-eval benchmark``: every built-in scene and the real bags, each detector alone, the paper's modes and
-the recommended mode, in one table (see :mod:`evaluation.benchmark`).
+the recommended mode, in one table (see :mod:`evaluation.harness.benchmark`).
 
 Examples::
 
@@ -16,12 +16,12 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from evaluation.benchmark import SCENES, format_rows, run_benchmark
-from evaluation.mot_eval import MotRow
-from evaluation.mot_eval import format_rows as format_mot_rows
+from evaluation.harness.benchmark import SCENES, format_rows, run_benchmark
+from evaluation.harness.mot_eval import MotRow
+from evaluation.harness.mot_eval import format_rows as format_mot_rows
 from evaluation.scenarios.eth_ucy import default_data_root
-from pfpeople.cli_support import examples
-from pfpeople.jsonio import dumps
+from pfpeople.cli.support import examples
+from pfpeople.io.jsonio import dumps
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from evaluation.calibration import (
+from evaluation.harness.calibration import (
     MAX_CALIBRATION_FRAMES,
     CalibrationResult,
     calibrate_detector,
@@ -34,14 +34,14 @@ from evaluation.calibration import (
     calibrate_sparse,
     oracle_calibration,
 )
-from evaluation.run_truth import truth_and_sources
+from evaluation.harness.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
 from gridbridge.grid import GridSpec
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
-from pfpeople.cli_support import examples
-from pfpeople.gt_csv import read_gt_csv
-from pfpeople.jsonio import dumps
-from pfpeople.output import load_run
+from pfpeople.cli.support import examples
+from pfpeople.io.ground_truth import read_gt_csv
+from pfpeople.io.jsonio import dumps
+from pfpeople.io.run_dir import load_run
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -59,7 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     src.add_argument("--scenario", help="built-in scenario name or scenario TOML file")
     src.add_argument("--truth", type=Path, help="ground-truth CSV (frame, person_id, x_m, y_m)")
     src.add_argument("--run", type=Path, help="run directory written by 'pfpeople run' (with --gt)")
-    p.add_argument("--gt", type=Path, help="ground-truth CSV for --run (see pfpeople.gt_csv)")
+    p.add_argument("--gt", type=Path, help="ground-truth CSV for --run (see pfpeople.io.ground_truth)")
     p.add_argument("--frame", default=None, help="frame of the --gt positions (default: from its columns, else grid)")
     p.add_argument("--recall-only", action="store_true", help="--gt does not annotate everybody: FNR only")
     p.add_argument("--detections", type=Path, help="detections CSV (frame, x_m, y_m) for --truth")

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from evaluation.ab import FilterSpec, default_filters, format_table, particles_label, run_ab
+from evaluation.harness.ab import FilterSpec, default_filters, format_table, particles_label, run_ab
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
-from pfpeople.cli_support import examples
+from pfpeople.cli.support import examples
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

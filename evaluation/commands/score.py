@@ -2,7 +2,7 @@
 
 Each detector alone (its detections in ``detections.csv``) and the filter output (the classified people in
 ``people.csv``) are matched one-to-one to the ground truth of every frame with
-:func:`evaluation.metrics.match_people` (distance gate ``--gate``, default 0.5 m). Frames where a detector
+:func:`evaluation.metrics.detection.match_people` (distance gate ``--gate``, default 0.5 m). Frames where a detector
 had no data count for it with no detections. Optional limits, applied to ground truth and detections alike
 in the grid frame: a bearing sector ``--sector DEG_MIN DEG_MAX``, a range ``--max-range M``, and ``--in-grid``
 (the run's grid, which is all a filter can report: the scoring of ``pfpeople-eval benchmark``).
@@ -24,7 +24,7 @@ lie after the run's last frame (``gt_frames_beyond_run``: a run stopped early or
 the latter are also logged as a warning.
 
 Stamps: a GT keyed by ``scan_index`` that also has ``stamp_ns`` (or ``bag_time_ns``) is checked against the
-run's frames (:func:`evaluation.run_truth.check_gt_stamps`): more than 10 % of the matched rows disagreeing (a
+run's frames (:func:`evaluation.harness.run_truth.check_gt_stamps`): more than 10 % of the matched rows disagreeing (a
 shifted ``scan_index``, the GT of another recording) is an error naming the first such line and the offset;
 fewer are counted (``gt_rows_stamp_mismatch``) and logged as a warning.
 """
@@ -39,14 +39,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from evaluation.metrics import DetectionAccumulator
-from evaluation.run_truth import gt_coverage, in_region, truth_and_sources
-from gridbridge.classify import classify_blobs
+from evaluation.harness.run_truth import gt_coverage, in_region, truth_and_sources
+from evaluation.metrics.detection import DetectionAccumulator
+from gridbridge.blobs import classify_blobs
 from gridbridge.grid import GridSpec
-from pfpeople.cli_support import examples
-from pfpeople.gt_csv import GroundTruth, read_gt_csv, resolve_gt_frame
-from pfpeople.jsonio import dumps
-from pfpeople.output import RunData, load_run
+from pfpeople.cli.support import examples
+from pfpeople.io.ground_truth import GroundTruth, read_gt_csv, resolve_gt_frame
+from pfpeople.io.jsonio import dumps
+from pfpeople.io.run_dir import RunData, load_run
 
 __all__ = ["score_run"]
 
@@ -87,7 +87,7 @@ def score_run(
         ``{"frames": F, "gt_rows": R, "gt_rows_unassigned": U, "gt_frames": G, "gt_frames_without_run_frame": M,
         "gt_frames_beyond_run": B, "gt_rows_beyond_run": RB, "gt_rows_stamp_mismatch": S, "gt_frame": name,
         "scores": {name: summary}}``
-        (see :func:`evaluation.run_truth.gt_coverage`) where ``name`` is each detector and ``"filter"``; a
+        (see :func:`evaluation.harness.run_truth.gt_coverage`) where ``name`` is each detector and ``"filter"``; a
         summary has frames, tp, fp, fn, recall, mean_match_distance_m and (unless ``recall_only``) precision
         and, for the filter, fpcpf.
     """
@@ -186,7 +186,7 @@ def register(subparsers: Any) -> None:
         help="score a pfpeople run directory against a ground-truth CSV",
     )
     p.add_argument("run_dir", help="run directory written by 'pfpeople run'")
-    p.add_argument("--gt", required=True, help="ground-truth CSV (see pfpeople.gt_csv)")
+    p.add_argument("--gt", required=True, help="ground-truth CSV (see pfpeople.io.ground_truth)")
     p.add_argument(
         "--frame",
         default=None,

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from evaluation.scenarios import Scenario, builtin_scenarios
-from pfpeople.cli_support import examples
+from pfpeople.cli.support import examples
 
 log = logging.getLogger(__name__)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from evaluation.scenarios.scan import builtin_scan_scenes, load_scene, write_scene_bag
-from pfpeople.cli_support import examples
+from pfpeople.cli.support import examples
 from pfpeople.progress import progress_bar
 
 __all__ = ["add_parser", "register", "run"]
@@ -53,7 +53,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Hook of :func:`pfpeople.cli_support.build_parser` (commands are discovered, not listed)."""
+    """Hook of :func:`pfpeople.cli.support.build_parser` (commands are discovered, not listed)."""
     add_parser(subparsers)
 
 

@@ -8,7 +8,7 @@ Examples::
 
 Every point runs the paper's filters and the recommended ones (``--param mode=paper`` or ``recommended`` for one
 mode), each filter once per sweep (a grid filter is not rerun for every particle count). Sweepable keys: see
-``--param`` below (:data:`evaluation.sweep.SWEEP_KEYS`). Exit status: 0 when every task completed, 1 when some
+``--param`` below (:data:`evaluation.harness.sweep.SWEEP_KEYS`). Exit status: 0 when every task completed, 1 when some
 failed (their errors are in the table), 2 on bad input.
 """
 
@@ -20,9 +20,9 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from evaluation.sweep import SWEEP_KEYS, columns_for, parse_param, run_sweep
-from pfpeople.batch import check_table_path, quiet_dask_logs, write_table
-from pfpeople.cli_support import examples
+from evaluation.harness.sweep import SWEEP_KEYS, columns_for, parse_param, run_sweep
+from pfpeople.cli.support import examples
+from pfpeople.pipeline.batch import check_table_path, quiet_dask_logs, write_table
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -1,6 +1,6 @@
 """``pfpeople-eval track``: multi-person tracking scored with CLEAR-MOT, fused filter output vs raw detections.
 
-Two inputs (see :mod:`evaluation.mot_eval`):
+Two inputs (see :mod:`evaluation.harness.mot_eval`):
 
 - ``--scenario NAME`` (repeatable): the tracker on each filter's classified posterior (grid filter, particle
   filter; classifier: the peak picker) and on each detector's raw detections and all detectors merged;
@@ -18,16 +18,16 @@ import math
 from pathlib import Path
 from typing import Any
 
-from evaluation.ab import FilterSpec, particles_label
-from evaluation.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows, peak_classifier
+from evaluation.harness.ab import FilterSpec, particles_label
+from evaluation.harness.mot_eval import MotRow, evaluate_run, evaluate_scenario, format_rows, peak_classifier
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
-from pfpeople.bag.config import TrackingConfig
-from pfpeople.cli_support import examples
-from pfpeople.filters import PEAK_THRESHOLD
-from pfpeople.gt_csv import read_gt_csv
-from pfpeople.jsonio import dumps
-from pfpeople.mot import TrackerConfig
-from pfpeople.output import load_run
+from pfpeople.cli.support import examples
+from pfpeople.config import TrackingConfig
+from pfpeople.io.ground_truth import read_gt_csv
+from pfpeople.io.jsonio import dumps
+from pfpeople.io.run_dir import load_run
+from pfpeople.pipeline.assembly import PEAK_THRESHOLD
+from pfpeople.track import TrackerConfig
 
 __all__ = ["add_parser", "register", "run"]
 

@@ -3,7 +3,7 @@
 - :mod:`~evaluation.scenarios.robot`: velocity profile (0-0.6 m/s, turns), path, (noisy) odometry;
 - :mod:`~evaluation.scenarios.walkers`: synthetic walkers (stand, walk, cross, stop-and-go, pairs);
 - :mod:`~evaluation.scenarios.eth_ucy`: replayed real trajectories (ETH/UCY ``obsmat.txt``);
-- :mod:`~evaluation.scenarios.sensors`: simulated detectors (misses, clutter, noise, laser occlusion);
+- :mod:`~evaluation.scenarios.simulated_detectors`: simulated detectors (misses, clutter, noise, laser occlusion);
 - :mod:`~evaluation.scenarios.scenario`: :class:`ScenarioConfig` (TOML), :class:`Scenario`, :class:`Frame`,
   the built-in scenarios (``default``, ``corridor``, ``complementary``, ``eth``).
 
@@ -27,7 +27,7 @@ from evaluation.scenarios.scenario import (
     load_scenario_config,
     occupancy_grid,
 )
-from evaluation.scenarios.sensors import (
+from evaluation.scenarios.simulated_detectors import (
     DetectorOutput,
     SimulatedDetector,
     clutter_for_ppv,

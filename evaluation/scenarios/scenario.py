@@ -16,7 +16,7 @@ Per frame ``k`` (``stamp = k dt`` s):
 - ``truth_grid``: (nx, ny) bool, the cells a person's disc (radius ``person_radius``) overlaps: a cell counts
   when the distance from the person's centre to the closed cell square is below the radius
   (:func:`occupancy_grid`);
-- ``outputs``: one :class:`~evaluation.scenarios.sensors.DetectorOutput` per detector; ``detections`` is the
+- ``outputs``: one :class:`~evaluation.scenarios.simulated_detectors.DetectorOutput` per detector; ``detections`` is the
   list of (M_i, 2) arrays ``GridFilter.step(detections, odometry, dt)`` takes.
 
 Built-in scenarios are TOML files next to this module: ``default`` (synthetic, short), ``corridor`` (robot
@@ -47,7 +47,7 @@ from evaluation.scenarios.robot import (
     robot_controls,
     world_to_sensor,
 )
-from evaluation.scenarios.sensors import (
+from evaluation.scenarios.simulated_detectors import (
     DetectorOutput,
     SimulatedDetector,
     paper_simulated_detectors,

@@ -1,7 +1,7 @@
-"""Pictures of a run directory (:mod:`pfpeople.output`): an animation frame per run frame, and a summary page.
+"""Pictures of a run directory (:mod:`pfpeople.io.run_dir`): an animation frame per run frame, and a summary page.
 
 Drawn with matplotlib's object-oriented API on an Agg canvas (no pyplot state, any backend). The grid is drawn
-as the paper and :mod:`evaluation.figures` draw it: the sensor at the bottom middle, x (forward) up, y (left) to
+as the paper and :mod:`evaluation.harness.figures` draw it: the sensor at the bottom middle, x (forward) up, y (left) to
 the left; only the display is flipped (``grid[::-1, ::-1]`` with extent ``(y1, y0, x0, x1)``), never the data.
 Points (m, grid frame) are plotted at ``(y, x)`` on those axes, whose limits are the grid's extent at equal
 scale (:func:`layout`; :func:`fit_size` gives a frame size of the grid's aspect).
@@ -49,7 +49,7 @@ from gridbridge.ego_motion import velocity_displacement
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.validation import check_int, check_real
-from pfpeople.output import RunData
+from pfpeople.io.run_dir import RunData
 
 __all__ = [
     "TRACK_COLUMNS",
@@ -198,7 +198,7 @@ def ego_sources(run: RunData) -> NDArray[np.str_]:
 
     ``frames.csv`` ``odometry`` is 1 for both odometry and scan matching; a run without an odometry topic
     (``run.json`` ``config.odometry.topic`` empty) has its controls from scan matching the driving laser
-    (:class:`pfpeople.run_state.RunSummary` ``ego_motion``).
+    (:class:`pfpeople.pipeline.state.RunSummary` ``ego_motion``).
     """
     config = run.meta.get("config")
     odo = config.get("odometry") if isinstance(config, dict) else None
@@ -279,7 +279,7 @@ class RunFrameRenderer:
     Parameters
     ----------
     run : RunData
-        The run (:func:`pfpeople.output.load_run`).
+        The run (:func:`pfpeople.io.run_dir.load_run`).
     options : ViewOptions
         Size of the frames.
     tracks : dict of str to ndarray, optional

@@ -14,7 +14,7 @@ driver's bag would have them):
   frame, header = the scan's stamp (person ids are in the CSV).
 
 Beside the bag: ``<name>_gt.csv`` (scan_index, stamp_ns, person_id, x_<frame>_m, y_<frame>_m, hit_beams, speed_mps; see
-:mod:`pfpeople.gt_csv`) and ``<name>.toml``, a ``pfpeople run`` configuration (driver and detectors on the
+:mod:`pfpeople.io.ground_truth`) and ``<name>.toml``, a ``pfpeople run`` configuration (driver and detectors on the
 first laser, odometry ``/odom``, the laser's field of view and range in each detector's model).
 """
 
@@ -37,7 +37,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from evaluation.scenarios.scan.scene import SceneConfig, load_scene
 from evaluation.scenarios.scan.simulate import SceneSim, simulate_scene
 from gridbridge.geometry import quaternion_from_yaw
-from pfpeople.bag.inspect import LASER_DETECTORS
+from pfpeople.io.bag.inspect import LASER_DETECTORS
 
 __all__ = ["GT_TOPIC", "ODOM_TOPIC", "SceneBag", "run_config_text", "write_gt_csv", "write_scene_bag", "write_sim_bag"]
 
@@ -139,7 +139,7 @@ def write_gt_csv(sim: SceneSim, path: Path) -> None:
 
 
 def run_config_text(cfg: SceneConfig) -> str:
-    """A ``pfpeople run`` TOML for the scene (see :mod:`pfpeople.bag.config`): first laser, /odom, leg and
+    """A ``pfpeople run`` TOML for the scene (see :mod:`pfpeople.config`): first laser, /odom, leg and
     boosted detectors with the laser's field of view and range."""
     las = cfg.lasers[0]
     lines = [

@@ -12,7 +12,7 @@ A beam from the origin of the scan frame along the unit direction ``d = (cos a, 
 All (beam, primitive) pairs whose bearings can meet are evaluated at once as flat arrays (no Python loop
 over beams or primitives); the range of a beam is the smallest positive ``t``. With evenly spaced beams the
 windows' pairs are intersected by a compiled loop (:mod:`.raycast_kernels`; the numpy code with
-``PFPEOPLE_NUMBA=0``: the same ranges and hits bit for bit). Timing: ``python -m evaluation.bench_raycast``
+``PFPEOPLE_NUMBA=0``: the same ranges and hits bit for bit). Timing: ``python -m evaluation.bench.raycast``
 (this code compiled, its numpy code and the previous release, same run; ``docs/speed.md``).
 
 Reported ranges (REP-117 conventions, which most ROS 1/2 laser drivers follow): a beam without a return

@@ -6,7 +6,7 @@ segments; per bearing window shift, primitive by primitive, beams ascending), co
 same IEEE operations in the same order (no fused multiply-add: numba contracts nothing without ``fastmath``;
 ``math.sqrt`` is correctly rounded as ``np.sqrt``) and keeps, per beam, the smallest range and the last primitive
 that reached it (numpy's ``np.minimum.at`` then ``hit[beam[win]] = prim[win]``, where the last repeated index
-wins). The ranges and hits are the same bit for bit (``tests/test_scan_sim.py``).
+wins). The ranges and hits are the same bit for bit (``tests/evaluation/scenarios/test_scan_sim.py``).
 """
 
 from __future__ import annotations

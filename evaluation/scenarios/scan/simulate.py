@@ -25,9 +25,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evaluation.scenarios.scan.gait import leg_positions
-from evaluation.scenarios.scan.motion import drive_route, interpolate_poses, odometry_from_controls
 from evaluation.scenarios.scan.people import scene_tracks
 from evaluation.scenarios.scan.raycast import beam_angles, cast_rays, measure_ranges
+from evaluation.scenarios.scan.route import drive_route, interpolate_poses, odometry_from_controls
 from evaluation.scenarios.scan.scene import LaserConfig, SceneConfig, load_scene
 from evaluation.scenarios.tracks import sample_tracks
 from gridbridge.geometry import compose, to_frame

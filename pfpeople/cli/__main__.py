@@ -1,0 +1,5 @@
+"""``python -m pfpeople.cli``: the ``pfpeople`` command."""
+
+from pfpeople.cli import main
+
+raise SystemExit(main())

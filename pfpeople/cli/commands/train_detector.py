@@ -1,0 +1,116 @@
+"""``pfpeople train-detector``: train the boosted leg-segment classifier on the leg_tracker bags."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pfpeople.cli.support import examples
+from pfpeople.detect.people_bags import find_people_bags
+from pfpeople.detect.segments import SegmentationParams
+from pfpeople.detect.training import POSITIVE_BAGS, BoostTrainingParams, train_from_directory
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "train-detector",
+        epilog=examples(
+            "pfpeople train-detector --data-dir ../shared/data/leg_tracker --out pfpeople/models/",
+            "pfpeople train-detector --data-dir ../shared/data/leg_tracker --people-bags sim-train --out models/",
+        ),
+        help="train the boosted laser segment classifier (detector 2) from labelled bags",
+        description=(
+            "Train cv2.ml.Boost on leg_tracker's positive_*_extracted.bag (labelled legs) and negative_2.bag "
+            "(no people); write <name>.yml and <name>.json (data with SHA-256, parameters, metrics). By default it "
+            "trains on all six labelled bags and all of negative_2 and records a leave-one-bag-out evaluation "
+            "(each positive bag held out in turn, negatives of another laser and time period). --people-bags adds "
+            "bags annotated with people's centres (every <name>.bag below the folder with <name>_gt.csv beside it, "
+            "as pfpeople-eval simulate-bag writes them): segments within 0.3 m of a person the laser saw are legs, "
+            "segments farther than 1 m from everyone are not."
+        ),
+    )
+    p.add_argument("--data-dir", required=True, help="folder with the leg_tracker bags")
+    p.add_argument("--out", required=True, help="output folder (e.g. pfpeople/models/)")
+    p.add_argument("--name", default="boosted_legs", help="model file stem (default: %(default)s)")
+    p.add_argument("--train-positive", nargs="+", default=list(POSITIVE_BAGS), help="default: all six")
+    p.add_argument("--test-positive", nargs="*", default=[], help="bags held out of training (default: none)")
+    p.add_argument("--negative", default="negative_2.bag")
+    p.add_argument("--people-bags", type=Path, default=None, metavar="DIR", help="bags annotated with people")
+    p.add_argument("--people-topic", default="/scan", help="their LaserScan topic (default: %(default)s)")
+    d = BoostTrainingParams()
+    p.add_argument("--boost-type", default=d.boost_type, choices=["real", "gentle", "discrete", "logit"])
+    p.add_argument("--weak-count", type=int, default=d.weak_count)
+    p.add_argument("--max-depth", type=int, default=d.max_depth)
+    p.add_argument("--negatives-per-positive", type=float, default=d.negatives_per_positive)
+    p.add_argument("--holdout-fraction", type=float, default=d.holdout_fraction)
+    p.add_argument("--match-radius", type=float, default=d.match_radius, help="label match radius (m)")
+    p.add_argument("--jump-distance", type=float, default=SegmentationParams().jump_distance, help="(m)")
+    p.add_argument("--seed", type=int, default=d.seed)
+    p.add_argument(
+        "--augment-noise",
+        type=float,
+        nargs="*",
+        default=list(d.augment_noise),
+        metavar="SD",
+        help="train also on noisy copies of every scan, one per range-noise sd in m (default: %(default)s; "
+        "none: no copies)",
+    )
+    p.add_argument("--scan-step", type=int, default=1, help="use every N-th scan (quick runs; default all)")
+    p.add_argument("--no-leave-one-out", action="store_true", help="skip the leave-one-bag-out evaluation")
+    p.set_defaults(func=_run)
+
+
+def _run(args: argparse.Namespace) -> int:
+    params = BoostTrainingParams(
+        boost_type=args.boost_type,
+        weak_count=args.weak_count,
+        max_depth=args.max_depth,
+        negatives_per_positive=args.negatives_per_positive,
+        holdout_fraction=args.holdout_fraction,
+        match_radius=args.match_radius,
+        seed=args.seed,
+        augment_noise=tuple(args.augment_noise),
+    )
+    side = train_from_directory(
+        args.data_dir,
+        args.out,
+        params=params,
+        train_positive=args.train_positive,
+        test_positive=args.test_positive,
+        negative=args.negative,
+        name=args.name,
+        segmentation=SegmentationParams(jump_distance=args.jump_distance),
+        leave_one_out=not args.no_leave_one_out,
+        scan_step=args.scan_step,
+        people_bags=find_people_bags(args.people_bags) if args.people_bags is not None else (),
+        people_topic=args.people_topic,
+    )
+    lobo = side["leave_one_bag_out"]
+    print(json.dumps({"model": side["model_file"], "metrics": side["metrics"]}, indent=2, default=str))
+    if isinstance(lobo, dict):
+        print(format_leave_one_out(lobo))
+    return 0
+
+
+def _f(v: Any) -> str:
+    return "-" if v is None or (isinstance(v, float) and v != v) else f"{v:.3f}"
+
+
+def format_leave_one_out(lobo: Mapping[str, Any]) -> str:
+    """The leave-one-bag-out table: held-out bag, segment precision / recall / F1, false leg segments per scan."""
+    lines = [f"{'held-out bag':<26}{'negatives':>14}{'precision':>10}{'recall':>8}{'F1':>7}{'FP seg/scan':>12}"]
+    for f in lobo["folds"]:
+        neg = f"{f['negative_topic']}#{f['negative_period']}"
+        lines.append(
+            f"{f['bag']:<26}{neg:>14}{_f(f['precision']):>10}{_f(f['recall']):>8}{_f(f['f1']):>7}"
+            f"{_f(f['false_leg_segments_per_negative_scan']):>12}"
+        )
+    p = lobo["pooled"]
+    lines.append(
+        f"{'pooled':<26}{'':>14}{_f(p['precision']):>10}{_f(p['recall']):>8}{_f(p['f1']):>7}"
+        f"{_f(p['false_leg_segments_per_negative_scan']):>12}"
+    )
+    return "\n".join(lines)

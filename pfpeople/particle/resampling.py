@@ -1,0 +1,386 @@
+"""Resampling: plain functions returning ancestor indices, chosen by name (as nchopin/particles).
+
+Each resampler takes weights ``w`` (non-negative, any positive sum; normalised here to ``W``) and a number of
+draws ``n`` and returns ``n`` ancestor indices ``a`` with ``E[#{k : a_k = i}] = n W_i``:
+
+``systematic``  one uniform ``u``; positions ``(k + u) / n``.
+``stratified``  one uniform per stratum; positions ``(k + u_k) / n``.
+``residual``    ``floor(n W_i)`` copies each, the remainder by multinomial draws on the residual weights.
+``multinomial`` ``n`` independent draws (sorted uniforms from exponential spacings).
+
+All are vectorised and O(N) apart from a binary search (``np.searchsorted``); systematic resampling counts
+offspring directly from the cumulative weights (``ceil(n C_i - u)`` differences), no search. The last
+cumulative weight is set to exactly 1 so that round-off (weights summing to 1 - 1e-12) never yields an index
+past the end. Ancestors come out sorted. ``systematic`` and ``stratified`` accept the offsets
+(``u=``) so they can be compared with ``filterpy.monte_carlo`` on the same random numbers.
+
+:func:`resample_by_cell` is the occupancy-grid resampling the particle filter uses: it keeps the particle count
+at ``n`` and every cell's mass unchanged. With numba (:mod:`gridbridge.jit`) it runs compiled kernels
+(:func:`resample_plan`; :func:`resample_state` also gathers the particles) that make the same draws and return
+the same ancestors and weights bit for bit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from gridbridge import jit
+from gridbridge.validation import check_int
+from pfpeople.particle import step_kernels as kernels
+from pfpeople.particle.buffers import BufferPool
+
+__all__ = [
+    "RESAMPLERS",
+    "effective_sample_size",
+    "get_resampler",
+    "multinomial",
+    "resample_by_cell",
+    "resample_plan",
+    "resample_state",
+    "residual",
+    "stratified",
+    "systematic",
+]
+
+
+def _normalised_cumsum(weights: ArrayLike) -> NDArray[np.float64]:
+    w = np.asarray(weights, dtype=float)
+    if w.ndim != 1 or w.size == 0:
+        raise ValueError(f"weights must be a non-empty 1-D array, got shape {w.shape}")
+    cum = np.cumsum(w)
+    total = cum[-1]
+    if not np.isfinite(total) or not np.all(np.isfinite(w)):
+        raise ValueError("weights contain NaN or infinite values")
+    if total <= 0.0 or w.min() < 0.0:
+        raise ValueError("weights must be non-negative with a positive sum")
+    cum /= total
+    cum[-1] = 1.0  # guard: positions in [0, 1) always fall inside
+    return cum
+
+
+def _count(n: int | None, size: int) -> int:
+    return check_int(size if n is None else n, "n", minimum=0)
+
+
+def _need_rng(rng: np.random.Generator | None) -> np.random.Generator:
+    if rng is None:
+        raise ValueError("rng (a numpy.random.Generator) is required (systematic and stratified: or the offsets u)")
+    return rng
+
+
+def _from_positions(cum: NDArray[np.float64], positions: NDArray[np.float64]) -> NDArray[np.intp]:
+    # First i with position < cum[i] (as filterpy's loops).
+    idx = np.searchsorted(cum, positions, side="right")
+    return np.minimum(idx, cum.size - 1).astype(np.intp, copy=False)
+
+
+def systematic(
+    weights: ArrayLike,
+    n: int | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+    u: float | None = None,
+) -> NDArray[np.intp]:
+    """Systematic resampling: ``n`` (default ``len(weights)``) ancestors from positions ``(k + u) / n``.
+
+    Parameters
+    ----------
+    weights : array_like, shape (N,)
+        Non-negative, positive sum (normalised here).
+    n : int, optional
+        Number of draws.
+    rng : numpy.random.Generator, optional
+        Draws ``u`` when ``u`` is not given.
+    u : float in [0, 1), optional
+        The offset (filterpy's ``random()``).
+
+    Returns
+    -------
+    ndarray of intp, shape (n,)
+        Sorted ancestor indices.
+    """
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    off = float(_need_rng(rng).random()) if u is None else float(u)
+    if not 0.0 <= off < 1.0:
+        raise ValueError(f"u must lie in [0, 1), got {u!r}")
+    # Number of positions (k + u) / m below cum[i] is ceil(m cum[i] - u), clipped to [0, m].
+    below = np.clip(np.ceil(m * cum - off), 0, m).astype(np.intp)
+    below[-1] = m
+    counts = np.diff(below, prepend=0)
+    return np.repeat(np.arange(cum.size, dtype=np.intp), counts)
+
+
+def stratified(
+    weights: ArrayLike,
+    n: int | None = None,
+    *,
+    rng: np.random.Generator | None = None,
+    u: ArrayLike | None = None,
+) -> NDArray[np.intp]:
+    """Stratified resampling: positions ``(k + u_k) / n`` with independent uniforms ``u_k``.
+
+    ``u`` (shape ``(n,)``, values in [0, 1)) may be given instead of ``rng``. Returns sorted ancestors.
+    """
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    off = _need_rng(rng).random(m) if u is None else np.asarray(u, dtype=float)
+    if off.shape != (m,) or (m and (off.min() < 0.0 or off.max() >= 1.0)):
+        raise ValueError(f"u must be {m} numbers in [0, 1)")
+    return _from_positions(cum, (np.arange(m) + off) / m)
+
+
+def multinomial(
+    weights: ArrayLike, n: int | None = None, *, rng: np.random.Generator | None = None
+) -> NDArray[np.intp]:
+    """Multinomial resampling: ``n`` independent draws by weight. Returns sorted ancestors."""
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    spacings = np.cumsum(_need_rng(rng).exponential(size=m + 1))
+    return _from_positions(cum, spacings[:-1] / spacings[-1])
+
+
+def residual(weights: ArrayLike, n: int | None = None, *, rng: np.random.Generator | None = None) -> NDArray[np.intp]:
+    """Residual resampling: ``floor(n W_i)`` copies, the rest multinomial on the residuals. Sorted output."""
+    cum = _normalised_cumsum(weights)
+    m = _count(n, cum.size)
+    w = np.diff(cum, prepend=0.0)
+    scaled = m * w
+    copies = np.floor(scaled).astype(np.intp)
+    rest = m - int(copies.sum())
+    if rest > 0:
+        extra = multinomial(scaled - copies, rest, rng=rng)
+        copies += np.bincount(extra, minlength=cum.size)
+    return np.repeat(np.arange(cum.size, dtype=np.intp), copies)
+
+
+RESAMPLERS: dict[str, Callable[..., NDArray[np.intp]]] = {
+    "systematic": systematic,
+    "stratified": stratified,
+    "residual": residual,
+    "multinomial": multinomial,
+}
+
+
+def get_resampler(name: str) -> Callable[..., NDArray[np.intp]]:
+    """The resampler called ``name`` (one of :data:`RESAMPLERS`)."""
+    try:
+        return RESAMPLERS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"resampler must be one of {', '.join(map(repr, RESAMPLERS))}; got {name!r}") from None
+
+
+def effective_sample_size(weights: ArrayLike) -> float:
+    """ESS = (sum w)^2 / sum w^2 (0 for all-zero weights)."""
+    w = np.asarray(weights, dtype=float)
+    sq = float(np.dot(w, w))
+    return float(w.sum()) ** 2 / sq if sq > 0.0 else 0.0
+
+
+def resample_by_cell(
+    cells: ArrayLike,
+    weights: ArrayLike,
+    n: int,
+    *,
+    n_cells: int,
+    rng: np.random.Generator,
+    resampler: str | Callable[..., NDArray[np.intp]] = "systematic",
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Resample occupancy-mass particles to exactly ``n``, keeping every cell's mass.
+
+    Scheme: every cell with positive mass first gets one particle, drawn within the cell in proportion to
+    weight (so no cell that holds mass loses all its particles); the other ``n - K`` (K = cells with mass)
+    are drawn from all particles by weight with ``resampler``. Each new particle in cell c then carries
+    ``M_c / n_c`` (the cell's mass shared equally by its ``n_c`` new particles), so cell masses are preserved
+    to round-off. Every new particle is marginally a weight-proportional draw from its cell's particles.
+
+    Parameters
+    ----------
+    cells : array_like of int, shape (N,)
+        Flat cell index of each particle, in ``[0, n_cells)``.
+    weights : array_like, shape (N,)
+        Occupancy masses, >= 0.
+    n : int
+        Particle count after resampling; must be at least the number of cells with positive mass.
+    n_cells : int
+        Number of grid cells.
+    rng : numpy.random.Generator
+    resampler : str or callable
+        A name in :data:`RESAMPLERS`, or ``f(weights, n, rng=rng) -> ancestors``.
+
+    Returns
+    -------
+    ancestors : ndarray of intp, shape (n,)
+    new_weights : ndarray, shape (n,)
+    """
+    fn = get_resampler(resampler) if isinstance(resampler, str) else resampler
+    c = np.asarray(cells, dtype=np.intp)
+    w = np.asarray(weights, dtype=float)
+    if c.shape != w.shape or c.ndim != 1:
+        raise ValueError(f"cells and weights must be 1-D of equal length, got {c.shape} and {w.shape}")
+    if jit.enabled("pfpeople"):
+        ancestors, mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=fn)
+    else:
+        forced, mass = _forced_numpy(c, w, n, n_cells, rng)
+        k = forced.size
+        rest = fn(w, n - k, rng=rng) if n > k else np.zeros(0, dtype=np.intp)
+        ancestors = np.concatenate((forced, rest))
+    return ancestors, _shares(c[ancestors], mass, n_cells)
+
+
+def _shares(new_cells: NDArray[np.intp], mass: NDArray[np.float64], n_cells: int) -> NDArray[np.float64]:
+    """The new weights (n,): each cell's mass ``mass`` (n_cells,) shared equally by its new particles, whose cells
+    are ``new_cells`` (n,)."""
+    n_new = np.bincount(new_cells, minlength=n_cells)
+    share = np.divide(mass, n_new, out=np.zeros(n_cells), where=n_new > 0)
+    return share[new_cells]
+
+
+def _forced_numpy(
+    c: NDArray[np.intp], w: NDArray[np.float64], n: int, n_cells: int, rng: np.random.Generator
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Checks of :func:`resample_by_cell` and its one ancestor per occupied cell, drawn within the cell by weight
+    (numpy). Returns the forced ancestors (K,), sorted by cell, and the mass per cell (n_cells,)."""
+    if not np.all(np.isfinite(w)) or (w.size and w.min() < 0.0):
+        raise ValueError("weights must be finite and non-negative")
+    if c.size and (c.min() < 0 or c.max() >= n_cells):
+        raise ValueError(f"cells must lie in [0, {n_cells})")
+    mass = np.bincount(c, weights=w, minlength=n_cells).astype(np.float64, copy=False)
+    occupied = np.flatnonzero(mass > 0.0)
+    k = occupied.size
+    if k == 0:
+        raise ValueError("weights are all zero: nothing to resample")
+    if n < k:
+        raise ValueError(f"n={n} particles cannot keep one in each of the {k} cells holding mass")
+    # Sort by cell (radix sort on small ints); the draw is a position in the cell's stretch of the running sum.
+    key = c.astype(np.int16 if n_cells <= np.iinfo(np.int16).max else np.int32)
+    order = np.argsort(key, kind="stable")
+    cum = np.cumsum(w[order])
+    counts = np.bincount(c, minlength=n_cells)
+    end = np.cumsum(counts)
+    start = end - counts
+    before = np.where(start > 0, cum[np.maximum(start - 1, 0)], 0.0)
+    target = before[occupied] + rng.random(k) * mass[occupied]
+    pos = np.searchsorted(cum, target, side="right")
+    pos = np.clip(pos, start[occupied], end[occupied] - 1)
+    return order[pos], mass
+
+
+def _forced_compiled(
+    c: NDArray[np.intp],
+    w: NDArray[np.float64],
+    n: int,
+    n_cells: int,
+    rng: np.random.Generator,
+    pool: BufferPool | None = None,
+) -> tuple[NDArray[np.intp], NDArray[np.float64], float]:
+    """Checks of :func:`resample_by_cell` and its one ancestor per occupied cell (compiled; the same draws).
+
+    Returns the forced ancestors (K,), the mass per cell and the total mass (running sum in particle order).
+    """
+    mass, counts, total, status = kernels.cell_mass(c, w, n_cells)
+    if status == 1:
+        raise ValueError("weights must be finite and non-negative")
+    if status == 2:
+        raise ValueError(f"cells must lie in [0, {n_cells})")
+    occupied = np.flatnonzero(mass > 0.0)
+    k = occupied.size
+    if k == 0:
+        raise ValueError("weights are all zero: nothing to resample")
+    if n < k:
+        raise ValueError(f"n={n} particles cannot keep one in each of the {k} cells holding mass")
+    forced = np.empty(k, dtype=np.intp)
+    order = np.empty(c.size, dtype=np.intp) if pool is None else pool.take_index(c.size)
+    kernels.forced_ancestors(c, w, counts, mass, occupied, rng.random(k), forced, order)
+    if pool is not None:
+        pool.give(order)
+    return forced, mass, float(total)
+
+
+def resample_plan(
+    cells: NDArray[np.intp],
+    weights: NDArray[np.float64],
+    n: int,
+    *,
+    n_cells: int,
+    rng: np.random.Generator,
+    resampler: Callable[..., NDArray[np.intp]],
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """The ancestors of :func:`resample_by_cell` and the cell masses, with the compiled kernels.
+
+    The same draws in the same order as :func:`resample_by_cell`'s numpy code, and the same ancestors bit for bit
+    (``resampler`` is :func:`systematic` compiled, any other callable called as there).
+
+    Parameters
+    ----------
+    cells : ndarray of intp, shape (N,)
+        Flat cell of each particle, in ``[0, n_cells)``.
+    weights : ndarray, shape (N,)
+        Occupancy masses, finite and >= 0.
+    n, n_cells, rng, resampler
+        As :func:`resample_by_cell` (``resampler`` a callable).
+
+    Returns
+    -------
+    ancestors : ndarray of intp, shape (n,)
+    mass : ndarray, shape (n_cells,)
+        The mass per cell (``np.bincount(cells, weights)``).
+    """
+    c = np.ascontiguousarray(cells, dtype=np.intp)
+    w = np.ascontiguousarray(weights, dtype=np.float64)
+    forced, mass, _ = _forced_compiled(c, w, n, n_cells, rng)
+    k = forced.size
+    if n == k:
+        return forced, mass
+    if resampler is not systematic:  # whatever a callable returns follows, as in the numpy code
+        rest = np.asarray(resampler(w, n - k, rng=rng), dtype=np.intp)
+        return np.concatenate((forced, rest)), mass
+    ancestors = np.empty(n, dtype=np.intp)
+    ancestors[:k] = forced
+    kernels.systematic_into(w, n - k, float(rng.random()), ancestors, k)
+    return ancestors, mass
+
+
+def resample_state(
+    cells: NDArray[np.intp],
+    weights: NDArray[np.float64],
+    n: int,
+    rows: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    *,
+    n_cells: int,
+    rng: np.random.Generator,
+    resampler: Callable[..., NDArray[np.intp]],
+    pool: BufferPool | None = None,
+) -> tuple[NDArray[np.float64], ...]:
+    """:func:`resample_by_cell` and the gather of the particles in one go (compiled; bit-identical).
+
+    Parameters
+    ----------
+    cells, weights, n, n_cells, rng, resampler
+        As :func:`resample_plan`.
+    rows : tuple of 4 ndarrays, shape (N,) each
+        The particles' x, y, vx, vy.
+    pool : BufferPool, optional
+        Where the new arrays and the scratch space come from (new arrays without).
+
+    Returns
+    -------
+    tuple of 5 ndarrays, shape (n,) each
+        x, y, vx, vy of the ancestors and the new weights (each cell's mass shared by its new particles).
+    """
+    c = np.ascontiguousarray(cells, dtype=np.intp)
+    w = np.ascontiguousarray(weights, dtype=np.float64)
+    if resampler is not systematic:
+        ancestors, mass = resample_plan(c, w, n, n_cells=n_cells, rng=rng, resampler=resampler)
+        out = tuple(np.empty(ancestors.size) if pool is None else pool.take(ancestors.size) for _ in range(5))
+        kernels.gather_resampled(ancestors, c, *rows, mass, n_cells, out)
+        return out
+    out = tuple(np.empty(n) if pool is None else pool.take(n) for _ in range(5))
+    forced, mass, total = _forced_compiled(c, w, n, n_cells, rng, pool)
+    m = n - forced.size
+    off = float(rng.random()) if m > 0 else 0.0
+    kernels.systematic_gather(forced, c, w, rows, mass, total, m, off, out)
+    return out

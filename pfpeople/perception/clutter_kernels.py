@@ -1,0 +1,292 @@
+"""Compiled free-space tracing and evidence update of :class:`pfpeople.perception.clutter_map.StaticClutterMap` (numba;
+see
+:mod:`gridbridge.jit`, scope ``"pfpeople"``).
+
+:func:`update_evidence` does what the numpy code of ``StaticClutterMap.update`` does after the scan's cells are
+known (the free cells along the traced rays, the people's cells, the protection of the cells beside a return,
+the relaxation towards unknown, the hits and the free decrements), in one pass over the samples and one over the
+map, with the same floating-point operations, so the two give the same evidence bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TypeAlias
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gridbridge import jit as _jit
+from gridbridge.jit import jit as njit
+from gridbridge.kernels import pairwise_sum
+
+_F: TypeAlias = NDArray[np.float64]
+
+__all__ = ["ball_means", "moving_update", "self_update", "static_lookup", "update_evidence", "warm_up"]
+
+
+@njit
+def update_evidence(
+    s: NDArray[np.float64],
+    n: int,
+    hit_cells: NDArray[np.intp],
+    human_cells: NDArray[np.intp],
+    ru: NDArray[np.float64],
+    n_free: NDArray[np.intp],
+    steps: NDArray[np.float64],
+    origin: NDArray[np.float64],
+    neighbours: NDArray[np.intp],
+    params: NDArray[np.float64],
+) -> None:  # pragma: no cover - compiled
+    """Update the flat evidence ``s`` (n * n,) of one scan in place.
+
+    Parameters
+    ----------
+    s : ndarray, shape (n * n,)
+        Evidence (s) per cell, flat index ``i * n + j``.
+    n : int
+        Cells per side of the window.
+    hit_cells, human_cells : ndarray of intp
+        Flat cells of the returns inside the window away from people (hits) and near them (traced free).
+    ru : ndarray, shape (R, 2)
+        Unit direction of every traced ray in the map frame, divided by the resolution (cells per m).
+    n_free : ndarray of intp, shape (R,)
+        Samples traced along each ray (the first ``n_free[r]`` of ``steps``).
+    steps : ndarray, shape (K,)
+        Sample distances along a ray (m).
+    origin : ndarray, shape (2,)
+        The sensor's position in cells from the window's corner.
+    neighbours : ndarray of intp
+        Flat offsets of the cells protected beside a hit (the hit's own cell included).
+    params : ndarray, shape (6,)
+        ``(unknown_evidence, decay, dt, s_max, free decrement, s_min)``: ``s`` relaxes to
+        ``(s - unknown) * decay + unknown``, hits gain ``dt`` up to ``s_max``, free cells lose the decrement down
+        to ``s_min``.
+    """
+    free, hit = _marks(n, hit_cells, human_cells, ru, n_free, steps, origin, neighbours)
+    s0, decay, dt, s_max, dec, s_min = params[0], params[1], params[2], params[3], params[4], params[5]
+    for i in range(n * n):
+        v = s[i] - s0
+        v = v * decay
+        v = v + s0
+        if hit[i]:
+            v = v + dt
+            v = v if v <= s_max else s_max
+        if free[i]:
+            v = v - dec
+            v = v if v >= s_min else s_min
+        s[i] = v
+
+
+@njit
+def _marks(
+    n: int,
+    hit_cells: NDArray[np.intp],
+    human_cells: NDArray[np.intp],
+    ru: NDArray[np.float64],
+    n_free: NDArray[np.intp],
+    steps: NDArray[np.float64],
+    origin: NDArray[np.float64],
+    neighbours: NDArray[np.intp],
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:  # pragma: no cover - compiled
+    """The free and the hit cells of one scan, flat (n * n,) each (the arguments are :func:`update_evidence`'s):
+    free along the traced rays and at the people's returns, not beside a hit (``neighbours``)."""
+    ncell = n * n
+    free = np.zeros(ncell, dtype=np.bool_)
+    for b in range(n_free.size):
+        for k in range(n_free[b]):
+            fi = math.floor(ru[b, 0] * steps[k] + origin[0])
+            fj = math.floor(ru[b, 1] * steps[k] + origin[1])
+            if fi >= 0 and fi < n and fj >= 0 and fj < n:
+                free[fi * n + fj] = True
+    for c in human_cells:
+        free[c] = True
+    hit = np.zeros(ncell, dtype=np.bool_)
+    for c in hit_cells:
+        hit[c] = True
+        for off in neighbours:
+            free[(c + off) % ncell] = False
+    return free, hit
+
+
+@njit
+def ball_means(
+    xy: NDArray[np.float64], score: NDArray[np.float64], pos: NDArray[np.float64], radius: float
+) -> NDArray[np.float64]:  # pragma: no cover - compiled
+    """Mean ``score`` of the points ``xy`` within ``radius`` of each position, as
+    ``score[cKDTree(xy).query_ball_point(pos, radius)].mean()`` (0 where none).
+
+    Parameters
+    ----------
+    xy : ndarray, shape (H, 2)
+        Points (m).
+    score : ndarray, shape (H,)
+        Their scores.
+    pos : ndarray, shape (M, 2)
+        Query positions (m, the frame of ``xy``).
+    radius : float
+        Query radius (m): a point counts when ``dx * dx + dy * dy <= radius * radius`` (the k-d tree's test).
+
+    Returns
+    -------
+    ndarray, shape (M,)
+        The means: the points in index order (the tree's sorted answer) summed as numpy's mean does
+        (:func:`gridbridge.kernels.pairwise_sum`), divided by their number.
+    """
+    r2 = radius * radius
+    out = np.zeros(pos.shape[0])
+    buf = np.empty(xy.shape[0])
+    for m in range(pos.shape[0]):
+        k = 0
+        for i in range(xy.shape[0]):
+            dx = xy[i, 0] - pos[m, 0]
+            dy = xy[i, 1] - pos[m, 1]
+            if dx * dx + dy * dy <= r2:
+                buf[k] = score[i]
+                k += 1
+        if k:
+            out[m] = pairwise_sum(buf, 0, k) / k
+    return out
+
+
+#: The tracks of :class:`pfpeople.perception.clutter_map.MovingPeople`: positions, anchors a and b (T, 2) (m), anchor
+#: b's time
+#: (T,) (s), missed updates (T,), moving (T,), last time moved (T,) (s).
+_Tracks: TypeAlias = tuple[_F, _F, _F, _F, NDArray[np.int64], NDArray[np.bool_], _F]
+
+
+@njit
+def moving_update(
+    tracks: _Tracks, det: _F, now: float, gate: float, window: float, min_distance: float, hold: float, max_missed: int
+) -> _Tracks:  # pragma: no cover - compiled
+    """``MovingPeople.update``'s track update for the detections ``det`` (M, 2) (m, odometry frame) at time
+    ``now`` (s), as its numpy code does it: the greedy association (closest pairs first, ``np.argsort`` stable
+    order), the new tracks, the anchors every ``window / 2``, the moving flags, the dropped tracks. ``window``
+    and ``hold`` are NaN for None. Returns the new tracks (the arrays given are not changed)."""
+    pos, anc_a, anc_b, t_b, missed, moving, moved_t = tracks
+    pos, missed = pos.copy(), missed + 1
+    used = _associate(pos, missed, det, gate)
+    n_old, m = pos.shape[0], det.shape[0] - int(used.sum())
+    n = n_old + m
+    p2, a2, b2 = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
+    tb2, mi2, mv2, mt2 = np.empty(n), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.bool_), np.empty(n)
+    p2[:n_old], a2[:n_old], b2[:n_old], tb2[:n_old] = pos, anc_a, anc_b, t_b
+    mi2[:n_old], mv2[:n_old], mt2[:n_old] = missed, moving, moved_t
+    q = n_old
+    for k in range(det.shape[0]):
+        if not used[k]:
+            p2[q], a2[q], b2[q] = det[k], det[k], det[k]
+            tb2[q], mi2[q], mv2[q], mt2[q] = now, 0, False, -np.inf
+            q += 1
+    half = 0.5 * window - 1e-9
+    for t in range(n):
+        if window == window and now - tb2[t] >= half:
+            a2[t] = b2[t]
+            b2[t], tb2[t] = p2[t], now
+        if math.hypot(p2[t, 0] - a2[t, 0], p2[t, 1] - a2[t, 1]) >= min_distance:
+            mt2[t] = now
+            mv2[t] = True
+        if hold == hold:
+            mv2[t] = mv2[t] and now - mt2[t] <= hold + 1e-9
+    alive = mi2 <= max_missed
+    return p2[alive], a2[alive], b2[alive], tb2[alive], mi2[alive], mv2[alive], mt2[alive]
+
+
+@njit
+def _associate(pos: _F, missed: NDArray[np.int64], det: _F, gate: float) -> NDArray[np.bool_]:  # pragma: no cover
+    """The association of :func:`moving_update`: tracks (T, 2) take the detections (M, 2) closest pair first
+    within ``gate`` (m); changes ``pos`` and ``missed`` in place, returns which detections were used (M,)."""
+    T, M = pos.shape[0], det.shape[0]
+    used = np.zeros(M, dtype=np.bool_)
+    if T == 0 or M == 0:
+        return used
+    d = np.empty(T * M)
+    for t in range(T):
+        for k in range(M):
+            d[t * M + k] = math.hypot(pos[t, 0] - det[k, 0], pos[t, 1] - det[k, 1])
+    for flat in np.argsort(d, kind="mergesort"):
+        t, k = flat // M, flat % M
+        if d[flat] > gate:
+            break
+        if used[k] or missed[t] == 0:
+            continue
+        used[k] = True
+        pos[t, 0], pos[t, 1], missed[t] = det[k, 0], det[k, 1], 0
+    return used
+
+
+@njit
+def self_update(
+    p: _F,
+    ref: _F,
+    travel: _F,
+    lim: tuple[float, float, float],
+    has_ego: bool,
+    ex: float,
+    ey: float,
+    c: float,
+    s: float,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:  # pragma: no cover - compiled
+    """``SelfReturns.update``'s streaks, as its numpy code does them: ``p`` (N, 2) the scan's end points (m,
+    laser frame; NaN rows), ``ref`` (N, 2) and ``travel`` (N,) each beam's streak (changed in place), ``lim`` =
+    ``(max_range, tolerance, travel)`` (m); with ``has_ego`` the previous laser frame in the current one is
+    ``(ex, ey)`` and rotation ``(c, s)`` (cos, sin of its yaw). Returns the self mask and the finite rows (N,)."""
+    max_range, tol, need = lim
+    n = p.shape[0]
+    mask = np.zeros(n, dtype=np.bool_)
+    finite = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        px, py = p[i, 0], p[i, 1]
+        finite[i] = math.isfinite(px) and math.isfinite(py)
+        valid = finite[i] and math.hypot(px, py) <= max_range
+        same = valid and math.hypot(px - ref[i, 0], py - ref[i, 1]) <= tol
+        if same:
+            if has_ego:
+                mx = ex + c * px - s * py
+                my = ey + s * px + c * py
+                travel[i] = travel[i] + math.hypot(mx - px, my - py)
+        else:
+            ref[i, 0], ref[i, 1] = (px, py) if valid else (math.nan, math.nan)
+            travel[i] = 0.0
+        mask[i] = same and travel[i] >= need
+    return mask, finite
+
+
+@njit
+def static_lookup(
+    pts: _F, ev: _F, n: int, pose: tuple[float, float, float, float], corner: tuple[float, float, float], lim: _F
+) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    """``StaticClutterMap.static_points`` of the finite points ``pts`` (N, 2) (m, sensor frame), as its numpy
+    code does it: moved into the map frame by ``pose`` = ``(x, y, cos yaw, sin yaw)``, the cell of each from
+    ``corner`` = ``(x0, y0, 1 / resolution)`` in the flat evidence ``ev`` (n * n,) (s), static when inside the
+    window and ``ev / lim[0] >= lim[1]`` (``static_time`` (s), ``static_threshold - 1e-9``). Returns (N,)."""
+    x, y, c, s = pose
+    x0, y0, inv = corner
+    out = np.zeros(pts.shape[0], dtype=np.bool_)
+    for k in range(pts.shape[0]):
+        px, py = pts[k, 0], pts[k, 1]
+        i = math.floor(((x + c * px - s * py) - x0) * inv)
+        j = math.floor(((y + s * px + c * py) - y0) * inv)
+        if i >= 0 and i < n and j >= 0 and j < n:
+            out[k] = ev[i * n + j] / lim[0] >= lim[1]
+    return out
+
+
+def warm_up() -> None:
+    """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them
+    (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
+    if not _jit.enabled("pfpeople"):
+        return
+    no = np.zeros(0, dtype=np.intp)
+    params = np.array([1.0, 1.0, 0.1, 20.0, 0.05, -1.0])
+    ev = np.zeros(4)
+    update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)
+    ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
+    e = np.zeros((0, 2))
+    static_lookup(np.zeros((1, 2)), np.zeros(4), 2, (0.0, 0.0, 1.0, 0.0), (-1.0, -1.0, 1.0), np.ones(2))
+    pts, ref = np.zeros((2, 2)), np.full((2, 2), np.nan)
+    self_update(pts, ref, np.zeros(2), (1.0, 0.05, 0.5), True, 0.0, 0.0, 1.0, 0.0)
+    tracks = (e, e, e, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0))
+    moving_update(
+        moving_update(tracks, np.zeros((1, 2)), 0.1, 0.3, 2.0, 0.3, 5.0, 8), np.ones((1, 2)), 0.2, 0.3, 2.0, 0.3, 5.0, 8
+    )

@@ -1,0 +1,183 @@
+"""The run's static-clutter stage: one :class:`pfpeople.perception.clutter_map.ClutterSuppressor` per laser topic.
+
+Each laser topic with a detector has its own static-clutter map (:mod:`pfpeople.perception.clutter_map`), kept in the
+laser's
+frame: the grid-frame ego-motion ``E`` (from odometry) becomes ``T^-1 E T`` with ``T`` the laser's mount in
+the grid frame. Each map keeps the people its detectors saw moving out of itself
+(:class:`pfpeople.perception.clutter_map.MovingPeople`).
+A detection the map calls static, or whose nearest return is the robot's own (:mod:`pfpeople.perception.self_returns`),
+is
+suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
+``suppressed``). Without odometry, the driving laser's scan-matched motion is
+returned in the grid frame (``T E_laser T^-1``) for laser odometry (:mod:`pfpeople.perception.odometry`).
+The detectors' support positions (single legs, :class:`pfpeople.detect.adapters.Detections`) that are suppressed so
+are dropped as well (:attr:`ClutterStage.support_static`); they never enter the map or its moving-people sets.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gridbridge.geometry import Pose2D
+from pfpeople.config import BagConfig
+from pfpeople.detect.adapters import Detections, DetectorAdapter
+from pfpeople.pipeline.state import RunSummary, count
+
+__all__ = ["ClutterStage"]
+
+
+class ClutterStage:
+    """Static-clutter suppression of the laser detections of a run (see the module docstring).
+
+    Parameters
+    ----------
+    config : BagConfig
+        The run's configuration (``[clutter]``, ``[filter] mode``, the driver topic).
+    adapters : sequence of DetectorAdapter
+        The run's detectors, in the configuration's order (laser ones get a map per topic).
+    summary : RunSummary
+        Where ``suppressed`` is counted (per detector).
+
+    Raises
+    ------
+    ValueError
+        If ``[clutter.params]`` are not :class:`pfpeople.perception.clutter_map.ClutterConfig` fields.
+    """
+
+    def __init__(self, config: BagConfig, adapters: Sequence[DetectorAdapter], summary: RunSummary) -> None:
+        self.config = config
+        self.adapters = list(adapters)
+        self.summary = summary
+        self.suppressors: dict[str, Any] = {}
+        #: Per detector, after :meth:`step`: which of its support positions the map calls static (None: no data or
+        #: no map).
+        self.support_static: list[NDArray[np.bool_] | None] = []
+        #: Per laser topic with a map, after :meth:`step`: which of its scan's end points (``LaserScan.points()``
+        #: rows, NaN ones included) lie in a cell the map calls static (``StaticClutterMap.static_points``).
+        self.scan_static: dict[str, NDArray[np.bool_]] = {}
+        c = config
+        if c.clutter.on(c.filter.mode):
+            from pfpeople.perception.clutter_map import ClutterConfig, ClutterSuppressor
+
+            try:
+                ccfg = ClutterConfig(**dict(c.clutter.params))
+            except TypeError as exc:
+                raise ValueError(f"[clutter.params]: {exc}") from None
+            for a in self.adapters:
+                if a.laser and a.config.topic not in self.suppressors:
+                    self.suppressors[a.config.topic] = ClutterSuppressor(ccfg)
+
+    @property
+    def active(self) -> bool:
+        """True when some laser topic has a map."""
+        return bool(self.suppressors)
+
+    def reset(self) -> None:
+        """Forget every map (the filter restarts after a gap)."""
+        for sup in self.suppressors.values():
+            sup.map.forget()
+
+    def step(
+        self,
+        found: Sequence[Detections | None],
+        ego_grid: Pose2D | None,
+        dt: float,
+        stamp_ns: int,
+    ) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None], Pose2D | None]:
+        """Update the maps with the frame's scans and suppress the static detections.
+
+        Parameters
+        ----------
+        found : sequence of Detections or None
+            Per detector, its output in the frame (None: no data).
+        ego_grid : Pose2D or None
+            The grid frame's motion since the previous frame, from odometry (None: unknown).
+        dt : float
+            Time step (s).
+        stamp_ns : int
+            Frame stamp (ns).
+
+        Returns
+        -------
+        detections : list of ndarray (M_k, 2) or None
+            The grid-frame detections the filter sees (static ones removed).
+        static : list of ndarray (M_k,) of bool or None
+            Per detector, which of its detections were suppressed (None: not a suppressed laser detector).
+        driver_ego : Pose2D or None
+            The driving laser's scan-matched motion in the grid frame (None when unknown or when ``ego_grid``
+            was given).
+        """
+        kept: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
+        static: list[NDArray[np.bool_] | None] = [None] * len(found)
+        self.support_static = [None] * len(found)
+        self.scan_static = {}
+        scans = {
+            a.config.topic: f.scan
+            for a, f in zip(self.adapters, found, strict=True)
+            if f is not None and f.scan is not None
+        }
+        driver_ego: Pose2D | None = None
+        for topic, sup in self.suppressors.items():
+            ego = self._step_topic(topic, sup, scans.get(topic), found, ego_grid, dt, stamp_ns, kept, static)
+            driver_ego = ego if ego is not None else driver_ego
+        return kept, static, driver_ego
+
+    def _step_topic(
+        self,
+        topic: str,
+        sup: Any,
+        scan: Any,
+        found: Sequence[Detections | None],
+        ego_grid: Pose2D | None,
+        dt: float,
+        stamp_ns: int,
+        kept: list[NDArray[np.float64] | None],
+        static: list[NDArray[np.bool_] | None],
+    ) -> Pose2D | None:
+        """:meth:`step` for one laser ``topic``, its map ``sup``
+        (:class:`pfpeople.perception.clutter_map.ClutterSuppressor`)
+        and its scan (:class:`pfpeople.sensors.LaserScan`; None: none in the frame): fills ``kept`` and ``static``
+        of its detectors in place; returns the scan-matched motion (grid frame) when ``topic`` is the driver and
+        the match was used (``ego_grid`` None), else None."""
+        idx = [k for k, a in enumerate(self.adapters) if a.config.topic == topic and found[k] is not None]
+        if scan is None or not idx:
+            return None
+        mount = self.adapters[idx[0]].mount  # the laser's pose in the grid frame
+        ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
+        points = scan.points()  # once: the map's update and its static returns
+        st = sup.step(
+            points,
+            [f.sensor for k in idx if (f := found[k]) is not None],
+            ego=ego,
+            stamp_ns=stamp_ns,
+            dt=dt,
+            free=scan.free_rays(sup.map.config.max_range),
+        )
+        self.scan_static[topic] = sup.map.static_points(points)
+        for k, keep in zip(idx, st.keep, strict=True):
+            static[k] = ~keep
+            kept[k] = self._keep(k, keep, kept[k], found[k], sup)
+        if topic == self.config.driver and st.ego_ok and ego is None:
+            return mount.compose(st.ego).compose(mount.inverse())
+        return None
+
+    def _keep(
+        self,
+        k: int,
+        keep: NDArray[np.bool_],
+        grid: NDArray[np.float64] | None,
+        found: Detections | None,
+        sup: Any,
+    ) -> NDArray[np.float64] | None:
+        """Detector ``k``'s detections (grid frame) less the suppressed ones, counted; its support positions'
+        static flags set when the tracker takes single legs."""
+        count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
+        if found is not None and self.config.tracking.single_legs:  # only such a tracker needs them
+            self.support_static[k] = (
+                sup.is_clutter(found.support_sensor) if len(found.support) else np.zeros(0, dtype=bool)
+            )
+        return grid[keep] if grid is not None and len(grid) else grid

@@ -1,0 +1,242 @@
+"""Building a run's filter, classifier and tracker from its configuration: the one place they are assembled.
+
+:func:`build_filter` turns a :class:`pfpeople.config.FilterConfig` into a filter composed of components
+(:mod:`gridbridge.components`, :mod:`gridbridge.likelihoods`), :func:`build_classifier` a
+:class:`~pfpeople.config.ClassifierConfig` into a :class:`gridbridge.classifiers.Classifier`,
+:func:`build_people_tracker` a :class:`~pfpeople.config.TrackingConfig` into the tracker and the people it
+confirms (:class:`pfpeople.track.reported_people.PeopleTracker`), and :func:`grid_for_scan` gives the default grid of a
+laser: the bounding box of its field of view.
+
+Recommended mode (the product's default, chosen on ``pfpeople-eval benchmark`` across every scene; README
+"Recommended mode"): linear people prediction (integrated kernel), appearance probability in observed cells,
+beliefs bounded to ``[1e-4, belief_max]``, initial and border belief at the base rate, the calibrated
+independent fusion of the detectors (:class:`gridbridge.likelihoods.IndependentLikelihood`) and laser detections
+that fire the cells of the person's footprint (``laser_footprint``). Paper mode: Batista & Pereira as written.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from gridbridge.classifiers import BlobClassifier, Classifier, HysteresisPeaks, PeakClassifier, ThresholdClassifier
+from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction, VelocityEgoMotion
+from gridbridge.filter import GridFilter
+from gridbridge.geometry import Pose2D
+from gridbridge.grid import GridSpec
+from gridbridge.likelihoods import IndependentLikelihood
+from gridbridge.params import DetectorModel, PeopleMotion
+from pfpeople.config import ClassifierConfig, FilterConfig, TrackingConfig
+
+if TYPE_CHECKING:
+    from pfpeople.particle.filter import ParticleFilter
+    from pfpeople.track.reported_people import PeopleTracker
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "BELIEF_MIN",
+    "DEFAULT_GRID_RANGE_M",
+    "PEAK_KEEP",
+    "PEAK_THRESHOLD",
+    "build_classifier",
+    "build_filter",
+    "build_people_tracker",
+    "grid_for_scan",
+]
+
+#: Lower bound of the belief in the recommended mode.
+BELIEF_MIN = 1e-4
+#: Default peak threshold of the recommended classifier (see ClassifierConfig).
+PEAK_THRESHOLD = 0.7
+#: Default hysteresis threshold of the recommended classifier: a person of the previous frame continues at a
+#: peak above it (see ClassifierConfig.keep).
+PEAK_KEEP = 0.5
+#: Default ``max_overflow`` of the particle filter per mode (see FilterConfig.max_overflow): in the recommended
+#: mode the births of a few steps accumulate before a resampling (pipeline benchmark: the filter step ~20 % faster,
+#: accuracy unchanged); the paper mode resamples whenever births overflow, as in round one.
+DEFAULT_OVERFLOW = {"recommended": 0.1, "paper": 0.0}
+#: Default people-motion sampler of the particle filter per mode (see FilterConfig.motion_model; the names of
+#: :data:`pfpeople.particle.components.PEOPLE_SAMPLERS`): in the recommended mode walkers keep heading and speed
+#: (precision
+#: and tracks on every scene, README "Recommended particles"); the paper mode samples the paper's memoryless
+#: model, the grid filter's prediction.
+DEFAULT_MOTION_MODEL = {"recommended": "persistent", "paper": "paper"}
+#: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
+DEFAULT_GRID_RANGE_M = 10.0
+
+
+def grid_for_scan(
+    angle_min: float,
+    angle_max: float,
+    range_max: float,
+    *,
+    mount: Pose2D | None = None,
+    resolution: float = 0.3,
+    reach: float = DEFAULT_GRID_RANGE_M,
+) -> GridSpec:
+    """The grid covering a laser's field of view out to ``min(range_max, reach)``, in the grid frame.
+
+    Parameters
+    ----------
+    angle_min, angle_max : float
+        The scan's bearing range (rad, laser frame).
+    range_max : float
+        The scan's largest range (m); non-finite or non-positive values use ``reach``.
+    mount : Pose2D, optional
+        The laser's pose in the grid frame (identity when the grid is the laser's frame).
+    resolution : float
+        Cell side (m).
+
+    Returns
+    -------
+    GridSpec
+        Axis-aligned bounding box of the sector (and the laser itself), snapped outwards to whole cells.
+    """
+    if not (math.isfinite(angle_min) and math.isfinite(angle_max) and angle_min < angle_max):
+        raise ValueError(f"laser angles must be finite with angle_min < angle_max, got {angle_min}, {angle_max}")
+    r = min(range_max, reach) if math.isfinite(range_max) and range_max > 0 else reach
+    span = min(angle_max - angle_min, 2 * math.pi)
+    a = angle_min + np.linspace(0.0, span, 721)
+    pts = np.vstack(([0.0, 0.0], np.column_stack((r * np.cos(a), r * np.sin(a)))))
+    if mount is not None:
+        pts = mount.apply(pts)
+    # whole cells outwards; 1e-6 cells of slack so that round-off (cos 90 deg = 6e-17) adds no cell
+    i0 = math.floor(pts[:, 0].min() / resolution + 1e-6)
+    j0 = math.floor(pts[:, 1].min() / resolution + 1e-6)
+    i1 = math.ceil(pts[:, 0].max() / resolution - 1e-6)
+    j1 = math.ceil(pts[:, 1].max() / resolution - 1e-6)
+    return GridSpec(
+        nx=max(i1 - i0, 1),
+        ny=max(j1 - j0, 1),
+        resolution=resolution,
+        x0=round(i0 * resolution, 9),
+        y0=round(j0 * resolution, 9),
+    )
+
+
+def recommended_models(config: FilterConfig, models: Sequence[DetectorModel]) -> tuple[DetectorModel, ...]:
+    """The detector models of the recommended mode: laser (point) detections fire the person's footprint."""
+    if config.mode != "recommended":
+        return tuple(models)
+    return tuple(
+        replace(m, footprint_radius=max(m.footprint_radius, config.laser_footprint)) if m.uncertainty == "point" else m
+        for m in models
+    )
+
+
+def build_filter(
+    config: FilterConfig, spec: GridSpec, detectors: Sequence[DetectorModel]
+) -> GridFilter | ParticleFilter:
+    """The filter of ``config`` on ``spec`` for ``detectors`` (a :class:`gridbridge.GridFilter` or a
+    :class:`pfpeople.ParticleFilter`; both follow the same ``step``/``reset``/``belief`` interface)."""
+    if not isinstance(config, FilterConfig):
+        raise TypeError(f"config must be a FilterConfig, got {type(config).__name__}")
+    models = recommended_models(config, detectors)
+    kwargs: dict[str, Any]
+    if config.kind == "particle" and config.form == "paper":
+        raise ValueError("the particle filter samples the linear (integrated-kernel) prediction: form must be 'linear'")
+    if config.mode == "paper":
+        high = [m.name for m in models if m.fnr >= 0.5]
+        if high:
+            log.warning(
+                "paper mode with detectors %s of FNR >= 0.5: in the paper's update (P(D|np) = 1 - P(D|p)) a "
+                "non-detection then raises the belief; give them the paper's values or use the recommended mode",
+                high,
+            )
+        form = config.form or ("paper" if config.kind == "grid" else "linear")
+        initial = 0.5 if config.initial is None else config.initial
+        kwargs = {"initial": initial}
+        pred = (PaperPrediction if form == "paper" else LinearPrediction)(motion=PeopleMotion(), outside=0.5)
+        ego = VelocityEgoMotion(outside=0.5)
+    else:
+        form = config.form or "linear"
+        base = config.base_rate
+        initial = base if config.initial is None else config.initial
+        pred = (PaperPrediction if form == "paper" else LinearPrediction)(motion=PeopleMotion(), outside=base)
+        ego = VelocityEgoMotion(outside=base)
+        kwargs = {
+            "initial": initial,
+            "outside": base,
+            "appearance": Appearance(rate=config.appearance_rate),
+            "bounds": BeliefBounds(low=BELIEF_MIN, high=config.belief_max),
+            "likelihood": IndependentLikelihood(base_rate=base),
+        }
+    if config.kind == "grid":
+        return GridFilter(spec, detectors=models, prediction=pred, ego_motion=ego, **kwargs)
+    from pfpeople.particle.components import PEOPLE_SAMPLERS, Resampling
+    from pfpeople.particle.filter import ParticleFilter
+
+    people = PEOPLE_SAMPLERS[config.motion_model or DEFAULT_MOTION_MODEL[config.mode]](motion=PeopleMotion())
+    overflow = config.max_overflow if config.max_overflow is not None else DEFAULT_OVERFLOW[config.mode]
+    return ParticleFilter(
+        spec,
+        detectors=models,
+        n_particles=config.particles_for(spec.n_cells),
+        rng=np.random.default_rng(config.seed),
+        people_motion=people,
+        resampling=Resampling(max_overflow=overflow),
+        **kwargs,
+    )
+
+
+def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = "recommended") -> PeopleTracker | None:
+    """The multi-person tracker of ``tracking`` on ``classifier``'s people (a
+    :class:`pfpeople.track.reported_people.PeopleTracker`), or None when tracking is off.
+
+    Tracks start only from the classifier's people (``birth_min_score`` = its threshold, unless
+    ``tracking.params`` sets it) when ``peak_threshold`` feeds the tracker weaker peaks. ``people`` defaults by
+    ``mode``: ``"confirmed"`` in the recommended mode, ``"classified"`` in the paper mode; ``snap_radius`` applies
+    in the recommended mode only (the paper mode reports its classified people where they were classified).
+
+    Raises
+    ------
+    ValueError
+        A ``[tracking.params]`` entry that is not a :class:`pfpeople.track.TrackerConfig` field or is invalid.
+    """
+    if not tracking.enabled:
+        return None
+    from pfpeople.track import TrackerConfig
+    from pfpeople.track.reported_people import PeopleTracker
+
+    params = dict(tracking.params)
+    high = getattr(classifier, "threshold", None)
+    if tracking.peak_threshold is not None and high is not None:
+        params.setdefault("birth_min_score", float(high))
+    try:
+        config = TrackerConfig(**params)
+    except TypeError as exc:
+        raise ValueError(f"[tracking.params]: {exc}") from None
+    base = getattr(classifier, "peaks", classifier)
+    return PeopleTracker(
+        classifier,
+        config=config,
+        peak_threshold=tracking.peak_threshold,
+        people=tracking.people or ("classified" if mode == "paper" else "confirmed"),
+        coast_frames=tracking.coast_frames,
+        min_separation=float(getattr(base, "min_separation", 0.6)),
+        use_support=tracking.single_legs,
+        snap_radius=0.0 if mode == "paper" else float(tracking.snap_radius),
+        static_confirm_s=float(tracking.static_confirm_s),
+        observed_tracks_only=tracking.observed_tracks_only and mode != "paper",
+        see_through=tracking.see_through and mode != "paper",
+    )
+
+
+def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Classifier | HysteresisPeaks:
+    """The classifier of ``config`` (its kind defaults by ``mode``: peaks, or the paper's blobs)."""
+    kind = config.kind or ("blobs" if mode == "paper" else "peaks")
+    if kind == "blobs":
+        return BlobClassifier()
+    if kind == "threshold":
+        return ThresholdClassifier(threshold=0.5 if config.threshold is None else config.threshold)
+    thr = PEAK_THRESHOLD if config.threshold is None else config.threshold
+    keep = min(PEAK_KEEP, thr) if config.keep is None else config.keep
+    if keep >= thr:
+        return PeakClassifier(threshold=thr, min_separation=config.min_separation, smooth=config.smooth)
+    return HysteresisPeaks(threshold=thr, keep=keep, min_separation=config.min_separation, smooth=config.smooth)

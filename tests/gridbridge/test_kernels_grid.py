@@ -1,0 +1,135 @@
+"""The grid filter's compiled kernels against their numpy twins (tolerances as gridbridge/kernels.py states)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from evaluation.bench.grid import scene
+from gridbridge import (
+    PAPER_DETECTORS,
+    GridFilter,
+    GridSpec,
+    Odometry,
+    SensorMotionNoise,
+    detection_map,
+    ego_motion_sigma_points,
+    fuse_detectors,
+    jit,
+    likelihood_from_detections,
+    people_motion_kernel,
+    predict_people,
+    warp_belief,
+)
+from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction, VelocityEgoMotion
+from gridbridge.params import DetectorModel
+
+pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
+
+SPEC = GridSpec(nx=23, ny=17, resolution=0.3, x0=0.0, y0=-2.55)
+
+
+def _both(fn, *args, **kwargs):  # type: ignore[no-untyped-def]
+    with jit.override(True):
+        fast = fn(*args, **kwargs)
+    with jit.override(False):
+        slow = fn(*args, **kwargs)
+    return fast, slow
+
+
+@pytest.mark.parametrize("outside", [0.5, 0.0, 1.0])
+def test_paper_prediction_is_bit_identical(outside: float) -> None:
+    bel = np.random.default_rng(1).random(SPEC.shape)
+    for dt in (0.1, 0.25):
+        kernel = people_motion_kernel(SPEC, dt=dt, form="paper")
+        fast, slow = _both(predict_people, bel, kernel, outside=outside, form="paper")
+        assert fast.tobytes() == slow.tobytes()
+
+
+def test_linear_prediction_agrees_to_1e12() -> None:
+    bel = np.random.default_rng(2).random(SPEC.shape)
+    kernel = people_motion_kernel(SPEC, dt=0.3, form="integrated")
+    fast, slow = _both(predict_people, bel, kernel, outside=0.3, form="linear")
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+
+
+def test_paper_kernel_check_is_the_same_on_both_paths() -> None:
+    kernel = np.full((3, 3), 0.2)
+    kernel[0, 0] = 1.0
+    for on in (True, False):
+        with jit.override(on), pytest.raises(ValueError, match="off-centre values must be below 1"):
+            predict_people(np.full((5, 5), 0.5), kernel, form="paper")
+
+
+@pytest.mark.parametrize(
+    "odometry", [Odometry(v=0.35, omega=0.2), Odometry(v=-1.0, omega=-2.0, vy=0.3), Odometry(v=40.0, omega=0.0)]
+)
+def test_warp_agrees_to_1e12(odometry: Odometry) -> None:
+    """Sigma-point warps (the last one moves everything off the grid: all taps read ``outside``)."""
+    bel = np.random.default_rng(3).random(SPEC.shape)
+    poses, w = ego_motion_sigma_points(odometry, 0.1, SensorMotionNoise())
+    fast, slow = _both(warp_belief, bel, SPEC, poses, w, outside=0.25)
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+    one_fast, one_slow = _both(warp_belief, bel, SPEC, poses[0], outside=0.25)  # one pose: no weighted sum
+    np.testing.assert_allclose(one_fast, one_slow, rtol=0, atol=1e-12)
+
+
+def test_detection_maps_and_fusion_are_bit_identical() -> None:
+    rng = np.random.default_rng(4)
+    pts = np.column_stack((rng.uniform(-1, 8, 12), rng.uniform(-3.5, 3.5, 12)))
+    footprint = DetectorModel(name="wide-legs", ppv=0.8, fnr=0.3, footprint_radius=0.45)
+    for model in (*PAPER_DETECTORS, footprint):
+        fast, slow = _both(detection_map, SPEC, model, pts)
+        assert fast.tobytes() == slow.tobytes(), model.name
+    dets = [pts[:5], None, pts[5:]]
+    fast, slow = _both(likelihood_from_detections, SPEC, PAPER_DETECTORS, dets)
+    for name in ("fired", "covered", "detector_likelihoods", "likelihood"):
+        assert getattr(fast, name).tobytes() == getattr(slow, name).tobytes(), name
+    fired = rng.random((3, *SPEC.shape)) * (rng.random((3, *SPEC.shape)) < 0.3)
+    covered = rng.random((3, *SPEC.shape)) < 0.7
+    ppv, fnr = np.array([0.95, 0.5, 0.9]), np.array([0.3, 0.4, 0.5])
+    a, b = _both(fuse_detectors, fired, ppv, fnr, covered=covered)
+    assert a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("form", ["paper", "linear"])
+def test_grid_filter_steps_agree_to_1e12(form: str) -> None:
+    spec = GridSpec.centred_on_edge(31, 29, 0.3)
+    runs = []
+    for on in (True, False):
+        with jit.override(on):
+            f = GridFilter(spec, form=form, appearance=Appearance(), bounds=BeliefBounds())  # type: ignore[arg-type]
+            steps = []
+            for t in range(6):
+                odo = None if t == 3 else Odometry(v=0.4, omega=0.3 - 0.1 * t)
+                steps.append(f.step(scene(spec, np.random.default_rng(t)), odo, 0.1))
+            runs.append(steps)
+    for a, b in zip(*runs, strict=True):
+        for name in ("people_prior", "sensor_prior", "likelihood", "posterior"):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=0, atol=1e-12, err_msg=name)
+
+
+class _Paper(PaperPrediction):
+    """A component the filter does not know: it goes through predict_people, the public function."""
+
+
+class _Linear(LinearPrediction):
+    pass
+
+
+class _Ego(VelocityEgoMotion):
+    pass
+
+
+@pytest.mark.parametrize(("builtin", "custom"), [(PaperPrediction, _Paper), (LinearPrediction, _Linear)])
+def test_grid_filter_runs_its_builtin_components_as_their_functions_do(builtin: type, custom: type) -> None:
+    """The filter's direct kernel calls for its built-in components give the components' results bit for bit."""
+    spec = GridSpec.centred_on_edge(19, 23, 0.3)
+    runs = []
+    for prediction, ego in ((builtin(), VelocityEgoMotion()), (custom(), _Ego())):
+        f = GridFilter(spec, prediction=prediction, ego_motion=ego)
+        runs.append([f.step(scene(spec, np.random.default_rng(t)), Odometry(v=0.3, omega=0.2), 0.1) for t in range(4)])
+        runs[-1].append(f.step(scene(spec, np.random.default_rng(9)), None, 0.2))  # standing, another dt
+    for a, b in zip(*runs, strict=True):
+        for name in ("people_prior", "sensor_prior", "likelihood", "posterior"):
+            assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name

@@ -1,0 +1,188 @@
+"""The particle filter's compiled kernels against its numpy path: the same seed gives the same bits."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from evaluation.bench.particles import filterpy_systematic
+from gridbridge import GridSpec, Odometry, jit
+from gridbridge.components import Appearance, BeliefBounds
+from pfpeople.particle.buffers import BufferPool
+from pfpeople.particle.components import PaperSampling, PersistentSampling, Resampling
+from pfpeople.particle.filter import ParticleFilter
+from pfpeople.particle.resampling import resample_by_cell
+
+pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
+
+DETECTIONS = [np.array([[3.0, 0.5], [5.0, -1.0]]), np.array([[3.1, 0.4]]), np.array([[4.0, 0.0]])]
+EVERY_STEP = 2.0  # an ESS threshold above 1: every step resamples
+CONFIGS = [
+    {},
+    {"resampling": Resampling(max_overflow=0.1)},
+    {"people_motion": PersistentSampling()},
+    {"people_motion": PaperSampling(redraw_in_cell=True), "resampling": Resampling(ess_threshold=EVERY_STEP)},
+    {"people_motion": PersistentSampling(redraw_in_cell=True)},
+    {"resampling": Resampling(scheme="stratified", ess_threshold=EVERY_STEP)},
+    {"resampling": Resampling(scheme="residual"), "appearance": Appearance(), "bounds": BeliefBounds()},
+    # a callable (returning fewer than asked)
+    {"resampling": Resampling(scheme=filterpy_systematic, ess_threshold=EVERY_STEP)},
+]
+
+
+def _run(compiled: bool, n: int, steps: int, **kwargs: object) -> list[tuple[np.ndarray, ...]]:
+    # the grid code the filter calls (warp, empty-cell prior) on its numpy path in both runs: its kernels agree
+    # with it to 1e-12, not bit for bit (tests/gridbridge/test_kernels_grid.py)
+    with jit.override(False, "gridbridge"), jit.override(compiled, "pfpeople"):
+        pf = ParticleFilter(n_particles=n, rng=np.random.default_rng(11), **kwargs)  # type: ignore[arg-type]
+        out = []
+        for t in range(steps):
+            odo = None if t % 3 == 2 else Odometry(v=0.5, omega=0.3)  # every third step the robot stands
+            step = pf.step(DETECTIONS if t % 2 == 0 else [None, np.zeros((0, 2)), None], odo, 0.1)
+            p = step.particles
+            out.append((step.people_prior, step.sensor_prior, step.posterior, p.x, p.y, p.vx, p.vy, p.w))
+        return [tuple(a.copy() for a in row) for row in out]
+
+
+@pytest.mark.parametrize("kwargs", CONFIGS)
+def test_compiled_particle_filter_is_bit_identical_to_numpy(kwargs: dict) -> None:
+    fast, slow = _run(True, 1200, 7, **kwargs), _run(False, 1200, 7, **kwargs)
+    for t, (a, b) in enumerate(zip(fast, slow, strict=True)):
+        for name, x, y in zip(("people", "sensor", "posterior", "x", "y", "vx", "vy", "w"), a, b, strict=True):
+            assert x.tobytes() == y.tobytes(), f"step {t}: {name} differs"
+
+
+def test_all_compiled_particle_filter_agrees_with_all_numpy() -> None:
+    """Both packages compiled: the grid warp's 1e-16 differences reach the births' weights, nothing more."""
+    runs = []
+    for on in (True, False):
+        with jit.override(on):
+            pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(4))
+            runs.append([pf.step(DETECTIONS, Odometry(v=0.5, omega=0.3), 0.1).posterior for _ in range(5)])
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+
+
+def test_a_state_with_particles_outside_the_grid_gives_the_same_bits() -> None:
+    """The compiled pass assumes standing particles are inside; a state set from outside breaks that and the
+    step is redone with a counting pass (the random draws put back): still the numpy path's bits."""
+    outs = []
+    for on in (True, False):
+        with jit.override(False, "gridbridge"), jit.override(on, "pfpeople"):
+            pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(8))
+            st = pf.state.copy()
+            st.x[::50] = -3.0  # 20 particles beyond the grid's near edge
+            pf.state = st
+            step = pf.step(DETECTIONS, Odometry(v=0.3, omega=0.1), 0.1)
+            outs.append((step.posterior, step.particles.x, step.particles.w, pf.rng.random()))
+    for a, b in zip(*outs, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_step_records_are_never_written_by_later_steps() -> None:
+    """The buffer pool reuses only arrays nothing else holds: a kept ParticleStep keeps its values."""
+    with jit.override(True):
+        pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(3), resampling=Resampling(ess_threshold=2.0))
+        kept = [pf.step(DETECTIONS, Odometry(v=0.4, omega=0.1), 0.1) for _ in range(3)]
+        copies = [(s.particles.x.copy(), s.particles.w.copy()) for s in kept]
+        view = kept[-1].particles.vx[:5]
+        view_copy = view.copy()
+        for _ in range(6):
+            pf.step(DETECTIONS, Odometry(v=0.4, omega=0.1), 0.1)
+    for s, (x, w) in zip(kept, copies, strict=True):
+        np.testing.assert_array_equal(s.particles.x, x)
+        np.testing.assert_array_equal(s.particles.w, w)
+    np.testing.assert_array_equal(view, view_copy)
+
+
+@pytest.mark.parametrize("resampler", ["systematic", "stratified", "multinomial", "residual"])
+def test_resample_by_cell_compiled_matches_numpy(resampler: str) -> None:
+    rng = np.random.default_rng(5)
+    cells = rng.integers(0, 40, 3000)
+    w = rng.random(3000) * (cells % 3 != 0)  # a third of the cells hold no mass
+    res = []
+    for on in (True, False):
+        with jit.override(on):
+            res.append(resample_by_cell(cells, w, 2500, n_cells=50, rng=np.random.default_rng(9), resampler=resampler))
+    np.testing.assert_array_equal(res[0][0], res[1][0])
+    assert res[0][1].tobytes() == res[1][1].tobytes()
+
+
+@pytest.mark.parametrize(
+    ("cells", "w", "n", "match"),
+    [
+        ([0, 1], [0.5, np.nan], 4, "finite and non-negative"),
+        ([0, 1], [0.5, -1.0], 4, "finite and non-negative"),
+        ([0, 9], [0.5, 0.5], 4, r"cells must lie in \[0, 5\)"),
+        ([0, 1], [0.0, 0.0], 4, "all zero"),
+        ([0, 1, 2], [1.0, 1.0, 1.0], 2, "cannot keep one"),
+    ],
+)
+def test_resample_by_cell_errors_are_the_same_on_both_paths(cells: list, w: list, n: int, match: str) -> None:
+    for on in (True, False):
+        with jit.override(on), pytest.raises(ValueError, match=match):
+            resample_by_cell(np.array(cells), np.array(w), n, n_cells=5, rng=np.random.default_rng(0))
+
+
+def test_buffer_pool_hands_out_only_arrays_nothing_else_holds() -> None:
+    pool = BufferPool(max_items=4)
+    held = np.arange(100.0)
+    pool.give(held)
+    other = pool.take(100)
+    assert other.base is not held and other is not held  # ``held`` is still referenced here
+    del held
+    again = pool.take(90)  # now only the pool held it (1.25 x 90 + 1024 >= 100)
+    assert again.size == 90 and again.base is not None and again.base.size == 100
+    pool.give(again, again)  # offered twice, kept once
+    assert len(pool) == 1
+    for _ in range(6):
+        pool.give(np.zeros(3))
+    assert len(pool) == 4  # the oldest dropped
+
+
+def test_numba_switch_reads_the_environment() -> None:
+    code = "from gridbridge import jit; print(jit.enabled())"
+    env = dict(os.environ, PFPEOPLE_NUMBA="0")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+    with jit.override(False):
+        assert not jit.enabled() and not jit.enabled("pfpeople")
+    with jit.override(False, "pfpeople"):
+        assert not jit.enabled("pfpeople") and jit.enabled("gridbridge") == jit.enabled()
+    assert jit.enabled("pfpeople") == (os.environ.get("PFPEOPLE_NUMBA", "1") != "0")
+
+
+def test_grid_tuple_cells_match_flat_index() -> None:
+    """The kernels' cell of a point is GridSpec.flat_index, on cell edges and outside too."""
+    from pfpeople.particle import step_kernels as kernels
+
+    spec = GridSpec(nx=7, ny=5, resolution=0.3, x0=-0.45, y0=-1.2)
+    grid = (spec.x0, spec.y0, spec.resolution, spec.nx, spec.ny)
+    edges_x = spec.x0 + np.arange(-1, 9) * spec.resolution
+    xs = np.concatenate((edges_x, np.nextafter(edges_x, -np.inf), np.random.default_rng(0).uniform(-1, 3, 200)))
+    ys = np.resize(np.concatenate((spec.y0 + np.arange(-1, 7) * spec.resolution, [-0.0, 1e-300])), xs.size)
+    want = spec.flat_index(xs, ys)
+    got = [kernels.cell(float(x), float(y), grid) for x, y in zip(xs, ys, strict=True)]
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize(
+    "odo", [Odometry(v=0.5, omega=0.3), Odometry(v=0.4, omega=0.0), Odometry(v=0.2, omega=-0.5, vy=0.3), Odometry()]
+)
+def test_ego_rows_are_sample_ego_poses_bit_for_bit(odo: Odometry) -> None:
+    from gridbridge import SensorMotionNoise
+    from gridbridge.ego_motion import _OMEGA_EPS
+    from pfpeople.particle import step_kernels as kernels
+    from pfpeople.particle.propagation import sample_ego_poses
+
+    noise = SensorMotionNoise()
+    poses = sample_ego_poses(odo, 0.1, noise, 500, rng=np.random.default_rng(2))
+    e = np.random.default_rng(2).standard_normal((3, 500))
+    sd = np.sqrt(np.asarray(noise.variances(odo.v, odo.omega), dtype=np.float64))
+    rows = kernels.ego_rows(e, sd, (odo.v, odo.omega, odo.vy), 0.1, _OMEGA_EPS)
+    want = np.stack((poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2])))
+    assert rows.tobytes() == want.tobytes()
