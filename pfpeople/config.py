@@ -102,6 +102,7 @@ __all__ = [
     "check_run_limits",
     "config_from_mapping",
     "load_config",
+    "run_topics",
 ]
 
 #: Detector kinds: the built-in detectors and detections read from a topic.
@@ -683,3 +684,11 @@ def builtin_config_path(name: str) -> Path:
         have = sorted(p.stem for p in path.parent.glob("*.toml"))
         raise FileNotFoundError(f"no built-in config {name!r}; available: {have}")
     return path
+
+
+def run_topics(config: BagConfig) -> list[str]:
+    """The topics a run reads: driver, detector topics and odometry (sorted)."""
+    topics = {config.driver, *(d.topic for d in config.detectors)}
+    if config.odometry:
+        topics.add(config.odometry)
+    return sorted(topics)

@@ -1,7 +1,7 @@
 """Output sinks of a bag run: where each processed frame goes.
 
 A sink is opened once the run is prepared (:class:`RunInfo`: grid, frames, detectors), receives every
-:class:`~pfpeople.pipeline.state.FrameResult`, and is closed with the run's :class:`RunOutcome` (status
+:class:`~pfpeople.run_state.FrameResult`, and is closed with the run's :class:`RunOutcome` (status
 ``"complete"``, ``"failed"`` or ``"interrupted"``, the error, the summary), whatever stopped the run.
 
 =========================  ===================================================================================
@@ -37,7 +37,7 @@ from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from pfpeople.config import BagConfig
 from pfpeople.io.bag.reader import BagSource
-from pfpeople.pipeline.state import FrameResult, RunSummary
+from pfpeople.run_state import FrameResult, RunSummary
 from pfpeople.sensors import Pose2D
 from pfpeople.track import track_rows
 
@@ -205,8 +205,8 @@ def input_topics(run: RunInfo) -> dict[str, str]:
 
     Returns topic -> message type; empty when the input is not a bag that can be opened again (no ``paths``).
     """
+    from pfpeople.config import run_topics
     from pfpeople.io.bag.reader import LASER_TYPES, TF_TYPES
-    from pfpeople.pipeline.sensor_setup import run_topics
 
     if not getattr(run.bag, "paths", None):
         return {}

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from gridbridge.geometry import Pose2D
 from pfpeople.config import BagConfig
 from pfpeople.detect.adapters import Detections, DetectorAdapter
-from pfpeople.pipeline.state import RunSummary, count
+from pfpeople.run_state import RunSummary, count
 
 __all__ = ["ClutterStage"]
 

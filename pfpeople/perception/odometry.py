@@ -12,7 +12,7 @@ model of :func:`gridbridge.velocity_displacement`, eqs. 10-11):
 
 The lateral part ``vy`` is what a grid frame mounted off the robot's rotation axis (and yawed) has: it is
 applied by both filters; the largest lateral displacement of a step is reported in
-:attr:`pfpeople.pipeline.state.RunSummary.max_lateral_m` (informative). Without odometry in a frame the robot is
+:attr:`pfpeople.run_state.RunSummary.max_lateral_m` (informative). Without odometry in a frame the robot is
 taken as standing (counted, logged once); the next frame with odometry moves the grid by the whole
 displacement since the last frame that had it, so no motion is lost.
 
@@ -47,7 +47,7 @@ from gridbridge.ego_motion import Odometry
 from gridbridge.geometry import Pose2D
 from pfpeople.io.bag.reader import MessageDataError, odometry_pose_from_msg
 from pfpeople.io.bag.sync import Frame
-from pfpeople.pipeline.state import RunSummary, WarnOnce, count
+from pfpeople.run_state import RunSummary, WarnOnce, count
 
 __all__ = [
     "FIRST_DT_S",

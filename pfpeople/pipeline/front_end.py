@@ -11,7 +11,7 @@ Protocol. The child is forked once the pipeline is prepared: it starts with a co
 of the start of the run. It reads the bag itself, with its own reader of the same files (an open reader cannot
 be shared across a fork; both read the same frames, checked by index and stamp), and sends each frame's
 ``("ok", index, stamp, FrontResult, counters, records)``: the front end's result, the
-:class:`~pfpeople.pipeline.state.RunSummary` counters the front end keeps (copied into this process's summary as each
+:class:`~pfpeople.run_state.RunSummary` counters the front end keeps (copied into this process's summary as each
 frame is taken, so the summary always describes the frames processed) and the log records the front end emitted
 for that frame (re-emitted here, through this process's handlers). An exception in the front end is sent as
 ``("error", index, stamp, exc, records)`` and raised here when the run reaches that frame: the frames before it
@@ -49,12 +49,12 @@ from pfpeople.detect.adapters import Detections
 from pfpeople.io.bag.sync import Frame
 from pfpeople.perception.odometry import EgoMotion
 from pfpeople.pipeline.blas import blas_threads_in_use
-from pfpeople.pipeline.state import RunSummary
+from pfpeople.run_state import RunSummary
 from pfpeople.sensors import Pose2D
 
 __all__ = ["FRONT_COUNTERS", "FrontProcess", "FrontResult", "front_process_available"]
 
-#: The :class:`~pfpeople.pipeline.state.RunSummary` fields the front end updates (the back end: ``frames``, ``sync``,
+#: The :class:`~pfpeople.run_state.RunSummary` fields the front end updates (the back end: ``frames``, ``sync``,
 #: ``elapsed_s``, ``error``, ``blas_threads``, and ``mount_changes``, from the TF it reads along the frames).
 FRONT_COUNTERS = (
     "no_data",

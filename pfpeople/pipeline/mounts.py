@@ -27,7 +27,7 @@ from typing import Any
 from pfpeople.detect.adapters import DetectorAdapter
 from pfpeople.io.bag.reader import BagMessage
 from pfpeople.io.bag.tf import MountFollower, TfBuffer, TfLookupError
-from pfpeople.pipeline.state import RunSummary, WarnOnce, count
+from pfpeople.run_state import RunSummary, WarnOnce, count
 from pfpeople.sensors import Pose2D
 
 __all__ = ["MountTracker"]

@@ -74,7 +74,7 @@ from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_int
-from pfpeople.config import BagConfig, FilterConfig
+from pfpeople.config import BagConfig, FilterConfig, run_topics
 from pfpeople.detect import segment_kernels as _kernels
 from pfpeople.detect.adapters import (
     ADAPTERS,
@@ -104,11 +104,10 @@ from pfpeople.pipeline.sensor_setup import (
     SensorSetup,
     SetupSensors,
     check_grid_seen,
-    run_topics,
     setup_sensors,
     warn_coarse_lasers,
 )
-from pfpeople.pipeline.state import FrameResult, RunSummary, WarnOnce, count
+from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
 from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.track.reported_people import point_like, support_positions
 

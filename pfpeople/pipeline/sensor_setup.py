@@ -35,7 +35,7 @@ from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import fov_mask
 from gridbridge.params import DetectorModel
-from pfpeople.config import BagConfig, DetectorConfig, check_run_limits
+from pfpeople.config import BagConfig, DetectorConfig, check_run_limits, run_topics
 from pfpeople.detect.adapters import DetectorAdapter
 from pfpeople.detect.legs import MIN_LEG_BEAMS, LegDetectorParams, leg_beam_range
 from pfpeople.io.bag.reader import IMAGE_TYPES, LASER_TYPES, ODOMETRY_TYPES, BagMessage, BagSource
@@ -48,7 +48,6 @@ __all__ = [
     "SensorSetup",
     "SetupSensors",
     "check_grid_seen",
-    "run_topics",
     "scan_bearings",
     "setup_sensors",
     "warn_coarse_lasers",
@@ -102,14 +101,6 @@ class SensorSetup:
 
 #: The signature of :func:`setup_sensors` (a replacement passed to :class:`pfpeople.pipeline.runner.Pipeline`).
 SetupSensors = Callable[..., SensorSetup]
-
-
-def run_topics(config: BagConfig) -> list[str]:
-    """The topics a run reads: driver, detector topics and odometry (sorted)."""
-    topics = {config.driver, *(d.topic for d in config.detectors)}
-    if config.odometry:
-        topics.add(config.odometry)
-    return sorted(topics)
 
 
 def scan_bearings(msg: Any) -> tuple[float, float]:

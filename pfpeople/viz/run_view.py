@@ -198,7 +198,7 @@ def ego_sources(run: RunData) -> NDArray[np.str_]:
 
     ``frames.csv`` ``odometry`` is 1 for both odometry and scan matching; a run without an odometry topic
     (``run.json`` ``config.odometry.topic`` empty) has its controls from scan matching the driving laser
-    (:class:`pfpeople.pipeline.state.RunSummary` ``ego_motion``).
+    (:class:`pfpeople.run_state.RunSummary` ``ego_motion``).
     """
     config = run.meta.get("config")
     odo = config.get("odometry") if isinstance(config, dict) else None

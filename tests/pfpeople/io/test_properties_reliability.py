@@ -30,7 +30,7 @@ from pfpeople.io.bag.reader import BadScanError, BagMessage, MessageDataError, l
 from pfpeople.io.bag.sync import Frame
 from pfpeople.io.bag.tf import MountFollower, TfBuffer, TfLookupError
 from pfpeople.perception.odometry import OdometryIntegrator
-from pfpeople.pipeline.state import RunSummary
+from pfpeople.run_state import RunSummary
 from pfpeople.sensors import Pose2D
 
 SETTINGS = settings(

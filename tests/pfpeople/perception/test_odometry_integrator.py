@@ -15,7 +15,7 @@ import pfpeople.pipeline.runner as pipeline
 from pfpeople.io.bag.reader import BagMessage
 from pfpeople.io.bag.sync import Frame
 from pfpeople.perception.odometry import FIRST_DT_S, OdometryIntegrator, interpolate_pose, odometry_between
-from pfpeople.pipeline.state import RunSummary, WarnOnce
+from pfpeople.run_state import RunSummary, WarnOnce
 from pfpeople.sensors import Pose2D
 
 S = 1_000_000_000  # ns per s

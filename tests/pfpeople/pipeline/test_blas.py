@@ -14,7 +14,7 @@ from pfpeople.io.bag.reader import BagSource
 from pfpeople.pipeline.blas import BLAS_THREADS_ENV, blas_threads_in_use, limit_blas, resolve_blas_threads
 from pfpeople.pipeline.front_end import front_process_available
 from pfpeople.pipeline.runner import Pipeline
-from pfpeople.pipeline.state import FrameResult
+from pfpeople.run_state import FrameResult
 
 #: BLAS threads of this process outside any limit (the libraries' own: one per core, or OPENBLAS_NUM_THREADS).
 OWN = blas_threads_in_use()

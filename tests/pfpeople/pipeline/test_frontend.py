@@ -22,7 +22,7 @@ from pfpeople.io.bag.reader import BagSource
 from pfpeople.io.run_dir import load_run
 from pfpeople.pipeline.front_end import FRONT_COUNTERS, front_process_available
 from pfpeople.pipeline.runner import Pipeline
-from pfpeople.pipeline.state import RunSummary
+from pfpeople.run_state import RunSummary
 
 pytestmark = pytest.mark.skipif(not front_process_available()[0], reason=front_process_available()[1])
 

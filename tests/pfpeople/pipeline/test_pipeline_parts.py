@@ -25,7 +25,7 @@ from pfpeople.io.sinks import RunInfo, RunOutcome
 from pfpeople.perception.odometry import OdometryIntegrator
 from pfpeople.pipeline.runner import FrameResult, Pipeline, RunSummary, build_detector, make_filter, odometry_between
 from pfpeople.pipeline.sensor_setup import SensorSetup, setup_sensors
-from pfpeople.pipeline.state import FrameResult as StateFrameResult
+from pfpeople.run_state import FrameResult as StateFrameResult
 
 N_SCANS = 5
 FIXED = np.array([[1.5, 0.25], [4.0, -2.0]])
