@@ -355,7 +355,7 @@ def write_labelled_people_csv(bag: Path, out: Path) -> int:
 def _positive_bags_logs(leg: Path, work: Path, frames: int | None) -> tuple[list[ReplayLog], list[BenchRow], str]:
     """Scene ``positive_bags``: each labelled leg_tracker bag run as the README says, with a boosted model trained
     without it (and with the simulated training scenes, as the shipped model)."""
-    from evaluation.scenarios.scan.training import training_people_bags
+    from evaluation.scenarios.scan.training_scenes import training_people_bags
     from pfpeople.config import load_config
     from pfpeople.detect.training import train_from_directory
     from pfpeople.io.bag.inspect import inspect_path, starter_config

@@ -6,7 +6,7 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
    people and, with ``peak_threshold``, the weaker belief peaks above it (they update tracks through a dip of
    the belief; tracks start only from people: ``TrackerConfig.birth_min_score`` = the classifier's threshold).
    With a hysteresis classifier (:class:`gridbridge.classifiers.HysteresisPeaks`) the weaker peaks are its own
-   rejected candidates; otherwise :func:`pfpeople.track.measurements.tracker_inputs` finds them. With ``snap_radius``
+   rejected candidates; otherwise :func:`pfpeople.track.belief_inputs.tracker_inputs` finds them. With ``snap_radius``
    and the frame's precise detections given (the laser detectors' people, static clutter removed), each of these
    positions with detections within ``snap_radius`` is moved to their mean: the grid places a person on its
    0.1-0.3 m cells, a laser detection to a few centimetres, and in a crowd the sharper positions keep tracks
@@ -55,8 +55,8 @@ from gridbridge.classifiers import PeakClassifier, People, people_cells
 from gridbridge.grid import GridSpec
 from gridbridge.validation import check_int, check_real
 from pfpeople.sensors import Pose2D
+from pfpeople.track.belief_inputs import tracker_inputs
 from pfpeople.track.free_space import LaserView, seen_through
-from pfpeople.track.measurements import tracker_inputs
 from pfpeople.track.multi_person import MultiPersonTracker, Track, TrackerConfig
 
 __all__ = ["PEOPLE_MODES", "PeopleTracker", "TrackedFrame", "point_like", "snap_to_detections", "support_positions"]

@@ -9,7 +9,7 @@ from gridbridge.classifiers import HysteresisPeaks, PeakClassifier, classify_pea
 from gridbridge.grid import GridSpec
 from pfpeople.config import ClassifierConfig
 from pfpeople.pipeline.assembly import build_classifier
-from pfpeople.track.measurements import tracker_inputs
+from pfpeople.track.belief_inputs import tracker_inputs
 
 SPEC = GridSpec(nx=20, ny=20, resolution=0.3, x0=0.0, y0=-3.0)
 

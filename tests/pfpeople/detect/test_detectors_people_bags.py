@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from evaluation.scenarios.scan.bagfile import write_scene_bag
-from evaluation.scenarios.scan.training import TRAINING_SEED
+from evaluation.scenarios.scan.training_scenes import TRAINING_SEED
 from pfpeople.cli import main as pfpeople_main
 from pfpeople.detect.people_bags import (
     find_people_bags,
