@@ -200,8 +200,7 @@ class FilterConfig:
         Seed of the particle filter's ``numpy.random.Generator``.
     motion_model : {"paper", "persistent"} or None
         Particle people-motion sampler (:mod:`pfpeople.particle.propagation`); None: ``"persistent"`` in the recommended
-        mode
-        (walkers keep their heading and speed: compact person blobs, README "Recommended particles"),
+        mode (walkers keep their heading and speed: compact person blobs, README "Recommended particles"),
         ``"paper"`` (the paper's memoryless model, what the grid filter predicts) in the paper mode.
     max_overflow : float or None
         Particle filter: births may push the count this fraction above ``n_particles`` before they trigger a

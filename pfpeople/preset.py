@@ -13,8 +13,7 @@ builds them.
 
 Each ``step`` runs the filter (eqs. 1-14 with the recommended mode's components, :mod:`pfpeople.pipeline.assembly`), the
 peak classifier with hysteresis and the multi-person tracker (:class:`pfpeople.track.reported_people.PeopleTracker`),
-the
-same three stages as a run's back end. Positions are in the grid's sensor frame (m, REP-103).
+the same three stages as a run's back end. Positions are in the grid's sensor frame (m, REP-103).
 """
 
 from __future__ import annotations

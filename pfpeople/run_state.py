@@ -100,8 +100,7 @@ class RunSummary:
 
     ``max_lateral_m`` is the largest sideways displacement (m) of the grid frame in one step (the chord across
     the step's mean heading, :func:`pfpeople.perception.odometry.odometry_between`), large for a driving laser mounted
-    off
-    the robot's rotation axis and yawed. Informative: the filters apply it (``Odometry.vy``, ``vy_mps`` in
+    off the robot's rotation axis and yawed. Informative: the filters apply it (``Odometry.vy``, ``vy_mps`` in
     ``frames.csv``).
 
     ``odometry_jumps`` counts the odometry steps too fast to be motion
@@ -117,8 +116,7 @@ class RunSummary:
 
     ``blas_threads`` is the most threads a BLAS library of the run's process would use while the frames ran
     (:mod:`pfpeople.pipeline.blas`: 1 by default; 0: no BLAS library found), ``front_blas_threads`` the same in the
-    front
-    end's process (:mod:`pfpeople.pipeline.front_end`; the run's own process when there is one).
+    front end's process (:mod:`pfpeople.pipeline.front_end`; the run's own process when there is one).
     """
 
     frames: int = 0

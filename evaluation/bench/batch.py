@@ -5,14 +5,13 @@ writes ``--bags`` bags: the scan-level simulator's scene (``evaluation.scenarios
 0, 1, ..., with the run configuration it writes) when that simulator is installed, otherwise (or with
 ``--synthetic``) this module's ROS 1 bags (:func:`write_synthetic_bag`: a laser-only scene of people walking
 past a standing robot, legs ray-cast with :func:`pfpeople.detect.synthetic.render_scan`, grid filter and one
-leg detector). It then runs the batch on local clusters of worker
-processes (``threads_per_worker=1``) with 1 and 2 workers and prints the wall times (cluster start included
-and excluded), the speed-up, and the per-task overhead: the wall time per task of a batch of trivial tasks on
-the started 2-worker cluster (submit, schedule, run, gather). The speed-up is bounded by the CPU this session
-can get: on a machine shared with other jobs, Linux's autogroup scheduler gives each session (terminal, job
-runner) a fair share of the cores however many processes it starts, so more workers cannot go faster than that
-share. The benchmark prints the cores the tasks obtained (their threads' CPU time over the wall time) so a
-missing speed-up can be told apart from a Dask overhead.
+leg detector). It then runs the batch on local clusters of worker processes (``threads_per_worker=1``) with 1 and 2
+workers and prints the wall times (cluster start included and excluded), the speed-up, and the per-task overhead: the
+wall time per task of a batch of trivial tasks on the started 2-worker cluster (submit, schedule, run, gather). The
+speed-up is bounded by the CPU this session can get: on a machine shared with other jobs, Linux's autogroup scheduler
+gives each session (terminal, job runner) a fair share of the cores however many processes it starts, so more workers
+cannot go faster than that share. The benchmark prints the cores the tasks obtained (their threads' CPU time over the
+wall time) so a missing speed-up can be told apart from a Dask overhead.
 
 :func:`write_synthetic_bag` and :data:`SYNTHETIC_CONFIG` are also used by the batch tests.
 """

@@ -14,8 +14,7 @@ its :class:`pfpeople.perception.scan_matching.ScanOdometry`). Per scan ``k``, ex
     E = moving.update(raw detections of both detectors, ego=step.ego)   # MovingPeople
 
 ``E`` (``--exclude``): ``moving`` (default) = the tracks of :class:`pfpeople.perception.clutter_map.MovingPeople` over
-the raw
-detections of both detectors that have moved ``--moving-distance`` (0.3 m) from where they started (a "people
+the raw detections of both detectors that have moved ``--moving-distance`` (0.3 m) from where they started (a "people
 seen moving" set; a chair leg that stays put never enters it); ``none``: nothing is excluded. The time of the
 map column includes the tracks.
 

@@ -13,10 +13,10 @@ wall-clock seconds, frames per second, the real-time factor (recorded seconds pr
 the CPU time per frame of the same span and the real-time factor it gives (steadier than the wall clock on a
 loaded machine), the filter step's CPU time (ms per frame), the peak resident memory of the worker process,
 the BLAS threads per library during the run (``BLAS``, :mod:`pfpeople.pipeline.blas`) and, with ``--stages``, the CPU
-time of each stage (:mod:`evaluation.bench.stage_timer`).
-With ``--baseline REV`` (default :data:`evaluation.bench.release_baseline.PREVIOUS_RELEASE`; ``none`` skips it) the
-same worker also runs with the release's packages (:func:`evaluation.bench.release_baseline.run_worker`), interleaved
-with this checkout's runs, and each row shows the same-run ratios ``this / release`` of both real-time factors
+time of each stage (:mod:`evaluation.bench.stage_timer`). With ``--baseline REV`` (default
+:data:`evaluation.bench.release_baseline.PREVIOUS_RELEASE`; ``none`` skips it) the same worker also runs with the
+release's packages (:func:`evaluation.bench.release_baseline.run_worker`), interleaved with this checkout's runs, and
+each row shows the same-run ratios ``this / release`` of both real-time factors
 and whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``detections.csv`` (byte for byte)::
 
     python -m evaluation.bench.pipeline [--cases wheelchair lobby person_following] [--filters grid particle]

@@ -7,8 +7,8 @@ For a scenario with ground truth (:mod:`evaluation.scenarios`) the harness
 2. runs every filter (grid filter in the paper's and the linear form, the particle filter at several particle
    counts) on the same detections and odometry, classifies each posterior with the paper's blob algorithm
    (:func:`gridbridge.blobs.classify_blobs`) and with a plain threshold (connected cells above 0.5), and
-   scores the classified people (recall, precision, FPCPF), the
-   belief grid itself (Brier score, log-loss, ROC AUC against the true occupancy) and the time per iteration;
+   scores the classified people (recall, precision, FPCPF), the belief grid itself (Brier score, log-loss, ROC AUC
+   against the true occupancy) and the time per iteration;
 3. runs the paper's tracking application on each filter's posteriors;
 4. writes a run record (JSON: configuration, seeds, versions, metrics) and figures in the style of the
    paper's Fig. 6 for chosen frames.

@@ -465,8 +465,7 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     ``tracks.csv`` of the same run with the particle filter (``FilterConfig.kind = "particle"``, run here into
     ``<name>_prun``), and the tracker on each detector's detections and all merged
     (:func:`evaluation.harness.mot_eval.evaluate_run`); the scan-level scenes again scoring only people hit by >= 3
-    laser
-    beams (``[hit_beams>=3]``: fully occluded people out). ``person_following_outdoor_1`` annotates the followed
+    laser beams (``[hit_beams>=3]``: fully occluded people out). ``person_following_outdoor_1`` annotates the followed
     person only: its figure is the followed-person line (MOTA / precision there count passers-by as false).
     ``negative_2`` (nobody there) has no MOT rows. Gate ``gate`` m (leg_tracker's 0.75).
     """

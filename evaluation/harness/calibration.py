@@ -5,9 +5,8 @@ filter as P(D_i | p) = PPV where detector i fires and FNR where it does not (eqs
 
 - detections and true people of one frame are matched one-to-one by the Hungarian algorithm
   (:func:`evaluation.metrics.detection.assign_one_to_one`: most pairs, then least total distance); pairs farther than a
-  gate are refused;
-  ``metric = "euclidean"`` gates in metres (default 0.5 m, for lasers); ``metric = "mahalanobis"`` gates in
-  standard deviations of the model's line-of-sight Gaussian (``sigma_lateral`` across, ``sigma_range``
+  gate are refused; ``metric = "euclidean"`` gates in metres (default 0.5 m, for lasers); ``metric = "mahalanobis"``
+  gates in standard deviations of the model's line-of-sight Gaussian (``sigma_lateral`` across, ``sigma_range``
   along the ray from the detector to the true person; default 3.0), for the camera's large range error;
 - only people inside the detector's field of view and range limits (:class:`gridbridge.params.DetectorModel`)
   are candidates; with a ``region`` (a :class:`GridSpec`), recall counts people inside the region and

@@ -255,8 +255,7 @@ def evaluate_log(
     filters and tracker as ``pfpeople run`` runs them, and tracking-by-detection on each detector and all merged.
 
     Row ``"recommended (tracker)"``: the recommended grid filter (:func:`pfpeople.pipeline.assembly.build_filter` with
-    the
-    default :class:`~pfpeople.config.FilterConfig`), its peaks classifier, and the tracker fed as the pipeline
+    the default :class:`~pfpeople.config.FilterConfig`), its peaks classifier, and the tracker fed as the pipeline
     feeds it (:class:`~pfpeople.config.TrackingConfig`: the peaks above ``peak_threshold`` update tracks,
     those above the classifier's threshold start them; the belief grid passed along). Row ``"recommended
     particles (tracker)"``: the same with the recommended particle filter (``FilterConfig(kind="particle")``, its

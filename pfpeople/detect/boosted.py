@@ -10,8 +10,7 @@ single legs).
 The shipped model ``pfpeople/models/boosted_legs.yml`` (with its JSON sidecar of data, parameters, metrics and
 leave-one-bag-out evaluation) is trained on all six labelled leg_tracker bags, negative_2 and the simulated bags of
 :mod:`evaluation.scenarios.scan.training_scenes` (a moving robot among furniture and people who stand and walk, as
-lasers
-are specified; ``make model``), and loads by default through ``importlib.resources``. Single legs
+lasers are specified; ``make model``), and loads by default through ``importlib.resources``. Single legs
 (``PairingParams.count_single_legs``) are off by default, as for the leg-pattern detector (figures in
 :mod:`pfpeople.detect.legs`).
 """

@@ -3,8 +3,7 @@
 leg_tracker's labelled bags (:mod:`pfpeople.detect.training`) come from a standing scanner with people walking
 in a box; they hold no furniture seen by a moving robot and few people standing. A bag whose ground truth gives
 every person's centre per scan (the CSV format of :mod:`pfpeople.io.ground_truth`, keyed by ``scan_index``, in the
-scan's
-frame, with an optional ``hit_beams`` column: how many beams reached the person) adds both. Each segment of such
+scan's frame, with an optional ``hit_beams`` column: how many beams reached the person) adds both. Each segment of such
 a scan (:func:`pfpeople.detect.segments.scan_segments`) is labelled by the distance ``d`` from its centroid to
 the nearest annotated person:
 

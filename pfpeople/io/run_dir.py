@@ -42,8 +42,7 @@ stay valid and ``frames`` is the number of frames on disk. ``scans.npy`` and ``p
 ``.npy`` files of structured records grown like ``grids.npy`` (the header counts the complete rows), rows in
 frame order; in ``scans.npy`` ``static`` is 1 for a return whose cell the laser's static-clutter map calls static
 (:meth:`pfpeople.perception.clutter_map.StaticClutterMap.static_points`; 0 when the run has no map). Both are optional:
-run
-directories written before them, or with ``--no-scans``, read with ``scans`` / ``particles`` None.
+run directories written before them, or with ``--no-scans``, read with ``scans`` / ``particles`` None.
 
 Safety against a second process and damage:
 

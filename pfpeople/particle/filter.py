@@ -41,8 +41,7 @@ of a few steps accumulate: on the person-following bag 29 % of the steps resampl
 the ESS), with a median ESS of 0.93 N between resamplings, and the filter step costs about a fifth less.
 
 Equivalence (tested in ``tests/pfpeople/particle/test_pf_equivalence.py``): with ``PaperSampling(redraw_in_cell=True)``
-and a
-standing robot, the expected rasterised prior equals the linear grid filter's prior with the integrated kernel
+and a standing robot, the expected rasterised prior equals the linear grid filter's prior with the integrated kernel
 (``GridFilter(form="linear")``): the PF is an unbiased Monte Carlo estimate of that prediction, with error
 ~ 1/sqrt(N). With the robot moving, the grid's bilinear warp (applied to a belief
 assumed uniform within cells) and its sigma points are approximations that the particles do not make, which
@@ -54,10 +53,9 @@ particle's displacement is still an exact draw while the cost of the trigonometr
 
 Compiled step: with numba (and ``PFPEOPLE_NUMBA`` not ``0``, :mod:`gridbridge.jit`) phases 1-2 run as one pass
 over the particles (:mod:`pfpeople.particle.step_kernels`: people motion, sensor motion, the particles that left
-dropped, both
-priors summed), phase 3 scales the weights in one pass and phase 5 gathers the resampled particles without an
-ancestor array; the arrays come from a pool of those the filter let go of (:mod:`pfpeople.particle.buffers`). It makes
-the numpy path's random draws in the same order and the same arithmetic in the same order: the same seed gives
+dropped, both priors summed), phase 3 scales the weights in one pass and phase 5 gathers the resampled particles without
+an ancestor array; the arrays come from a pool of those the filter let go of (:mod:`pfpeople.particle.buffers`). It
+makes the numpy path's random draws in the same order and the same arithmetic in the same order: the same seed gives
 the same particles bit for bit (``tests/pfpeople/particle/test_kernels_particles.py``).
 
 Bias of the empty-cell prior: a cell that is empty by chance gets the analytic prior instead of its (zero)

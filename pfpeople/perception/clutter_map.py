@@ -11,8 +11,7 @@ Frames
 The map lives in an odometry-like frame ``M`` (x, y in m, REP-103): the first sensor frame, moved by the
 ego-motion passed to :meth:`StaticClutterMap.update` (``T_MS <- T_MS * ego``, ``ego`` = the current sensor
 frame in the previous one, e.g. :class:`pfpeople.perception.scan_matching.ScanOdometry`). Its cells are axis-aligned in
-``M``
-(resolution ``r``); the window of ``(2 h / r)^2`` cells (``h`` = ``half_extent``) is re-centred on the sensor
+``M`` (resolution ``r``); the window of ``(2 h / r)^2`` cells (``h`` = ``half_extent``) is re-centred on the sensor
 by a whole number of cells when the sensor is more than ``recentre_distance`` from its centre, so the stored
 values are never interpolated (no blur, no sub-cell drift). Points and queries are in the **current sensor
 frame** (the frame of the points of the latest update).

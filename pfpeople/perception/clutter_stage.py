@@ -1,13 +1,11 @@
 """The run's static-clutter stage: one :class:`pfpeople.perception.clutter_map.ClutterSuppressor` per laser topic.
 
 Each laser topic with a detector has its own static-clutter map (:mod:`pfpeople.perception.clutter_map`), kept in the
-laser's
-frame: the grid-frame ego-motion ``E`` (from odometry) becomes ``T^-1 E T`` with ``T`` the laser's mount in
+laser's frame: the grid-frame ego-motion ``E`` (from odometry) becomes ``T^-1 E T`` with ``T`` the laser's mount in
 the grid frame. Each map keeps the people its detectors saw moving out of itself
 (:class:`pfpeople.perception.clutter_map.MovingPeople`).
 A detection the map calls static, or whose nearest return is the robot's own (:mod:`pfpeople.perception.self_returns`),
-is
-suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
+is suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
 ``suppressed``). Without odometry, the driving laser's scan-matched motion is
 returned in the grid frame (``T E_laser T^-1``) for laser odometry (:mod:`pfpeople.perception.odometry`).
 The detectors' support positions (single legs, :class:`pfpeople.detect.adapters.Detections`) that are suppressed so

@@ -3,8 +3,7 @@
 A laser mounted low on a robot often sees part of the robot (a bumper, a wheel, a caster, a bracket) a few
 tens of centimetres away. Those returns are fixed in the laser frame, so in the odometry frame they move with
 the robot: the static-clutter map (:mod:`pfpeople.perception.clutter_map`) never calls them static, and a leg detector
-that
-takes them for a leg sees a leg walking at the robot's speed (on ``negative_2``'s right laser a return 0.32 m
+that takes them for a leg sees a leg walking at the robot's speed (on ``negative_2``'s right laser a return 0.32 m
 from the laser continued a false track for 4 s). leg_tracker's users remove them with a footprint filter
 configured by hand; :class:`SelfReturns` finds them from the scans and the ego-motion.
 

@@ -63,8 +63,7 @@ PEAK_KEEP = 0.5
 DEFAULT_OVERFLOW = {"recommended": 0.1, "paper": 0.0}
 #: Default people-motion sampler of the particle filter per mode (see FilterConfig.motion_model; the names of
 #: :data:`pfpeople.particle.components.PEOPLE_SAMPLERS`): in the recommended mode walkers keep heading and speed
-#: (precision
-#: and tracks on every scene, README "Recommended particles"); the paper mode samples the paper's memoryless
+#: (precision and tracks on every scene, README "Recommended particles"); the paper mode samples the paper's memoryless
 #: model, the grid filter's prediction.
 DEFAULT_MOTION_MODEL = {"recommended": "persistent", "paper": "paper"}
 #: The default grid reaches this far from the driving laser (or its range_max when smaller), m.

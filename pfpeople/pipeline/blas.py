@@ -5,8 +5,7 @@ numpy's and scipy's OpenBLAS start one thread per core and hand a large enough d
 768-beam scenes). On a 2-core machine whose other core is busy (another process, or the
 pipeline's own front-end process) the second BLAS thread waits for that core and the particle pipeline ran 2.5x
 slower than with one BLAS thread, for the same outputs. :class:`pfpeople.pipeline.runner.Pipeline` therefore limits
-every
-loaded BLAS library to :func:`resolve_blas_threads` threads while its frames run (the front-end process, forked
+every loaded BLAS library to :func:`resolve_blas_threads` threads while its frames run (the front-end process, forked
 inside the limit, inherits it) and restores the libraries' own counts after. ``run.json`` records what the run
 saw (``stats.blas_threads``, ``stats.front_blas_threads``: :func:`blas_threads_in_use` in the back end's and the
 front end's process).

@@ -199,8 +199,7 @@ class Pipeline:
         sight. True: ask for it (one process, with a warning, where it cannot run); False: one process.
     blas_threads : int, optional
         BLAS threads per process while the frames run (:mod:`pfpeople.pipeline.blas`: numpy's and scipy's OpenBLAS
-        limited
-        with threadpoolctl, the front-end process included; the libraries' own counts restored after). None
+        limited with threadpoolctl, the front-end process included; the libraries' own counts restored after). None
         (default): the environment variable ``PFPEOPLE_BLAS_THREADS``, else 1; 0: no limit. Same results, and
         on a loaded machine no BLAS thread waits for a busy core.
 

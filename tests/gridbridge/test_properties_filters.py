@@ -4,8 +4,7 @@ Random detection sets (each detector: no data, nobody, or up to 4 people anywher
 random odometry (or none) and time steps, through ``GridFilter`` and ``ParticleFilter`` on a small grid.
 Invariants: no exception, beliefs in [0, 1] without NaN, the particles' rasterised mass equal to the belief
 in every cell (as ``tests/pfpeople/particle/test_particles_filter.py`` checks it), and the same seed giving the same
-bytes.
-Random stamp streams through :class:`~pfpeople.io.bag.sync.FrameAssembler`: frames strictly increasing in time
+bytes. Random stamp streams through :class:`~pfpeople.io.bag.sync.FrameAssembler`: frames strictly increasing in time
 and every driver message either a frame or counted as skipped. Deterministic: ``derandomize=True``.
 """
 

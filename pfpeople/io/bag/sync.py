@@ -23,10 +23,9 @@ does not grow with the bag's length.
 Latency: a topic recorded well after its stamps (odometry or a camera 0.3 s late) would miss nearly every frame
 if frames went out two tolerances after the driver. Each topic's *lag* is measured as its messages arrive: the
 largest amount (up to 5 s: more is another clock) by which the newest driver stamp is ahead of a message's stamp
-(``stats["lag_ms"]``). Frames wait
-for a topic for that lag more (at most ``max_pending`` frames: a lag longer than those cover forces frames, and the
-warning names the topic, its lag and the ``max_pending_frames`` to set). The frames before a topic's first message
-cannot know its lag. A lag above two tolerances is warned once per topic.
+(``stats["lag_ms"]``). Frames wait for a topic for that lag more (at most ``max_pending`` frames: a lag longer than
+those cover forces frames, and the warning names the topic, its lag and the ``max_pending_frames`` to set). The frames
+before a topic's first message cannot know its lag. A lag above two tolerances is warned once per topic.
 
 Non-monotonic stamps: a message whose stamp is earlier than the previous one of its topic (or equal, for the
 driver) cannot be placed in a stream; it is skipped, counted in :attr:`FrameAssembler.stats` and logged

@@ -39,10 +39,9 @@ def test_two_legs_give_one_person_at_the_midpoint(where: tuple[float, float]) ->
 @pytest.mark.parametrize("dist", [3.0, 3.5, 4.0, 4.5, 5.0, 6.0])
 def test_a_far_person_with_three_beams_per_leg(dist: float) -> None:
     """At 0.5 deg per beam a 0.12 m leg gets about 0.12 / (r * 0.0087) beams (here 5, 4, 4, 3, 2, 3 at these ranges,
-    as the beams fall).
-    ``far_leg_width`` (0.10 m) lowers the point minimum to the beams a 0.10 m leg can give (never below 3) where
-    ``min_points`` (4) cannot be met: a person with 3 returns on each leg is found only with it, one with 4 or
-    more with or without it, one with 2 never (the far leg blobs off:
+    as the beams fall). ``far_leg_width`` (0.10 m) lowers the point minimum to the beams a 0.10 m leg can give (never
+    below 3) where ``min_points`` (4) cannot be met: a person with 3 returns on each leg is found only with it, one with
+    4 or more with or without it, one with 2 never (the far leg blobs off:
     ``tests/pfpeople/detect/test_detectors_far_legs.py``)."""
     circles = _person(dist, 0.0)
     scan = render_scan(circles=circles, angle_increment=math.radians(0.5))

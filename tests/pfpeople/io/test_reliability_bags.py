@@ -1,8 +1,7 @@
 """Issue 11: damaged input gives a clear error naming it, or a stated, logged and counted handling.
 
 Bags are written here as ``tests/pfpeople/pipeline/test_pipeline_bags.py`` writes them (its ``write_bag`` and message
-helpers);
-``write_scan_bag`` writes a LaserScan-only ROS1 bag whose scan fields (increment, range interval) are free.
+helpers); ``write_scan_bag`` writes a LaserScan-only ROS1 bag whose scan fields (increment, range interval) are free.
 """
 
 from __future__ import annotations

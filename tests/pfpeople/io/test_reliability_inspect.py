@@ -1,8 +1,7 @@
 """Issue 27 (3, 5): ``pfpeople inspect`` on bags that broke it, and starter configs that ``run`` refused.
 
 Bags are written with ``tests/pfpeople/pipeline/test_pipeline_bags.py``'s message helpers: ``/scan`` at 10 Hz (0.5 deg
-beams from
--90 deg, two legs 2 m ahead), optionally ``/odom`` and a ``/tf`` mount of ``laser`` on ``base_link``.
+beams from -90 deg, two legs 2 m ahead), optionally ``/odom`` and a ``/tf`` mount of ``laser`` on ``base_link``.
 """
 
 from __future__ import annotations
