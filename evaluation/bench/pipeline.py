@@ -69,12 +69,9 @@ def _local(name: str) -> Any:
 
 
 def _module(new: str, old: str) -> Any:
-    """A module of the packages under test by its name, else by its name before the folder layout of round three
-    (a worker may run the previous release's packages)."""
-    try:
-        return importlib.import_module(new)
-    except ModuleNotFoundError:
-        return importlib.import_module(old)
+    """A module of the packages under test by its name, or by its name before the folder layout of round three
+    when those packages are the previous release's (:func:`evaluation.bench.stage_timer.module_exists`)."""
+    return importlib.import_module(new if _local("stage_timer").module_exists(new) else old)
 
 
 def _timed_pipeline(cfg: Any, front_process: bool) -> Any:

@@ -17,9 +17,10 @@ import importlib
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
-__all__ = ["STAGES", "timed_stages"]
+__all__ = ["STAGES", "module_exists", "timed_stages"]
 
 _clock = time.thread_time
 
@@ -57,6 +58,15 @@ STAGES: tuple[tuple[str, tuple[str, ...], str, bool], ...] = (
     ("tracking", ("pfpeople.track.reported_people", "pfpeople.mot.people"), "PeopleTracker.step", False),
     ("writing", ("pfpeople.io.sinks", "pfpeople.sinks"), "RunDirSink.write", False),
 )
+
+
+def module_exists(name: str) -> bool:
+    """Whether module ``name`` is a file of the packages imported now (``pfpeople`` of this checkout or of the
+    previous release): a release's worker must not import a module it lacks, which an editable install of this
+    checkout would otherwise supply from here."""
+    top, _, rest = name.partition(".")
+    path = Path(importlib.import_module(top).__file__ or "").parent.joinpath(*rest.split(".")) if rest else None
+    return path is None or path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
 
 
 def _timed(fn: Callable[..., Any], acc: list[float], generator: bool) -> Callable[..., Any]:
@@ -105,6 +115,8 @@ def timed_stages() -> Iterator[dict[str, float]]:
             owner_name, _, attr = path.rpartition(".")
             acc = accs.setdefault(stage.strip(), [0.0])
             for mod_name in modules:
+                if not module_exists(mod_name):
+                    continue
                 try:
                     owner: Any = importlib.import_module(mod_name)
                 except ImportError:

@@ -165,3 +165,33 @@ def test_particle_worker_builds_the_filter_with_either_constructor(monkeypatch: 
     monkeypatch.setattr(bench_particles, "ParticleFilter", lambda **kw: calls.append(kw))
     bench_particles._particle_filter(900, ess_threshold=2.0)
     assert calls[0]["n_particles"] == 900 and calls[0]["ess_threshold"] == 2.0 and "resampling" not in calls[0]
+
+
+def test_module_exists_tells_the_layouts_apart() -> None:
+    from evaluation.bench.stage_timer import module_exists
+
+    assert module_exists("pfpeople.particle.filter") and module_exists("pfpeople.pipeline")
+    assert module_exists("gridbridge") and module_exists("pfpeople.io.bag.reader")
+    assert not module_exists("pfpeople.particle_filter") and not module_exists("pfpeople.bag.config")
+
+
+def test_a_release_worker_imports_the_release_modules_not_this_checkouts(tmp_path: Path) -> None:
+    """A release before the folder layout, on the path first: its module, although an editable install of this
+    checkout could supply the new name (``pfpeople.config``) from here."""
+    old = tmp_path / "pfpeople" / "bag"
+    old.mkdir(parents=True)
+    (tmp_path / "pfpeople" / "__init__.py").write_text("")
+    (old / "__init__.py").write_text("")
+    (old / "config.py").write_text("MARK = 'release'\n")
+    script = Path(__file__).resolve().parents[3] / "evaluation" / "bench" / "pipeline.py"
+    code = (
+        "import importlib.util, sys; "
+        f"spec = importlib.util.spec_from_file_location('bp', {str(script)!r}); "
+        "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m); "
+        "print(m._module('pfpeople.config', 'pfpeople.bag.config').MARK)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, env={"PYTHONPATH": str(tmp_path)}, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "release"
