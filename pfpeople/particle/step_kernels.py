@@ -304,9 +304,8 @@ def ego_compact(
 ) -> int:
     """Sensor motion (eqs. 10-11) of particles, the ones outside dropped, written compacted from ``start``.
 
-    Particle k uses pose ``k mod S`` (as :func:`pfpeople.particle.propagation.apply_ego_motion`): ``p' = R(-dtheta)(p -
-    t)``,
-    ``v' = R(-dtheta) v``.
+    Particle k uses pose ``k mod S`` (as :func:`pfpeople.particle.propagation.apply_ego_motion`):
+    ``p' = R(-dtheta)(p - t)``, ``v' = R(-dtheta) v``.
 
     Parameters
     ----------
