@@ -1,6 +1,5 @@
-"""Compiled free-space tracing and evidence update of :class:`pfpeople.perception.clutter_map.StaticClutterMap` (numba;
-see
-:mod:`gridbridge.jit`, scope ``"pfpeople"``).
+"""Compiled free-space tracing and evidence update of :class:`pfpeople.perception.clutter_map.StaticClutterMap`
+(numba; see :mod:`gridbridge.jit`, scope ``"pfpeople"``).
 
 :func:`update_evidence` does what the numpy code of ``StaticClutterMap.update`` does after the scan's cells are
 known (the free cells along the traced rays, the people's cells, the protection of the cells beside a return,
@@ -149,9 +148,8 @@ def ball_means(
     return out
 
 
-#: The tracks of :class:`pfpeople.perception.clutter_map.MovingPeople`: positions, anchors a and b (T, 2) (m), anchor
-#: b's time
-#: (T,) (s), missed updates (T,), moving (T,), last time moved (T,) (s).
+#: The tracks of :class:`pfpeople.perception.clutter_map.MovingPeople`: positions, anchors a and b (T, 2) (m),
+#: anchor b's time (T,) (s), missed updates (T,), moving (T,), last time moved (T,) (s).
 _Tracks: TypeAlias = tuple[_F, _F, _F, _F, NDArray[np.int64], NDArray[np.bool_], _F]
 
 
