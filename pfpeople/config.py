@@ -361,8 +361,8 @@ class TrackingConfig:
     single_legs : bool
         With ``people = "confirmed"``: the laser detectors' unpaired single legs (static clutter removed) are
         given to the tracker as support positions: they continue confirmed tracks that no classified person
-        continued, which are then reported, and never start a track (:mod:`pfpeople.track.reported_people`). Default
-        True.
+        continued, which are then reported, and never start a track (:mod:`pfpeople.track.reported_people`).
+        Default True.
     snap_radius : float
         The classified people and weaker peaks with detections of point-like detectors (the laser ones, static
         clutter removed) within this distance (m) are moved to their mean before tracking and reporting

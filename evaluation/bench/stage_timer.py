@@ -27,8 +27,7 @@ _clock = time.thread_time
 #: (stage, module, attribute path, generator): ``attribute path`` is ``"name"`` for a module function (patched in
 #: every listed module that imported it) or ``"Class.method"``. Each module is listed by its name and, after it,
 #: by its name before the folder layout of round three, so that the previous release is measured too. The indented stage
-#: names are nested in the one
-#: above them.
+#: names are nested in the one above them.
 STAGES: tuple[tuple[str, tuple[str, ...], str, bool], ...] = (
     ("reading", ("pfpeople.pipeline.runner", "pfpeople.pipeline"), "Pipeline._messages", True),
     ("detectors", ("pfpeople.pipeline.runner", "pfpeople.pipeline"), "Pipeline._detect", False),

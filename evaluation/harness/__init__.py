@@ -1,2 +1,2 @@
-"""The evaluation harness: A/B evaluation, the benchmark, calibration, replay, tracking evaluation, sweeps,
+"""The evaluation harness: A/B evaluation, the benchmark, calibration, replay, tracking evaluation, sweeps and
 figures."""

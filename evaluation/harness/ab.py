@@ -76,8 +76,7 @@ class FilterSpec:
         Particle people-motion model (particle only).
     mode : {"paper", "recommended"}
         ``"recommended"``: the product's filter (:func:`pfpeople.pipeline.assembly.build_filter`, ``form`` ignored) and
-        its
-        peak classifier instead of the paper's blobs in the first row.
+        its peak classifier instead of the paper's blobs in the first row.
     """
 
     name: str

@@ -209,8 +209,7 @@ def step_and_classify(filt: Any, classifier: Any, log: ReplayLog, k: int, *, tra
 
     ``tracker``: a :class:`pfpeople.track.reported_people.PeopleTracker` built on ``classifier`` (as the pipeline's
     ``[tracking]``, :func:`pfpeople.pipeline.assembly.build_people_tracker`); the people are then the ones it reports
-    (it
-    gets the log's support positions and its point-like detectors' detections, as the run's tracker did)."""
+    (it gets the log's support positions and its point-like detectors' detections, as the run's tracker did)."""
     dt = float(log.dt[k])
     out = filt.step(log.detections[k], log.odometry[k], dt)
     observed = np.asarray(out.covered).any(axis=0)

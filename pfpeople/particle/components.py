@@ -195,8 +195,7 @@ class Resampling:
     ----------
     scheme : {"systematic", "stratified", "residual", "multinomial"} or callable
         The draws (:data:`pfpeople.particle.resampling.RESAMPLERS`), or a callable ``f(weights, n, rng=rng) ->
-        ancestors``
-        (e.g. a baseline for benchmarks).
+        ancestors`` (e.g. a baseline for benchmarks).
     ess_threshold : float
         >= 0; a value above 1 resamples every step, 0 only on overflow.
     max_overflow : float

@@ -35,13 +35,11 @@ kept
    from the filter.
 5. Filter step (``GridFilter`` or ``ParticleFilter``, same ``step`` signature), the classification of the belief,
    the tracker and the people it confirms (:mod:`pfpeople.track.reported_people`, ``[tracking] people``), and one frame
-   to
-   every sink.
+   to every sink.
 
 The first frame uses ``dt = 0.1 s`` (:data:`FIRST_DT_S`); a gap between frames longer than :data:`MAX_GAP_S`
 or an odometry jump (:func:`pfpeople.perception.odometry.is_odometry_jump`) restarts the filter, the clutter maps and
-the
-tracker (counted).
+the tracker (counted).
 
 The mounts are read before the run and followed along it (:mod:`pfpeople.pipeline.mounts`): each frame's detectors are
 placed with their frame's TF mount at the frame's stamp (latest transform at or before it), and a message in another
@@ -52,8 +50,7 @@ too (:class:`pfpeople.io.bag.tf.MountWatch`): a mount that moves (a panning lase
 Steps 1-4 are the *front end* of a frame (:meth:`Pipeline._front`): they need only the frame and their own state.
 Step 5 is the *back end* (:meth:`Pipeline._back`). With two or more cores the front end runs in a second process,
 a few frames ahead of the back end (:mod:`pfpeople.pipeline.front_end`, ``Pipeline(front_process=...)``): the same
-results,
-more frames per second.
+results, more frames per second.
 """
 
 from __future__ import annotations

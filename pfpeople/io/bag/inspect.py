@@ -626,8 +626,7 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
     Every LaserScan topic gets the detectors of :data:`LASER_DETECTORS`: the driver's named as listed, each
     other laser's named ``NAME:TOPIC`` (``laser-legs:rear_scan``). A laser placed by TF (the pipeline looks its
     mount up in the grid frame, :mod:`pfpeople.pipeline.sensor_setup`) needs no entry; one that TF does not connect to
-    the
-    driver's frame gets a ``[mounts]`` entry at the base origin, flagged "measure it".
+    the driver's frame gets a ``[mounts]`` entry at the base origin, flagged "measure it".
 
     Parameters
     ----------

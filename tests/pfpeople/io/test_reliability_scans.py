@@ -2,8 +2,7 @@
 
 Each case gets a clear error naming the topic or setting, or a stated, logged (once per topic) and counted
 handling. Bags are written as ``tests/pfpeople/io/test_reliability_bags.py`` writes them; ``write_laser_bag`` lets a
-test
-change any field of any scan.
+test change any field of any scan.
 """
 
 from __future__ import annotations
