@@ -4,8 +4,8 @@ A lock is ``fcntl.flock`` (exclusive, non-blocking) on a small file holding the 
 system releases it when the writer dies. Two more rules make a dead writer never block a rerun:
 
 - A forked child (the front-end process, :mod:`pfpeople.pipeline.front_end`) does not keep its parent's locks:
-  every lock taken here is closed in the child right after ``fork`` (:func:`os.register_at_fork`). Closing the child's copy
-  leaves the parent's lock in place (the lock belongs to the open file, which the parent still has open).
+  every lock taken here is closed in the child right after ``fork`` (:func:`os.register_at_fork`). Closing the
+  child's copy leaves the parent's lock in place (the lock belongs to the open file, which the parent still has open).
 - A lock still held while the pid it names is dead (a process that inherited it outlived the writer) is taken
   over with a warning naming the dead pid: the lock file is replaced by a new one, which is locked.
 
