@@ -101,14 +101,19 @@ def _time_steps(step: Callable[[], object], warmup: int, repeats: int) -> tuple[
     return 1e3 * statistics.median(times), flags
 
 
+def _has_components() -> bool:
+    """Whether the imported ``pfpeople`` has the particle components (a file test, not an import: an editable
+    install of this checkout would supply the module to a release's worker)."""
+    import pfpeople
+
+    return (Path(pfpeople.__file__ or "").parent / "particle" / "components.py").is_file()
+
+
 def _particle_filter(n: int, **resampling: Any) -> ParticleFilter:
     """The benchmark's particle filter with ``n`` particles, resampling as ``resampling`` says (``ess_threshold``,
     ``resampler``: a scheme name or callable): through the components of this checkout
     (:class:`pfpeople.particle.components.Resampling`) or, in a release without them, the constructor's keywords."""
-    import pfpeople
-
-    # a file test, not an import: an editable install of this checkout would supply the module to a release
-    if not (Path(pfpeople.__file__ or "").parent / "particle" / "components.py").is_file():
+    if not _has_components():
         return ParticleFilter(n_particles=n, rng=np.random.default_rng(2015), **resampling)  # a release's keywords
     from pfpeople.particle.components import Resampling
 
