@@ -310,24 +310,27 @@ class PeopleTracker:
         tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support)
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
+        live = self.tracker.tracks if (views and self.see_through) or self.people != "classified" else []
         gone: set[int] = set()
         if views and self.see_through:
-            gone = self._seen_through(tracks, views)
+            gone = self._seen_through(live, tracks, views)
             tracks = [t for t in tracks if t.id not in gone]
         if self.people == "classified":
             return TrackedFrame(people=found, tracks=tracks, coasted=0)
-        people, coasted = self._reported(found, grid, spec, observed, gone)
+        people, coasted = self._reported(live, found, grid, spec, observed, gone)
         return TrackedFrame(people=people, tracks=tracks, coasted=coasted)
 
-    def _seen_through(self, tracks: Sequence[Track], views: Sequence[LaserView]) -> set[int]:
-        """The ids of the coasting tracks that may be reported (as ``tracks``, or as people through a miss) and
-        whose predicted place a laser of ``views`` sees through; each is tested once (``see_through``)."""
-        may_show = [t for t in self.tracker.tracks if t.confirmed and 0 < t.misses]
+    def _seen_through(self, live: Sequence[Track], tracks: Sequence[Track], views: Sequence[LaserView]) -> set[int]:
+        """The ids of the coasting tracks of ``live`` (every live track) that may be reported (as ``tracks``, or
+        as people through a miss) and whose predicted place a laser of ``views`` sees through; each is tested
+        once (``see_through``)."""
+        may_show = [t for t in live if t.confirmed and 0 < t.misses]
         shown = {t.id for t in tracks}
         return _seen_through_ids([t for t in may_show if t.id in shown or t.misses <= self.coast_frames], views)
 
     def _reported(
         self,
+        live: Sequence[Track],
         found: People,
         grid: NDArray[np.float64],
         spec: GridSpec,
@@ -338,6 +341,8 @@ class PeopleTracker:
 
         Parameters
         ----------
+        live : sequence of Track
+            Every live track of the tracker after this frame's update (:attr:`MultiPersonTracker.tracks`).
         found : People
             The classifier's people of this frame (after ``snap_radius``; m, grid frame).
         grid : ndarray, shape (nx, ny)
@@ -357,7 +362,7 @@ class PeopleTracker:
         """
         n = len(found.positions)
         wait = self.static_confirm_s - 1e-9
-        alive = [t for t in self.tracker.tracks if t.confirmed and (t.moved or t.age_s >= wait)]
+        alive = [t for t in live if t.confirmed and (t.moved or t.age_s >= wait)]
         ok = np.zeros(n, dtype=bool)
         ok[[t.measurement for t in alive if t.misses == 0 and 0 <= t.measurement < n]] = True
         kept = np.asarray(found.positions, dtype=float).reshape(-1, 2)[ok]
