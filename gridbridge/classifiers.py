@@ -18,6 +18,7 @@ belief), its size in cells and the mask of cells it classified as people (for FP
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
@@ -255,14 +256,38 @@ def _ordered_candidates(
     return cand[order], values[order]
 
 
+@functools.lru_cache(maxsize=16)
+def _block_kernel(min_separation: float, resolution: float) -> tuple[int, NDArray[np.bool_]]:
+    """The non-maximum suppression window of :func:`_suppress_non_maxima`: its reach (cells) and the cells
+    ``(2 reach + 1, 2 reach + 1)`` whose centres are closer than ``min_separation`` (m) to the middle one
+    (read-only, shared between calls)."""
+    sep = min_separation / resolution
+    reach_s = math.ceil(sep - 1e-9)
+    si, sj = np.mgrid[-reach_s : reach_s + 1, -reach_s : reach_s + 1]
+    block = (si**2 + sj**2) < sep**2 - 1e-9
+    block.setflags(write=False)
+    return reach_s, block
+
+
+@functools.lru_cache(maxsize=16)
+def _disk_offsets(centroid_radius: float, resolution: float) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The cell offsets ``(di, dj)``, each shape (D,), whose centres are within ``centroid_radius`` (m) of a
+    cell's centre (:func:`_peak_people`; read-only, shared between calls)."""
+    r = resolution
+    reach = math.floor(centroid_radius / r + 1e-9)
+    di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    disk = (di**2 + dj**2) * r * r <= centroid_radius**2 + 1e-12
+    di, dj = di[disk], dj[disk]
+    di.setflags(write=False)
+    dj.setflags(write=False)
+    return di, dj
+
+
 def _suppress_non_maxima(cand: NDArray[np.intp], spec: GridSpec, min_separation: float) -> list[int]:
     """Greedy non-maximum suppression on the grid (step 2 of :func:`classify_peaks`): the indices of the kept
     candidates ``(K, 2)`` (cells, in decreasing belief order), each blocking every cell centre within
     ``min_separation`` (m)."""
-    sep = min_separation / spec.resolution
-    reach_s = math.ceil(sep - 1e-9)
-    si, sj = np.mgrid[-reach_s : reach_s + 1, -reach_s : reach_s + 1]
-    block = (si**2 + sj**2) < sep**2 - 1e-9
+    reach_s, block = _block_kernel(min_separation, spec.resolution)
     blocked = np.zeros(spec.shape, dtype=bool)
     kept: list[int] = []
     for k in range(len(cand)):
@@ -286,11 +311,7 @@ def _peak_people(
 ) -> People:
     """Step 3 of :func:`classify_peaks`: each kept peak's position (belief-weighted mean of the cells within
     ``centroid_radius`` m whose belief is at least half the threshold), score and size."""
-    r = spec.resolution
-    reach = math.floor(centroid_radius / r + 1e-9)
-    di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
-    disk = (di**2 + dj**2) * r * r <= centroid_radius**2 + 1e-12
-    di, dj = di[disk], dj[disk]
+    di, dj = _disk_offsets(centroid_radius, spec.resolution)
     mask = np.zeros(spec.shape, dtype=bool)
     positions, scores, sizes = [], [], []
     for (i, j), v in zip(peaks.tolist(), values.tolist(), strict=True):
@@ -300,8 +321,9 @@ def _peak_people(
         w = grid[ii, jj]
         use = w >= 0.5 * threshold
         ii, jj, w = ii[use], jj[use], w[use]
-        ci = float(np.sum(w * ii) / np.sum(w))
-        cj = float(np.sum(w * jj) / np.sum(w))
+        total = w.sum()
+        ci = float((w * ii).sum() / total)
+        cj = float((w * jj).sum() / total)
         positions.append(spec.cell_centre(ci, cj))
         scores.append(float(v))
         sizes.append(len(w))
