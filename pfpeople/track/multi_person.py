@@ -365,7 +365,7 @@ def _check_scores(scores: ArrayLike | None, m: int) -> NDArray[np.float64]:
         return np.zeros(0)
     if s.shape != (m,):
         raise ValueError(f"scores must have shape ({m},) like positions, got {s.shape}")
-    if not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s > 1):
+    if not ((s >= 0) & (s <= 1)).all():  # one pass: NaN fails both comparisons, +-inf one of them
         raise ValueError("scores must be finite and in [0, 1]")
     return s
 
@@ -440,7 +440,7 @@ class MultiPersonTracker:
         if not idx:
             return []
         states = self._s[idx].tolist()
-        covs = self._p[idx].copy()
+        covs = self._p[idx]  # fancy indexing: already a copy
         new = object.__new__
         out = []
         for n, i in enumerate(idx):
