@@ -312,6 +312,7 @@ def _peak_people(
     """Step 3 of :func:`classify_peaks`: each kept peak's position (belief-weighted mean of the cells within
     ``centroid_radius`` m whose belief is at least half the threshold), score and size."""
     di, dj = _disk_offsets(centroid_radius, spec.resolution)
+    x0, y0, r = spec.x0, spec.y0, spec.resolution
     mask = np.zeros(spec.shape, dtype=bool)
     positions, scores, sizes = [], [], []
     for (i, j), v in zip(peaks.tolist(), values.tolist(), strict=True):
@@ -324,7 +325,7 @@ def _peak_people(
         total = w.sum()
         ci = float((w * ii).sum() / total)
         cj = float((w * jj).sum() / total)
-        positions.append(spec.cell_centre(ci, cj))
+        positions.append((x0 + (ci + 0.5) * r, y0 + (cj + 0.5) * r))  # GridSpec.cell_centre, in Python floats
         scores.append(float(v))
         sizes.append(len(w))
         mask[ii, jj] = True
