@@ -474,7 +474,7 @@ class BagSource:
         self.require(wanted)
         conns = [c for c in self._reader.connections if c.topic in wanted]
         counters: dict[str, int] = {}
-        last = "the start"
+        last: tuple[int, str, int] | None = None  # (index, topic, bag time) of the latest message; text on error
         it = self._reader.messages(connections=conns)
         while True:
             try:
@@ -483,8 +483,9 @@ class BagSource:
                 return
             except Exception as exc:
                 hint = f"; {REINDEX_HINT}" if self._ros1 else ""
+                after = "the start" if last is None else f"message {last[0]} of {last[1]!r} at bag time {last[2]} ns"
                 raise BagReadError(
-                    f"bag {self.name!r} is truncated or corrupt after {last}: {type(exc).__name__}: {exc}{hint}"
+                    f"bag {self.name!r} is truncated or corrupt after {after}: {type(exc).__name__}: {exc}{hint}"
                 ) from None
             conn, bag_time, raw = item
             try:
@@ -499,7 +500,7 @@ class BagSource:
             stamp = header_stamp_ns(msg)
             header = getattr(msg, "header", None)
             frame_id = str(header.frame_id).lstrip("/") if header is not None else ""
-            last = f"message {index} of {conn.topic!r} at bag time {bag_time} ns"
+            last = (index, conn.topic, bag_time)
             yield BagMessage(
                 conn.topic, conn.msgtype, index, int(bag_time), int(bag_time if stamp is None else stamp), frame_id, msg
             )
