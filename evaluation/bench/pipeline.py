@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import filecmp
+import functools
 import importlib.util
 import json
 import os
@@ -58,6 +59,7 @@ GT = "leg_tracker/person_following_outdoor_1_gt.csv"
 COMPARED = ("people.csv", "tracks.csv", "detections.csv")
 
 
+@functools.cache
 def _local(name: str) -> Any:
     """A module of this checkout's ``evaluation`` folder, loaded from its file (a worker of the release imports
     the release's ``evaluation`` package, which may not have it)."""
