@@ -12,7 +12,10 @@ simulator writes one, :mod:`evaluation.scenarios.scan.bagfile`):
   (``scan_index`` = the run's ``driver_index``) within ``gate`` (Hungarian assignment on the distance), among the
   true people inside the run's grid;
 * **suppressed**: of the detections (``detections.csv``) within ``SUPPRESS_GATE_M`` of a true person, the fraction
-  the static-clutter map suppressed (``static = 1``).
+  the static-clutter map suppressed (``static = 1``);
+* with ``min_hit_beams``, the recalls count only the true people with at least that many laser beams on them
+  (the ground truth's ``hit_beams``): standing people hide each other in groups and stand farther away, so the
+  recall of the people the laser sees compares standing and walking people at equal visibility.
 
 The run's grid frame must be the ground truth's frame (the scan-level scenes' grid is in the driving laser's
 frame); positions are compared as they are.
@@ -57,8 +60,9 @@ def _by_frame(path: Path, cols: tuple[str, ...]) -> dict[int, NDArray[np.float64
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
-def _truth(gt_csv: Path, grid: dict[str, float]) -> dict[int, NDArray[np.float64]]:
-    """Ground truth inside the grid per scan: ``{scan_index: (P, 3) x, y, speed}``."""
+def _truth(gt_csv: Path, grid: dict[str, float], min_hit_beams: int) -> dict[int, NDArray[np.float64]]:
+    """Ground truth inside the grid per scan: ``{scan_index: (P, 3) x, y, speed}``; with ``min_hit_beams`` > 0 the
+    speed of a row with fewer beams on the person is NaN (counted as neither standing nor walking)."""
     x0, y0, r = grid["x0"], grid["y0"], grid["resolution"]
     x1, y1 = x0 + grid["nx"] * r, y0 + grid["ny"] * r
     out: dict[int, list[list[float]]] = {}
@@ -67,12 +71,16 @@ def _truth(gt_csv: Path, grid: dict[str, float]) -> dict[int, NDArray[np.float64
         names = reader.fieldnames or []
         if "speed_mps" not in names:
             raise ValueError(f"{gt_csv}: the standing / walking split needs a speed_mps column; has {names}")
+        if min_hit_beams > 0 and "hit_beams" not in names:
+            raise ValueError(f"{gt_csv}: min_hit_beams needs a hit_beams column; has {names}")
         xc = next(c for c in names if c.startswith("x_") and c.endswith("_m"))
         yc = "y_" + xc[2:]
         for row in reader:
             x, y = float(row[xc]), float(row[yc])
             if x0 <= x < x1 and y0 <= y < y1:
-                out.setdefault(int(row["scan_index"]), []).append([x, y, float(row["speed_mps"])])
+                seen = min_hit_beams <= 0 or int(row["hit_beams"]) >= min_hit_beams
+                speed = float(row["speed_mps"]) if seen else math.nan
+                out.setdefault(int(row["scan_index"]), []).append([x, y, speed])
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
@@ -87,7 +95,9 @@ def _matched(found: NDArray[np.float64], truth: NDArray[np.float64], gate: float
     return hit
 
 
-def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5) -> MotionSplit:
+def motion_split(
+    run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, min_hit_beams: int = 0
+) -> MotionSplit:
     """Score a run directory's people by the motion of the true people (see the module docstring).
 
     Parameters
@@ -99,6 +109,9 @@ def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5) 
         grid frame.
     gate : float
         Largest distance (m) of a match.
+    min_hit_beams : int
+        Recall only of the true people with at least this many beams on them (``hit_beams`` column); 0: of
+        everyone. The suppressed fraction always counts every true person.
 
     Returns
     -------
@@ -106,7 +119,7 @@ def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5) 
     """
     run_dir, gt_csv = Path(run_dir), Path(gt_csv)
     grid = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))["grid"]
-    truth = _truth(gt_csv, grid)
+    truth = _truth(gt_csv, grid, min_hit_beams)
     people = _by_frame(run_dir / "people.csv", ("x_m", "y_m"))
     dets = _by_frame(run_dir / "detections.csv", ("x_m", "y_m", "static"))
     hits = {"standing": [0, 0], "walking": [0, 0]}
