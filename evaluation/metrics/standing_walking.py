@@ -95,9 +95,7 @@ def _matched(found: NDArray[np.float64], truth: NDArray[np.float64], gate: float
     return hit
 
 
-def motion_split(
-    run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, min_hit_beams: int = 0
-) -> MotionSplit:
+def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, min_hit_beams: int = 0) -> MotionSplit:
     """Score a run directory's people by the motion of the true people (see the module docstring).
 
     Parameters
