@@ -37,6 +37,17 @@ For a segment with points ``p_1 .. p_n`` (scan frame, m), centroid ``c`` and coo
 ``distance``             |m|, range of the segment (m)
 =======================  ================================================================================
 
+Context features: the other segments of the same scan, from their centroids (m). A leg's context is what tells
+it from furniture that looks like a leg: a person's other leg lies 0.1-0.4 m away and is as wide; a chair's or a
+table's legs come in threes and fours 0.4-0.6 m apart; a bump on a wall has neighbours centimetres away.
+
+==============================  =========================================================================
+``neighbour_distance``          distance to the nearest other segment's centroid (capped at ``CONTEXT_CAP``)
+``second_neighbour_distance``   distance to the second nearest (capped at ``CONTEXT_CAP``)
+``neighbours_within_0_6m``      number of other segments whose centroids lie within 0.6 m
+``neighbour_width``             ``width`` of the nearest other segment (0 without one)
+==============================  =========================================================================
+
 The two "means" divide by the number of points n, not by the n - 2 triples, as leg_tracker's
 ``calcClusterFeatures`` does (the shipped boosted model was trained on these values).
 
@@ -60,10 +71,12 @@ from pfpeople.detect import segment_kernels as _kernels
 from pfpeople.sensors import LaserScan
 
 __all__ = [
+    "CONTEXT_CAP",
     "FEATURE_NAMES",
     "RADIUS_CAP",
     "SegmentationParams",
     "Segments",
+    "context_features",
     "scan_segments",
     "segment_features",
     "segment_scan",
@@ -85,7 +98,20 @@ FEATURE_NAMES: tuple[str, ...] = (
     "iav",
     "iav_std",
     "distance",
+    "neighbour_distance",
+    "second_neighbour_distance",
+    "neighbours_within_0_6m",
+    "neighbour_width",
 )
+
+#: Distance (m) at which the context features' neighbour distances are capped (and given without neighbours).
+CONTEXT_CAP = 3.0
+
+#: Radius (m) of ``neighbours_within_0_6m``.
+_NEIGHBOUR_RADIUS = 0.6
+
+#: The columns :func:`context_features` computes: the last of :data:`FEATURE_NAMES`.
+_N_CONTEXT = 4
 
 #: Largest circle radius reported (m): a straight segment's fitted circle is arbitrarily large.
 RADIUS_CAP = 10.0
@@ -305,19 +331,54 @@ def segment_features(segments: Segments) -> NDArray[np.float64]:
     Returns
     -------
     ndarray, shape (S, F)
-        One row per segment, columns in the order of :data:`FEATURE_NAMES` (float64, SI units).
+        One row per segment, columns in the order of :data:`FEATURE_NAMES` (float64, SI units): the segment's
+        own shape, then its context in the scan (:func:`context_features`).
     """
     if len(segments) == 0:
         return np.zeros((0, len(FEATURE_NAMES)))
     if np.any(segments.counts < 3):
         raise ValueError("segments must have at least 3 points each for segment_features")
-    if _jit.enabled("pfpeople"):
-        return _features_compiled(segments)
-    return _features_numpy(segments)
+    shape = _features_compiled(segments) if _jit.enabled("pfpeople") else _features_numpy(segments)
+    width = shape[:, FEATURE_NAMES.index("width")]
+    return np.hstack((shape, context_features(segments.centroids, width)))
+
+
+def context_features(centroids: NDArray[np.float64], widths: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The context features of every segment of a scan (module docstring).
+
+    Parameters
+    ----------
+    centroids : ndarray, shape (S, 2)
+        The segments' centroids (m, scan frame).
+    widths : ndarray, shape (S,)
+        Their ``width`` (m).
+
+    Returns
+    -------
+    ndarray, shape (S, 4)
+        ``neighbour_distance``, ``second_neighbour_distance`` (m, at most ``CONTEXT_CAP``),
+        ``neighbours_within_0_6m`` (a count) and ``neighbour_width`` (m) per segment.
+    """
+    n = centroids.shape[0]
+    out = np.zeros((n, _N_CONTEXT))
+    out[:, :2] = CONTEXT_CAP
+    if n < 2:
+        return out
+    d = np.hypot(centroids[:, None, 0] - centroids[None, :, 0], centroids[:, None, 1] - centroids[None, :, 1])
+    np.fill_diagonal(d, np.inf)
+    nearest = np.argmin(d, axis=1)
+    rows = np.arange(n)
+    out[:, 0] = np.minimum(d[rows, nearest], CONTEXT_CAP)
+    if n > 2:
+        out[:, 1] = np.minimum(np.partition(d, 1, axis=1)[:, 1], CONTEXT_CAP)
+    out[:, 2] = np.count_nonzero(d <= _NEIGHBOUR_RADIUS, axis=1)
+    out[:, 3] = widths[nearest]
+    return out
 
 
 def _features_compiled(segments: Segments) -> NDArray[np.float64]:
-    """:func:`segment_features` by the compiled kernels (the angles by numpy between them)."""
+    """The per-segment columns of :func:`segment_features` (all but the context, ``(S, 14)``) by the compiled
+    kernels (the angles by numpy between them)."""
     pts = np.ascontiguousarray(segments.points, dtype=np.float64)
     starts = segments.starts.astype(np.intp)
     counts = segments.counts.astype(np.intp)
@@ -329,7 +390,8 @@ def _features_compiled(segments: Segments) -> NDArray[np.float64]:
 
 
 def _features_numpy(segments: Segments) -> NDArray[np.float64]:
-    """:func:`segment_features` in numpy (the fallback without numba; the compiled kernels' reference)."""
+    """The per-segment columns of :func:`segment_features` in numpy (the fallback without numba; the compiled
+    kernels' reference)."""
     pts, starts, counts, sid = segments.points, segments.starts, segments.counts, segments.segment_ids
     n = counts.astype(float)
     first, last = pts[starts], pts[starts + counts - 1]

@@ -135,3 +135,44 @@ def test_min_points_override_keeps_short_runs() -> None:
     assert default.n_dropped_small == 2 and every.n_dropped_small == 0  # the two thin posts: 1 return each
     with pytest.raises(ValueError, match="min_points"):
         segment_scan(scan, min_points=0)
+
+
+def test_context_features_hand_computed() -> None:
+    from pfpeople.detect.segments import CONTEXT_CAP, context_features
+
+    c = np.array([[0.0, 0.0], [0.3, 0.0], [2.0, 0.0], [10.0, 0.0]])
+    w = np.array([0.10, 0.12, 0.05, 0.20])
+    expect = [
+        [0.3, 2.0, 1, 0.12],  # the pair of legs: each other's neighbour within 0.6 m
+        [0.3, 1.7, 1, 0.10],
+        [1.7, 2.0, 0, 0.12],
+        [CONTEXT_CAP, CONTEXT_CAP, 0, 0.05],  # 8 m and 9.7 m away: capped
+    ]
+    np.testing.assert_allclose(context_features(c, w), expect, atol=1e-12)
+    np.testing.assert_array_equal(context_features(c[:1], w[:1]), [[CONTEXT_CAP, CONTEXT_CAP, 0, 0]])
+    np.testing.assert_array_equal(context_features(c[:2], w[:2])[:, 1], [CONTEXT_CAP, CONTEXT_CAP])
+    assert context_features(np.zeros((0, 2)), np.zeros(0)).shape == (0, 4)
+
+
+def test_segment_features_end_with_the_scan_context() -> None:
+    from pfpeople.detect.segments import context_features
+
+    # two legs 0.3 m apart at 2 m and a post at 4 m: brute-force neighbours against the features' last columns
+    scan = render_scan(circles=[(2.0, 0.15, 0.06), (2.0, -0.15, 0.06), (4.0, 1.0, 0.1)])
+    segs = segment_scan(scan)
+    feats = segment_features(segs)
+    assert len(segs) == 3 and FEATURE_NAMES[-4:] == (
+        "neighbour_distance",
+        "second_neighbour_distance",
+        "neighbours_within_0_6m",
+        "neighbour_width",
+    )
+    np.testing.assert_array_equal(feats[:, -4:], context_features(segs.centroids, feats[:, F["width"]]))
+    legs = np.argsort(np.hypot(*(segs.centroids - [2.0, 0.0]).T))[:2]
+    for k in legs:
+        other = legs[legs != k][0]
+        assert feats[k, F["neighbour_distance"]] == pytest.approx(
+            float(np.hypot(*(segs.centroids[k] - segs.centroids[other])))
+        )
+        assert feats[k, F["neighbours_within_0_6m"]] == 1
+        assert feats[k, F["neighbour_width"]] == feats[other, F["width"]]

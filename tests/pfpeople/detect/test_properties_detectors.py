@@ -14,7 +14,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pfpeople.detect import BoostedSegmentDetector, LegDetector, segment_features, segment_scan
+from pfpeople.detect import FEATURE_NAMES, BoostedSegmentDetector, LegDetector, segment_features, segment_scan
 from pfpeople.sensors import LaserScan
 
 SETTINGS = settings(
@@ -64,7 +64,7 @@ def test_detectors_on_random_scans_give_finite_positions(scan: LaserScan) -> Non
         assert np.array_equal(out, det.detect(scan))  # deterministic
     segs = segment_scan(scan)
     feats = segment_features(segs)
-    assert feats.shape == (len(segs), 14) and np.all(np.isfinite(feats))
+    assert feats.shape == (len(segs), len(FEATURE_NAMES)) and np.all(np.isfinite(feats))
     assert segs.counts.sum() == segs.points.shape[0] and np.all(segs.counts >= 3)
     # the segment points are the scan's own end points (positions unchanged whatever the beam order)
     a = scan.angle_min + scan.angle_increment * segs.beams
