@@ -236,3 +236,19 @@ def test_train_from_directory_argument_errors(tmp_path: Path) -> None:
         train_from_directory(tmp_path, tmp_path, train_positive=[])
     with pytest.raises(FileNotFoundError, match=r"positive_1_extracted\.bag"):
         train_from_directory(tmp_path, tmp_path)
+
+
+def test_a_model_on_the_shape_features_only_is_refused(tmp_path: Path) -> None:
+    """A model trained before the context features (14 of them) is refused, naming what this version computes."""
+    import cv2
+
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(60, 14)).astype(np.float32)
+    y = (X[:, 0] > 0).astype(np.int32)
+    boost = cv2.ml.Boost_create()
+    boost.setWeakCount(3)
+    boost.train(X, cv2.ml.ROW_SAMPLE, y)
+    path = tmp_path / "old.yml"
+    boost.save(str(path))
+    with pytest.raises(ValueError, match=r"var_count 14; this version computes 18 features .*neighbour_width"):
+        BoostedSegmentDetector(model_path=path)
