@@ -227,5 +227,8 @@ class Resampling:
 
     def due(self, weights: NDArray[np.float64], n: int) -> bool:
         """Whether particles of masses ``weights`` (shape (K,)) are resampled to a target of ``n``."""
-        overflow = weights.size > n * (1.0 + self.max_overflow)
-        return bool(overflow or effective_sample_size(weights) < self.ess_threshold * n)
+        return self.due_ess(weights.size, effective_sample_size(weights), n)
+
+    def due_ess(self, size: int, ess: float, n: int) -> bool:
+        """:meth:`due` for ``size`` particles of effective sample size ``ess`` (``(sum w)^2 / sum w^2``)."""
+        return bool(size > n * (1.0 + self.max_overflow) or ess < self.ess_threshold * n)

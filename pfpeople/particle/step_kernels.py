@@ -1,11 +1,21 @@
-"""Compiled kernels of the particle-filter step (:mod:`gridbridge.jit`), bit-identical to the numpy code.
+"""Compiled kernels of the particle-filter step (:mod:`gridbridge.jit`): the paper's people motion and the systematic
+resampling drawn inside (same distributions as the numpy code, other draws), the rest bit-identical to it.
 
-Each kernel is one pass over the particles doing the deterministic arithmetic of several numpy calls; the random
-draws stay with the caller (numpy's ``Generator``, in the same order as the numpy path), so a seeded filter gives
-the same particles bit for bit on either path (``tests/test_kernels.py``). Bit identity holds because every
-kernel does the same IEEE operations in the same order as the numpy code it replaces: cell sums accumulate
-sequentially in particle order (as ``np.bincount``), running sums are sequential (as ``np.cumsum``), and
-``math.cos`` / ``math.sin`` are the C library's, as numpy's float64 ufuncs on this platform (the tests check).
+Each kernel is one pass over the particles doing the work of several numpy calls. Two kinds:
+
+* **Drawing inside** (:func:`paper_move_ego_compact`, :func:`born_particles`, :func:`cell_systematic_ancestors`
+  with :func:`gather_ancestors`, and :func:`scale_sums`, which only sums): the people motion of
+  :class:`~pfpeople.particle.components.PaperSampling` (stay or walk, truncated-normal speed, uniform heading), the
+  births' positions and velocities and the systematic resampling by cell make their draws in the kernel from
+  SplitMix64 streams seeded by the filter's ``Generator`` (:mod:`pfpeople.particle.rng_kernels`), and the
+  resampling finds each cell's forced ancestor without sorting. The distributions are the numpy path's, the draws
+  are not: a seeded filter is deterministic on either path but the two paths give different particles
+  (``tests/pfpeople/particle/test_kernels_particles.py`` tests the distributions and the filter's belief).
+* **Bit-identical** to the numpy code, the random draws made by the caller with numpy's ``Generator`` in the same
+  order (the other people-motion samplers, the sensor motion's poses, the other resampling schemes): every kernel
+  does the same IEEE operations in the same order as the numpy code it replaces: cell sums accumulate
+  sequentially in particle order (as ``np.bincount``), running sums are sequential (as ``np.cumsum``), and
+  ``math.cos`` / ``math.sin`` are the C library's, as numpy's float64 ufuncs on this platform (the tests check).
 
 The numpy twins are the code in :mod:`pfpeople.particle.propagation`, :mod:`pfpeople.particle.resampling` and
 :class:`pfpeople.ParticleFilter`'s numpy path; these kernels are called only when :func:`gridbridge.jit.enabled`.
@@ -22,25 +32,29 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.jit import jit
+from pfpeople.particle import rng_kernels as rng
 
 #: Five particle arrays x, y, vx, vy, w (m, m, m/s, m/s, mass), each of shape (C,) (numba: a UniTuple).
 Rows5 = tuple[NDArray[np.float64], ...]
+#: Per-cell sums of a prediction, shape (n_cells,) each: people prior, mass, count and squared mass.
+_Sums4 = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]
 
 __all__ = [
     "accumulate",
+    "born_particles",
     "cell",
     "cell_mass",
+    "cell_systematic_ancestors",
     "ego_compact",
     "ego_rows",
     "forced_ancestors",
+    "gather_ancestors",
     "gather_resampled",
     "move_ego_compact",
+    "paper_move_ego_compact",
     "people_prior",
-    "scale_weights",
-    "select_moving",
-    "systematic_gather",
+    "scale_sums",
     "systematic_into",
-    "walker_velocities",
 ]
 
 
@@ -96,51 +110,6 @@ def _next_pose(p: int, n_pose: int) -> int:
     """The pose of the next particle: ``p + 1`` wrapped to 0 at ``n_pose`` (``k mod S`` without a division)."""
     p += 1
     return 0 if p == n_pose else p
-
-
-@jit
-def select_moving(u: NDArray[np.float64], p_stat: float) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
-    """The walkers of the paper's motion prior: indices with ``u >= p_stat`` and their speed uniforms
-    ``(u - p_stat) / (1 - p_stat)`` (:func:`pfpeople.particle.propagation.sample_velocity_prior`'s arithmetic)."""
-    n = 0
-    for k in range(u.size):
-        n += u[k] >= p_stat
-    moving = np.empty(n + 1, dtype=np.intp)
-    m = 0
-    for k in range(u.size):  # branch-free: every index is written, the walkers' are kept
-        moving[m] = k
-        m += u[k] >= p_stat
-    moving = moving[:n]
-    z = np.empty(n)
-    for m in range(n):
-        z[m] = (u[moving[m]] - p_stat) / (1.0 - p_stat)
-    return moving, z
-
-
-@jit
-def walker_velocities(
-    x: NDArray[np.float64],
-    y: NDArray[np.float64],
-    moving: NDArray[np.intp],
-    speed: NDArray[np.float64],
-    heading_u: NDArray[np.float64],
-    dt: float,
-    grid: tuple[float, float, float, int, int],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-    """Velocities ``speed (cos h, sin h)``, ``h = 2 pi u`` (m/s) of the walkers and how many of them are inside
-    the grid after moving ``dt`` (the others, standing, stay where they are)."""
-    n = moving.size
-    vx, vy = np.empty(n), np.empty(n)
-    two_pi = 2.0 * math.pi
-    n_in = 0
-    for m in range(n):
-        h = heading_u[m] * two_pi
-        vx[m] = speed[m] * math.cos(h)
-        vy[m] = speed[m] * math.sin(h)
-        k = moving[m]
-        if cell(x[k] + vx[m] * dt, y[k] + vy[m] * dt, grid) >= 0:
-            n_in += 1
-    return vx, vy, n_in
 
 
 @jit
@@ -361,15 +330,6 @@ def accumulate(
 
 
 @jit
-def scale_weights(
-    w: NDArray[np.float64], cells: NDArray[np.intp], factor: NDArray[np.float64], out: NDArray[np.float64]
-) -> None:
-    """``out[:N] = w * factor[cells]`` in one pass: the particles' share of their cell's posterior (eq. 12)."""
-    for k in range(w.size):
-        out[k] = w[k] * factor[cells[k]]
-
-
-@jit
 def cell_mass(
     cells: NDArray[np.intp], w: NDArray[np.float64], n_cells: int
 ) -> tuple[NDArray[np.float64], NDArray[np.intp], float, int]:
@@ -508,54 +468,353 @@ def _systematic_count(acc: float, total: float, m: int, off: float, last: bool) 
     return 0 if b < 0.0 else (m if b > m else int(b))
 
 
+# ---------------------------------------------------------------- the paper's people motion, drawn inside
+
+
+#: Particles per block of :func:`paper_move_ego_compact` (its scratch rows stay in the first-level cache).
+_BLOCK = 512
+#: Within this distance (in cells) of a cell edge a multiplied cell coordinate is re-checked with the division.
+_EDGE_EPS = 2.0**-26
+
+
 @jit
-def systematic_gather(
-    forced: NDArray[np.intp],
+def _cell_mul(x: float, y: float, x0: float, y0: float, inv: float, nx: int, ny: int) -> np.intp:
+    """:func:`cell` by a multiplication with ``inv = 1 / resolution``; ``-2`` where it may differ from it.
+
+    ``(x - x0) inv`` differs from ``(x - x0) / resolution`` by at most 3 |q| 2^-53, below ``_EDGE_EPS`` for
+    ``|q| <= 2^24`` (grids have at most 4e6 cells a side): away from an edge both have the same floor. Further out
+    both are outside the grid. Near an edge the result is ``-2``: the caller takes :func:`cell`. Branch-free, so
+    a loop of it vectorises.
+    """
+    u = (x - x0) * inv
+    v = (y - y0) * inv
+    fu, fv = np.floor(u), np.floor(v)
+    near = (u - fu < _EDGE_EPS) | (fu + 1.0 - u < _EDGE_EPS) | (v - fv < _EDGE_EPS) | (fv + 1.0 - v < _EDGE_EPS)
+    inside = (fu >= 0.0) & (fu < nx) & (fv >= 0.0) & (fv < ny)
+    c = np.intp(fu) * ny + np.intp(fv) if inside else np.intp(-1)
+    return np.intp(-2) if near else c
+
+
+@jit
+def _block_walkers(
+    keys: NDArray[np.uint64],
+    k0: int,
+    w0: int,
+    walk: rng.WalkParams,
+    state: np.uint64,
+    scratch: NDArray[np.float64],
+    m: int,
+    widx: NDArray[np.intp],
+) -> tuple[np.uint64, int]:
+    """The people-motion velocities (m/s) of particles ``k0, ..., k0 + m - 1`` (one block) into ``scratch[0:2, :m]``.
+
+    Particle k walks when draw k of the stream ``keys[0]`` (:func:`rng_kernels.hashed`) is at least
+    ``p_stationary`` as a uniform. Walker q (counted over the whole pass; ``w0`` before this block) tries draw q
+    of ``keys[1]`` as the first normal of its speed and takes draw q of ``keys[2]`` as its direction, in a loop
+    without branches (it vectorises); the few speeds that need more words (the ziggurat's slow path, the
+    truncation) take them from the sequential stream ``state``. The others get 0. ``widx`` (>= m + 1) is scratch
+    space. Returns the new state and walker count.
+    """
+    thr = math.ceil(walk[0] * 9007199254740992.0)  # u >= p  <=>  top 53 bits >= ceil(p 2^53)
+    vx, vy, flag = scratch[0, :m], scratch[1, :m], scratch[2, :m]
+    for i in range(m):  # the hashed draws are independent: vectorised
+        flag[i] = float(rng.hashed(keys[0], k0 + i) >> np.uint64(11)) >= thr
+        vx[i] = 0.0
+        vy[i] = 0.0
+    nw = 0
+    for i in range(m):  # branch-free: every index is written, the walkers' are kept
+        widx[nw] = i
+        nw += flag[i] != 0.0
+    _, mu, sigma, _, z_lo, z_hi = walk
+    sp, co, si, ok = scratch[3, :nw], scratch[4, :nw], scratch[5, :nw], scratch[6, :nw]
+    for q in range(nw):
+        fast, z, _, _ = rng._zig_fast(rng.hashed(keys[1], w0 + q))
+        ok[q] = fast and z_lo <= z <= z_hi
+        sp[q] = min(max(mu + sigma * z, 0.0), walk[3])
+        co[q], si[q] = rng.direction(rng.hashed(keys[2], w0 + q))
+    for q in range(nw):
+        if ok[q] == 0.0:
+            state, sp[q] = rng.speed_from(state, rng.hashed(keys[1], w0 + q), walk)
+        vx[widx[q]] = sp[q] * co[q]
+        vy[widx[q]] = sp[q] * si[q]
+    return state, w0 + nw
+
+
+@jit
+def _move_segment(
+    xs: NDArray[np.float64],
+    ys: NDArray[np.float64],
+    poses: NDArray[np.float64],
+    p0: int,
+    dt: float,
+    ego: bool,
+    grid: tuple[float, float, float, int, int],
+    scratch: NDArray[np.float64],
+    cb: NDArray[np.intp],
+    i0: int,
+) -> None:
+    """People motion then sensor motion of a run of particles with the consecutive poses ``p0, p0 + 1, ...``.
+
+    ``xs, ys`` (m) are the run's positions, ``poses`` (4, S) :func:`move_ego_compact`'s. The run's columns
+    ``i0, i0 + 1, ...`` of the scratch rows (``scratch`` (8, B): vx, vy given; x, y after the people motion and
+    x, y, vx, vy after the sensor motion written) and of ``cb`` (2, B: the cells after each motion, by
+    :func:`_cell_mul`, ``-2`` to be re-checked) are written. Contiguous rows and no branches: it vectorises.
+    """
+    x0, y0, res, nx, ny = grid
+    inv, m = 1.0 / res, xs.size
+    i1 = i0 + m
+    vx, vy, xk, yk = scratch[0, i0:i1], scratch[1, i0:i1], scratch[2, i0:i1], scratch[3, i0:i1]
+    xn, yn, vxn, vyn = scratch[4, i0:i1], scratch[5, i0:i1], scratch[6, i0:i1], scratch[7, i0:i1]
+    c1, ck = cb[0, i0:i1], cb[1, i0:i1]
+    for i in range(m):
+        a = xs[i] + vx[i] * dt
+        b = ys[i] + vy[i] * dt
+        xk[i], yk[i] = a, b
+        c1[i] = _cell_mul(a, b, x0, y0, inv, nx, ny)
+    if not ego:
+        xn[:], yn[:], vxn[:], vyn[:], ck[:] = xk, yk, vx, vy, c1
+        return
+    dx, dy, co, si = poses[0, p0 : p0 + m], poses[1, p0 : p0 + m], poses[2, p0 : p0 + m], poses[3, p0 : p0 + m]
+    for i in range(m):
+        xr = xk[i] - dx[i]
+        yr = yk[i] - dy[i]
+        a = co[i] * xr + si[i] * yr
+        b = co[i] * yr - si[i] * xr
+        xn[i], yn[i] = a, b
+        vxn[i] = co[i] * vx[i] + si[i] * vy[i]
+        vyn[i] = co[i] * vy[i] - si[i] * vx[i]
+        ck[i] = _cell_mul(a, b, x0, y0, inv, nx, ny)
+
+
+@jit
+def _compact_block(
+    w: NDArray[np.float64],
+    scratch: NDArray[np.float64],
+    cb: NDArray[np.intp],
+    grid: tuple[float, float, float, int, int],
+    j: int,
+    out: Rows5,
+    cells: NDArray[np.intp],
+    sums: _Sums4,
+) -> tuple[int, int]:
+    """The survivors of one block (masses ``w``, the scratch of :func:`_move_segment`) written to ``out[r][j:]``
+    and ``cells[j:]`` (see :func:`move_ego_compact`).
+
+    ``sums = (prior, mass, counts, sq)`` accumulate the people prior and the kept mass, count and squared mass per
+    cell. Returns the new ``j`` and the block's count inside after the people motion.
+    """
+    prior, mass, counts, sq = sums
+    ox, oy, ovx, ovy, ow = out
+    n_in = 0
+    for i in range(w.size):
+        a = cb[0, i]
+        if a < 0:
+            a = cell(scratch[2, i], scratch[3, i], grid) if a == -2 else -1  # near an edge: the division decides
+            if a < 0:
+                continue
+        prior[a] += w[i]
+        n_in += 1
+        c = cb[1, i]
+        if c < 0:
+            c = cell(scratch[4, i], scratch[5, i], grid) if c == -2 else -1
+            if c < 0:
+                continue
+        ox[j], oy[j], ovx[j], ovy[j], ow[j] = scratch[4, i], scratch[5, i], scratch[6, i], scratch[7, i], w[i]
+        cells[j] = c
+        mass[c] += w[i]
+        counts[c] += 1
+        sq[c] += w[i] * w[i]
+        j += 1
+    return j, n_in
+
+
+@jit
+def paper_move_ego_compact(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    w: NDArray[np.float64],
+    seeds: NDArray[np.uint64],
+    walk: rng.WalkParams,
+    dt: float,
+    poses: NDArray[np.float64],
+    ego: bool,
+    grid: tuple[float, float, float, int, int],
+    out: Rows5,
+    cells: NDArray[np.intp],
+    sums: _Sums4,
+) -> tuple[int, int]:
+    """:func:`move_ego_compact` with the paper's people motion drawn inside (SplitMix64, :mod:`rng_kernels`).
+
+    Particle k stays with probability ``p_stationary``, else walks at a truncated-normal speed in a uniform
+    direction (:func:`_block_walkers`; ``seeds`` (4,): three stream keys and a sequential state, from the filter's
+    ``Generator``): the same seeds give the same result.
+    Blocks of ``_BLOCK`` particles: the draws, a vectorised pass of both motions and the cells, then the
+    compaction. ``poses`` (4, S), ``ego``, ``grid``, ``out`` and ``cells`` as there; ``sums = (prior, mass,
+    counts, sq)``, shape (n_cells,) each, accumulate the people prior and the survivors' mass, count and squared
+    mass per cell (the last for the effective sample size after the update: :func:`update_resample_plan`).
+
+    Returns
+    -------
+    n : int
+        The number of survivors (written to ``out[r][:n]``, ``cells[:n]``).
+    n_inside : int
+        The number inside the grid after the people motion.
+    """
+    n, n_pose = x.size, poses.shape[1]
+    scratch = np.empty((8, _BLOCK))
+    cb = np.empty((2, _BLOCK), dtype=np.intp)
+    widx = np.empty(_BLOCK + 1, dtype=np.intp)
+    state = seeds[3]
+    j = n_inside = n_walk = 0
+    for b0 in range(0, n, _BLOCK):
+        m = min(_BLOCK, n - b0)
+        state, n_walk = _block_walkers(seeds, b0, n_walk, walk, state, scratch, m, widx)
+        i0, p0 = 0, b0 % n_pose
+        while i0 < m:  # runs of consecutive poses (particle k has pose k mod S; one run without the poses)
+            i1 = min(m, i0 + n_pose - p0) if ego else m
+            _move_segment(x[b0 + i0 : b0 + i1], y[b0 + i0 : b0 + i1], poses, p0, dt, ego, grid, scratch, cb, i0)
+            i0, p0 = i1, 0
+        j, n_in = _compact_block(w[b0 : b0 + m], scratch, cb, grid, j, out, cells, sums)
+        n_inside += n_in
+    return j, n_inside
+
+
+# ---------------------------------------------------------------- the filter's update and systematic resampling
+
+
+@jit
+def scale_sums(
+    w: NDArray[np.float64],
+    cells: NDArray[np.intp],
+    factor: NDArray[np.float64],
+    out: NDArray[np.float64],
+    n_cells: int,
+) -> tuple[NDArray[np.float64], float, float, int]:
+    """``out = w * factor[cells]`` (the particles' share of their cell's posterior, eq. 12) and the sums the
+    resampling needs, in one pass (the cell sums in particle order, as ``np.bincount``).
+
+    Returns
+    -------
+    mass : ndarray, shape (n_cells,)
+        The new weights summed per cell.
+    total, sum_sq : float
+        Their sum and sum of squares (the effective sample size is ``total^2 / sum_sq``).
+    status : int
+        0 ok, 1 a weight negative or not finite, 2 a cell outside ``[0, n_cells)`` (the sums are then incomplete).
+    """
+    mass = np.zeros(n_cells)
+    total = sum_sq = 0.0
+    for k in range(w.size):
+        c = cells[k]
+        if c < 0 or c >= n_cells:
+            return mass, total, sum_sq, 2
+        wk = w[k] * factor[c]
+        if not (wk >= 0.0 and wk < np.inf):
+            return mass, total, sum_sq, 1
+        out[k] = wk
+        mass[c] += wk
+        total += wk
+        sum_sq += wk * wk
+    return mass, total, sum_sq, 0
+
+
+@jit
+def cell_systematic_ancestors(
     cells: NDArray[np.intp],
     w: NDArray[np.float64],
-    src: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
-    mass: NDArray[np.float64],
-    total: float,
-    m: int,
-    off: float,
-    out: Rows5,
-) -> None:
-    """The resampled particles of :func:`pfpeople.particle.resampling.resample_by_cell` with the systematic resampler,
-    without an ancestor array: the ``forced`` ancestors, then ``m`` systematic ones (offset ``off``, weights
-    ``w`` of sum ``total``), each carrying ``M_c / n_c``.
+    factor: NDArray[np.float64],
+    draws: tuple[NDArray[np.float64], float, int, float],
+    anc: NDArray[np.intp],
+    forced: NDArray[np.intp],
+    n_new: NDArray[np.intp],
+) -> NDArray[np.float64]:
+    """The draws of :func:`pfpeople.particle.resampling.resample_by_cell` (systematic) in one pass, without a sort.
 
-    Two passes over the particles: the first counts each particle's copies and the new particles per cell, the
-    second copies them.
+    The particles' weights are ``w[i] factor[cells[i]]``; ``draws = (target, total, m, off)``. The forced ancestor of
+    cell c is the first particle (in particle order) at which the running sum of the cell's weights exceeds
+    ``target[c]`` (``u_c M_c``; ``inf`` for a cell without mass), else the cell's last particle of positive weight
+    (when ``target`` came from sums rounded otherwise): particle i of c with probability ``w_i / M_c``, as the numpy
+    code's search in the sorted cell. The ``m`` systematic ancestors (positions ``(k + off) / m`` on the running
+    sum over all particles, of sum ``total``; the last particle takes what round-off leaves) are written, sorted,
+    to ``anc[K:K + m]`` (K = ``anc.size - m - 3``; the 3 entries after them are room: each particle is written
+    three times without a branch, the next overwriting what it does not own).
 
-    The new particles are written to ``out``: 5 arrays of shape (K + m,), x, y, vx, vy (of ``src``) and the
-    new weights.
+    ``forced`` (n_cells,) must hold -1 and receives the forced ancestors, ``n_new`` (n_cells,) must hold the forced
+    count per cell (1 or 0) and receives the new particles per cell. Returns the weights' sums per cell
+    (n_cells,), in particle order.
     """
-    n, n_cells = w.size, mass.size
-    n_new = np.zeros(n_cells, dtype=np.intp)
-    copies = np.empty(n, dtype=np.int32)  # each particle's systematic copies, for the second pass
-    for f in forced:
-        n_new[cells[f]] += 1
+    target, total, m, off = draws
+    n, k = w.size, anc.size - m - 3
+    run, last = np.zeros(target.size), np.full(target.size, -1, dtype=np.intp)
+    goal = target.copy()  # inf once the cell has its forced ancestor: the branch below is taken once per cell
+    scale = m / total
     acc, prev = 0.0, 0
     for i in range(n):
-        acc += w[i]
-        below = _systematic_count(acc, total, m, off, i == n - 1)
-        copies[i] = below - prev
-        n_new[cells[i]] += below - prev
+        c = cells[i]
+        wi = w[i] * factor[c]
+        acc += wi
+        below = m if i == n - 1 else min(max(math.ceil(acc * scale - off), 0), m)
+        anc[k + prev], anc[k + prev + 1], anc[k + prev + 2] = i, i, i
+        for t in range(k + prev + 3, k + below):  # a fourth copy and more: rare
+            anc[t] = i
+        n_new[c] += below - prev
         prev = below
-    share = np.zeros(n_cells)
-    for c in range(n_cells):
-        if n_new[c] > 0:
-            share[c] = mass[c] / n_new[c]
+        r = run[c] + wi
+        run[c] = r
+        last[c] = i if wi > 0.0 else last[c]
+        if r > goal[c]:
+            forced[c], goal[c] = i, np.inf
+    for c in range(target.size):
+        if forced[c] < 0 and run[c] > 0.0:
+            forced[c] = last[c]
+    return run
+
+
+@jit
+def gather_ancestors(
+    anc: NDArray[np.intp],
+    cells: NDArray[np.intp],
+    src: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    share: NDArray[np.float64],
+    out: Rows5,
+) -> None:
+    """The resampled particles: ``x[anc], y[anc], vx[anc], vy[anc]`` and the weights ``share[cells[anc]]`` (each
+    cell's mass over its new count) into ``out`` (x, y, vx, vy, w; ``anc.size`` entries each)."""
     x, y, vx, vy = src
     ox, oy, ovx, ovy, ow = out
-    for t in range(forced.size):
-        a = forced[t]
+    for t in range(anc.size):
+        a = anc[t]
         ox[t], oy[t], ovx[t], ovy[t], ow[t] = x[a], y[a], vx[a], vy[a], share[cells[a]]
-    j = forced.size
-    for i in range(n):
-        if copies[i] == 0:
-            continue
-        xi, yi, vxi, vyi, wi = x[i], y[i], vx[i], vy[i], share[cells[i]]
-        for _ in range(copies[i]):
-            ox[j], oy[j], ovx[j], ovy[j], ow[j] = xi, yi, vxi, vyi, wi
-            j += 1
+
+
+#: Births are kept this far (a fraction of a cell) from their cell's edges (as
+#: :func:`pfpeople.particle.state.uniform_in_cells`).
+_BIRTH_EDGE = 1e-9
+
+
+@jit
+def born_particles(
+    cells: NDArray[np.intp],
+    seeds: NDArray[np.uint64],
+    walk: rng.WalkParams,
+    grid: tuple[float, float, float, int, int],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """New particles in ``cells`` (flat, in the grid): positions uniform in the cell, velocities from the paper's
+    prior, drawn inside (:mod:`rng_kernels`; ``seeds`` (4,) as :func:`paper_move_ego_compact`'s).
+
+    Returns ``x, y, vx, vy`` (m, m/s), shape (K,) each: :meth:`pfpeople.ParticleFilter._born`'s distribution
+    (:func:`pfpeople.particle.state.uniform_in_cells`, :func:`pfpeople.particle.propagation.sample_velocity_prior`).
+    """
+    x0, y0, res, _, ny = grid
+    n = cells.size
+    x, y, vx, vy = np.empty(n), np.empty(n), np.zeros(n), np.zeros(n)
+    thr = math.ceil(walk[0] * 9007199254740992.0)
+    state = seeds[3]
+    for k in range(n):
+        i, j = divmod(cells[k], ny)
+        u = min(max(rng.uniform(rng.hashed(seeds[0], 2 * k)), _BIRTH_EDGE), 1.0 - _BIRTH_EDGE)
+        v = min(max(rng.uniform(rng.hashed(seeds[0], 2 * k + 1)), _BIRTH_EDGE), 1.0 - _BIRTH_EDGE)
+        x[k], y[k] = x0 + (i + u) * res, y0 + (j + v) * res
+        if float(rng.hashed(seeds[1], k) >> np.uint64(11)) >= thr:
+            state, vx[k], vy[k] = rng.walker_velocity(state, walk)
+    return x, y, vx, vy
