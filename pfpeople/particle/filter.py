@@ -281,15 +281,21 @@ class ParticleFilter:
         return self.state
 
     def _born(self, cells: NDArray[np.intp], weights: NDArray[np.float64]) -> ParticleState:
-        """New particles in ``cells`` (flat indices), uniform in the cell, velocities from the motion prior (compiled:
-        drawn inside, :func:`step_kernels.born_particles`)."""
-        if jit.enabled("pfpeople"):
+        """New particles in ``cells`` (flat indices), uniform in the cell, velocities from the motion prior (drawn inside
+        a kernel, :func:`step_kernels.born_particles`, where the people motion is: :meth:`_draws_inside`)."""
+        if self._draws_inside():
             seeds = self.rng.integers(0, 2**64, size=4, dtype=np.uint64)
             x, y, vx, vy = kernels.born_particles(np.asarray(cells, dtype=np.intp), seeds, self._walk(), self._grid())
             return ParticleState(x=x, y=y, vx=vx, vy=vy, w=weights)
         x, y = uniform_in_cells(self.spec, cells, rng=self.rng)
         vx, vy = sample_velocity_prior(self.motion, cells.size, rng=self.rng)
         return ParticleState(x=x, y=y, vx=vx, vy=vy, w=weights)
+
+    def _draws_inside(self) -> bool:
+        """Whether the compiled step draws the people motion and the births inside its kernels: the paper's people
+        motion without the re-draw in cells (any other sampler draws as the numpy path, bit for bit)."""
+        people = self.people_motion
+        return jit.enabled("pfpeople") and type(people) is PaperSampling and not people.redraw_in_cell
 
     def _walk(self) -> rng_kernels.WalkParams:
         """The paper's people motion as the kernels take it (:func:`rng_kernels.walk_params`)."""
@@ -483,11 +489,11 @@ class ParticleFilter:
         n_cells, grid = self.spec.n_cells, self._grid()
         poses, pose_w = ego_motion_sigma_points(odo, dt, self.noise)
         moves = bool(np.any(poses != 0.0))
-        st, people = self.state, self.people_motion
+        st = self.state
         prior, mass, counts, sq = np.zeros(n_cells), np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp), None
         cap = max(st.size, self.n_particles) + (3 + self.n_birth) * n_cells + 8
         buf, cells = tuple(self._pool.take(cap) for _ in range(5)), self._pool.take_index(cap)
-        if type(people) is PaperSampling and not people.redraw_in_cell:
+        if self._draws_inside():
             rows = self._ego_rows(odo, dt, st.size, moves)
             seeds, sq = self.rng.integers(0, 2**64, size=4, dtype=np.uint64), np.zeros(n_cells)
             args = (st.x, st.y, st.w, seeds, self._walk(), dt, rows, moves, grid, buf, cells, (prior, mass, counts, sq))
