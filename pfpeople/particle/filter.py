@@ -92,6 +92,7 @@ from gridbridge import (
     predict_people,
     warp_belief,
 )
+from gridbridge import kernels as grid_kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
@@ -281,8 +282,8 @@ class ParticleFilter:
         return self.state
 
     def _born(self, cells: NDArray[np.intp], weights: NDArray[np.float64]) -> ParticleState:
-        """New particles in ``cells`` (flat indices), uniform in the cell, velocities from the motion prior (drawn inside
-        a kernel, :func:`step_kernels.born_particles`, where the people motion is: :meth:`_draws_inside`)."""
+        """New particles in ``cells`` (flat indices), uniform in the cell, velocities from the motion prior (drawn
+        inside a kernel, :func:`step_kernels.born_particles`, where the people motion is: :meth:`_draws_inside`)."""
         if self._draws_inside():
             seeds = self.rng.integers(0, 2**64, size=4, dtype=np.uint64)
             x, y, vx, vy = kernels.born_particles(np.asarray(cells, dtype=np.intp), seeds, self._walk(), self._grid())
@@ -343,10 +344,19 @@ class ParticleFilter:
     def _empty_cell_prior(
         self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        """The linear grid prior of the previous posterior, warped with this step's sigma points."""
+        """The linear grid prior of the previous posterior, warped with this step's sigma points (with the grid's
+        kernels compiled, those kernels called directly: the same results without re-checking the filter's arrays)."""
         kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
-        people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
-        return warp_belief(people, self.spec, poses, pose_w, outside=self.outside)
+        if not jit.enabled("gridbridge"):
+            people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
+            return warp_belief(people, self.spec, poses, pose_w, outside=self.outside)
+        bel = np.ascontiguousarray(self.belief, dtype=np.float64)
+        people = grid_kernels.convolve_const(bel, np.ascontiguousarray(kernel, dtype=np.float64), self.outside)
+        if len(poses) == 1 and np.all(poses[0] == 0.0):
+            return people
+        grid = (float(self.spec.x0), float(self.spec.y0), float(self.spec.resolution))
+        w = np.asarray(pose_w, dtype=np.float64)
+        return grid_kernels.warp_bilinear(people, grid, np.ascontiguousarray(poses), w / w.sum(), self.outside)
 
     def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction:
         """Both predictions (phases 1-2 and the empty-cell prior of phase 4 in the module docstring).

@@ -542,37 +542,39 @@ def _block_walkers(
 
 @jit
 def _move_segment(
-    xs: NDArray[np.float64],
-    ys: NDArray[np.float64],
+    k0: int,
+    k1: int,
+    src: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
     poses: NDArray[np.float64],
     p0: int,
     dt: float,
     ego: bool,
     grid: tuple[float, float, float, int, int],
     scratch: NDArray[np.float64],
-    cb: NDArray[np.intp],
-    i0: int,
+    out: Rows5,
+    cells: NDArray[np.intp],
 ) -> None:
-    """People motion then sensor motion of a run of particles with the consecutive poses ``p0, p0 + 1, ...``.
+    """People motion then sensor motion of particles ``k0, ..., k1 - 1`` (poses ``p0, p0 + 1, ...``), written in
+    place: ``out[r][k]``, ``cells[k]`` (vectorised: contiguous rows, no branches).
 
-    ``xs, ys`` (m) are the run's positions, ``poses`` (4, S) :func:`move_ego_compact`'s. The run's columns
-    ``i0, i0 + 1, ...`` of the scratch rows (``scratch`` (8, B): vx, vy given; x, y after the people motion and
-    x, y, vx, vy after the sensor motion written) and of ``cb`` (2, B: the cells after each motion, by
-    :func:`_cell_mul`, ``-2`` to be re-checked) are written. Contiguous rows and no branches: it vectorises.
+    ``src = (x, y, w)`` are the particles (m, m, mass), ``poses`` (4, S) :func:`move_ego_compact`'s. The scratch
+    columns ``0, ..., k1 - k0 - 1`` (``scratch`` (8, B)) hold the people-motion velocities in rows 0-1 and receive
+    the positions after the people motion in rows 2-3 and their cells in row 4. Cells are :func:`_cell_mul`'s
+    (``-2``: to be re-checked).
     """
     x0, y0, res, nx, ny = grid
-    inv, m = 1.0 / res, xs.size
-    i1 = i0 + m
-    vx, vy, xk, yk = scratch[0, i0:i1], scratch[1, i0:i1], scratch[2, i0:i1], scratch[3, i0:i1]
-    xn, yn, vxn, vyn = scratch[4, i0:i1], scratch[5, i0:i1], scratch[6, i0:i1], scratch[7, i0:i1]
-    c1, ck = cb[0, i0:i1], cb[1, i0:i1]
+    inv, m = 1.0 / res, k1 - k0
+    xs, ys, ws = src[0][k0:k1], src[1][k0:k1], src[2][k0:k1]
+    vx, vy, xk, yk, c1 = scratch[0, :m], scratch[1, :m], scratch[2, :m], scratch[3, :m], scratch[4, :m]
+    ox, oy, ovx, ovy, ow, oc = out[0][k0:k1], out[1][k0:k1], out[2][k0:k1], out[3][k0:k1], out[4][k0:k1], cells[k0:k1]
     for i in range(m):
         a = xs[i] + vx[i] * dt
         b = ys[i] + vy[i] * dt
-        xk[i], yk[i] = a, b
+        xk[i], yk[i], ow[i] = a, b, ws[i]
         c1[i] = _cell_mul(a, b, x0, y0, inv, nx, ny)
     if not ego:
-        xn[:], yn[:], vxn[:], vyn[:], ck[:] = xk, yk, vx, vy, c1
+        for i in range(m):
+            ox[i], oy[i], ovx[i], ovy[i], oc[i] = xk[i], yk[i], vx[i], vy[i], np.intp(c1[i])
         return
     dx, dy, co, si = poses[0, p0 : p0 + m], poses[1, p0 : p0 + m], poses[2, p0 : p0 + m], poses[3, p0 : p0 + m]
     for i in range(m):
@@ -580,52 +582,71 @@ def _move_segment(
         yr = yk[i] - dy[i]
         a = co[i] * xr + si[i] * yr
         b = co[i] * yr - si[i] * xr
-        xn[i], yn[i] = a, b
-        vxn[i] = co[i] * vx[i] + si[i] * vy[i]
-        vyn[i] = co[i] * vy[i] - si[i] * vx[i]
-        ck[i] = _cell_mul(a, b, x0, y0, inv, nx, ny)
+        ox[i], oy[i] = a, b
+        ovx[i] = co[i] * vx[i] + si[i] * vy[i]
+        ovy[i] = co[i] * vy[i] - si[i] * vx[i]
+        oc[i] = _cell_mul(a, b, x0, y0, inv, nx, ny)
 
 
 @jit
-def _compact_block(
+def _sum_block(
+    k0: int,
     w: NDArray[np.float64],
     scratch: NDArray[np.float64],
-    cb: NDArray[np.intp],
     grid: tuple[float, float, float, int, int],
-    j: int,
     out: Rows5,
     cells: NDArray[np.intp],
     sums: _Sums4,
+    drops: NDArray[np.intp],
+    nd: int,
 ) -> tuple[int, int]:
-    """The survivors of one block (masses ``w``, the scratch of :func:`_move_segment`) written to ``out[r][j:]``
-    and ``cells[j:]`` (see :func:`move_ego_compact`).
+    """The sums of one block (particles ``k0, ..., k0 + w.size - 1`` after :func:`_move_segment`) and its particles
+    that left: cells near an edge re-checked with the division (:func:`cell`), a particle outside after the people
+    motion or after the sensor motion marked ``cells[k] = -1`` and listed in ``drops[nd:]``.
 
     ``sums = (prior, mass, counts, sq)`` accumulate the people prior and the kept mass, count and squared mass per
-    cell. Returns the new ``j`` and the block's count inside after the people motion.
+    cell. Returns the new ``nd`` and the block's count inside after the people motion.
     """
     prior, mass, counts, sq = sums
-    ox, oy, ovx, ovy, ow = out
     n_in = 0
     for i in range(w.size):
-        a = cb[0, i]
-        if a < 0:
-            a = cell(scratch[2, i], scratch[3, i], grid) if a == -2 else -1  # near an edge: the division decides
+        k, a, c = k0 + i, int(scratch[4, i]), int(cells[k0 + i])
+        if a < 0 or c < 0:  # rare: an edge or the border
+            a = cell(scratch[2, i], scratch[3, i], grid) if a == -2 else a
+            c = cell(out[0][k], out[1][k], grid) if c == -2 else c
+            c = c if a >= 0 else -1  # outside after the people motion: gone, whatever the sensor motion does
+            cells[k] = c
+            if c < 0:
+                drops[nd] = k
+                nd += 1
             if a < 0:
                 continue
         prior[a] += w[i]
         n_in += 1
-        c = cb[1, i]
-        if c < 0:
-            c = cell(scratch[4, i], scratch[5, i], grid) if c == -2 else -1
-            if c < 0:
-                continue
-        ox[j], oy[j], ovx[j], ovy[j], ow[j] = scratch[4, i], scratch[5, i], scratch[6, i], scratch[7, i], w[i]
-        cells[j] = c
-        mass[c] += w[i]
-        counts[c] += 1
-        sq[c] += w[i] * w[i]
-        j += 1
-    return j, n_in
+        if c >= 0:
+            mass[c] += w[i]
+            counts[c] += 1
+            sq[c] += w[i] * w[i]
+    return nd, n_in
+
+
+@jit
+def _fill_drops(n: int, drops: NDArray[np.intp], nd: int, out: Rows5, cells: NDArray[np.intp]) -> int:
+    """Compact particles ``0, ..., n - 1`` whose ``nd`` dropped ones are listed (ascending) in ``drops``: each hole
+    below the kept count is filled with a kept particle from the end. Returns the kept count."""
+    kept = n - nd
+    src = n - 1
+    for q in range(nd):
+        h = drops[q]
+        if h >= kept:
+            break
+        while cells[src] < 0:
+            src -= 1
+        for r in range(5):
+            out[r][h] = out[r][src]
+        cells[h] = cells[src]
+        src -= 1
+    return kept
 
 
 @jit
@@ -647,11 +668,12 @@ def paper_move_ego_compact(
 
     Particle k stays with probability ``p_stationary``, else walks at a truncated-normal speed in a uniform
     direction (:func:`_block_walkers`; ``seeds`` (4,): three stream keys and a sequential state, from the filter's
-    ``Generator``): the same seeds give the same result.
-    Blocks of ``_BLOCK`` particles: the draws, a vectorised pass of both motions and the cells, then the
-    compaction. ``poses`` (4, S), ``ego``, ``grid``, ``out`` and ``cells`` as there; ``sums = (prior, mass,
-    counts, sq)``, shape (n_cells,) each, accumulate the people prior and the survivors' mass, count and squared
-    mass per cell (the last for the effective sample size after the update: :func:`update_resample_plan`).
+    ``Generator``): the same seeds give the same result. Blocks of ``_BLOCK`` particles: the draws, a vectorised
+    pass of both motions and the cells written in place, the sums; then the particles that left are replaced by the
+    last ones (the order of the survivors is not kept). ``poses`` (4, S), ``ego``, ``grid``, ``out`` and ``cells``
+    as there (``out`` and ``cells`` of at least N entries); ``sums = (prior, mass, counts, sq)``, shape (n_cells,)
+    each, accumulate the people prior and the survivors' mass, count and squared mass per cell (the last for the
+    effective sample size after the update).
 
     Returns
     -------
@@ -662,21 +684,23 @@ def paper_move_ego_compact(
     """
     n, n_pose = x.size, poses.shape[1]
     scratch = np.empty((8, _BLOCK))
-    cb = np.empty((2, _BLOCK), dtype=np.intp)
     widx = np.empty(_BLOCK + 1, dtype=np.intp)
+    drops = np.empty(n, dtype=np.intp)
     state = seeds[3]
-    j = n_inside = n_walk = 0
+    nd = n_inside = n_walk = 0
     for b0 in range(0, n, _BLOCK):
         m = min(_BLOCK, n - b0)
         state, n_walk = _block_walkers(seeds, b0, n_walk, walk, state, scratch, m, widx)
         i0, p0 = 0, b0 % n_pose
         while i0 < m:  # runs of consecutive poses (particle k has pose k mod S; one run without the poses)
             i1 = min(m, i0 + n_pose - p0) if ego else m
-            _move_segment(x[b0 + i0 : b0 + i1], y[b0 + i0 : b0 + i1], poses, p0, dt, ego, grid, scratch, cb, i0)
+            if i0 > 0:  # the run's velocities to the scratch's first columns, where _move_segment reads them
+                scratch[0:2, : i1 - i0] = scratch[0:2, i0:i1].copy()
+            _move_segment(b0 + i0, b0 + i1, (x, y, w), poses, p0, dt, ego, grid, scratch, out, cells)
+            nd, n_in = _sum_block(b0 + i0, w[b0 + i0 : b0 + i1], scratch, grid, out, cells, sums, drops, nd)
+            n_inside += n_in
             i0, p0 = i1, 0
-        j, n_in = _compact_block(w[b0 : b0 + m], scratch, cb, grid, j, out, cells, sums)
-        n_inside += n_in
-    return j, n_inside
+    return _fill_drops(n, drops, nd, out, cells), n_inside
 
 
 # ---------------------------------------------------------------- the filter's update and systematic resampling

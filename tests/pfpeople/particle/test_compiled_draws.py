@@ -163,7 +163,8 @@ def test_compiled_sensor_motion_is_the_numpy_code_and_seeds_repeat() -> None:
 
 def test_compiled_cells_on_and_near_edges_are_flat_index() -> None:
     """The pass takes cells by a multiplication and re-checks the ones near an edge with the division: on edges,
-    one ulp off them and outside, its cells are :meth:`GridSpec.flat_index`'s."""
+    one ulp off them and outside, its cells are :meth:`GridSpec.flat_index`'s; the particles outside are dropped and
+    their places taken by the last ones."""
     edges_x = SPEC.x0 + np.arange(-1, SPEC.nx + 2) * SPEC.resolution
     edges_y = SPEC.y0 + np.arange(-1, SPEC.ny + 2) * SPEC.resolution
     xs = np.concatenate((edges_x, np.nextafter(edges_x, -np.inf), np.nextafter(edges_x, np.inf)))
@@ -173,11 +174,16 @@ def test_compiled_cells_on_and_near_edges_are_flat_index() -> None:
     out, cells = tuple(np.empty(n) for _ in range(5)), np.empty(n, dtype=np.intp)
     sums = (np.zeros(n_cells), np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp), np.zeros(n_cells))
     stay = rk.walk_params(1.0, MOTION.mu, MOTION.sigma, MOTION.v_max)
-    args = (gx, gy, np.ones(n), _seeds(0), stay, 0.1, np.zeros((4, 1)), False, GRID, out, cells, sums)
+    args = (gx, gy, np.arange(n, dtype=float), _seeds(0), stay, 0.1, np.zeros((4, 1)), False, GRID, out, cells, sums)
     j, _ = kernels.paper_move_ego_compact(*args)
     want = SPEC.flat_index(gx, gy)
     assert j == np.count_nonzero(want >= 0)
-    np.testing.assert_array_equal(cells[:j], want[want >= 0])
+    np.testing.assert_array_equal(cells[:j], SPEC.flat_index(out[0][:j], out[1][:j]))
+    np.testing.assert_array_equal(np.sort(cells[:j]), np.sort(want[want >= 0]))  # the survivors, in another order
+    k = out[4][:j].astype(np.intp)  # the masses are the particles' indices: each survivor is one particle, whole
+    np.testing.assert_array_equal(np.sort(k), np.flatnonzero(want >= 0))
+    np.testing.assert_array_equal(out[0][:j], gx[k])
+    np.testing.assert_array_equal(out[1][:j], gy[k])
 
 
 def test_compiled_births_are_uniform_in_their_cells() -> None:
