@@ -53,10 +53,16 @@ particle's displacement is still an exact draw while the cost of the trigonometr
 
 Compiled step: with numba (and ``PFPEOPLE_NUMBA`` not ``0``, :mod:`gridbridge.jit`) phases 1-2 run as one pass
 over the particles (:mod:`pfpeople.particle.step_kernels`: people motion, sensor motion, the particles that left
-dropped, both priors summed), phase 3 scales the weights in one pass and phase 5 gathers the resampled particles without
-an ancestor array; the arrays come from a pool of those the filter let go of (:mod:`pfpeople.particle.buffers`). It
-makes the numpy path's random draws in the same order and the same arithmetic in the same order: the same seed gives
-the same particles bit for bit (``tests/pfpeople/particle/test_kernels_particles.py``).
+dropped, both priors summed), phase 3 scales the weights in one pass and phase 5 resamples in two passes without a sort
+(when the prediction's sums per cell tell that the step resamples, from the unscaled weights, without the scaling
+pass); the arrays come from a pool of those the filter let go of (:mod:`pfpeople.particle.buffers`). With the paper's
+people motion (:class:`~pfpeople.particle.components.PaperSampling` without ``redraw_in_cell``, the default) the
+people motion, the births and the systematic resampling draw inside the kernels from SplitMix64 streams seeded by
+:attr:`ParticleFilter.rng` (:mod:`pfpeople.particle.rng_kernels`): a seed still gives the same particles every time,
+but not the numpy path's; the distributions are the same (``tests/pfpeople/particle/test_compiled_draws.py``, also
+the belief's agreement with the numpy path to the Monte Carlo noise). Any other configuration makes the numpy path's
+random draws in the same order and the same arithmetic in the same order, and gives its particles bit for bit
+(``tests/pfpeople/particle/test_kernels_particles.py``) as long as it does not resample systematically.
 
 Bias of the empty-cell prior: a cell that is empty by chance gets the analytic prior instead of its (zero)
 particle mass, so the prior's expectation exceeds the linear grid's by P(empty) * prior. It matters only

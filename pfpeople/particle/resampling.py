@@ -16,8 +16,10 @@ past the end. Ancestors come out sorted. ``systematic`` and ``stratified`` accep
 
 :func:`resample_by_cell` is the occupancy-grid resampling the particle filter uses: it keeps the particle count
 at ``n`` and every cell's mass unchanged. With numba (:mod:`gridbridge.jit`) it runs compiled kernels
-(:func:`resample_plan`; :func:`resample_state` also gathers the particles) that make the same draws and return
-the same ancestors and weights bit for bit.
+(:func:`resample_plan`) that make the same draws and return the same ancestors and weights bit for bit.
+:func:`resample_state` (the filter's compiled path) also gathers the particles; with :func:`systematic` it draws
+the same scheme without sorting the particles by cell (:func:`resample_scaled`): the same distribution of
+ancestors, not the same ancestors.
 """
 
 from __future__ import annotations
@@ -421,8 +423,9 @@ def resample_scaled(
     rows : tuple of 4 ndarrays, shape (N,) each
         The particles' x, y, vx, vy.
     mass : ndarray, shape (n_cells,)
-        The weights' sum per cell; it may differ from the sums in particle order by round-off (the forced draws
-        then fall back on the cell's last particle of positive weight with a probability of that round-off).
+        The weights' sum per cell, shared by the cell's new particles. It may differ from the sums in particle order
+        by round-off (a forced draw then falls back on the cell's last particle of positive weight, with a
+        probability of that round-off).
     total : float
         Their sum, likewise.
     rng, pool
@@ -441,9 +444,9 @@ def resample_scaled(
     forced = np.full(mass.size, -1, dtype=np.intp)
     n_new = (mass > 0.0).astype(np.intp)
     anc = np.empty(n + 3, dtype=np.intp) if pool is None else pool.take_index(n + 3)
-    run = kernels.cell_systematic_ancestors(cells, w, factor, (target, total, m, off), anc, forced, n_new)
+    kernels.cell_systematic_ancestors(cells, w, factor, (target, total, m, off), anc, forced, n_new)
     anc[:k] = forced[occupied]
-    share = np.divide(run, n_new, out=np.zeros(mass.size), where=n_new > 0)
+    share = np.divide(mass, n_new, out=np.zeros(mass.size), where=n_new > 0)
     out = tuple(np.empty(n) if pool is None else pool.take(n) for _ in range(5))
     kernels.gather_ancestors(anc[:n], cells, rows, share, out)
     if pool is not None:

@@ -751,47 +751,67 @@ def cell_systematic_ancestors(
     anc: NDArray[np.intp],
     forced: NDArray[np.intp],
     n_new: NDArray[np.intp],
-) -> NDArray[np.float64]:
+) -> None:
     """The draws of :func:`pfpeople.particle.resampling.resample_by_cell` (systematic) in one pass, without a sort.
 
     The particles' weights are ``w[i] factor[cells[i]]``; ``draws = (target, total, m, off)``. The forced ancestor of
-    cell c is the first particle (in particle order) at which the running sum of the cell's weights exceeds
-    ``target[c]`` (``u_c M_c``; ``inf`` for a cell without mass), else the cell's last particle of positive weight
-    (when ``target`` came from sums rounded otherwise): particle i of c with probability ``w_i / M_c``, as the numpy
-    code's search in the sorted cell. The ``m`` systematic ancestors (positions ``(k + off) / m`` on the running
-    sum over all particles, of sum ``total``; the last particle takes what round-off leaves) are written, sorted,
-    to ``anc[K:K + m]`` (K = ``anc.size - m - 3``; the 3 entries after them are room: each particle is written
-    three times without a branch, the next overwriting what it does not own).
+    cell c is the first particle (in particle order) at which the cell's running sum exceeds ``target[c]``
+    (``u_c M_c``; ``inf`` for a cell without mass), else (round-off) the cell's last particle of positive weight:
+    particle i of c with probability ``w_i / M_c``, as the numpy code's search in the sorted cell. The ``m``
+    systematic ancestors (positions ``(k + off) / m`` on the running sum over all particles, of sum ``total``; the
+    last particle takes what round-off leaves) are written, sorted, to ``anc[K:K + m]`` (K = ``anc.size - m - 3``;
+    the 3 entries after them are room: each particle is written three times without a branch, the next
+    overwriting what it does not own).
 
     ``forced`` (n_cells,) must hold -1 and receives the forced ancestors, ``n_new`` (n_cells,) must hold the forced
-    count per cell (1 or 0) and receives the new particles per cell. Returns the weights' sums per cell
-    (n_cells,), in particle order.
+    count per cell (1 or 0) and receives the new particles per cell.
     """
     target, total, m, off = draws
     n, k = w.size, anc.size - m - 3
-    run, last = np.zeros(target.size), np.full(target.size, -1, dtype=np.intp)
-    goal = target.copy()  # inf once the cell has its forced ancestor: the branch below is taken once per cell
+    rem = target.copy()  # the target less the cell's running sum; inf once the cell has its forced ancestor
     scale = m / total
     acc, prev = 0.0, 0
     for i in range(n):
         c = cells[i]
         wi = w[i] * factor[c]
         acc += wi
-        below = m if i == n - 1 else min(max(math.ceil(acc * scale - off), 0), m)
+        below = min(max(math.ceil(acc * scale - off), 0), m)
         anc[k + prev], anc[k + prev + 1], anc[k + prev + 2] = i, i, i
         for t in range(k + prev + 3, k + below):  # a fourth copy and more: rare
             anc[t] = i
         n_new[c] += below - prev
         prev = below
-        r = run[c] + wi
-        run[c] = r
-        last[c] = i if wi > 0.0 else last[c]
-        if r > goal[c]:
-            forced[c], goal[c] = i, np.inf
+        r = rem[c] - wi
+        rem[c] = r
+        if r < 0.0:  # taken once per cell
+            forced[c], rem[c] = i, np.inf
+    if n and prev < m:  # round-off left positions above the last running sum: the last particle's
+        anc[k + prev : k + m] = n - 1
+        n_new[cells[n - 1]] += m - prev
+    _forced_fallback(cells, w, factor, target, forced)
+
+
+@jit
+def _forced_fallback(
+    cells: NDArray[np.intp],
+    w: NDArray[np.float64],
+    factor: NDArray[np.float64],
+    target: NDArray[np.float64],
+    forced: NDArray[np.intp],
+) -> None:
+    """The cells with mass (finite ``target``) whose running sum never passed the target (it was computed from sums
+    rounded otherwise): their last particle of positive weight as the forced ancestor (one pass from the end,
+    only when some cell needs it)."""
+    missing = 0
     for c in range(target.size):
-        if forced[c] < 0 and run[c] > 0.0:
-            forced[c] = last[c]
-    return run
+        missing += forced[c] < 0 and target[c] < np.inf
+    i = cells.size - 1
+    while missing > 0 and i >= 0:
+        c = cells[i]
+        if forced[c] < 0 and target[c] < np.inf and w[i] * factor[c] > 0.0:
+            forced[c] = i
+            missing -= 1
+        i -= 1
 
 
 @jit
