@@ -234,6 +234,7 @@ class ParticleFilter:
         self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
         self._inflow_cache: dict[float, NDArray[np.float64]] = {}
         self._ego_inflow_cache: dict[bytes, NDArray[np.float64]] = {}
+        self._inflow_cells_cache: dict[int, tuple[object, NDArray[np.intp], NDArray[np.float64], float]] = {}
         self.state = ParticleState.empty()
         self.belief: NDArray[np.float64] = np.zeros(self.spec.shape)
         self._pending: _Pending | None = None
@@ -311,14 +312,29 @@ class ParticleFilter:
 
     def _born_from_mass(self, mass: NDArray[np.float64], free: int) -> tuple[ParticleState, NDArray[np.intp]]:
         """Particles carrying ``mass`` (flat, per cell): one per cell above the floor plus a share of ``free``."""
-        cells = np.flatnonzero(mass > BIRTH_FLOOR)
+        cells, m, total = self._inflow_cells(mass)
         if cells.size == 0:
             return ParticleState.empty(), np.zeros(0, dtype=np.intp)
-        m = mass[cells]
         extra = max(free - cells.size, 0)
-        counts = 1 + np.floor(extra * m / m.sum()).astype(np.intp)
+        counts = 1 + np.floor(extra * m / total).astype(np.intp)
         rep = np.repeat(cells, counts)
         return self._born(rep, np.repeat(m / counts, counts)), rep
+
+    def _inflow_cells(self, mass: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.float64], float]:
+        """The cells of ``mass`` above the floor, their masses and the sum of these: kept for the inflow grids the
+        filter caches (read-only arrays, the same every step of the same dt and odometry), computed for others."""
+        owner = _owner(mass)
+        cached = self._inflow_cells_cache.get(id(owner))
+        if cached is not None and cached[0] is owner:
+            return cached[1], cached[2], cached[3]
+        cells = np.flatnonzero(mass > BIRTH_FLOOR)
+        m = mass[cells]
+        total = float(m.sum())
+        if isinstance(owner, np.ndarray) and not owner.flags.writeable:
+            if len(self._inflow_cells_cache) >= 64:
+                self._inflow_cells_cache.clear()
+            self._inflow_cells_cache[id(owner)] = (owner, cells, m, total)
+        return cells, m, total
 
     # ------------------------------------------------------------ prediction
 
