@@ -564,8 +564,13 @@ class ParticleFilter:
 
     def _ego_rows(self, odo: Odometry | None, dt: float, n: int, moves: bool) -> NDArray[np.float64]:
         """The sensor displacements of ``n`` particles as the kernels take them (4, S), or none for a standing
-        robot (then the kernels leave the particles alone)."""
-        return self.ego_motion.rows(odo, dt, n, rng=self.rng) if moves and n else _NO_POSES
+        robot (then the kernels leave the particles alone); drawn in the kernel where the people motion is
+        (:meth:`_draws_inside`) and the component's :meth:`~VelocityEgoSampling.rows` is the built-in one."""
+        if not (moves and n):
+            return _NO_POSES
+        if self._draws_inside() and type(self.ego_motion).rows is VelocityEgoSampling.rows:
+            return self.ego_motion.rows_drawn(odo, dt, n, seed=self.rng.integers(0, 2**64, dtype=np.uint64))
+        return self.ego_motion.rows(odo, dt, n, rng=self.rng)
 
     @staticmethod
     def _append(buf: _Rows, cells: NDArray[np.intp], j: int, part: ParticleState, where: NDArray[np.intp]) -> int:

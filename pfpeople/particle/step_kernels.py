@@ -3,10 +3,11 @@ resampling drawn inside (same distributions as the numpy code, other draws), the
 
 Each kernel is one pass over the particles doing the work of several numpy calls. Two kinds:
 
-* **Drawing inside** (:func:`paper_move_ego_compact`, :func:`born_particles`, :func:`cell_systematic_ancestors`
-  with :func:`gather_ancestors`, and :func:`scale_sums`, which only sums): the people motion of
-  :class:`~pfpeople.particle.components.PaperSampling` (stay or walk, truncated-normal speed, uniform heading), the
-  births' positions and velocities and the systematic resampling by cell make their draws in the kernel from
+* **Drawing inside** (:func:`paper_move_ego_compact`, :func:`born_particles`, :func:`ego_rows_drawn`,
+  :func:`cell_systematic_ancestors` with :func:`gather_ancestors`, and :func:`scale_sums`, which only sums): the
+  people motion of :class:`~pfpeople.particle.components.PaperSampling` (stay or walk, truncated-normal speed,
+  uniform heading), the births' positions and velocities, the sensor motion's noise and the systematic resampling
+  by cell make their draws in the kernel from
   SplitMix64 streams seeded by the filter's ``Generator`` (:mod:`pfpeople.particle.rng_kernels`), and the
   resampling finds each cell's forced ancestor without sorting. The distributions are the numpy path's, the draws
   are not: a seeded filter is deterministic on either path but the two paths give different particles
@@ -47,6 +48,7 @@ __all__ = [
     "cell_systematic_ancestors",
     "ego_compact",
     "ego_rows",
+    "ego_rows_drawn",
     "forced_ancestors",
     "gather_ancestors",
     "gather_resampled",
@@ -113,6 +115,30 @@ def _next_pose(p: int, n_pose: int) -> int:
 
 
 @jit
+def _ego_row(
+    e0: float, e1: float, e2: float, sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
+) -> tuple[float, float, float, float]:
+    """One sampled sensor displacement (eqs. 10-11) from its three standard normal draws: ``(dx, dy, cos(dtheta),
+    sin(dtheta))`` (:func:`pfpeople.particle.propagation.sample_ego_poses`'s arithmetic; arguments as
+    :func:`ego_rows`)."""
+    v0, w0, vy = control
+    v = v0 + e0 * sd[0]
+    w = w0 + e1 * sd[1]
+    gamma = e2 * sd[2]
+    if abs(w) > eps:
+        sw, cw = math.sin(w * dt), math.cos(w * dt)
+        dx, dy = v / w * sw, v / w * (1.0 - cw)
+        if vy != 0.0:
+            dx, dy = dx - vy / w * (1.0 - cw), dy + vy / w * sw
+    else:
+        dx, dy = v * dt, 0.0
+        if vy != 0.0:
+            dx, dy = dx - 0.0, dy + vy * dt
+    th = (w + gamma) * dt
+    return dx, dy, math.cos(th), math.sin(th)
+
+
+@jit
 def ego_rows(
     e: NDArray[np.float64], sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
 ) -> NDArray[np.float64]:
@@ -123,24 +149,26 @@ def ego_rows(
     (m/s, rad/s, m/s), ``eps`` the yaw rate below which the motion is a straight line
     (:func:`gridbridge.velocity_displacement`).
     """
-    v0, w0, vy = control
     n = e.shape[1]
     out = np.empty((4, n))
     for k in range(n):
-        v = v0 + e[0, k] * sd[0]
-        w = w0 + e[1, k] * sd[1]
-        gamma = e[2, k] * sd[2]
-        if abs(w) > eps:
-            sw, cw = math.sin(w * dt), math.cos(w * dt)
-            dx, dy = v / w * sw, v / w * (1.0 - cw)
-            if vy != 0.0:
-                dx, dy = dx - vy / w * (1.0 - cw), dy + vy / w * sw
-        else:
-            dx, dy = v * dt, 0.0
-            if vy != 0.0:
-                dx, dy = dx - 0.0, dy + vy * dt
-        th = (w + gamma) * dt
-        out[0, k], out[1, k], out[2, k], out[3, k] = dx, dy, math.cos(th), math.sin(th)
+        out[0, k], out[1, k], out[2, k], out[3, k] = _ego_row(e[0, k], e[1, k], e[2, k], sd, control, dt, eps)
+    return out
+
+
+@jit
+def ego_rows_drawn(
+    seed: np.uint64, n: int, sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
+) -> NDArray[np.float64]:
+    """:func:`ego_rows` of ``n`` displacements whose standard normal draws are made here (the ziggurat of
+    :func:`rng_kernels.standard_normal` on the SplitMix64 stream ``seed``), shape (4, n)."""
+    out = np.empty((4, n))
+    state = seed
+    for k in range(n):
+        state, e0 = rng.standard_normal(state)
+        state, e1 = rng.standard_normal(state)
+        state, e2 = rng.standard_normal(state)
+        out[0, k], out[1, k], out[2, k], out[3, k] = _ego_row(e0, e1, e2, sd, control, dt, eps)
     return out
 
 

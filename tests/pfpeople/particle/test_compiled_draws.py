@@ -370,3 +370,25 @@ def test_compiled_persistent_filter_unaffected_by_the_paper_draws() -> None:
                                 resampling=policy)  # fmt: skip
             outs.append(_steps(pf, 3)[-1].particles.x)
     np.testing.assert_array_equal(*outs)
+
+
+@pytest.mark.parametrize(
+    "odo", [Odometry(v=0.5, omega=0.3), Odometry(v=0.4, omega=0.0), Odometry(v=0.2, omega=-0.5, vy=0.3)]
+)
+def test_sensor_noise_drawn_in_the_kernel_matches_numpy_draws(odo: Odometry) -> None:
+    """The sensor motion's noise drawn in the kernel (the paper path) against numpy's draws: the displacements
+    dx, dy and the rotation, two-sample KS (alpha = 1e-3), and their means and variances within 5 standard errors."""
+    from pfpeople.particle.components import VelocityEgoSampling
+
+    ego = VelocityEgoSampling(pool=100_000)
+    drawn = ego.rows_drawn(odo, 0.1, 100_000, seed=17)
+    ref = ego.rows(odo, 0.1, 100_000, rng=np.random.default_rng(18))
+    for a, b in zip(
+        (drawn[0], drawn[1], np.arctan2(drawn[3], drawn[2])), (ref[0], ref[1], np.arctan2(ref[3], ref[2])), strict=True
+    ):
+        assert stats.ks_2samp(a, b).pvalue > ALPHA
+        se = math.sqrt((a.var() + b.var()) / a.size)
+        assert abs(a.mean() - b.mean()) < 5.0 * se + 1e-15
+        assert abs(a.var() - b.var()) < 5.0 * math.sqrt(2.0 / a.size) * max(a.var(), 1e-300) + 1e-30
+    np.testing.assert_allclose(np.hypot(drawn[2], drawn[3]), 1.0, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(ego.rows_drawn(odo, 0.1, 1000, seed=17), drawn[:, :1000])  # a prefix: same stream
