@@ -294,7 +294,7 @@ class ParticleFilter:
         if self._draws_inside():
             seeds = self.rng.integers(0, 2**64, size=4, dtype=np.uint64)
             x, y, vx, vy = kernels.born_particles(np.asarray(cells, dtype=np.intp), seeds, self._walk(), self._grid())
-            return ParticleState(x=x, y=y, vx=vx, vy=vy, w=weights)
+            return ParticleState.of_checked(x, y, vx, vy, np.asarray(weights, dtype=np.float64))
         x, y = uniform_in_cells(self.spec, cells, rng=self.rng)
         vx, vy = sample_velocity_prior(self.motion, cells.size, rng=self.rng)
         return ParticleState(x=x, y=y, vx=vx, vy=vy, w=weights)
@@ -553,7 +553,7 @@ class ParticleFilter:
             sq += np.bincount(cells[j_st:j], weights=np.square(buf[4][j_st:j]), minlength=n_cells)
         self._buffer = (buf, cells, j)
         self._pool.give(*_arrays(self.state))  # the old state: reused once no step record holds it
-        st = ParticleState(x=buf[0][:j], y=buf[1][:j], vx=buf[2][:j], vy=buf[3][:j], w=buf[4][:j])
+        st = ParticleState.of_checked(buf[0][:j], buf[1][:j], buf[2][:j], buf[3][:j], buf[4][:j])
         return st, cells[:j], counts, prior, mass, poses, pose_w, sq
 
     def _people_births(self, dt: float, n_inside: int) -> tuple[ParticleState, NDArray[np.intp]]:
@@ -688,12 +688,12 @@ class ParticleFilter:
                     cells, st.w, f, self.n_particles, rows, mass=mass, total=total, rng=self.rng, pool=self._pool
                 )
                 self._pool.give(*_arrays(st), cells)  # the prediction's arrays: reused once nothing holds them
-                return ParticleState(x=out[0], y=out[1], vx=out[2], vy=out[3], w=out[4]), cells, _RESAMPLED
+                return ParticleState.of_checked(*out), cells, _RESAMPLED
         w = self._pool.take(st.size)
         mass, total, sum_sq, status = kernels.scale_sums(st.w, cells, f, w, n_cells)
         if status:  # pragma: no cover - the filter's own weights and cells are always valid
             raise RuntimeError(f"particle filter: invalid weights or cells after the update (status {status})")
-        return ParticleState(x=st.x, y=st.y, vx=st.vx, vy=st.vy, w=w), cells, _Sums(mass, total, sum_sq)
+        return ParticleState.of_checked(st.x, st.y, st.vx, st.vy, w), cells, _Sums(mass, total, sum_sq)
 
     def _bear(
         self, st: ParticleState, cells: NDArray[np.intp], rep: NDArray[np.intp], posterior: NDArray[np.float64]
@@ -716,7 +716,7 @@ class ParticleFilter:
             return ParticleState.concatenate([st, born]), np.concatenate((cells, rep))
         end = self._append(buf, buf_cells, n, born, rep)
         x, y, vx, vy, w = (r[:end] for r in buf)
-        return ParticleState(x=x, y=y, vx=vx, vy=vy, w=w), buf_cells[:end]
+        return ParticleState.of_checked(x, y, vx, vy, w), buf_cells[:end]
 
     def _resample(
         self, st: ParticleState, cells: NDArray[np.intp], sums: _Sums | None = None
@@ -758,7 +758,7 @@ class ParticleFilter:
                 sums=cell_sums,
             )
             self._pool.give(*_arrays(st), cells)  # the prediction's arrays: reused once nothing holds them
-            return ParticleState(x=out[0], y=out[1], vx=out[2], vy=out[3], w=out[4]), True
+            return ParticleState.of_checked(*out), True
         anc, new_w = resample_by_cell(cells, st.w, n_target, n_cells=n_cells, rng=self.rng, resampler=fn)
         st = st.take(anc)
         st.w = new_w

@@ -116,17 +116,22 @@ def _next_pose(p: int, n_pose: int) -> int:
 
 @jit
 def _ego_row(
-    e0: float, e1: float, e2: float, sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
+    e: tuple[float, float, float],
+    sd: NDArray[np.float64],
+    control: tuple[float, float, float],
+    dt: float,
+    eps: float,
+    libm: bool,
 ) -> tuple[float, float, float, float]:
-    """One sampled sensor displacement (eqs. 10-11) from its three standard normal draws: ``(dx, dy, cos(dtheta),
-    sin(dtheta))`` (:func:`pfpeople.particle.propagation.sample_ego_poses`'s arithmetic; arguments as
-    :func:`ego_rows`)."""
+    """One sampled sensor displacement (eqs. 10-11) from its three standard normal draws ``e``: ``(dx, dy,
+    cos(dtheta), sin(dtheta))`` (:func:`pfpeople.particle.propagation.sample_ego_poses`'s arithmetic; arguments as
+    :func:`ego_rows`), with the C library's sine and cosine (``libm``, numpy's) or :func:`rng_kernels.sincos`."""
     v0, w0, vy = control
-    v = v0 + e0 * sd[0]
-    w = w0 + e1 * sd[1]
-    gamma = e2 * sd[2]
+    v = v0 + e[0] * sd[0]
+    w = w0 + e[1] * sd[1]
+    gamma = e[2] * sd[2]
     if abs(w) > eps:
-        sw, cw = math.sin(w * dt), math.cos(w * dt)
+        sw, cw = (math.sin(w * dt), math.cos(w * dt)) if libm else rng.sincos(w * dt)
         dx, dy = v / w * sw, v / w * (1.0 - cw)
         if vy != 0.0:
             dx, dy = dx - vy / w * (1.0 - cw), dy + vy / w * sw
@@ -135,7 +140,8 @@ def _ego_row(
         if vy != 0.0:
             dx, dy = dx - 0.0, dy + vy * dt
     th = (w + gamma) * dt
-    return dx, dy, math.cos(th), math.sin(th)
+    st, ct = (math.sin(th), math.cos(th)) if libm else rng.sincos(th)
+    return dx, dy, ct, st
 
 
 @jit
@@ -152,7 +158,7 @@ def ego_rows(
     n = e.shape[1]
     out = np.empty((4, n))
     for k in range(n):
-        out[0, k], out[1, k], out[2, k], out[3, k] = _ego_row(e[0, k], e[1, k], e[2, k], sd, control, dt, eps)
+        out[0, k], out[1, k], out[2, k], out[3, k] = _ego_row((e[0, k], e[1, k], e[2, k]), sd, control, dt, eps, True)
     return out
 
 
@@ -161,14 +167,15 @@ def ego_rows_drawn(
     seed: np.uint64, n: int, sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
 ) -> NDArray[np.float64]:
     """:func:`ego_rows` of ``n`` displacements whose standard normal draws are made here (the ziggurat of
-    :func:`rng_kernels.standard_normal` on the SplitMix64 stream ``seed``), shape (4, n)."""
+    :func:`rng_kernels.standard_normal` on the SplitMix64 stream ``seed``) and whose sines and cosines are
+    :func:`rng_kernels.sincos`'s, shape (4, n)."""
     out = np.empty((4, n))
     state = seed
     for k in range(n):
         state, e0 = rng.standard_normal(state)
         state, e1 = rng.standard_normal(state)
         state, e2 = rng.standard_normal(state)
-        out[0, k], out[1, k], out[2, k], out[3, k] = _ego_row(e0, e1, e2, sd, control, dt, eps)
+        out[0, k], out[1, k], out[2, k], out[3, k] = _ego_row((e0, e1, e2), sd, control, dt, eps, False)
     return out
 
 

@@ -96,6 +96,23 @@ def test_walker_speed_and_heading_distributions() -> None:
     assert stats.kstest(sp, stats.truncnorm(-0.5, 1.5, loc=0.5, scale=1.0).cdf).pvalue > ALPHA
 
 
+def test_sincos_agrees_with_the_c_library() -> None:
+    from numba import njit
+
+    @njit
+    def both(xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s, c = np.empty(xs.size), np.empty(xs.size)
+        for i in range(xs.size):
+            s[i], c[i] = rk.sincos(xs[i])
+        return s, c
+
+    xs = np.concatenate((np.random.default_rng(3).uniform(-1000.0, 1000.0, 200_000), np.linspace(-7, 7, 20_001)))
+    xs = np.concatenate((xs, [0.0, -0.0, math.pi, -math.pi / 2, 1000.0, -1000.5, 1e6, np.nan]))
+    s, c = both(xs)
+    np.testing.assert_allclose(s, np.sin(xs), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(c, np.cos(xs), rtol=0, atol=1e-15)
+
+
 # ------------------------------------------------------------------------------------------------ people motion
 
 SPEC = GridSpec()
