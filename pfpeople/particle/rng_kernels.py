@@ -4,13 +4,15 @@ and the paper's walker velocity.
 The compiled step draws its people motion and its resampling inside the kernels instead of taking numpy
 ``Generator`` arrays from the caller: each kernel call gets 64-bit seeds from the filter's ``Generator``
 (``rng.integers(2**64, dtype=np.uint64)``), so a seeded filter is still deterministic, but its draws are no longer
-the numpy path's (the distributions are the same; ``tests/pfpeople/particle/test_kernels_particles.py`` tests them).
+the numpy path's (the distributions are the same; ``tests/pfpeople/particle/test_compiled_draws.py`` tests them).
 
 Generator: SplitMix64 (Steele, Lea & Flood 2014; Java's ``SplittableRandom``, the seeder of the xoshiro family):
 the state advances by the odd constant ``GAMMA`` and each output is a bijective 64-bit mix of the state; it passes
 BigCrush, and one step of it is two multiplications and three shifts. Draw ``k`` of a stream with key ``s`` is
 ``mix(s + (k + 1) GAMMA)``, so a loop over particles can compute its draws independently of one another
-(:func:`hashed`, vectorisable) or in sequence (:func:`next_u64`); the two give the same numbers.
+(:func:`hashed`, vectorisable) or in sequence (:func:`next_u64`); the two give the same numbers. A kernel call takes
+three or four independent 64-bit keys: two streams of a few million words each overlap with a probability below
+1e-11.
 
 Derived draws:
 
@@ -47,6 +49,7 @@ __all__ = [
     "uniform",
     "walk_params",
     "walker_velocity",
+    "ziggurat_fast",
 ]
 
 #: SplitMix64's increment (2^64 / golden ratio, odd) and its two mixing multipliers.
@@ -120,7 +123,7 @@ def uniform(z: np.uint64) -> float:
 
 
 @jit
-def _zig_fast(r: np.uint64) -> tuple[bool, float, np.intp, np.uint64]:
+def ziggurat_fast(r: np.uint64) -> tuple[bool, float, np.intp, np.uint64]:
     """The ziggurat's first look at word ``r``: ``(accepted, x, layer, magnitude)``; ``x`` is the draw when
     accepted (about 99.3 % of the words), else :func:`_zig_slow` decides. Branch-free (a loop of it vectorises)."""
     idx = np.intp(r & _LOW8)
@@ -132,7 +135,7 @@ def _zig_fast(r: np.uint64) -> tuple[bool, float, np.intp, np.uint64]:
 
 @jit
 def _zig_slow(state: np.uint64, x: float, idx: np.intp, rabs: np.uint64) -> tuple[np.uint64, bool, float]:
-    """The rest of a ziggurat attempt that :func:`_zig_fast` did not accept: the wedge test of layer ``idx`` or
+    """The rest of a ziggurat attempt that :func:`ziggurat_fast` did not accept: the wedge test of layer ``idx`` or
     the tail beyond r (Marsaglia's exponential rejection). Returns the state, whether the attempt is accepted and
     the draw."""
     if idx == 0:
@@ -152,7 +155,7 @@ def standard_normal(state: np.uint64) -> tuple[np.uint64, float]:
     """A standard normal draw (numpy's ziggurat on SplitMix64 words); returns the new state and the draw."""
     while True:
         state, r = next_u64(state)
-        ok, x, idx, rabs = _zig_fast(r)
+        ok, x, idx, rabs = ziggurat_fast(r)
         if ok:
             return state, x
         state, ok, x = _zig_slow(state, x, idx, rabs)
@@ -165,7 +168,7 @@ def speed_from(state: np.uint64, r: np.uint64, walk: WalkParams) -> tuple[np.uin
     """A walking speed (m/s), N(mu, sigma) truncated to [0, v_max], whose first normal attempt is word ``r``; any
     further words come from the stream ``state`` (returned advanced)."""
     _, mu, sigma, v_max, z_lo, z_hi = walk
-    ok, z, idx, rabs = _zig_fast(r)
+    ok, z, idx, rabs = ziggurat_fast(r)
     if not ok:
         state, ok, z = _zig_slow(state, z, idx, rabs)
     while not (ok and z_lo <= z <= z_hi):  # rejected by the ziggurat or the truncation: fresh normals

@@ -563,7 +563,7 @@ def _block_walkers(
     _, mu, sigma, _, z_lo, z_hi = walk
     sp, co, si, ok = scratch[3, :nw], scratch[4, :nw], scratch[5, :nw], scratch[6, :nw]
     for q in range(nw):
-        fast, z, _, _ = rng._zig_fast(rng.hashed(keys[1], w0 + q))
+        fast, z, _, _ = rng.ziggurat_fast(rng.hashed(keys[1], w0 + q))
         ok[q] = fast and z_lo <= z <= z_hi
         sp[q] = min(max(mu + sigma * z, 0.0), walk[3])
         co[q], si[q] = rng.direction(rng.hashed(keys[2], w0 + q))
