@@ -1,10 +1,11 @@
 """Random draws inside the compiled particle-filter step (:mod:`gridbridge.jit`): SplitMix64, a ziggurat normal,
 and the paper's walker velocity.
 
-The compiled step draws its people motion and its resampling inside the kernels instead of taking numpy
-``Generator`` arrays from the caller: each kernel call gets 64-bit seeds from the filter's ``Generator``
-(``rng.integers(2**64, dtype=np.uint64)``), so a seeded filter is still deterministic, but its draws are no longer
-the numpy path's (the distributions are the same; ``tests/pfpeople/particle/test_compiled_draws.py`` tests them).
+With the paper's people motion the compiled step draws the people motion, the births and the sensor motion's noise
+inside the kernels instead of taking numpy ``Generator`` arrays from the caller: each kernel call gets 64-bit seeds
+from the filter's ``Generator`` (``rng.integers(2**64, dtype=np.uint64)``), so a seeded filter is still
+deterministic, but its draws are no longer the numpy path's (the distributions are the same;
+``tests/pfpeople/particle/test_compiled_draws.py`` tests them).
 
 Generator: SplitMix64 (Steele, Lea & Flood 2014; Java's ``SplittableRandom``, the seeder of the xoshiro family):
 the state advances by the odd constant ``GAMMA`` and each output is a bijective 64-bit mix of the state; it passes

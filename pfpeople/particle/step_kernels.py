@@ -1,17 +1,18 @@
-"""Compiled kernels of the particle-filter step (:mod:`gridbridge.jit`): the paper's people motion and the systematic
-resampling drawn inside (same distributions as the numpy code, other draws), the rest bit-identical to it.
+"""Compiled kernels of the particle-filter step (:mod:`gridbridge.jit`): the paper's people motion drawn inside and the
+systematic resampling without a sort (same distributions as the numpy code, other draws), the rest bit-identical.
 
 Each kernel is one pass over the particles doing the work of several numpy calls. Two kinds:
 
-* **Drawing inside** (:func:`paper_move_ego_compact`, :func:`born_particles`, :func:`ego_rows_drawn`,
-  :func:`cell_systematic_ancestors` with :func:`gather_ancestors`, and :func:`scale_sums`, which only sums): the
-  people motion of :class:`~pfpeople.particle.components.PaperSampling` (stay or walk, truncated-normal speed,
-  uniform heading), the births' positions and velocities, the sensor motion's noise and the systematic resampling
-  by cell make their draws in the kernel from
-  SplitMix64 streams seeded by the filter's ``Generator`` (:mod:`pfpeople.particle.rng_kernels`), and the
-  resampling finds each cell's forced ancestor without sorting. The distributions are the numpy path's, the draws
-  are not: a seeded filter is deterministic on either path but the two paths give different particles
-  (``tests/pfpeople/particle/test_kernels_particles.py`` tests the distributions and the filter's belief).
+* **Drawing inside** (:func:`paper_move_ego_compact`, :func:`born_particles`, :func:`ego_rows_drawn`) and
+  **resampling without a sort** (:func:`cell_systematic_ancestors` with :func:`gather_ancestors`, after
+  :func:`scale_sums`): the people motion of :class:`~pfpeople.particle.components.PaperSampling` (stay or walk,
+  truncated-normal speed, uniform heading), the births' positions and velocities and the sensor motion's noise
+  make their draws in the kernel from SplitMix64 streams seeded by the filter's ``Generator``
+  (:mod:`pfpeople.particle.rng_kernels`); the systematic resampling by cell takes its uniforms from the
+  ``Generator`` as the numpy code does but finds each cell's forced ancestor on the running sums in particle order,
+  not in the particles sorted by cell. The distributions are the numpy path's, the draws are not: a seeded filter
+  is deterministic on either path but the two paths give different particles
+  (``tests/pfpeople/particle/test_compiled_draws.py`` tests the distributions and the filter's belief).
 * **Bit-identical** to the numpy code, the random draws made by the caller with numpy's ``Generator`` in the same
   order (the other people-motion samplers, the sensor motion's poses, the other resampling schemes): every kernel
   does the same IEEE operations in the same order as the numpy code it replaces: cell sums accumulate
