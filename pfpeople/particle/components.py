@@ -183,6 +183,15 @@ class VelocityEgoSampling:
         e = rng.standard_normal((3, min(n, self.pool)))
         return kernels.ego_rows(e, sd, (float(o.v), float(o.omega), float(o.vy)), dt, _OMEGA_EPS)
 
+    def rows_drawn(self, odometry: Odometry | None, dt: float, n: int, *, seed: np.uint64 | int) -> NDArray[np.float64]:
+        """:meth:`rows` with the normal draws made in the kernel from a SplitMix64 stream (``seed``, 64 bits;
+        :func:`pfpeople.particle.step_kernels.ego_rows_drawn`): the same distribution, other draws; shape (4, S)."""
+        dt = check_positive(dt, "dt")
+        o = Odometry() if odometry is None else odometry
+        sd = np.sqrt(np.asarray(self.noise.variances(o.v, o.omega), dtype=np.float64))
+        control = (float(o.v), float(o.omega), float(o.vy))
+        return kernels.ego_rows_drawn(np.uint64(seed), min(n, self.pool), sd, control, dt, _OMEGA_EPS)
+
 
 @dataclass(frozen=True, kw_only=True)
 class Resampling:
@@ -227,5 +236,8 @@ class Resampling:
 
     def due(self, weights: NDArray[np.float64], n: int) -> bool:
         """Whether particles of masses ``weights`` (shape (K,)) are resampled to a target of ``n``."""
-        overflow = weights.size > n * (1.0 + self.max_overflow)
-        return bool(overflow or effective_sample_size(weights) < self.ess_threshold * n)
+        return self.due_ess(weights.size, effective_sample_size(weights), n)
+
+    def due_ess(self, size: int, ess: float, n: int) -> bool:
+        """:meth:`due` for ``size`` particles of effective sample size ``ess`` (``(sum w)^2 / sum w^2``)."""
+        return bool(size > n * (1.0 + self.max_overflow) or ess < self.ess_threshold * n)

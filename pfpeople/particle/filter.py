@@ -53,10 +53,16 @@ particle's displacement is still an exact draw while the cost of the trigonometr
 
 Compiled step: with numba (and ``PFPEOPLE_NUMBA`` not ``0``, :mod:`gridbridge.jit`) phases 1-2 run as one pass
 over the particles (:mod:`pfpeople.particle.step_kernels`: people motion, sensor motion, the particles that left
-dropped, both priors summed), phase 3 scales the weights in one pass and phase 5 gathers the resampled particles without
-an ancestor array; the arrays come from a pool of those the filter let go of (:mod:`pfpeople.particle.buffers`). It
-makes the numpy path's random draws in the same order and the same arithmetic in the same order: the same seed gives
-the same particles bit for bit (``tests/pfpeople/particle/test_kernels_particles.py``).
+dropped, both priors summed), phase 3 scales the weights in one pass and phase 5 resamples in two passes without a sort
+(when the prediction's sums per cell tell that the step resamples, from the unscaled weights, without the scaling
+pass); the arrays come from a pool of those the filter let go of (:mod:`pfpeople.particle.buffers`). With the paper's
+people motion (:class:`~pfpeople.particle.components.PaperSampling` without ``redraw_in_cell``, the default) the
+people motion, the births and the systematic resampling draw inside the kernels from SplitMix64 streams seeded by
+:attr:`ParticleFilter.rng` (:mod:`pfpeople.particle.rng_kernels`): a seed still gives the same particles every time,
+but not the numpy path's; the distributions are the same (``tests/pfpeople/particle/test_compiled_draws.py``, also
+the belief's agreement with the numpy path to the Monte Carlo noise). Any other configuration makes the numpy path's
+random draws in the same order and the same arithmetic in the same order, and gives its particles bit for bit
+(``tests/pfpeople/particle/test_kernels_particles.py``) as long as it does not resample systematically.
 
 Bias of the empty-cell prior: a cell that is empty by chance gets the analytic prior instead of its (zero)
 particle mass, so the prior's expectation exceeds the linear grid's by P(empty) * prior. It matters only
@@ -92,17 +98,19 @@ from gridbridge import (
     predict_people,
     warp_belief,
 )
+from gridbridge import kernels as grid_kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
 from gridbridge.people_motion import quantise_dt
 from gridbridge.validation import check_int, check_probability
+from pfpeople.particle import rng_kernels
 from pfpeople.particle import step_kernels as kernels
 from pfpeople.particle.buffers import BufferPool
 from pfpeople.particle.components import PaperSampling, PeopleSampler, Resampling, VelocityEgoSampling
-from pfpeople.particle.propagation import apply_ego_motion, redraw_in_cells, sample_velocity_prior, speeds_from_uniform
-from pfpeople.particle.resampling import resample_by_cell, resample_state
+from pfpeople.particle.propagation import apply_ego_motion, redraw_in_cells, sample_velocity_prior
+from pfpeople.particle.resampling import resample_by_cell, resample_scaled, resample_state, systematic
 from pfpeople.particle.state import ParticleState, uniform_in_cells
 
 __all__ = ["BIRTH_FLOOR", "ParticleFilter", "ParticleStep"]
@@ -113,7 +121,8 @@ log = logging.getLogger(__name__)
 BIRTH_FLOOR = 1e-12
 
 _Rows = tuple[NDArray[np.float64], ...]
-#: What the compiled prediction returns: particles, cells, count per cell, people and sensor priors, sigma points.
+#: What the compiled prediction returns: particles, cells, count per cell, people and sensor priors, sigma points and
+#: the squared masses per cell (None but for the paper's people motion).
 _Compiled = tuple[
     "ParticleState",
     NDArray[np.intp],
@@ -122,6 +131,7 @@ _Compiled = tuple[
     NDArray[np.float64],
     NDArray[np.float64],
     NDArray[np.float64],
+    NDArray[np.float64] | None,
 ]
 
 #: The sensor displacement rows of a standing robot (the compiled sensor motion leaves the particles alone).
@@ -224,6 +234,7 @@ class ParticleFilter:
         self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
         self._inflow_cache: dict[float, NDArray[np.float64]] = {}
         self._ego_inflow_cache: dict[bytes, NDArray[np.float64]] = {}
+        self._inflow_cells_cache: dict[int, tuple[object, NDArray[np.intp], NDArray[np.float64], float]] = {}
         self.state = ParticleState.empty()
         self.belief: NDArray[np.float64] = np.zeros(self.spec.shape)
         self._pending: _Pending | None = None
@@ -278,21 +289,52 @@ class ParticleFilter:
         return self.state
 
     def _born(self, cells: NDArray[np.intp], weights: NDArray[np.float64]) -> ParticleState:
-        """New particles in ``cells`` (flat indices), uniform in the cell, velocities from the motion prior."""
+        """New particles in ``cells`` (flat indices), uniform in the cell, velocities from the motion prior (drawn
+        inside a kernel, :func:`step_kernels.born_particles`, where the people motion is: :meth:`_draws_inside`)."""
+        if self._draws_inside():
+            seeds = self.rng.integers(0, 2**64, size=4, dtype=np.uint64)
+            x, y, vx, vy = kernels.born_particles(np.asarray(cells, dtype=np.intp), seeds, self._walk(), self._grid())
+            return ParticleState.of_checked(x, y, vx, vy, np.asarray(weights, dtype=np.float64))
         x, y = uniform_in_cells(self.spec, cells, rng=self.rng)
         vx, vy = sample_velocity_prior(self.motion, cells.size, rng=self.rng)
         return ParticleState(x=x, y=y, vx=vx, vy=vy, w=weights)
 
+    def _draws_inside(self) -> bool:
+        """Whether the compiled step draws the people motion and the births inside its kernels: the paper's people
+        motion without the re-draw in cells (any other sampler draws as the numpy path, bit for bit)."""
+        people = self.people_motion
+        return jit.enabled("pfpeople") and type(people) is PaperSampling and not people.redraw_in_cell
+
+    def _walk(self) -> rng_kernels.WalkParams:
+        """The paper's people motion as the kernels take it (:func:`rng_kernels.walk_params`)."""
+        m = self.motion
+        return rng_kernels.walk_params(m.p_stationary, m.mu, m.sigma, m.v_max)
+
     def _born_from_mass(self, mass: NDArray[np.float64], free: int) -> tuple[ParticleState, NDArray[np.intp]]:
         """Particles carrying ``mass`` (flat, per cell): one per cell above the floor plus a share of ``free``."""
-        cells = np.flatnonzero(mass > BIRTH_FLOOR)
+        cells, m, total = self._inflow_cells(mass)
         if cells.size == 0:
             return ParticleState.empty(), np.zeros(0, dtype=np.intp)
-        m = mass[cells]
         extra = max(free - cells.size, 0)
-        counts = 1 + np.floor(extra * m / m.sum()).astype(np.intp)
+        counts = 1 + np.floor(extra * m / total).astype(np.intp)
         rep = np.repeat(cells, counts)
         return self._born(rep, np.repeat(m / counts, counts)), rep
+
+    def _inflow_cells(self, mass: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.float64], float]:
+        """The cells of ``mass`` above the floor, their masses and the sum of these: kept for the inflow grids the
+        filter caches (read-only arrays, the same every step of the same dt and odometry), computed for others."""
+        owner = _owner(mass)
+        cached = self._inflow_cells_cache.get(id(owner))
+        if cached is not None and cached[0] is owner:
+            return cached[1], cached[2], cached[3]
+        cells = np.flatnonzero(mass > BIRTH_FLOOR)
+        m = mass[cells]
+        total = float(m.sum())
+        if isinstance(owner, np.ndarray) and not owner.flags.writeable:
+            if len(self._inflow_cells_cache) >= 64:
+                self._inflow_cells_cache.clear()
+            self._inflow_cells_cache[id(owner)] = (owner, cells, m, total)
+        return cells, m, total
 
     # ------------------------------------------------------------ prediction
 
@@ -324,10 +366,19 @@ class ParticleFilter:
     def _empty_cell_prior(
         self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        """The linear grid prior of the previous posterior, warped with this step's sigma points."""
+        """The linear grid prior of the previous posterior, warped with this step's sigma points (with the grid's
+        kernels compiled, those kernels called directly: the same results without re-checking the filter's arrays)."""
         kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
-        people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
-        return warp_belief(people, self.spec, poses, pose_w, outside=self.outside)
+        if not jit.enabled("gridbridge"):
+            people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
+            return warp_belief(people, self.spec, poses, pose_w, outside=self.outside)
+        bel = np.ascontiguousarray(self.belief, dtype=np.float64)
+        people = grid_kernels.convolve_const(bel, np.ascontiguousarray(kernel, dtype=np.float64), self.outside)
+        if len(poses) == 1 and np.all(poses[0] == 0.0):
+            return people
+        grid = (float(self.spec.x0), float(self.spec.y0), float(self.spec.resolution))
+        w = np.asarray(pose_w, dtype=np.float64)
+        return grid_kernels.warp_bilinear(people, grid, np.ascontiguousarray(poses), w / w.sum(), self.outside)
 
     def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction:
         """Both predictions (phases 1-2 and the empty-cell prior of phase 4 in the module docstring).
@@ -344,18 +395,18 @@ class ParticleFilter:
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
         odo = as_odometry(odometry)
         if jit.enabled("pfpeople"):
-            st, cells, counts, people_prior, sensor_prior, poses, pose_w = self._predict_compiled(odo, dt)
+            st, cells, counts, people_prior, sensor_prior, poses, pose_w, sq = self._predict_compiled(odo, dt)
             empty = counts == 0
         else:
             # The filter never writes into particle arrays in place, so a shallow copy protects self.state.
             moved = self._predict_people(self.state.shallow_copy(), dt)
             st, cells, sensor_prior, poses, pose_w = self._predict_sensor(moved, odo, dt)
-            people_prior = moved.prior
+            people_prior, sq = moved.prior, None
             empty = np.bincount(cells, minlength=self.spec.n_cells) == 0
         if empty.any():
             sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w).ravel()[empty]
         self.state = st
-        self._pending = self._prediction(cells, empty, people_prior, sensor_prior, dt)
+        self._pending = self._prediction(cells, empty, people_prior, sensor_prior, dt, sq)
         self.belief = self._pending.prior.reshape(self.spec.shape)
         return Prediction(people_prior.reshape(self.spec.shape), sensor_prior.reshape(self.spec.shape))
 
@@ -445,88 +496,52 @@ class ParticleFilter:
 
     def _people_velocities(
         self, dt: float
-    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int | None]:
-        """Phase 1's draws (those of the numpy path, in its order): the particles to move (re-drawn in their cells
-        with ``redraw_in_cell``), the indices and velocities (m/s) of those that move and, for the paper's model
-        without the re-draw, how many of those are inside the grid after the motion (None for the others)."""
-        st, people = self.state, self.people_motion
-        if type(people) is PaperSampling and not people.redraw_in_cell:
-            u = self.rng.random(out=self._pool.take(st.size))  # sample_velocity_prior's draws, in its order
-            p_stat = self.motion.p_stationary
-            if p_stat >= 1.0:
-                return st, np.zeros(0, np.intp), np.zeros(0), np.zeros(0), 0
-            moving, z = kernels.select_moving(u, p_stat)
-            self._pool.give(u)
-            speed = speeds_from_uniform(self.motion, z)
-            heading_u = self.rng.random(moving.size)
-            vx, vy, n_in = kernels.walker_velocities(st.x, st.y, moving, speed, heading_u, dt, self._grid())
-            return st, moving, vx, vy, int(n_in)
+    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+        """Phase 1's draws for a people-motion sampler other than the paper's plain one (those of the numpy path, in
+        its order): the particles to move (re-drawn in their cells with ``redraw_in_cell``), the indices of those
+        that move (all) and their velocities (m/s)."""
+        st = self.state
         moved = st.shallow_copy()
-        if people.redraw_in_cell:
+        if self.people_motion.redraw_in_cell:
             redraw_in_cells(moved, self.spec, rng=self.rng)
         x, y = moved.x, moved.y  # the positions the motion starts from (the kernel moves them)
-        people.move(moved, dt, rng=self.rng)  # its velocities (its positions are the kernel's to compute)
+        self.people_motion.move(moved, dt, rng=self.rng)  # its velocities (its positions are the kernel's)
         before = ParticleState(x=x, y=y, vx=moved.vx, vy=moved.vy, w=st.w)
-        return before, np.arange(st.size, dtype=np.intp), moved.vx, moved.vy, None
+        return before, np.arange(st.size, dtype=np.intp), moved.vx, moved.vy
 
     def _predict_compiled(self, odo: Odometry | None, dt: float) -> _Compiled:
-        """Phases 1-2 in one pass over the particles (compiled), bit-identical to the numpy path.
+        """Phases 1-2 in one pass over the particles (compiled).
 
-        The births at the border need the count inside after the people motion before the pass; it is taken to
-        be the standing particles (inside, where the last step left them) plus the walkers that stay inside.
-        Should the pass find otherwise (a state set from outside with particles beyond the grid), the random
-        generator is put back and the step redone with a counting pass first.
+        The paper's people motion (:class:`PaperSampling` without the re-draw) is drawn inside the pass
+        (:func:`step_kernels.paper_move_ego_compact`, seeded from :attr:`rng`): the same distributions as the numpy
+        path, other draws. Any other sampler draws as on the numpy path, whose particles the pass then gives bit for
+        bit; its births at the border need the count inside after the people motion first, so a counting pass
+        (:func:`step_kernels.people_prior`) precedes.
         """
-        before, moving, vx_m, vy_m, walkers_in = self._people_velocities(dt)
-        if walkers_in is not None:
-            saved = self.rng.bit_generator.state
-            out = self._predict_pass(odo, dt, before, moving, vx_m, vy_m, before.size - moving.size + walkers_in)
-            if out is not None:
-                return out
-            self.rng.bit_generator.state = saved
-        out = self._predict_pass(odo, dt, before, moving, vx_m, vy_m, None)
-        if out is None:  # pragma: no cover - a pass that counts first cannot be wrong
-            raise RuntimeError("particle filter: the prediction's count disagrees with itself")
-        return out
-
-    def _predict_pass(
-        self,
-        odo: Odometry | None,
-        dt: float,
-        before: ParticleState,
-        moving: NDArray[np.intp],
-        vx_m: NDArray[np.float64],
-        vy_m: NDArray[np.float64],
-        guess: int | None,
-    ) -> _Compiled | None:
-        """The pass of :meth:`_predict_compiled` given the count inside after the people motion (``guess``; None:
-        count it first). Returns the particles, their cells, the count and the people and sensor priors per
-        cell (flat) and the sigma points of the grid's warp; None if ``guess`` was wrong. The survivors go to a
-        new buffer, the births after them (its capacity bounds every count the births can reach, those of the
-        update included)."""
         n_cells, grid = self.spec.n_cells, self._grid()
-        prior, scratch = np.zeros(n_cells), np.zeros(n_cells)
-        if guess is None:
-            n_inside = kernels.people_prior(before.x, before.y, before.w, moving, vx_m, vy_m, dt, grid, prior)
-        free = self.n_particles - (n_inside if guess is None else guess)
-        born, born_cells = self._born_from_mass(self.people_inflow(dt).ravel(), free - max(free, 0) // 2)
-        prior_born = np.bincount(born_cells, weights=born.w, minlength=n_cells)
         poses, pose_w = ego_motion_sigma_points(odo, dt, self.noise)
         moves = bool(np.any(poses != 0.0))
-        sample = self.ego_motion.rows
-        rows = [
-            sample(odo, dt, part.size, rng=self.rng) if moves and part.size else _NO_POSES for part in (before, born)
-        ]
-        cap = max(before.size, self.n_particles) + (3 + self.n_birth) * n_cells + 8
+        st = self.state
+        prior, mass, counts, sq = np.zeros(n_cells), np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp), None
+        cap = max(st.size, self.n_particles) + (3 + self.n_birth) * n_cells + 8
         buf, cells = tuple(self._pool.take(cap) for _ in range(5)), self._pool.take_index(cap)
-        mass, counts = np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp)
-        args = (before.x, before.y, before.w, moving, vx_m, vy_m, dt, rows[0], moves, grid, buf, cells, mass, counts)
-        j, n_inside = kernels.move_ego_compact(*args, prior if guess is not None else scratch)
-        if guess is not None and n_inside != guess:
-            return None
-        prior += prior_born
+        if self._draws_inside():
+            rows = self._ego_rows(odo, dt, st.size, moves)
+            seeds, sq = self.rng.integers(0, 2**64, size=4, dtype=np.uint64), np.zeros(n_cells)
+            args = (st.x, st.y, st.w, seeds, self._walk(), dt, rows, moves, grid, buf, cells, (prior, mass, counts, sq))
+            j, n_inside = kernels.paper_move_ego_compact(*args)
+            born, born_cells = self._people_births(dt, n_inside)
+            born_rows = self._ego_rows(odo, dt, born.size, moves)
+        else:
+            before, moving, vx_m, vy_m = self._people_velocities(dt)
+            n_inside = kernels.people_prior(before.x, before.y, before.w, moving, vx_m, vy_m, dt, grid, prior)
+            born, born_cells = self._people_births(dt, n_inside)
+            rows, born_rows = (self._ego_rows(odo, dt, part.size, moves) for part in (before, born))
+            given = (before.x, before.y, before.w, moving, vx_m, vy_m, dt, rows, moves, grid, buf, cells, mass, counts)
+            j, _ = kernels.move_ego_compact(*given, np.zeros(n_cells))
+        prior += np.bincount(born_cells, weights=born.w, minlength=n_cells)
         j_st, born_src = j, np.stack((born.x, born.y, born.vx, born.vy))
-        j = kernels.ego_compact(born_src, born.w, rows[1], moves, False, grid, buf, cells, j, mass, counts)
+        j = kernels.ego_compact(born_src, born.w, born_rows, moves, False, grid, buf, cells, j, mass, counts)
         if moves:
             n_now = n_inside + (j - j_st)
             born2, born2_cells = self._born_from_mass(self._ego_inflow(poses, pose_w), self.n_particles - n_now)
@@ -534,10 +549,28 @@ class ParticleFilter:
             kernels.accumulate(born2_cells, born2.w, mass, counts)
         else:  # standing: the people prior is the sensor prior
             mass = prior.copy()
+        if sq is not None and j > j_st:  # the births' squared masses
+            sq += np.bincount(cells[j_st:j], weights=np.square(buf[4][j_st:j]), minlength=n_cells)
         self._buffer = (buf, cells, j)
         self._pool.give(*_arrays(self.state))  # the old state: reused once no step record holds it
-        st = ParticleState(x=buf[0][:j], y=buf[1][:j], vx=buf[2][:j], vy=buf[3][:j], w=buf[4][:j])
-        return st, cells[:j], counts, prior, mass, poses, pose_w
+        st = ParticleState.of_checked(buf[0][:j], buf[1][:j], buf[2][:j], buf[3][:j], buf[4][:j])
+        return st, cells[:j], counts, prior, mass, poses, pose_w, sq
+
+    def _people_births(self, dt: float, n_inside: int) -> tuple[ParticleState, NDArray[np.intp]]:
+        """The births of the people motion's inflow across the border, given the count inside after it (half of
+        the free slots)."""
+        free = self.n_particles - n_inside
+        return self._born_from_mass(self.people_inflow(dt).ravel(), free - max(free, 0) // 2)
+
+    def _ego_rows(self, odo: Odometry | None, dt: float, n: int, moves: bool) -> NDArray[np.float64]:
+        """The sensor displacements of ``n`` particles as the kernels take them (4, S), or none for a standing
+        robot (then the kernels leave the particles alone); drawn in the kernel where the people motion is
+        (:meth:`_draws_inside`) and the component's :meth:`~VelocityEgoSampling.rows` is the built-in one."""
+        if not (moves and n):
+            return _NO_POSES
+        if self._draws_inside() and type(self.ego_motion).rows is VelocityEgoSampling.rows:
+            return self.ego_motion.rows_drawn(odo, dt, n, seed=self.rng.integers(0, 2**64, dtype=np.uint64))
+        return self.ego_motion.rows(odo, dt, n, rng=self.rng)
 
     @staticmethod
     def _append(buf: _Rows, cells: NDArray[np.intp], j: int, part: ParticleState, where: NDArray[np.intp]) -> int:
@@ -557,12 +590,13 @@ class ParticleFilter:
         people_prior: NDArray[np.float64],
         sensor_prior: NDArray[np.float64],
         dt: float,
+        sq: NDArray[np.float64] | None = None,
     ) -> _Pending:
         """The prior of eq. 12: the sensor prior clipped to [0, 1] (Monte Carlo noise), appearances added."""
         prior = np.clip(sensor_prior, 0.0, 1.0)
         if self.appearance is not None and dt > 0.0:  # appearances scale the particles of a cell up
             prior = self.appearance.apply(prior, dt, where=self.observed)
-        return _Pending(cells=cells, empty=empty, people_prior=people_prior, sensor_prior=sensor_prior, prior=prior)
+        return _Pending(cells, empty, people_prior, sensor_prior, prior, sq)
 
     def _held(self) -> _Pending:
         """A prediction of zero length: the particles' rasterised mass (empty cells: the belief)."""
@@ -577,8 +611,8 @@ class ParticleFilter:
 
     def _update(self, lik: Likelihood) -> ParticleStep:
         pending = self._held() if self._pending is None else self._pending
-        st, cells, posterior = self._update_weights(self.state.shallow_copy(), pending, lik)
-        st, resampled = self._resample(st, cells)
+        st, cells, posterior, sums = self._update_weights(self.state.shallow_copy(), pending, lik)
+        st, resampled = (st, True) if sums is _RESAMPLED else self._resample(st, cells, sums)
         self.state, self._pending, self._buffer = st, None, None
         self.belief = posterior.reshape(self.spec.shape)
         return ParticleStep(
@@ -595,9 +629,10 @@ class ParticleFilter:
 
     def _update_weights(
         self, st: ParticleState, pending: _Pending, lik: Likelihood
-    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64]]:
+    ) -> tuple[ParticleState, NDArray[np.intp], NDArray[np.float64], _Sums | None]:
         """Phases 3-4: Bayes update (eq. 12) per cell, particles scaled to their cell's posterior, births in the
-        empty cells with posterior mass. Returns the particles, their cells and the posterior (flat)."""
+        empty cells with posterior mass. Returns the particles, their cells, the posterior (flat) and, compiled,
+        the new weights' sums (:class:`_Sums`)."""
         cells, empty = pending.cells, pending.empty
         posterior = bayes_update(pending.prior, lik.likelihood.ravel())
         if self.bounds is not None:
@@ -610,72 +645,141 @@ class ParticleFilter:
             posterior[empty & (posterior <= BIRTH_FLOOR)] = 0.0
             rep = np.repeat(birth_cells, self.n_birth)
         if jit.enabled("pfpeople"):
-            return (*self._scale_and_bear(st, cells, factor, rep, posterior), posterior)
+            st, cells, sums = self._update_compiled(st, pending, factor, rep, posterior)
+            return st, cells, posterior, sums
         st.w = st.w * factor[cells]
         if rep.size:
             st = ParticleState.concatenate([st, self._born(rep, posterior[rep] / self.n_birth)])
             cells = np.concatenate((cells, rep))
-        return st, cells, posterior
+        return st, cells, posterior, None
 
-    def _scale_and_bear(
+    def _update_compiled(
         self,
         st: ParticleState,
-        cells: NDArray[np.intp],
+        pending: _Pending,
         factor: NDArray[np.float64],
         rep: NDArray[np.intp],
         posterior: NDArray[np.float64],
+    ) -> tuple[ParticleState, NDArray[np.intp], _Sums]:
+        """The compiled phases 3-4, and phase 5 when it can be told beforehand.
+
+        The births in empty cells are written after the particles in the prediction's buffer (no copy of the
+        particles) when they are still its first columns. With the paper's people motion, the systematic scheme and
+        the built-in policy, the effective sample size of the scaled weights is known from the prediction's sums per
+        cell (``sum_c f_c^2 Q_c``, ``Q_c`` the squared masses): a step that resamples then draws from the unscaled
+        weights and the factors (:func:`resample_scaled`) and returns the new particles with :data:`_RESAMPLED`.
+        Otherwise the weights are scaled in one pass that also sums them (:func:`step_kernels.scale_sums`), returned
+        with the sums.
+        """
+        st, cells = self._bear(st, pending.cells, rep, posterior)
+        f = factor.copy()
+        f[rep] = 1.0  # the births' cells were empty: their weights are final
+        policy, n_cells = self.resampling, self.spec.n_cells
+        if pending.sq is not None and policy.resampler is systematic and type(policy).due is Resampling.due:
+            mass = f * pending.sensor_prior
+            sq = f * f * pending.sq
+            if rep.size:
+                mass[rep], sq[rep] = posterior[rep], np.bincount(rep, weights=np.square(st.w[-rep.size :]))[rep]
+            total = float(mass.sum())
+            ess = total**2 / float(sq.sum()) if total > 0.0 else 0.0
+            if policy.due_ess(st.size, ess, self.n_particles) and total > 0.0:
+                rows = (st.x, st.y, st.vx, st.vy)
+                out = resample_scaled(
+                    cells, st.w, f, self.n_particles, rows, mass=mass, total=total, rng=self.rng, pool=self._pool
+                )
+                self._pool.give(*_arrays(st), cells)  # the prediction's arrays: reused once nothing holds them
+                return ParticleState.of_checked(*out), cells, _RESAMPLED
+        w = self._pool.take(st.size)
+        mass, total, sum_sq, status = kernels.scale_sums(st.w, cells, f, w, n_cells)
+        if status:  # pragma: no cover - the filter's own weights and cells are always valid
+            raise RuntimeError(f"particle filter: invalid weights or cells after the update (status {status})")
+        return ParticleState.of_checked(st.x, st.y, st.vx, st.vy, w), cells, _Sums(mass, total, sum_sq)
+
+    def _bear(
+        self, st: ParticleState, cells: NDArray[np.intp], rep: NDArray[np.intp], posterior: NDArray[np.float64]
     ) -> tuple[ParticleState, NDArray[np.intp]]:
-        """The compiled phases 3-4: weights scaled in one pass, the births in empty cells written after the
-        particles in the prediction's buffer (no copy of the particles) when they are still its first columns."""
+        """The particles with the births in empty cells ``rep`` (each carrying ``posterior / n_birth``) after them:
+        written into the prediction's buffer when the particles are still its first columns, else concatenated."""
         n, k = st.size, rep.size
-        w = self._pool.take(n + k)
-        kernels.scale_weights(st.w, cells, factor, w)
         if k == 0:
-            return ParticleState(x=st.x, y=st.y, vx=st.vx, vy=st.vy, w=w), cells
+            return st, cells
         born = self._born(rep, posterior[rep] / self.n_birth)
-        w[n:] = born.w
         buf, buf_cells, used = self._buffer if self._buffer is not None else (None, None, -1)
         if (
             buf is None
             or buf_cells is None
             or used != n
             or _owner(st.x) is not _owner(buf[0])
+            or _owner(st.w) is not _owner(buf[4])
             or n + k > buf_cells.size
         ):
-            st = ParticleState.concatenate([st, born])
-            return ParticleState(x=st.x, y=st.y, vx=st.vx, vy=st.vy, w=w), np.concatenate((cells, rep))
+            return ParticleState.concatenate([st, born]), np.concatenate((cells, rep))
         end = self._append(buf, buf_cells, n, born, rep)
-        return ParticleState(x=buf[0][:end], y=buf[1][:end], vx=buf[2][:end], vy=buf[3][:end], w=w), buf_cells[:end]
+        x, y, vx, vy, w = (r[:end] for r in buf)
+        return ParticleState.of_checked(x, y, vx, vy, w), buf_cells[:end]
 
-    def _resample(self, st: ParticleState, cells: NDArray[np.intp]) -> tuple[ParticleState, bool]:
+    def _resample(
+        self, st: ParticleState, cells: NDArray[np.intp], sums: _Sums | None = None
+    ) -> tuple[ParticleState, bool]:
         """Phase 5: resample by cell when the ESS is low or births pushed the count above
         ``(1 + max_overflow) * n_particles``.
 
-        With a total weight of 0 (every posterior 0) there is nothing to resample: the step keeps the particles,
-        logs a warning and counts it in :attr:`resampling_skipped`.
+        ``sums`` (compiled) are the weights' sums, from which the ESS and the masses per cell are taken. With a
+        total weight of 0 (every posterior 0) there is nothing to resample: the step keeps the particles, logs a
+        warning and counts it in :attr:`resampling_skipped`.
         """
-        n_target = self.n_particles
-        if not self.resampling.due(st.w, n_target):
+        n_target, policy = self.n_particles, self.resampling
+        if sums is not None and type(policy).due is Resampling.due:  # the ESS from the sums: no pass over w
+            due = policy.due_ess(st.w.size, sums.ess, n_target)
+        else:
+            due = policy.due(st.w, n_target)
+        if not due:
             return st, False
-        total = float(st.w.sum())
+        total = float(st.w.sum()) if sums is None else sums.total
         if not total > 0.0:
             self.resampling_skipped += 1
             log.warning(
                 "particle filter: total weight %g, resampling skipped (%d steps so far)", total, self.resampling_skipped
             )
             return st, False
-        n_cells, fn = self.spec.n_cells, self.resampling.resampler
+        n_cells, fn = self.spec.n_cells, policy.resampler
         if jit.enabled("pfpeople"):
             rows = (st.x, st.y, st.vx, st.vy)
+            cell_sums = None if sums is None else (sums.mass, sums.total)
             out = resample_state(
-                cells, st.w, n_target, rows, n_cells=n_cells, rng=self.rng, resampler=fn, pool=self._pool
+                cells,
+                st.w,
+                n_target,
+                rows,
+                n_cells=n_cells,
+                rng=self.rng,
+                resampler=fn,
+                pool=self._pool,
+                sums=cell_sums,
             )
             self._pool.give(*_arrays(st), cells)  # the prediction's arrays: reused once nothing holds them
-            return ParticleState(x=out[0], y=out[1], vx=out[2], vy=out[3], w=out[4]), True
+            return ParticleState.of_checked(*out), True
         anc, new_w = resample_by_cell(cells, st.w, n_target, n_cells=n_cells, rng=self.rng, resampler=fn)
         st = st.take(anc)
         st.w = new_w
         return st, True
+
+
+class _Sums(NamedTuple):
+    """The new weights' sums of the compiled update: per cell (n_cells,), their total and sum of squares."""
+
+    mass: NDArray[np.float64]
+    total: float
+    sum_sq: float
+
+    @property
+    def ess(self) -> float:
+        """The effective sample size ``total^2 / sum_sq`` (0 for all-zero weights)."""
+        return self.total**2 / self.sum_sq if self.sum_sq > 0.0 else 0.0
+
+
+#: What the compiled update returns in place of the sums when it has resampled already.
+_RESAMPLED = _Sums(np.zeros(0), 0.0, 0.0)
 
 
 class _PeopleMoved(NamedTuple):
@@ -699,6 +803,8 @@ class _Pending:
     people_prior: NDArray[np.float64]
     sensor_prior: NDArray[np.float64]
     prior: NDArray[np.float64]
+    #: The particles' squared masses summed per cell (compiled, the paper's people motion; else None).
+    sq: NDArray[np.float64] | None = None
 
 
 def _owner(a: NDArray[np.float64]) -> object:

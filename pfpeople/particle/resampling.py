@@ -16,8 +16,10 @@ past the end. Ancestors come out sorted. ``systematic`` and ``stratified`` accep
 
 :func:`resample_by_cell` is the occupancy-grid resampling the particle filter uses: it keeps the particle count
 at ``n`` and every cell's mass unchanged. With numba (:mod:`gridbridge.jit`) it runs compiled kernels
-(:func:`resample_plan`; :func:`resample_state` also gathers the particles) that make the same draws and return
-the same ancestors and weights bit for bit.
+(:func:`resample_plan`) that make the same draws and return the same ancestors and weights bit for bit.
+:func:`resample_state` (the filter's compiled path) also gathers the particles; with :func:`systematic` it draws
+the same scheme without sorting the particles by cell (:func:`resample_scaled`): the same distribution of
+ancestors, not the same ancestors.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ __all__ = [
     "multinomial",
     "resample_by_cell",
     "resample_plan",
+    "resample_scaled",
     "resample_state",
     "residual",
     "stratified",
@@ -354,8 +357,17 @@ def resample_state(
     rng: np.random.Generator,
     resampler: Callable[..., NDArray[np.intp]],
     pool: BufferPool | None = None,
+    sums: tuple[NDArray[np.float64], float] | None = None,
 ) -> tuple[NDArray[np.float64], ...]:
-    """:func:`resample_by_cell` and the gather of the particles in one go (compiled; bit-identical).
+    """:func:`resample_by_cell` and the gather of the particles in one go (compiled).
+
+    With :func:`systematic` (the filter's default) the scheme is :func:`resample_by_cell`'s, drawn in two passes
+    over the particles and without sorting them (:func:`step_kernels.cell_systematic_ancestors`, then
+    :func:`step_kernels.gather_ancestors`): each cell's forced ancestor is found on the running sum of the cell's
+    weights in particle order instead of in the particles sorted by cell, which draws particle i of cell c with
+    the same probability ``w_i / M_c`` but not the same particle as the numpy code. Its offspring counts have the
+    same distribution (``tests/pfpeople/particle/test_kernels_particles.py``). Any other resampler gives
+    :func:`resample_plan`'s ancestors, the numpy code's bit for bit.
 
     Parameters
     ----------
@@ -365,6 +377,9 @@ def resample_state(
         The particles' x, y, vx, vy.
     pool : BufferPool, optional
         Where the new arrays and the scratch space come from (new arrays without).
+    sums : tuple, optional
+        ``(mass, total)``: the weights summed per cell (n_cells,) and in all, in particle order (as
+        :func:`step_kernels.scale_sums` gives them; the weights are then taken as checked). Computed here without.
 
     Returns
     -------
@@ -378,9 +393,83 @@ def resample_state(
         out = tuple(np.empty(ancestors.size) if pool is None else pool.take(ancestors.size) for _ in range(5))
         kernels.gather_resampled(ancestors, c, *rows, mass, n_cells, out)
         return out
-    out = tuple(np.empty(n) if pool is None else pool.take(n) for _ in range(5))
-    forced, mass, total = _forced_compiled(c, w, n, n_cells, rng, pool)
-    m = n - forced.size
+    mass, total = _checked_sums(c, w, n_cells) if sums is None else sums
+    return resample_scaled(c, w, np.ones(n_cells), n, rows, mass=mass, total=total, rng=rng, pool=pool)
+
+
+def resample_scaled(
+    cells: NDArray[np.intp],
+    w: NDArray[np.float64],
+    factor: NDArray[np.float64],
+    n: int,
+    rows: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    *,
+    mass: NDArray[np.float64],
+    total: float,
+    rng: np.random.Generator,
+    pool: BufferPool | None = None,
+) -> tuple[NDArray[np.float64], ...]:
+    """:func:`resample_state`'s systematic resampling (compiled) of particles whose weights are ``w * factor[cells]``,
+    without writing those weights.
+
+    Parameters
+    ----------
+    cells : ndarray of intp, shape (N,)
+        The particles' cells, in ``[0, n_cells)``.
+    w, factor : ndarray, shapes (N,) and (n_cells,)
+        The weights as above (finite, >= 0).
+    n : int
+        Particles after resampling, at least the cells holding mass.
+    rows : tuple of 4 ndarrays, shape (N,) each
+        The particles' x, y, vx, vy.
+    mass : ndarray, shape (n_cells,)
+        The weights' sum per cell, shared by the cell's new particles. It may differ from the sums in particle order
+        by round-off (a forced draw then falls back on the cell's last particle of positive weight, with a
+        probability of that round-off).
+    total : float
+        Their sum, likewise.
+    rng, pool
+        As :func:`resample_state`.
+
+    Returns
+    -------
+    tuple of 5 ndarrays, shape (n,) each
+        x, y, vx, vy of the ancestors and the new weights (each cell's mass shared by its new particles).
+    """
+    occupied = _occupied(mass, n)
+    k, m = occupied.size, n - occupied.size
+    target = np.full(mass.size, np.inf)  # u_c M_c, kept below M_c so that the cell's last particle reaches it
+    target[occupied] = np.minimum(rng.random(k) * mass[occupied], np.nextafter(mass[occupied], 0.0))
     off = float(rng.random()) if m > 0 else 0.0
-    kernels.systematic_gather(forced, c, w, rows, mass, total, m, off, out)
+    forced = np.full(mass.size, -1, dtype=np.intp)
+    n_new = (mass > 0.0).astype(np.intp)
+    anc = np.empty(n + 3, dtype=np.intp) if pool is None else pool.take_index(n + 3)
+    kernels.cell_systematic_ancestors(cells, w, factor, (target, total, m, off), anc, forced, n_new)
+    anc[:k] = forced[occupied]
+    share = np.divide(mass, n_new, out=np.zeros(mass.size), where=n_new > 0)
+    out = tuple(np.empty(n) if pool is None else pool.take(n) for _ in range(5))
+    kernels.gather_ancestors(anc[:n], cells, rows, share, out)
+    if pool is not None:
+        pool.give(anc)
     return out
+
+
+def _checked_sums(c: NDArray[np.intp], w: NDArray[np.float64], n_cells: int) -> tuple[NDArray[np.float64], float]:
+    """The mass per cell (n_cells,) and the total of weights ``w`` in cells ``c``, checked as
+    :func:`resample_by_cell` checks them."""
+    mass, _, total, status = kernels.cell_mass(c, w, n_cells)
+    if status == 1:
+        raise ValueError("weights must be finite and non-negative")
+    if status == 2:
+        raise ValueError(f"cells must lie in [0, {n_cells})")
+    return mass, float(total)
+
+
+def _occupied(mass: NDArray[np.float64], n: int) -> NDArray[np.intp]:
+    """The cells holding mass (K,), checked against a target of ``n`` particles (at least one per cell)."""
+    occupied = np.flatnonzero(mass > 0.0)
+    if occupied.size == 0:
+        raise ValueError("weights are all zero: nothing to resample")
+    if n < occupied.size:
+        raise ValueError(f"n={n} particles cannot keep one in each of the {occupied.size} cells holding mass")
+    return occupied

@@ -61,6 +61,22 @@ class ParticleState:
                 )
 
     @classmethod
+    def of_checked(
+        cls,
+        x: NDArray[np.float64],
+        y: NDArray[np.float64],
+        vx: NDArray[np.float64],
+        vy: NDArray[np.float64],
+        w: NDArray[np.float64],
+    ) -> ParticleState:
+        """A state of arrays already known to be 1-D float64 of one length (the filter's own), without the
+        constructor's checks (a few microseconds each, several times per filter step)."""
+        st = object.__new__(cls)
+        for name, arr in zip(_FIELDS, (x, y, vx, vy, w), strict=True):
+            object.__setattr__(st, name, arr)
+        return st
+
+    @classmethod
     def empty(cls) -> ParticleState:
         """A state with no particles."""
         z = np.zeros(0)
@@ -93,7 +109,7 @@ class ParticleState:
 
     def shallow_copy(self) -> ParticleState:
         """A new state object sharing the arrays (assigning a field of the copy leaves this one alone)."""
-        return ParticleState(x=self.x, y=self.y, vx=self.vx, vy=self.vy, w=self.w)
+        return ParticleState.of_checked(self.x, self.y, self.vx, self.vy, self.w)
 
     def take(self, index: ArrayLike) -> ParticleState:
         """The particles selected by an integer index array or a boolean mask (new arrays)."""

@@ -1,4 +1,11 @@
-"""The particle filter's compiled kernels against its numpy path: the same seed gives the same bits."""
+"""The particle filter's compiled kernels that draw as the numpy path does, against it: the same seed gives the same
+bits.
+
+The paper's people motion, the births and the systematic resampling by cell draw inside the compiled kernels (other
+draws, the same distributions): they are tested in ``test_compiled_draws.py``. Every configuration without them (the
+other people-motion samplers; the other resampling schemes, or no resampling) gives the numpy path's particles bit for
+bit, tested here.
+"""
 
 from __future__ import annotations
 
@@ -21,16 +28,21 @@ pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installe
 
 DETECTIONS = [np.array([[3.0, 0.5], [5.0, -1.0]]), np.array([[3.1, 0.4]]), np.array([[4.0, 0.0]])]
 EVERY_STEP = 2.0  # an ESS threshold above 1: every step resamples
+NEVER = Resampling(ess_threshold=0.0, max_overflow=1.0)  # no resampling in these 7 steps
 CONFIGS = [
-    {},
-    {"resampling": Resampling(max_overflow=0.1)},
-    {"people_motion": PersistentSampling()},
-    {"people_motion": PaperSampling(redraw_in_cell=True), "resampling": Resampling(ess_threshold=EVERY_STEP)},
-    {"people_motion": PersistentSampling(redraw_in_cell=True)},
-    {"resampling": Resampling(scheme="stratified", ess_threshold=EVERY_STEP)},
-    {"resampling": Resampling(scheme="residual"), "appearance": Appearance(), "bounds": BeliefBounds()},
+    {"people_motion": PersistentSampling(), "resampling": NEVER},
+    {"people_motion": PaperSampling(redraw_in_cell=True), "resampling": Resampling(scheme="stratified")},
+    {"people_motion": PersistentSampling(redraw_in_cell=True), "resampling": NEVER},
+    {"people_motion": PersistentSampling(), "resampling": Resampling(scheme="stratified", ess_threshold=EVERY_STEP)},
+    {
+        "people_motion": PaperSampling(redraw_in_cell=True),
+        "resampling": Resampling(scheme="residual"),
+        "appearance": Appearance(),
+        "bounds": BeliefBounds(),
+    },
     # a callable (returning fewer than asked)
-    {"resampling": Resampling(scheme=filterpy_systematic, ess_threshold=EVERY_STEP)},
+    {"people_motion": PersistentSampling(), "resampling": Resampling(scheme=filterpy_systematic, ess_threshold=2.0)},
+    {"people_motion": PersistentSampling(), "resampling": Resampling(scheme="multinomial", max_overflow=0.1)},
 ]
 
 
@@ -49,7 +61,7 @@ def _run(compiled: bool, n: int, steps: int, **kwargs: object) -> list[tuple[np.
 
 
 @pytest.mark.parametrize("kwargs", CONFIGS)
-def test_compiled_particle_filter_is_bit_identical_to_numpy(kwargs: dict) -> None:
+def test_compiled_particle_filter_draws_as_numpy_and_is_bit_identical(kwargs: dict) -> None:
     fast, slow = _run(True, 1200, 7, **kwargs), _run(False, 1200, 7, **kwargs)
     for t, (a, b) in enumerate(zip(fast, slow, strict=True)):
         for name, x, y in zip(("people", "sensor", "posterior", "x", "y", "vx", "vy", "w"), a, b, strict=True):
@@ -61,19 +73,19 @@ def test_all_compiled_particle_filter_agrees_with_all_numpy() -> None:
     runs = []
     for on in (True, False):
         with jit.override(on):
-            pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(4))
+            pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(4), **CONFIGS[0])  # type: ignore[arg-type]
             runs.append([pf.step(DETECTIONS, Odometry(v=0.5, omega=0.3), 0.1).posterior for _ in range(5)])
     for a, b in zip(*runs, strict=True):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
 
 
 def test_a_state_with_particles_outside_the_grid_gives_the_same_bits() -> None:
-    """The compiled pass assumes standing particles are inside; a state set from outside breaks that and the
-    step is redone with a counting pass (the random draws put back): still the numpy path's bits."""
+    """A state set from outside with particles beyond the grid: a sampler other than the paper's counts the
+    particles inside after the people motion in a pass first (its births need it), as the numpy path does."""
     outs = []
     for on in (True, False):
         with jit.override(False, "gridbridge"), jit.override(on, "pfpeople"):
-            pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(8))
+            pf = ParticleFilter(n_particles=1000, rng=np.random.default_rng(8), **CONFIGS[0])  # type: ignore[arg-type]
             st = pf.state.copy()
             st.x[::50] = -3.0  # 20 particles beyond the grid's near edge
             pf.state = st
