@@ -48,6 +48,7 @@ from gridbridge.validation import check_number, check_positive, check_probabilit
 
 __all__ = [
     "Odometry",
+    "border_inflow",
     "ego_motion_sigma_points",
     "odometry_pose",
     "predict_sensor",
@@ -233,17 +234,7 @@ def warp_belief(
         Belief in the new sensor frame.
     """
     bel = spec.check_grid(belief, "belief")
-    outside = check_probability(outside, "outside")
-    p = np.asarray(poses, dtype=float)
-    if p.ndim not in (1, 2) or p.shape[-1] != 3 or p.size == 0:
-        raise ValueError(f"poses must have shape (S, 3) or (3,) of (dx, dy, dtheta), S >= 1, got {p.shape}")
-    p = p.reshape(-1, 3)
-    if not np.all(np.isfinite(p)):
-        raise ValueError("poses contain NaN or infinite values")
-    w = np.full(len(p), 1.0 / len(p)) if weights is None else np.asarray(weights, dtype=float).ravel()
-    if w.shape != (len(p),) or not np.all(np.isfinite(w)) or w.min() < 0 or w.sum() <= 0:
-        raise ValueError(f"weights must be {len(p)} non-negative finite numbers with a positive sum")
-    w = w / w.sum()
+    p, w, outside = _warp_args(poses, weights, outside)
     if len(p) == 1 and np.all(p[0] == 0.0):
         return bel.copy()
     if jit.enabled():
@@ -257,6 +248,50 @@ def warp_belief(
     samples = ndimage.map_coordinates(bel, coords, order=1, mode="grid-constant", cval=outside)
     out = np.tensordot(w, samples.reshape(len(p), *spec.shape), axes=1)
     return np.clip(out, 0.0, 1.0, out=out)
+
+
+def _warp_args(
+    poses: ArrayLike, weights: ArrayLike | None, outside: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """:func:`warp_belief`'s poses ``(S, 3)``, normalised weights ``(S,)`` and ``outside``, checked.
+
+    Raises
+    ------
+    ValueError
+        Poses not ``(S, 3)`` or ``(3,)`` of finite numbers, weights not ``S`` non-negative finite numbers with a
+        positive sum, ``outside`` not a probability.
+    """
+    outside = check_probability(outside, "outside")
+    p = np.asarray(poses, dtype=float)
+    if p.ndim not in (1, 2) or p.shape[-1] != 3 or p.size == 0:
+        raise ValueError(f"poses must have shape (S, 3) or (3,) of (dx, dy, dtheta), S >= 1, got {p.shape}")
+    p = p.reshape(-1, 3)
+    if not np.all(np.isfinite(p)):
+        raise ValueError("poses contain NaN or infinite values")
+    w = np.full(len(p), 1.0 / len(p)) if weights is None else np.asarray(weights, dtype=float).ravel()
+    if w.shape != (len(p),) or not np.all(np.isfinite(w)) or w.min() < 0 or w.sum() <= 0:
+        raise ValueError(f"weights must be {len(p)} non-negative finite numbers with a positive sum")
+    return p, w / w.sum(), outside
+
+
+def border_inflow(
+    spec: GridSpec, poses: ArrayLike, weights: ArrayLike | None = None, *, outside: float = 0.5
+) -> NDArray[np.float64]:
+    """What the sensor motion brings into each cell from beyond the border: :func:`warp_belief` of an all-zero
+    belief, bit for bit (compiled: :func:`gridbridge.kernels.warp_outside`, which computes only the cells near
+    the border; arguments as there).
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+    """
+    if not jit.enabled():
+        return warp_belief(np.zeros(spec.shape), spec, poses, weights, outside=outside)
+    p, w, outside = _warp_args(poses, weights, outside)
+    if len(p) == 1 and np.all(p[0] == 0.0):
+        return np.zeros(spec.shape)
+    grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+    return kernels.warp_outside((int(spec.nx), int(spec.ny)), grid, np.ascontiguousarray(p), w, outside)
 
 
 def predict_sensor(

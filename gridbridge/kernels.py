@@ -7,11 +7,16 @@ kernel                 numpy twin                                   agreement
 :func:`predict_paper`  :func:`gridbridge.people_motion._predict_paper`  bit for bit (same sums, same order)
 :func:`convolve_const` ``scipy.ndimage.convolve(mode="constant")``  1e-12 (scipy sums the taps in its order)
 :func:`warp_bilinear`  :func:`gridbridge.ego_motion.warp_belief`     1e-12 (scipy's spline weights, BLAS sum)
+:func:`warp_outside`   :func:`warp_bilinear` of a zero belief       bit for bit (the cells it skips add +0.0)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
                        and :func:`scatter_max`                      the two kernels)
 =====================  ===========================================  ==========================================
+
+:func:`independent_terms` and :func:`add_where` are the terms of
+:class:`gridbridge.likelihoods.IndependentLikelihood` (its numpy path the twin), bit for bit with numpy's ``log``
+between them and its ``exp`` after.
 
 :func:`pairwise_sum` is numpy's pairwise summation (the order of ``np.add.reduce`` and ``np.add.reduceat``)
 for kernels elsewhere that must add as numpy does (:mod:`pfpeople.detect.segment_kernels`).
@@ -30,14 +35,17 @@ from numpy.typing import NDArray
 from gridbridge.jit import jit
 
 __all__ = [
+    "add_where",
     "convolve_const",
     "fuse_update",
     "gaussian_args",
+    "independent_terms",
     "pairwise_sum",
     "point_map",
     "predict_paper",
     "scatter_max",
     "warp_bilinear",
+    "warp_outside",
 ]
 
 
@@ -205,6 +213,117 @@ def warp_bilinear(
                 # an unsigned index: no wrap-around test for negative indices
                 t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
                 # scipy's order: taps (0, 0), (0, 1), (1, 0), (1, 1), each times the x then the y weight
+                val = flat[t] * (1.0 - fu) * (1.0 - fv)
+                val += flat[t + one] * (1.0 - fu) * fv
+                val += flat[t + below] * fu * (1.0 - fv)
+                val += flat[t + below + one] * fu * fv
+                row[j] += ws * val
+    for i in range(nx):
+        for j in range(ny):
+            out[i, j] = min(max(out[i, j], 0.0), 1.0)
+    return out
+
+
+@jit
+def independent_terms(
+    q: NDArray[np.float64],
+    fov: NDArray[np.bool_],
+    odds: tuple[float, float],
+    covered: NDArray[np.bool_],
+    per_det: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """One detector's terms of :class:`gridbridge.likelihoods.IndependentLikelihood` in one pass, bit for bit:
+    ``covered = fov | (q > 0)``, the likelihood ratio ``lr = q lr_fire + (1 - q) miss`` and ``per_det = lr / (1 +
+    lr)`` where covered (else left as it is, 0.5).
+
+    ``q`` and ``fov`` are the detector's map and field of view ``(nx, ny)``, ``odds = (lr_fire, miss)``;
+    ``covered`` and ``per_det`` (its rows of the likelihood) are written. Returns ``lr`` (every cell), whose
+    logarithm is numpy's to take (numpy's ``log`` is not the C library's).
+    """
+    lr_fire, miss = odds
+    nx, ny = q.shape
+    lr = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            qq = q[i, j]
+            r = qq * lr_fire + (1.0 - qq) * miss
+            lr[i, j] = r
+            if fov[i, j] or qq > 0.0:
+                covered[i, j] = True
+                per_det[i, j] = r / (1.0 + r)
+    return lr
+
+
+@jit
+def add_where(acc: NDArray[np.float64], values: NDArray[np.float64], mask: NDArray[np.bool_]) -> None:
+    """``acc += np.where(mask, values, 0.0)`` in place (the same sums: adding 0.0 leaves a sum that is not -0.0
+    as it is, and these sums of logarithms start at +0.0)."""
+    nx, ny = acc.shape
+    for i in range(nx):
+        for j in range(ny):
+            if mask[i, j]:
+                acc[i, j] += values[i, j]
+
+
+@jit
+def _interior_run(a: float, k: float, lo: float, hi: float, n: int) -> tuple[int, int]:
+    """The indices ``j`` in ``[0, n)`` with ``lo <= a + k j <= hi`` shrunk by one at each end (a run that rounding
+    cannot leave), as ``(first, last + 1)``; empty as ``(0, 0)``."""
+    if k == 0.0:
+        return (0, n) if lo <= a <= hi else (0, 0)
+    j0, j1 = (lo - a) / k, (hi - a) / k
+    if k < 0.0:
+        j0, j1 = j1, j0
+    first = max(math.ceil(j0) + 1, 0)
+    last = min(math.floor(j1) - 1, n - 1)
+    return (first, last + 1) if first <= last else (0, 0)
+
+
+@jit
+def warp_outside(
+    shape: tuple[int, int],
+    grid: tuple[float, float, float],
+    poses: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    outside: float,
+) -> NDArray[np.float64]:
+    """:func:`warp_bilinear` of an all-zero belief (what enters each cell from beyond the border), bit for bit,
+    computing only the cells some of whose taps may lie outside the grid.
+
+    Every tap inside reads 0.0, so a cell whose four taps lie inside adds ``w_s * 0.0 = +0.0`` to its sum, which
+    leaves it as it is: such cells are skipped. Along a row the source coordinates are affine in ``j``; the
+    cells whose coordinates lie 1e-3 cells inside ``[0, n - 1)`` on both axes, less one at each end of the run,
+    are skipped (rounding moves a coordinate by some 1e-15 cells).
+    """
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = shape
+    width = ny + 4
+    flat = _padded(np.zeros((nx, ny)), 2, outside).ravel()
+    one, below = np.uint64(1), np.uint64(width)
+    out = np.zeros((nx, ny))
+    margin = 1e-3
+    for s in range(poses.shape[0]):
+        tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
+        py0 = y0 + 0.5 * res
+        for i in range(nx):
+            px = x0 + (i + 0.5) * res
+            row = out[i]
+            # u(j) = au - sn j, v(j) = av + c j (to rounding)
+            au = (tx + c * px - sn * py0 - x0) * inv - 0.5
+            av = (ty + sn * px + c * py0 - y0) * inv - 0.5
+            u0, u1 = _interior_run(au, -sn * res * inv, margin, nx - 1.0 - margin, ny)
+            v0, v1 = _interior_run(av, c * res * inv, margin, ny - 1.0 - margin, ny)
+            skip0, skip1 = max(u0, v0), min(u1, v1)
+            for j in range(ny):
+                if skip0 <= j < skip1:
+                    continue
+                py = y0 + (j + 0.5) * res
+                u = (tx + c * px - sn * py - x0) * inv - 0.5
+                v = (ty + sn * px + c * py - y0) * inv - 0.5
+                fi, fj = np.floor(u), np.floor(v)
+                fu, fv = u - fi, v - fj
+                t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
                 val = flat[t] * (1.0 - fu) * (1.0 - fv)
                 val += flat[t + one] * (1.0 - fu) * fv
                 val += flat[t + below] * fu * (1.0 - fv)

@@ -93,6 +93,7 @@ from gridbridge import (
     warp_belief,
 )
 from gridbridge.components import Appearance, BeliefBounds
+from gridbridge.ego_motion import border_inflow
 from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
@@ -313,8 +314,7 @@ class ParticleFilter:
         key = poses.tobytes() + pose_w.tobytes()
         cached = self._ego_inflow_cache.get(key)
         if cached is None:
-            zeros = np.zeros(self.spec.shape)
-            cached = warp_belief(zeros, self.spec, poses, pose_w, outside=self.outside).ravel()
+            cached = border_inflow(self.spec, poses, pose_w, outside=self.outside).ravel()
             cached.setflags(write=False)
             if len(self._ego_inflow_cache) >= 64:
                 self._ego_inflow_cache.clear()

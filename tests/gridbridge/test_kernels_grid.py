@@ -133,3 +133,55 @@ def test_grid_filter_runs_its_builtin_components_as_their_functions_do(builtin: 
     for a, b in zip(*runs, strict=True):
         for name in ("people_prior", "sensor_prior", "likelihood", "posterior"):
             assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+
+
+@pytest.mark.parametrize("miss_weight", [1.0, 0.6])
+def test_independent_likelihood_is_bit_identical(miss_weight: float) -> None:
+    """IndependentLikelihood on its compiled terms (independent_terms, add_where) and on numpy: every stage."""
+    from gridbridge.likelihoods import IndependentLikelihood
+
+    rng = np.random.default_rng(9)
+    pts = np.column_stack((rng.uniform(-1, 8, 14), rng.uniform(-3.5, 3.5, 14)))
+    footprint = DetectorModel(name="wide-legs", ppv=0.8, fnr=0.3, footprint_radius=0.45)
+    camera = DetectorModel(name="cam", ppv=0.7, fnr=0.4, uncertainty="gaussian", fov_min=-0.5, fov_max=0.5)
+    models = (*PAPER_DETECTORS, footprint, camera)
+    lik = IndependentLikelihood(base_rate=0.03, miss_weight=miss_weight)
+    for dets in ([pts[:5], None, pts[5:9], pts[9:], pts[2:6]], [None, np.zeros((0, 2)), pts, None, pts[:1]]):
+        fast, slow = _both(lik, SPEC, models, dets)
+        for name in ("fired", "covered", "detector_likelihoods", "likelihood"):
+            assert getattr(fast, name).tobytes() == getattr(slow, name).tobytes(), name
+
+
+def test_border_inflow_is_the_warp_of_an_empty_grid_bit_for_bit() -> None:
+    """warp_outside (the cells near the border only) against warp_bilinear of zeros and the numpy warp: small
+    and large motions, rotations of any angle, shifts beyond the grid, whole-cell shifts, one pose or several."""
+    from gridbridge import kernels
+    from gridbridge.ego_motion import border_inflow
+
+    rng = np.random.default_rng(12)
+    specs = (SPEC, GridSpec(nx=58, ny=68, resolution=0.3, x0=-7.2, y0=-10.2), GridSpec(nx=5, ny=3, resolution=0.1))
+    for k in range(400):
+        spec = specs[k % 3]
+        s = int(rng.integers(1, 8))
+        scale = float(rng.choice([0.01, 0.1, 1.0, 20.0]))
+        poses = np.column_stack(
+            (rng.normal(0, scale, s), rng.normal(0, scale, s), rng.choice([0.0, 1e-4, 0.05, 1.0, np.pi / 2, 3.0], s))
+        )
+        if k % 7 == 0:
+            poses[:, :2] = np.round(poses[:, :2] / spec.resolution) * spec.resolution
+            poses[:, 2] = 0.0
+        w = rng.random(s) + 0.1
+        w = w / w.sum()
+        outside = float(rng.choice([0.5, 0.02, 1.0]))
+        grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+        want = kernels.warp_bilinear(np.zeros(spec.shape), grid, poses, w, outside)
+        got = kernels.warp_outside((spec.nx, spec.ny), grid, poses, w, outside)
+        assert got.tobytes() == want.tobytes(), k
+        fast, slow = _both(border_inflow, spec, poses, w, outside=outside)
+        with jit.override(True):
+            assert fast.tobytes() == warp_belief(np.zeros(spec.shape), spec, poses, w, outside=outside).tobytes()
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+    zero = np.zeros((1, 3))
+    assert not border_inflow(SPEC, zero).any() and border_inflow(SPEC, zero).shape == SPEC.shape
+    with pytest.raises(ValueError, match="poses"):
+        border_inflow(SPEC, np.zeros((2, 2)))
