@@ -92,6 +92,7 @@ from gridbridge import (
     predict_people,
     warp_belief,
 )
+from gridbridge import kernels as kernels_grid
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.ego_motion import border_inflow
 from gridbridge.filter import Prediction, filter_models, remounted
@@ -322,12 +323,19 @@ class ParticleFilter:
         return cached
 
     def _empty_cell_prior(
-        self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64]
+        self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64], empty: NDArray[np.bool_]
     ) -> NDArray[np.float64]:
-        """The linear grid prior of the previous posterior, warped with this step's sigma points."""
+        """The linear grid prior of the previous posterior, warped with this step's sigma points, in the ``empty``
+        cells (flat mask; compiled, the warp only there: :func:`gridbridge.kernels.warp_at`, the same floats)."""
         kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
         people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
-        return warp_belief(people, self.spec, poses, pose_w, outside=self.outside)
+        p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+        if not jit.enabled() or (len(p) == 1 and np.all(p[0] == 0.0)):  # (warp_belief's identity: a copy)
+            return warp_belief(people, self.spec, poses, pose_w, outside=self.outside).ravel()[empty]
+        w = np.asarray(pose_w, dtype=np.float64).ravel()
+        grid = (float(self.spec.x0), float(self.spec.y0), float(self.spec.resolution))
+        cells = np.flatnonzero(empty)
+        return kernels_grid.warp_at(people, grid, np.ascontiguousarray(p), w / w.sum(), float(self.outside), cells)
 
     def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction:
         """Both predictions (phases 1-2 and the empty-cell prior of phase 4 in the module docstring).
@@ -353,7 +361,7 @@ class ParticleFilter:
             people_prior = moved.prior
             empty = np.bincount(cells, minlength=self.spec.n_cells) == 0
         if empty.any():
-            sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w).ravel()[empty]
+            sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w, empty)
         self.state = st
         self._pending = self._prediction(cells, empty, people_prior, sensor_prior, dt)
         self.belief = self._pending.prior.reshape(self.spec.shape)

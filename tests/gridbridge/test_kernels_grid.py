@@ -185,3 +185,25 @@ def test_border_inflow_is_the_warp_of_an_empty_grid_bit_for_bit() -> None:
     assert not border_inflow(SPEC, zero).any() and border_inflow(SPEC, zero).shape == SPEC.shape
     with pytest.raises(ValueError, match="poses"):
         border_inflow(SPEC, np.zeros((2, 2)))
+
+
+def test_warp_at_some_cells_is_the_whole_warp_there_bit_for_bit() -> None:
+    """warp_at against warp_bilinear(...)[cells]: random beliefs and cells, motions small and large."""
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(13)
+    spec = GridSpec(nx=31, ny=24, resolution=0.3, x0=-4.0, y0=-3.6)
+    grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+    for k in range(200):
+        bel = rng.random(spec.shape) * (rng.random(spec.shape) < 0.5)
+        outside = float(rng.choice([0.5, 0.02]))
+        s = int(rng.integers(1, 8))
+        poses = np.column_stack((rng.normal(0, 0.3, s), rng.normal(0, 0.3, s), rng.normal(0, 0.3, s)))
+        if k % 5 == 0:
+            poses[:, :2] *= 30.0
+        w = rng.random(s) + 0.1
+        w = w / w.sum()
+        cells = np.flatnonzero(rng.random(spec.n_cells) < float(rng.choice([0.02, 0.3, 1.0])))
+        want = kernels.warp_bilinear(bel, grid, poses, w, outside).ravel()[cells]
+        got = kernels.warp_at(bel, grid, poses, w, outside, cells)
+        assert got.tobytes() == want.tobytes(), k

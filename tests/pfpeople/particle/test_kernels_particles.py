@@ -220,3 +220,24 @@ def test_move_persistent_compiled_is_the_numpy_walk_bit_for_bit(params: Persiste
         rows.append(draws.random(3).tobytes())  # the same number of draws on both paths
         out.append(rows)
     assert out[0] == out[1]
+
+
+@pytest.mark.parametrize("odo", [Odometry(v=0.5, omega=0.3), None])
+def test_empty_cell_prior_at_the_empty_cells_is_the_whole_warp_there(odo: Odometry | None) -> None:
+    """_empty_cell_prior (compiled: warp_convolved_at, only at the empty cells) against the whole grid's linear
+    prior warped by the compiled grid functions, read at those cells; standing (one pose at 0) too."""
+    from gridbridge import ego_motion_sigma_points, people_motion_kernel, predict_people, warp_belief
+
+    pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(3))
+    for t in range(4):
+        pf.step(DETECTIONS if t % 2 == 0 else [None, None, None], Odometry(v=0.4, omega=0.2), 0.1)
+    poses, w = ego_motion_sigma_points(odo, 0.1, pf.noise)
+    empty = np.random.default_rng(4).random(pf.spec.n_cells) < 0.2
+    with jit.override(True):
+        got = pf._empty_cell_prior(0.1, poses, w, empty)
+        kernel = people_motion_kernel(pf.spec, pf.motion, dt=0.1, form="integrated")
+        people = predict_people(pf.belief, kernel, outside=pf.outside, form="linear")
+        want = warp_belief(people, pf.spec, poses, w, outside=pf.outside).ravel()[empty]
+    assert got.tobytes() == want.tobytes()
+    with jit.override(False, "gridbridge"):
+        np.testing.assert_allclose(pf._empty_cell_prior(0.1, poses, w, empty), want, rtol=0, atol=1e-12)
