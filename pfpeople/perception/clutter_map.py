@@ -101,10 +101,9 @@ def _positions(values: ArrayLike, name: str, *, drop_nonfinite: bool = False) ->
         return np.zeros((0, 2))
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise ValueError(f"{name} must have shape (N, 2) of (x, y) positions in metres, got {arr.shape}")
-    finite = np.isfinite(arr).all(axis=1)
     if drop_nonfinite:
-        return arr[finite]
-    if not finite.all():
+        return arr[np.isfinite(arr).all(axis=1)]
+    if not np.isfinite(arr).all():  # one reduction: every row finite is every value finite
         raise ValueError(f"{name} contains NaN or infinite positions")
     return arr
 

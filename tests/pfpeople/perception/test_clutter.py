@@ -402,3 +402,16 @@ def test_suppressor_backoff_skips_scans_but_matches_again_after_it(rng: np.rando
         true = robot[k - 1].inverse().compose(robot[k])
         assert abs(egos[k].x - true.x) < 0.01 and abs(egos[k].y - true.y) < 0.01, k
         assert abs(egos[k].yaw - true.yaw) < math.radians(0.3), k
+
+
+def test_positions_check_keeps_finite_rows_and_refuses_nonfinite() -> None:
+    from pfpeople.perception.clutter_map import _positions
+
+    pts = np.array([[1.0, 2.0], [np.nan, 0.0], [3.0, np.inf], [4.0, 5.0]])
+    np.testing.assert_array_equal(_positions(pts, "p", drop_nonfinite=True), pts[[0, 3]])
+    np.testing.assert_array_equal(_positions(pts[[0, 3]], "p"), pts[[0, 3]])
+    assert _positions([], "p").shape == (0, 2)
+    with pytest.raises(ValueError, match="p contains NaN or infinite positions"):
+        _positions(pts, "p")
+    with pytest.raises(ValueError, match=r"shape \(N, 2\)"):
+        _positions(np.zeros((3, 3)), "p")
