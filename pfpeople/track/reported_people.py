@@ -307,10 +307,13 @@ class PeopleTracker:
             n_found = len(found.positions)
             found = replace(found, positions=pos[:n_found])
         support = support if self.use_support else None
-        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support)
+        if (views and self.see_through) or self.people != "classified":
+            self.tracker.advance(pos, dt, scores=sc, ego=ego, support=support)
+            tracks, live = self.tracker.confirmed_and_live()  # one snapshot of the tracks a frame
+        else:
+            tracks, live = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support), []
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
-        live = self.tracker.tracks if (views and self.see_through) or self.people != "classified" else []
         gone: set[int] = set()
         if views and self.see_through:
             gone = self._seen_through(live, tracks, views)
