@@ -624,8 +624,12 @@ class RunWriter:
     def _write_people(
         self, key: tuple[int, int, int, int], people: NDArray[np.float64], sizes: list[int], probs: list[float]
     ) -> None:
-        for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True):
-            self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
+        self._people.writerows(
+            [
+                (*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}")
+                for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True)
+            ]
+        )
 
     def _write_support(
         self,
@@ -646,8 +650,7 @@ class RunWriter:
             from pfpeople.track import TRACK_COLUMNS
 
             self._tracks = self._csv("tracks.csv", TRACK_COLUMNS)
-        for row in tracks:
-            self._tracks.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in row])
+        self._tracks.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in row] for row in tracks])
 
     def _write_particles(self, frame: int, particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
         if particles is None:
@@ -699,8 +702,13 @@ class RunWriter:
             pts = np.asarray(det, dtype=float).reshape(-1, 2)
             given = static[i] if static is not None else None
             flags = np.zeros(len(pts), dtype=bool) if given is None else np.asarray(given, dtype=bool)
-            for (x, y), st in zip(pts.tolist(), flags.tolist(), strict=True):  # Python numbers: faster, same text
-                writer.writerow((*key, name, f"{x:.6f}", f"{y:.6f}", int(st)))
+            # Python numbers (faster, the same text), the rows in one call
+            writer.writerows(
+                [
+                    (*key, name, f"{x:.6f}", f"{y:.6f}", int(st))
+                    for (x, y), st in zip(pts.tolist(), flags.tolist(), strict=True)
+                ]
+            )
 
     def update(self, **items: Any) -> None:
         """Add or replace keys of ``run.json`` (written at once)."""
