@@ -187,8 +187,7 @@ def persistent_walk(
     rates: tuple[float, float],
     walk: tuple[float, float, float, float, float, float],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_]]:
-    """The walk of :func:`pfpeople.particle.propagation.move_persistent` before the new walkers' draws, bit for
-    bit: each particle's speed and heading carried on with noise, reflected into ``[0, v_max]``.
+    """:func:`pfpeople.particle.propagation.move_persistent`'s walk before the new walkers' draws, bit for bit.
 
     Parameters
     ----------

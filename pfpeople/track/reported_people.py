@@ -307,11 +307,8 @@ class PeopleTracker:
             n_found = len(found.positions)
             found = replace(found, positions=pos[:n_found])
         support = support if self.use_support else None
-        if (views and self.see_through) or self.people != "classified":
-            self.tracker.advance(pos, dt, scores=sc, ego=ego, support=support)
-            tracks, live = self.tracker.confirmed_and_live()  # one snapshot of the tracks a frame
-        else:
-            tracks, live = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support), []
+        self.tracker.advance(pos, dt, scores=sc, ego=ego, support=support)
+        tracks, live = self.tracker.confirmed_and_live()  # one snapshot of the tracks a frame
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
         gone: set[int] = set()
