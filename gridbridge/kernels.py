@@ -9,6 +9,7 @@ kernel                 numpy twin                                   agreement
 :func:`warp_bilinear`  :func:`gridbridge.ego_motion.warp_belief`     1e-12 (scipy's spline weights, BLAS sum)
 :func:`warp_outside`   :func:`warp_bilinear` of a zero belief       bit for bit (the cells it skips add +0.0)
 :func:`warp_at`        :func:`warp_bilinear` at some cells          bit for bit (the same sums, only there)
+:func:`peak_candidates` :func:`gridbridge.classifiers.peak_maxima`   exact (maxima and comparisons only)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
@@ -42,6 +43,7 @@ __all__ = [
     "gaussian_args",
     "independent_terms",
     "pairwise_sum",
+    "peak_candidates",
     "point_map",
     "predict_paper",
     "scatter_max",
@@ -375,6 +377,36 @@ def warp_at(
     for m in range(cells.size):
         out[m] = min(max(out[m], 0.0), 1.0)
     return out
+
+
+@jit
+def peak_candidates(grid: NDArray[np.float64], half: int, threshold: float) -> NDArray[np.intp]:
+    """The cells ``(K, 2)`` (row-major order) whose belief is above ``threshold`` and the maximum of the
+    ``(2 half + 1)``-square window around them: ``np.argwhere((grid > threshold) & (grid >= maximum_filter(grid,
+    2 half + 1, mode="constant", cval=0.0)))``, exactly (maxima do not round; the window's cells beyond the
+    border read 0.0, which a belief above a threshold >= 0 exceeds anyway)."""
+    nx, ny = grid.shape
+    out = np.empty((nx * ny, 2), dtype=np.intp)
+    k = 0
+    for i in range(nx):
+        i0, i1 = max(i - half, 0), min(i + half + 1, nx)
+        for j in range(ny):
+            g = grid[i, j]
+            if not g > threshold:
+                continue
+            j0, j1 = max(j - half, 0), min(j + half + 1, ny)
+            top = True
+            for a in range(i0, i1):
+                for b in range(j0, j1):
+                    if grid[a, b] > g:
+                        top = False
+                        break
+                if not top:
+                    break
+            if top:
+                out[k, 0], out[k, 1] = i, j
+                k += 1
+    return out[:k].copy()
 
 
 @jit

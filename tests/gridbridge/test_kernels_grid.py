@@ -207,3 +207,27 @@ def test_warp_at_some_cells_is_the_whole_warp_there_bit_for_bit() -> None:
         want = kernels.warp_bilinear(bel, grid, poses, w, outside).ravel()[cells]
         got = kernels.warp_at(bel, grid, poses, w, outside, cells)
         assert got.tobytes() == want.tobytes(), k
+
+
+def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
+    """classify_peaks' candidates by peak_candidates against peak_maxima's maximum filter: plateaus (ties), peaks
+    at the border, windows of 1-4 cells, thresholds 0 to 0.9."""
+    from gridbridge import kernels
+    from gridbridge.classifiers import _ordered_candidates, classify_peaks, peak_maxima
+
+    rng = np.random.default_rng(14)
+    for k in range(300):
+        spec = GridSpec(nx=int(rng.integers(1, 30)), ny=int(rng.integers(1, 30)), resolution=0.3)
+        q = float(rng.choice([4, 20, 1000]))  # few levels: plateaus of equal beliefs
+        grid = np.round(rng.random(spec.shape) * q) / q
+        threshold = float(rng.choice([0.0, 0.3, 0.5, 0.9]))
+        sep = float(rng.choice([0.25, 0.6, 0.9, 1.2]))
+        is_max, value = peak_maxima(grid, spec, sep)
+        want = np.argwhere((value > threshold) & is_max)
+        half = max(1, int(np.ceil(sep / spec.resolution - 1e-9)))
+        got = kernels.peak_candidates(grid, half, threshold)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), k
+        fast, slow = _both(_ordered_candidates, grid, spec, threshold, sep, 0.0)
+        assert all(a.tobytes() == b.tobytes() for a, b in zip(fast, slow, strict=True))
+        pf, ps = _both(classify_peaks, grid, spec, threshold=threshold, min_separation=sep)
+        assert pf.positions.tobytes() == ps.positions.tobytes() and pf.mask.tobytes() == ps.mask.tobytes()
