@@ -278,6 +278,8 @@ def pair_legs(
     paired = np.zeros(k, dtype=bool)
     if k < 2:
         return np.zeros((0, 2), dtype=np.intp), paired
+    if _jit.enabled("pfpeople"):
+        return _kernels.pair_greedy(np.ascontiguousarray(pts), float(min_separation), float(max_separation))
     ii, jj = _pair_indices(k)
     d = np.hypot(*(pts[ii] - pts[jj]).T)
     ok = (d >= min_separation) & (d <= max_separation)

@@ -256,3 +256,25 @@ def test_self_returns_compiled_equal_numpy() -> None:
         assert dets[True]._ref.tobytes() == dets[False]._ref.tobytes()
         seen = seen or bool(dets[True].mask.any())
     assert seen
+
+
+def test_pair_legs_compiled_pairs_as_numpy() -> None:
+    """pair_greedy against pair_legs' numpy path: random legs, ties of distance (legs on a lattice), none or one
+    admissible pair, duplicates."""
+    from pfpeople.detect.legs import pair_legs
+
+    rng = np.random.default_rng(17)
+    for t in range(400):
+        k = int(rng.integers(0, 12))
+        legs = rng.uniform(-2.0, 2.0, (k, 2))
+        if t % 3 == 0:
+            legs = np.round(legs * 4.0) / 4.0  # a lattice: many equal distances
+        if t % 7 == 0 and k > 2:
+            legs[1] = legs[0]
+        lo, hi = float(rng.choice([0.0, 0.1, 0.25])), float(rng.choice([0.3, 0.6, 1.5]))
+        with jit.override(True, "pfpeople"):
+            fast = pair_legs(legs, min_separation=lo, max_separation=hi)
+        with jit.override(False, "pfpeople"):
+            slow = pair_legs(legs, min_separation=lo, max_separation=hi)
+        for a, b in zip(fast, slow, strict=True):
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), t
