@@ -356,7 +356,9 @@ def particle_records(frame: int, x: NDArray[np.float64], y: NDArray[np.float64])
     x, y = np.asarray(x, dtype=float).reshape(-1), np.asarray(y, dtype=float).reshape(-1)
     idx = np.arange(len(x))
     if len(x) > MAX_PARTICLES_SAVED:
-        idx = np.sort(np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False))
+        chosen = np.zeros(len(x), dtype=bool)  # distinct indices: their mask's ones are them sorted
+        chosen[np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False)] = True
+        idx = np.flatnonzero(chosen)
     rec = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
     rec["frame"], rec["x"], rec["y"] = frame, x[idx], y[idx]
     return rec

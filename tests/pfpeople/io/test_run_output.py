@@ -41,3 +41,19 @@ def test_run_output_is_readable_while_written_and_after_a_crash(tmp_path: Path) 
         RunWriter(tmp_path / "run", spec=spec, detector_names=["a"])
     with pytest.raises(FileNotFoundError, match="not a run directory"):
         load_run(tmp_path)
+
+
+def test_particle_records_are_the_sorted_seeded_subsample() -> None:
+    """particle_records: the frame-seeded choice without replacement, in index order (as np.sort of it)."""
+    from pfpeople.io.run_dir import MAX_PARTICLES_SAVED, PARTICLE_DTYPE, particle_records
+
+    rng = np.random.default_rng(2)
+    for n, frame in ((10, 0), (MAX_PARTICLES_SAVED, 3), (MAX_PARTICLES_SAVED + 1, 4), (20_500, 7)):
+        x, y = rng.normal(size=n), rng.normal(size=n)
+        rec = particle_records(frame, x, y)
+        idx = np.arange(n)
+        if n > MAX_PARTICLES_SAVED:
+            idx = np.sort(np.random.default_rng(frame).choice(n, MAX_PARTICLES_SAVED, replace=False))
+        want = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
+        want["frame"], want["x"], want["y"] = frame, x[idx], y[idx]
+        assert rec.tobytes() == want.tobytes()
