@@ -83,6 +83,7 @@ from numpy.typing import NDArray
 
 from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
+from gridbridge.validation import finite_rows
 from pfpeople.io import locks
 from pfpeople.io.jsonio import dumps
 
@@ -340,12 +341,14 @@ def scan_records(
         if topic not in topics:
             topics.append(topic)
         pts = np.asarray(pts, dtype=float).reshape(-1, 2)
-        ok = np.isfinite(pts).all(axis=1)
-        rec = np.zeros(int(np.count_nonzero(ok)), dtype=SCAN_DTYPE)
+        ok = finite_rows(pts)
+        every = bool(ok.all())  # the pipeline's scans hold finite points only: no copies then
+        rec = np.zeros(pts.shape[0] if every else int(np.count_nonzero(ok)), dtype=SCAN_DTYPE)
         rec["frame"], rec["laser"] = frame, topics.index(topic)
-        rec["x"], rec["y"] = pts[ok, 0], pts[ok, 1]
+        rec["x"], rec["y"] = (pts[:, 0], pts[:, 1]) if every else (pts[ok, 0], pts[ok, 1])
         if static is not None:
-            rec["static"] = np.asarray(static, dtype=bool)[ok]
+            flags = np.asarray(static, dtype=bool)
+            rec["static"] = flags if every else flags[ok]
         parts.append(rec)
     return np.concatenate(parts) if parts else np.zeros(0, dtype=SCAN_DTYPE)
 

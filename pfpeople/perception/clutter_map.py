@@ -76,7 +76,7 @@ from scipy.spatial import cKDTree
 
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
-from gridbridge.validation import check_int, check_real
+from gridbridge.validation import check_int, check_real, finite_rows
 from pfpeople.perception.clutter_kernels import ball_means, moving_update, static_lookup, update_evidence
 from pfpeople.perception.scan_matching import ScanOdometry
 from pfpeople.perception.self_returns import SelfReturns
@@ -102,7 +102,7 @@ def _positions(values: ArrayLike, name: str, *, drop_nonfinite: bool = False) ->
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise ValueError(f"{name} must have shape (N, 2) of (x, y) positions in metres, got {arr.shape}")
     if drop_nonfinite:
-        return arr[np.isfinite(arr).all(axis=1)]
+        return arr[finite_rows(arr)]
     if not np.isfinite(arr).all():  # one reduction: every row finite is every value finite
         raise ValueError(f"{name} contains NaN or infinite positions")
     return arr
@@ -545,7 +545,7 @@ class StaticClutterMap:
         """
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         out = np.zeros(pts.shape[0], dtype=bool)
-        ok = np.isfinite(pts).all(axis=1)
+        ok = finite_rows(pts)
         if not ok.any():
             return out
         c = self.config

@@ -57,3 +57,16 @@ def test_particle_records_are_the_sorted_seeded_subsample() -> None:
         want = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
         want["frame"], want["x"], want["y"] = frame, x[idx], y[idx]
         assert rec.tobytes() == want.tobytes()
+
+
+def test_scan_records_drop_nonfinite_points_and_keep_flags() -> None:
+    from pfpeople.io.run_dir import SCAN_DTYPE, scan_records
+
+    pts = np.array([[1.0, 2.0], [np.nan, 1.0], [3.0, 4.0], [5.0, np.inf]])
+    static = np.array([True, False, False, True])
+    topics: list[str] = []
+    rec = scan_records(7, {"/a": (pts, static), "/b": (pts[[0, 2]], None)}, topics)
+    assert topics == ["/a", "/b"] and rec.dtype == SCAN_DTYPE
+    assert rec["laser"].tolist() == [0, 0, 1, 1] and set(rec["frame"].tolist()) == {7}
+    assert rec["x"].tolist() == [1.0, 3.0, 1.0, 3.0] and rec["y"].tolist() == [2.0, 4.0, 2.0, 4.0]
+    assert rec["static"].tolist() == [1, 0, 0, 0]
