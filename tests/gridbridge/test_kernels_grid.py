@@ -231,3 +231,31 @@ def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
         assert all(a.tobytes() == b.tobytes() for a, b in zip(fast, slow, strict=True))
         pf, ps = _both(classify_peaks, grid, spec, threshold=threshold, min_separation=sep)
         assert pf.positions.tobytes() == ps.positions.tobytes() and pf.mask.tobytes() == ps.mask.tobytes()
+
+
+def _convolve_reference(bel: np.ndarray, kernel: np.ndarray, outside: float) -> np.ndarray:
+    """The linear prediction's sums as the compiled kernel adds them: per cell from 0.0 over the nonzero taps in
+    row-major order, clipped (the order of the kernel before its cells were summed eight at a time)."""
+    nx, ny = bel.shape
+    rad = kernel.shape[0] // 2
+    padded = np.full((nx + 2 * rad, ny + 2 * rad), outside)
+    padded[rad : rad + nx, rad : rad + ny] = bel
+    s = np.zeros((nx, ny))
+    for a in range(kernel.shape[0]):
+        for b in range(kernel.shape[1]):
+            if kernel[a, b] != 0.0:
+                s += kernel[a, b] * padded[2 * rad - a : 2 * rad - a + nx, 2 * rad - b : 2 * rad - b + ny]
+    return np.clip(s, 0.0, 1.0)
+
+
+def test_linear_prediction_sums_each_cell_in_tap_order_bit_for_bit() -> None:
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(15)
+    for k in range(60):
+        spec = GridSpec(nx=int(rng.integers(1, 40)), ny=int(rng.integers(1, 40)), resolution=0.3)
+        bel = rng.random(spec.shape) * (rng.random(spec.shape) < 0.6)
+        kern = people_motion_kernel(spec, dt=float(rng.choice([0.05, 0.1333, 0.4])), form="integrated")
+        outside = float(rng.choice([0.5, 0.02, 1.0]))
+        got = kernels.convolve_const(bel, np.ascontiguousarray(kern), outside)
+        assert got.tobytes() == _convolve_reference(bel, kern, outside).tobytes(), k
