@@ -900,7 +900,7 @@ class ClutterSuppressor:
         self.map.update(points, ego=ego, exclude=excluded, stamp_ns=stamp_ns, dt=dt, free=free)
         if self.own is not None:
             self.own.update(points, ego if ok else None)
-        keep = [~self.is_clutter(d) if d.shape[0] else np.zeros(0, dtype=bool) for d in dets]
+        keep = [~flags for flags in self.clutter_flags(dets)]
         while len(self._moving_sets) < len(dets):
             self._moving_sets.append(copy.deepcopy(self._moving_sets[0]))
         moving = [mp.update(d, ego=ego, dt=self.map.last_dt) for mp, d in zip(self._moving_sets, dets, strict=False)]
@@ -926,6 +926,15 @@ class ClutterSuppressor:
             self._failures += 1
             self._backoff = min(2 ** (self._failures - 1), self.max_backoff) - 1
         return st.ego, ok
+
+    def clutter_flags(self, groups: Sequence[NDArray[np.float64]]) -> list[NDArray[np.bool_]]:
+        """:meth:`is_clutter` of each array of positions ``(M_i, 2)`` in ``groups``, in one query of them all
+        (each position's answer is its own: the same flags as a query per array)."""
+        sizes = [len(g) for g in groups]
+        if not any(sizes):
+            return [np.zeros(0, dtype=bool) for _ in groups]
+        flags = self.is_clutter(np.concatenate([np.asarray(g, dtype=float).reshape(-1, 2) for g in groups]))
+        return np.split(flags, np.cumsum(sizes)[:-1])
 
     def is_clutter(self, positions: ArrayLike) -> NDArray[np.bool_]:
         """``(M,)`` which positions (m, laser frame of the latest :meth:`step`) are static clutter: static in

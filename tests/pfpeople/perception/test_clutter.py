@@ -415,3 +415,24 @@ def test_positions_check_keeps_finite_rows_and_refuses_nonfinite() -> None:
         _positions(pts, "p")
     with pytest.raises(ValueError, match=r"shape \(N, 2\)"):
         _positions(np.zeros((3, 3)), "p")
+
+
+def test_clutter_flags_of_several_groups_are_one_query_per_group() -> None:
+    """clutter_flags (one query of every group) gives each group the flags is_clutter gives it alone."""
+    sup = ClutterSuppressor(CFG)
+    robot = [Pose2D(x=-1.0 + 0.03 * k, y=0.0, yaw=0.0) for k in range(FRAMES_TO_STATIC + 5)]
+    rng = np.random.default_rng(8)
+    for k, pose in enumerate(robot):
+        ego = robot[k - 1].inverse().compose(pose) if k else Pose2D()
+        walker = np.array([2.0, 0.5 + 0.1 * k])
+        pts = ray_cast(pose, post() + legs(walker, phase=0.8 * k))
+        sup.step(pts, [pose.inverse().apply(POST)], ego=ego, dt=DT)
+        near_post = pose.inverse().apply(POST) + rng.normal(0.0, 0.05, (3, 2))
+        groups = [near_post[:2], np.zeros((0, 2)), np.vstack((near_post[2:], pts[:4])), rng.normal(0, 3, (5, 2))]
+        got = sup.clutter_flags(groups)
+        assert len(got) == 4
+        for g, flags in zip(groups, got, strict=True):
+            want = sup.is_clutter(g) if len(g) else np.zeros(0, dtype=bool)
+            assert flags.dtype == bool and flags.tolist() == want.tolist()
+    assert any(sup.is_clutter(pose.inverse().apply(POST[None, :])))
+    assert [f.shape for f in sup.clutter_flags([np.zeros((0, 2))] * 2)] == [(0,), (0,)]
