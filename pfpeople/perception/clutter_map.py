@@ -77,7 +77,7 @@ from scipy.spatial import cKDTree
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
 from gridbridge.validation import check_int, check_real, finite_rows
-from pfpeople.perception.clutter_kernels import ball_means, moving_update, static_lookup, update_evidence
+from pfpeople.perception.clutter_kernels import ball_means, moving_update, scan_rays, static_lookup, update_evidence
 from pfpeople.perception.scan_matching import ScanOdometry
 from pfpeople.perception.self_returns import SelfReturns
 
@@ -378,12 +378,12 @@ class StaticClutterMap:
             For an ``ego`` that is not a :class:`Pose2D`.
         """
         pts, people, step = self._begin_update(points, ego, exclude, dt, stamp_ns)
-        pts, human, rays, lengths = self._rays(pts, people, free)
-        cells, inside = self.cell_of(self.pose.apply(pts))
         s = self.evidence.reshape(-1)
         if _jit.enabled("pfpeople") and s.base is self.evidence:  # the same as below, compiled (clutter_kernels)
-            self._evidence_compiled(s, cells, inside, human, rays, lengths, step)
+            pts, cells, inside = self._update_compiled(s, pts, people, free, step)
         else:
+            pts, human, rays, lengths = self._rays(pts, people, free)
+            cells, inside = self.cell_of(self.pose.apply(pts))
             self._evidence_numpy(s, cells, inside, human, rays, lengths, step)
         # the latest returns, for the queries (all returns, people's too: a query looks at what is there now)
         self._hit_cells = cells[inside]
@@ -438,21 +438,27 @@ class StaticClutterMap:
         )
         return pts, human, rays, lengths
 
-    def _evidence_compiled(
+    def _update_compiled(
         self,
         s: NDArray[np.float64],
-        cells: NDArray[np.intp],
-        inside: NDArray[np.bool_],
-        human: NDArray[np.bool_],
-        rays: NDArray[np.float64],
-        lengths: NDArray[np.float64],
+        pts: NDArray[np.float64],
+        people: NDArray[np.float64],
+        free: ArrayLike | None,
         step: float,
-    ) -> None:
-        """The evidence update of one scan by :func:`pfpeople.perception.clutter_kernels.update_evidence` (the same
-        values
-        as :meth:`_evidence_numpy`)."""
+    ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_]]:
+        """The rest of :meth:`update` compiled, the same values as its numpy steps (:meth:`_rays`, :meth:`cell_of`,
+        :meth:`_evidence_numpy`): the scan's geometry by :func:`~pfpeople.perception.clutter_kernels.scan_rays`,
+        the evidence by :func:`~pfpeople.perception.clutter_kernels.update_evidence`. Returns the returns within
+        ``max_range`` (M, 2), their flat cells and whether they are inside the window."""
         c = self.config
-        ru, origin, n_free = self._ray_dirs(rays, lengths)
+        no_return = np.zeros((0, 2)) if free is None else _positions(free, "free", drop_nonfinite=True)
+        inv = 1.0 / c.resolution
+        o = self.origin
+        pose = (float(self.pose.x), float(self.pose.y), math.cos(self.pose.yaw), math.sin(self.pose.yaw))
+        geo = np.array([c.max_range, c.exclude_radius, c.free_stride, c.free_margin, o[0], o[1], inv])
+        arrays = (np.ascontiguousarray(a) for a in (pts, people, no_return))
+        pts, human, cells, inside, ru, n_free = scan_rays(*arrays, pose, geo, self._steps, self.n)
+        origin = (np.array([self.pose.x, self.pose.y]) - o) * inv
         params = np.array(
             [c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, c.free_rate * step, c.s_min]
         )
@@ -460,6 +466,7 @@ class StaticClutterMap:
         update_evidence(
             s, self.n, cells[inside & ~human], cells[inside & human], ru, n_free, self._steps, origin, nb, params
         )
+        return pts, cells, inside
 
     def _evidence_numpy(
         self,

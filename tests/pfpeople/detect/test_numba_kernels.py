@@ -86,13 +86,14 @@ def test_pairwise_sum_is_numpys_reduceat() -> None:
         assert pairwise_sum(v, lo, n) == v[lo : lo + n].sum()
 
 
-def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("extra", [{}, {"free_stride": 3, "max_range": 6.0}])
+def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch, extra: dict) -> None:
     """Two maps fed the same scans (a moving sensor, people to exclude, beams without a return) keep the same
     evidence bit for bit, one compiled and one in numpy."""
     from pfpeople.perception.clutter_map import ClutterConfig, StaticClutterMap
     from pfpeople.sensors import Pose2D
 
-    cfg = ClutterConfig(static_time=0.5)
+    cfg = ClutterConfig(static_time=0.5, **extra)
     maps = {True: StaticClutterMap(cfg), False: StaticClutterMap(cfg)}
     rng = np.random.default_rng(11)
     static = 0
@@ -105,6 +106,8 @@ def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatc
             with jit.override(on, "pfpeople"):
                 m.update(pts, ego=ego, exclude=people, dt=0.05 + 0.01 * (k % 5), free=free)
         assert maps[True].evidence.tobytes() == maps[False].evidence.tobytes()
+        for name in ("_hit_cells", "_hit_xy"):  # the returns the queries look at
+            assert getattr(maps[True], name).tobytes() == getattr(maps[False], name).tobytes()
         q = np.concatenate((pts, rng.normal(0, 20, (50, 2))))  # the map moved: the lookup's pose and window
         with jit.override(True, "pfpeople"):
             compiled = maps[True].static_points(q)
