@@ -24,6 +24,7 @@ _F: TypeAlias = NDArray[np.float64]
 __all__ = [
     "ball_means",
     "moving_update",
+    "return_scores",
     "scan_rays",
     "self_update",
     "static_lookup",
@@ -365,6 +366,29 @@ def scan_rays(
     return keep, human, cells, inside, ru, n_free
 
 
+@njit
+def return_scores(
+    ev: _F, hit_cells: NDArray[np.intp], offsets: NDArray[np.intp], static_time: float
+) -> _F:  # pragma: no cover - compiled
+    """``StaticClutterMap._return_scores``, exactly: per return, the largest evidence of its cell and of the cells
+    ``offsets`` (flat, wrapped) from it (``np.maximum`` in the offsets' order: maxima do not round), over
+    ``static_time``, clipped to [0, 1]."""
+    ncell = ev.size
+    out = np.empty(hit_cells.size)
+    for k in range(hit_cells.size):
+        c = hit_cells[k]
+        best = ev[c]
+        for off in offsets:
+            v = ev[(c + off) % ncell]
+            best = v if v > best or math.isnan(v) else best
+        t = best / static_time
+        if not math.isnan(t):  # np.clip: (t > 0 ? t : 0), then (t < 1 ? t : 1); NaN stays
+            t = t if t > 0.0 else 0.0
+            t = t if t < 1.0 else 1.0
+        out[k] = t
+    return out
+
+
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them
     (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
@@ -375,6 +399,11 @@ def warm_up() -> None:
     ev = np.zeros(4)
     update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)
     ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
+    return_scores(ev, np.zeros(1, dtype=np.intp), np.zeros(1, dtype=np.intp), 1.0)
+    one = np.ones((1, 2))
+    geo = np.array([10.0, 0.3, 1.0, 0.1, -1.0, -1.0, 1.0])
+    scan_rays(one, np.zeros((0, 2)), np.zeros((0, 2)), (0.0, 0.0, 1.0, 0.0), geo, np.ones(3), 2)
+    scan_rays(one, one, one, (0.0, 0.0, 1.0, 0.0), geo, np.ones(3), 2)
     e = np.zeros((0, 2))
     static_lookup(np.zeros((1, 2)), np.zeros(4), 2, (0.0, 0.0, 1.0, 0.0), (-1.0, -1.0, 1.0), np.ones(2))
     pts, ref = np.zeros((2, 2)), np.full((2, 2), np.nan)

@@ -77,7 +77,14 @@ from scipy.spatial import cKDTree
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
 from gridbridge.validation import check_int, check_real, finite_rows
-from pfpeople.perception.clutter_kernels import ball_means, moving_update, scan_rays, static_lookup, update_evidence
+from pfpeople.perception.clutter_kernels import (
+    ball_means,
+    moving_update,
+    return_scores,
+    scan_rays,
+    static_lookup,
+    update_evidence,
+)
 from pfpeople.perception.scan_matching import ScanOdometry
 from pfpeople.perception.self_returns import SelfReturns
 
@@ -603,6 +610,10 @@ class StaticClutterMap:
 
     def _return_scores(self) -> NDArray[np.float64]:
         """Score of each latest return: the largest cell score within ``query_cells`` cells of its cell."""
+        if self._scores is None and _jit.enabled("pfpeople"):  # the same scores, compiled (clutter_kernels)
+            offsets = np.asarray(self._query_neighbours, dtype=np.intp)
+            ev = np.ascontiguousarray(self.evidence).reshape(-1)
+            self._scores = return_scores(ev, self._hit_cells, offsets, float(self.config.static_time))
         if self._scores is None:
             ev = self.evidence.reshape(-1)
             ncell = self.n * self.n
