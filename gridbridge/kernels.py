@@ -10,6 +10,7 @@ kernel                 numpy twin                                   agreement
 :func:`warp_outside`   :func:`warp_bilinear` of a zero belief       bit for bit (the cells it skips add +0.0)
 :func:`warp_at`        :func:`warp_bilinear` at some cells          bit for bit (the same sums, only there)
 :func:`peak_candidates` :func:`gridbridge.classifiers.peak_maxima`   exact (maxima and comparisons only)
+:func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
@@ -44,6 +45,7 @@ __all__ = [
     "independent_terms",
     "pairwise_sum",
     "peak_candidates",
+    "peak_centroids",
     "point_map",
     "predict_paper",
     "scatter_max",
@@ -436,6 +438,39 @@ def peak_candidates(grid: NDArray[np.float64], half: int, threshold: float) -> N
                 out[k, 0], out[k, 1] = i, j
                 k += 1
     return out[:k].copy()
+
+
+@jit
+def peak_centroids(
+    grid: NDArray[np.float64],
+    peaks: NDArray[np.intp],
+    di: NDArray[np.intp],
+    dj: NDArray[np.intp],
+    floor: float,
+    mask: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The belief-weighted mean cell ``(ci, cj)`` (P, 2) of each peak ``(i, j)`` over the cells at the offsets
+    ``(di, dj)`` inside the grid whose belief is at least ``floor``, and how many there are (P,); those cells set
+    in ``mask``: :func:`gridbridge.classifiers._peak_people`'s numpy sums (:func:`pairwise_sum` of the weights
+    and of the weights times the indices, in the offsets' order), bit for bit."""
+    nx, ny = grid.shape
+    w, wi, wj = np.empty(di.size), np.empty(di.size), np.empty(di.size)
+    centres = np.empty((peaks.shape[0], 2))
+    sizes = np.empty(peaks.shape[0], dtype=np.int64)
+    for p in range(peaks.shape[0]):
+        n = 0
+        for d in range(di.size):
+            a, b = peaks[p, 0] + di[d], peaks[p, 1] + dj[d]
+            if 0 <= a < nx and 0 <= b < ny and grid[a, b] >= floor:
+                g = grid[a, b]
+                w[n], wi[n], wj[n] = g, g * a, g * b
+                mask[a, b] = True
+                n += 1
+        total = pairwise_sum(w, 0, n)
+        centres[p, 0] = pairwise_sum(wi, 0, n) / total
+        centres[p, 1] = pairwise_sum(wj, 0, n) / total
+        sizes[p] = n
+    return centres, sizes
 
 
 @jit

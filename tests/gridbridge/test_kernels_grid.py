@@ -229,8 +229,11 @@ def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), k
         fast, slow = _both(_ordered_candidates, grid, spec, threshold, sep, 0.0)
         assert all(a.tobytes() == b.tobytes() for a, b in zip(fast, slow, strict=True))
-        pf, ps = _both(classify_peaks, grid, spec, threshold=threshold, min_separation=sep)
-        assert pf.positions.tobytes() == ps.positions.tobytes() and pf.mask.tobytes() == ps.mask.tobytes()
+        radius = float(rng.choice([0.0, 0.35, 0.7]))
+        pf, ps = _both(classify_peaks, grid, spec, threshold=threshold, min_separation=sep, centroid_radius=radius)
+        for name in ("positions", "scores", "sizes", "mask"):  # peak_centroids' sums and the numpy ones
+            a, b = getattr(pf, name), getattr(ps, name)
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), name
 
 
 def _convolve_reference(bel: np.ndarray, kernel: np.ndarray, outside: float) -> np.ndarray:
