@@ -301,25 +301,9 @@ def _ray(
 
 
 @njit
-def scan_rays(
-    pts: _F, people: _F, no_return: _F, pose: tuple[float, float, float, float], geo: _F, steps: _F, n: int
-) -> tuple[_F, NDArray[np.bool_], NDArray[np.intp], NDArray[np.bool_], _F, NDArray[np.intp]]:  # pragma: no cover
-    """``StaticClutterMap.update``'s geometry of one scan in one pass, as its numpy code computes it
-    (``_rays``, ``cell_of`` of the returns moved into the map frame, ``_ray_dirs``).
-
-    ``pts`` are the finite returns (N, 2), ``people`` the excluded positions (K, 2), ``no_return`` the no-return
-    beams' end points (F, 2) (m, sensor frame); ``pose = (x, y, cos yaw, sin yaw)`` the sensor in the map frame;
-    ``geo = (max_range, exclude_radius, free_stride, free_margin, x0, y0, 1 / resolution)`` with the window's
-    corner ``(x0, y0)``; ``steps`` the sample distances; ``n`` the window's cells per side.
-
-    Returns the returns within ``max_range`` (M, 2), which of them lie near a person, their flat cells (0
-    outside) and whether inside the window, and the rays' directions (R, 2) and samples (R,): every
-    ``free_stride``-th return up to ``free_margin`` before it, then every ``free_stride``-th of the no-return
-    beams followed by the returns beyond ``max_range`` (cut there).
-    """
-    max_range, radius, stride_f, margin, x0, y0, inv = geo[0], geo[1], geo[2], geo[3], geo[4], geo[5], geo[6]
-    stride = int(stride_f)
-    x, y, c, sn = pose
+def _split_far(pts: _F, no_return: _F, max_range: float) -> tuple[_F, _F, _F]:  # pragma: no cover - compiled
+    """:func:`scan_rays`' returns within ``max_range`` (M, 2) with their ranges (M,), and the rays traced free
+    all along (the no-return beams, then the returns beyond ``max_range`` cut there)."""
     r = np.empty(pts.shape[0])
     far = np.empty(pts.shape[0], dtype=np.bool_)
     for k in range(pts.shape[0]):
@@ -339,6 +323,31 @@ def scan_rays(
         else:
             keep[a, 0], keep[a, 1], rk[a] = pts[k, 0], pts[k, 1], r[k]
             a += 1
+    return keep, rk, free_rays
+
+
+@njit
+def scan_rays(
+    pts: _F, people: _F, no_return: _F, pose: tuple[float, float, float, float], geo: _F, steps: _F, n: int
+) -> tuple[_F, NDArray[np.bool_], NDArray[np.intp], NDArray[np.bool_], _F, NDArray[np.intp]]:  # pragma: no cover
+    """``StaticClutterMap.update``'s geometry of one scan in one pass, as its numpy code computes it
+    (``_rays``, ``cell_of`` of the returns moved into the map frame, ``_ray_dirs``).
+
+    ``pts`` are the finite returns (N, 2), ``people`` the excluded positions (K, 2), ``no_return`` the no-return
+    beams' end points (F, 2) (m, sensor frame); ``pose = (x, y, cos yaw, sin yaw)`` the sensor in the map frame;
+    ``geo = (max_range, exclude_radius, free_stride, free_margin, x0, y0, 1 / resolution)`` with the window's
+    corner ``(x0, y0)``; ``steps`` the sample distances; ``n`` the window's cells per side.
+
+    Returns the returns within ``max_range`` (M, 2), which of them lie near a person, their flat cells (0
+    outside) and whether inside the window, and the rays' directions (R, 2) and samples (R,): every
+    ``free_stride``-th return up to ``free_margin`` before it, then every ``free_stride``-th of the no-return
+    beams followed by the returns beyond ``max_range`` (cut there).
+    """
+    max_range, radius, stride_f, margin, x0, y0, inv = geo[0], geo[1], geo[2], geo[3], geo[4], geo[5], geo[6]
+    stride = int(stride_f)
+    x, y, c, sn = pose
+    keep, rk, free_rays = _split_far(pts, no_return, max_range)
+    m = keep.shape[0]
     human = np.zeros(m, dtype=np.bool_)
     cells = np.zeros(m, dtype=np.intp)
     inside = np.zeros(m, dtype=np.bool_)
