@@ -463,8 +463,8 @@ class StaticClutterMap:
         o = self.origin
         pose = (float(self.pose.x), float(self.pose.y), math.cos(self.pose.yaw), math.sin(self.pose.yaw))
         geo = np.array([c.max_range, c.exclude_radius, c.free_stride, c.free_margin, o[0], o[1], inv])
-        arrays = (np.ascontiguousarray(a) for a in (pts, people, no_return))
-        pts, human, cells, inside, ru, n_free = scan_rays(*arrays, pose, geo, self._steps, self.n)
+        pts, people, no_return = (np.ascontiguousarray(a) for a in (pts, people, no_return))
+        pts, human, cells, inside, ru, n_free = scan_rays(pts, people, no_return, pose, geo, self._steps, self.n)
         origin = (np.array([self.pose.x, self.pose.y]) - o) * inv
         params = np.array(
             [c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, c.free_rate * step, c.s_min]
