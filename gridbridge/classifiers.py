@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
+from gridbridge import jit, kernels
 from gridbridge.blobs import BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
@@ -249,8 +250,15 @@ def _ordered_candidates(
     values : ndarray, shape (K,)
         Their beliefs (with ``smooth > 0`` the largest belief within one cell), in the same order.
     """
-    is_max, value = peak_maxima(grid, spec, min_separation, smooth)
-    cand = np.argwhere((value > threshold) & is_max)
+    if smooth == 0 and threshold >= 0 and jit.enabled():  # the maxima of the belief itself: only where it is high
+        half = max(1, math.ceil(min_separation / spec.resolution - 1e-9))  # peak_maxima's window
+        value, cand = (
+            grid,
+            kernels.peak_candidates(np.ascontiguousarray(grid, dtype=np.float64), half, float(threshold)),
+        )
+    else:
+        is_max, value = peak_maxima(grid, spec, min_separation, smooth)
+        cand = np.argwhere((value > threshold) & is_max)
     values = value[cand[:, 0], cand[:, 1]]
     order = np.lexsort((cand[:, 1], cand[:, 0], -values))
     return cand[order], values[order]
@@ -314,6 +322,17 @@ def _peak_people(
     di, dj = _disk_offsets(centroid_radius, spec.resolution)
     x0, y0, r = spec.x0, spec.y0, spec.resolution
     mask = np.zeros(spec.shape, dtype=bool)
+    if jit.enabled() and len(peaks):  # the same sums, compiled (gridbridge.kernels.peak_centroids)
+        g = np.ascontiguousarray(grid, dtype=np.float64)
+        cells = np.ascontiguousarray(peaks, dtype=np.intp)
+        centres, counts = kernels.peak_centroids(g, cells, di, dj, 0.5 * threshold, mask)
+        xy = [(x0 + (ci + 0.5) * r, y0 + (cj + 0.5) * r) for ci, cj in centres.tolist()]  # GridSpec.cell_centre
+        return People(
+            positions=np.asarray(xy, dtype=float).reshape(-1, 2),
+            scores=np.asarray(values.tolist(), dtype=float),
+            sizes=counts,
+            mask=mask,
+        )
     positions, scores, sizes = [], [], []
     for (i, j), v in zip(peaks.tolist(), values.tolist(), strict=True):
         ii, jj = i + di, j + dj

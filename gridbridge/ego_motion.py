@@ -48,6 +48,7 @@ from gridbridge.validation import check_number, check_positive, check_probabilit
 
 __all__ = [
     "Odometry",
+    "border_inflow",
     "ego_motion_sigma_points",
     "odometry_pose",
     "predict_sensor",
@@ -171,13 +172,37 @@ def _sigma_points_cached(
             node[k] += sign * step  # the float64 sum numpy's in-place add gave
             nodes.append(tuple(node))
             weights.append(1.0 / 6.0)
-    controls = np.array(nodes).reshape(-1, 3)
-    w = np.array(weights)
-    dx, dy, dth = velocity_displacement(controls[:, 0], controls[:, 1], dt, controls[:, 2], vy=odo.vy)
-    poses, weights = np.column_stack((dx, dy, dth)), w / w.sum()
+    poses = np.array([_node_displacement(v, w, gamma, dt, float(odo.vy)) for v, w, gamma in nodes]).reshape(-1, 3)
+    w_arr = np.array(weights)
+    weights = w_arr / w_arr.sum()
     poses.setflags(write=False)
     weights.setflags(write=False)
     return poses, weights
+
+
+def _node_displacement(v: float, w: float, gamma: float, dt: float, vy: float) -> tuple[float, float, float]:
+    """:func:`velocity_displacement` of one control ``(v, w, gamma)`` in Python floats: the same IEEE operations
+    in the same order, element by element (``math.sin`` / ``math.cos`` are the C library's, as numpy's float64
+    ufuncs on this platform), without a dozen numpy calls on a handful of elements.
+
+    Returns
+    -------
+    tuple of float
+        ``(dx, dy, dtheta)`` (m, m, rad).
+    """
+    turning = abs(w) > _OMEGA_EPS
+    wdt = w * dt
+    sin_wdt, one_minus_cos = math.sin(wdt), 1.0 - math.cos(wdt)
+    if turning:
+        dx, dy = v / w * sin_wdt, v / w * one_minus_cos
+    else:
+        dx, dy = v * dt, 0.0
+    if vy != 0.0:
+        if turning:
+            dx, dy = dx - vy / w * one_minus_cos, dy + vy / w * sin_wdt
+        else:
+            dx, dy = dx - 0.0, dy + vy * dt
+    return dx, dy, (w + gamma) * dt
 
 
 def warp_belief(
@@ -209,17 +234,7 @@ def warp_belief(
         Belief in the new sensor frame.
     """
     bel = spec.check_grid(belief, "belief")
-    outside = check_probability(outside, "outside")
-    p = np.asarray(poses, dtype=float)
-    if p.ndim not in (1, 2) or p.shape[-1] != 3 or p.size == 0:
-        raise ValueError(f"poses must have shape (S, 3) or (3,) of (dx, dy, dtheta), S >= 1, got {p.shape}")
-    p = p.reshape(-1, 3)
-    if not np.all(np.isfinite(p)):
-        raise ValueError("poses contain NaN or infinite values")
-    w = np.full(len(p), 1.0 / len(p)) if weights is None else np.asarray(weights, dtype=float).ravel()
-    if w.shape != (len(p),) or not np.all(np.isfinite(w)) or w.min() < 0 or w.sum() <= 0:
-        raise ValueError(f"weights must be {len(p)} non-negative finite numbers with a positive sum")
-    w = w / w.sum()
+    p, w, outside = _warp_args(poses, weights, outside)
     if len(p) == 1 and np.all(p[0] == 0.0):
         return bel.copy()
     if jit.enabled():
@@ -233,6 +248,50 @@ def warp_belief(
     samples = ndimage.map_coordinates(bel, coords, order=1, mode="grid-constant", cval=outside)
     out = np.tensordot(w, samples.reshape(len(p), *spec.shape), axes=1)
     return np.clip(out, 0.0, 1.0, out=out)
+
+
+def _warp_args(
+    poses: ArrayLike, weights: ArrayLike | None, outside: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """:func:`warp_belief`'s poses ``(S, 3)``, normalised weights ``(S,)`` and ``outside``, checked.
+
+    Raises
+    ------
+    ValueError
+        Poses not ``(S, 3)`` or ``(3,)`` of finite numbers, weights not ``S`` non-negative finite numbers with a
+        positive sum, ``outside`` not a probability.
+    """
+    outside = check_probability(outside, "outside")
+    p = np.asarray(poses, dtype=float)
+    if p.ndim not in (1, 2) or p.shape[-1] != 3 or p.size == 0:
+        raise ValueError(f"poses must have shape (S, 3) or (3,) of (dx, dy, dtheta), S >= 1, got {p.shape}")
+    p = p.reshape(-1, 3)
+    if not np.all(np.isfinite(p)):
+        raise ValueError("poses contain NaN or infinite values")
+    w = np.full(len(p), 1.0 / len(p)) if weights is None else np.asarray(weights, dtype=float).ravel()
+    if w.shape != (len(p),) or not np.all(np.isfinite(w)) or w.min() < 0 or w.sum() <= 0:
+        raise ValueError(f"weights must be {len(p)} non-negative finite numbers with a positive sum")
+    return p, w / w.sum(), outside
+
+
+def border_inflow(
+    spec: GridSpec, poses: ArrayLike, weights: ArrayLike | None = None, *, outside: float = 0.5
+) -> NDArray[np.float64]:
+    """What the sensor motion brings into each cell from beyond the border: :func:`warp_belief` of an all-zero
+    belief, bit for bit (compiled: :func:`gridbridge.kernels.warp_outside`, which computes only the cells near
+    the border; arguments as there).
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+    """
+    if not jit.enabled():
+        return warp_belief(np.zeros(spec.shape), spec, poses, weights, outside=outside)
+    p, w, outside = _warp_args(poses, weights, outside)
+    if len(p) == 1 and np.all(p[0] == 0.0):
+        return np.zeros(spec.shape)
+    grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+    return kernels.warp_outside((int(spec.nx), int(spec.ny)), grid, np.ascontiguousarray(p), w, outside)
 
 
 def predict_sensor(

@@ -98,6 +98,10 @@ def _points(points: ArrayLike) -> NDArray[np.float64]:
     return pts
 
 
+#: Up to this many points :func:`from_frame` maps in Python floats (fewer calls than numpy's on a handful).
+_FEW = 8
+
+
 def from_frame(points: ArrayLike, pose: PoseLike) -> NDArray[np.float64]:
     """Points ``(..., 2)`` given in the frame at ``pose``, expressed in its parent frame: ``R p + t``.
 
@@ -106,6 +110,10 @@ def from_frame(points: ArrayLike, pose: PoseLike) -> NDArray[np.float64]:
     pts = _points(points)
     if pts.ndim == 2 and isinstance(pose, Pose2D):  # the common case, without the stacking (same arithmetic)
         c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        if pts.shape[0] <= _FEW:  # a few points (detections): Python floats, the same operations in the same order
+            x, y = pose.x, pose.y
+            rows = [(x + c * px - s * py, y + s * px + c * py) for px, py in pts.tolist()]
+            return np.array(rows, dtype=float).reshape(-1, 2)
         px, py = pts[:, 0], pts[:, 1]
         out = np.empty(pts.shape)
         out[:, 0] = pose.x + c * px - s * py

@@ -7,11 +7,19 @@ kernel                 numpy twin                                   agreement
 :func:`predict_paper`  :func:`gridbridge.people_motion._predict_paper`  bit for bit (same sums, same order)
 :func:`convolve_const` ``scipy.ndimage.convolve(mode="constant")``  1e-12 (scipy sums the taps in its order)
 :func:`warp_bilinear`  :func:`gridbridge.ego_motion.warp_belief`     1e-12 (scipy's spline weights, BLAS sum)
+:func:`warp_outside`   :func:`warp_bilinear` of a zero belief       bit for bit (the cells it skips add +0.0)
+:func:`warp_at`        :func:`warp_bilinear` at some cells          bit for bit (the same sums, only there)
+:func:`peak_candidates` :func:`gridbridge.classifiers.peak_maxima`   exact (maxima and comparisons only)
+:func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
                        and :func:`scatter_max`                      the two kernels)
 =====================  ===========================================  ==========================================
+
+:func:`independent_terms` and :func:`add_where` are the terms of
+:class:`gridbridge.likelihoods.IndependentLikelihood` (its numpy path the twin), bit for bit with numpy's ``log``
+between them and its ``exp`` after.
 
 :func:`pairwise_sum` is numpy's pairwise summation (the order of ``np.add.reduce`` and ``np.add.reduceat``)
 for kernels elsewhere that must add as numpy does (:mod:`pfpeople.detect.segment_kernels`).
@@ -30,14 +38,20 @@ from numpy.typing import NDArray
 from gridbridge.jit import jit
 
 __all__ = [
+    "add_where",
     "convolve_const",
     "fuse_update",
     "gaussian_args",
+    "independent_terms",
     "pairwise_sum",
+    "peak_candidates",
+    "peak_centroids",
     "point_map",
     "predict_paper",
     "scatter_max",
+    "warp_at",
     "warp_bilinear",
+    "warp_outside",
 ]
 
 
@@ -132,28 +146,57 @@ def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside
 
 
 @jit
-def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
-    """``sum_k T(c <- k) bel_k`` (the linear people prediction) with ``outside`` beyond the border, clipped to
-    [0, 1]: ``scipy.ndimage.convolve(bel, kernel, mode="constant", cval=outside)`` to round-off."""
-    nx, ny = bel.shape
+def _tap_offsets(kernel: NDArray[np.float64], width: int) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """The nonzero taps of a square kernel in row-major order ``(a, b)``: each one's offset into a belief padded
+    by the kernel's radius (row width ``width``), ``(2 rad - a) width + 2 rad - b``, and its value."""
     side = kernel.shape[0]
     rad = side // 2
-    padded = _padded(bel, rad, outside)
-    s = np.zeros((nx, ny))
+    offsets = np.empty(side * side, dtype=np.intp)
+    values = np.empty(side * side)
+    n = 0
     for a in range(side):
         for b in range(side):
-            k = kernel[a, b]
-            if k == 0.0:
-                continue
-            for i in range(nx):
-                src = padded[2 * rad - a + i]
-                row = s[i]
-                for j in range(ny):
-                    row[j] += k * src[2 * rad - b + j]
+            if kernel[a, b] != 0.0:
+                offsets[n] = (2 * rad - a) * width + 2 * rad - b
+                values[n] = kernel[a, b]
+                n += 1
+    return offsets[:n], values[:n]
+
+
+@jit
+def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+    """``sum_k T(c <- k) bel_k`` (the linear people prediction) with ``outside`` beyond the border, clipped to
+    [0, 1]: ``scipy.ndimage.convolve(bel, kernel, mode="constant", cval=outside)`` to round-off.
+
+    Each cell's sum runs over the kernel's nonzero taps in row-major order from 0.0; four neighbouring cells of
+    a row are summed side by side (independent sums the processor overlaps, each in that order).
+    """
+    nx, ny = bel.shape
+    rad = kernel.shape[0] // 2
+    width = ny + 2 * rad
+    flat = _padded(bel, rad, outside).ravel()
+    offsets, values = _tap_offsets(kernel, width)
+    out = np.empty((nx, ny))
     for i in range(nx):
-        for j in range(ny):
-            s[i, j] = min(max(s[i, j], 0.0), 1.0)
-    return s
+        base = i * width
+        j = 0
+        while j + 4 <= ny:
+            s0 = s1 = s2 = s3 = 0.0
+            for t in range(values.size):
+                k, o = values[t], base + j + offsets[t]
+                s0 += k * flat[o]
+                s1 += k * flat[o + 1]
+                s2 += k * flat[o + 2]
+                s3 += k * flat[o + 3]
+            out[i, j], out[i, j + 1] = min(max(s0, 0.0), 1.0), min(max(s1, 0.0), 1.0)
+            out[i, j + 2], out[i, j + 3] = min(max(s2, 0.0), 1.0), min(max(s3, 0.0), 1.0)
+            j += 4
+        for jj in range(j, ny):
+            s0 = 0.0
+            for t in range(values.size):
+                s0 += values[t] * flat[base + jj + offsets[t]]
+            out[i, jj] = min(max(s0, 0.0), 1.0)
+    return out
 
 
 @jit
@@ -214,6 +257,220 @@ def warp_bilinear(
         for j in range(ny):
             out[i, j] = min(max(out[i, j], 0.0), 1.0)
     return out
+
+
+@jit
+def independent_terms(
+    q: NDArray[np.float64],
+    fov: NDArray[np.bool_],
+    odds: tuple[float, float],
+    covered: NDArray[np.bool_],
+    per_det: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """One detector's terms of :class:`gridbridge.likelihoods.IndependentLikelihood` in one pass, bit for bit:
+    ``covered = fov | (q > 0)``, the likelihood ratio ``lr = q lr_fire + (1 - q) miss`` and ``per_det = lr / (1 +
+    lr)`` where covered (else left as it is, 0.5).
+
+    ``q`` and ``fov`` are the detector's map and field of view ``(nx, ny)``, ``odds = (lr_fire, miss)``;
+    ``covered`` and ``per_det`` (its rows of the likelihood) are written. Returns ``lr`` (every cell), whose
+    logarithm is numpy's to take (numpy's ``log`` is not the C library's).
+    """
+    lr_fire, miss = odds
+    nx, ny = q.shape
+    lr = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            qq = q[i, j]
+            r = qq * lr_fire + (1.0 - qq) * miss
+            lr[i, j] = r
+            if fov[i, j] or qq > 0.0:
+                covered[i, j] = True
+                per_det[i, j] = r / (1.0 + r)
+    return lr
+
+
+@jit
+def add_where(acc: NDArray[np.float64], values: NDArray[np.float64], mask: NDArray[np.bool_]) -> None:
+    """``acc += np.where(mask, values, 0.0)`` in place (the same sums: adding 0.0 leaves a sum that is not -0.0
+    as it is, and these sums of logarithms start at +0.0)."""
+    nx, ny = acc.shape
+    for i in range(nx):
+        for j in range(ny):
+            if mask[i, j]:
+                acc[i, j] += values[i, j]
+
+
+@jit
+def _interior_run(a: float, k: float, lo: float, hi: float, n: int) -> tuple[int, int]:
+    """The indices ``j`` in ``[0, n)`` with ``lo <= a + k j <= hi`` shrunk by one at each end (a run that rounding
+    cannot leave), as ``(first, last + 1)``; empty as ``(0, 0)``."""
+    if k == 0.0:
+        return (0, n) if lo <= a <= hi else (0, 0)
+    j0, j1 = (lo - a) / k, (hi - a) / k
+    if k < 0.0:
+        j0, j1 = j1, j0
+    first = max(math.ceil(j0) + 1, 0)
+    last = min(math.floor(j1) - 1, n - 1)
+    return (first, last + 1) if first <= last else (0, 0)
+
+
+@jit
+def warp_outside(
+    shape: tuple[int, int],
+    grid: tuple[float, float, float],
+    poses: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    outside: float,
+) -> NDArray[np.float64]:
+    """:func:`warp_bilinear` of an all-zero belief (what enters each cell from beyond the border), bit for bit,
+    computing only the cells some of whose taps may lie outside the grid.
+
+    Every tap inside reads 0.0, so a cell whose four taps lie inside adds ``w_s * 0.0 = +0.0`` to its sum, which
+    leaves it as it is: such cells are skipped. Along a row the source coordinates are affine in ``j``; the
+    cells whose coordinates lie 1e-3 cells inside ``[0, n - 1)`` on both axes, less one at each end of the run,
+    are skipped (rounding moves a coordinate by some 1e-15 cells).
+    """
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = shape
+    width = ny + 4
+    flat = _padded(np.zeros((nx, ny)), 2, outside).ravel()
+    one, below = np.uint64(1), np.uint64(width)
+    out = np.zeros((nx, ny))
+    margin = 1e-3
+    for s in range(poses.shape[0]):
+        tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
+        py0 = y0 + 0.5 * res
+        for i in range(nx):
+            px = x0 + (i + 0.5) * res
+            row = out[i]
+            # u(j) = au - sn j, v(j) = av + c j (to rounding)
+            au = (tx + c * px - sn * py0 - x0) * inv - 0.5
+            av = (ty + sn * px + c * py0 - y0) * inv - 0.5
+            u0, u1 = _interior_run(au, -sn * res * inv, margin, nx - 1.0 - margin, ny)
+            v0, v1 = _interior_run(av, c * res * inv, margin, ny - 1.0 - margin, ny)
+            skip0, skip1 = max(u0, v0), min(u1, v1)
+            for j in range(ny):
+                if skip0 <= j < skip1:
+                    continue
+                py = y0 + (j + 0.5) * res
+                u = (tx + c * px - sn * py - x0) * inv - 0.5
+                v = (ty + sn * px + c * py - y0) * inv - 0.5
+                fi, fj = np.floor(u), np.floor(v)
+                fu, fv = u - fi, v - fj
+                t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
+                val = flat[t] * (1.0 - fu) * (1.0 - fv)
+                val += flat[t + one] * (1.0 - fu) * fv
+                val += flat[t + below] * fu * (1.0 - fv)
+                val += flat[t + below + one] * fu * fv
+                row[j] += ws * val
+    for i in range(nx):
+        for j in range(ny):
+            out[i, j] = min(max(out[i, j], 0.0), 1.0)
+    return out
+
+
+@jit
+def warp_at(
+    bel: NDArray[np.float64],
+    grid: tuple[float, float, float],
+    poses: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    outside: float,
+    cells: NDArray[np.intp],
+) -> NDArray[np.float64]:
+    """``warp_bilinear(bel, grid, poses, weights, outside).ravel()[cells]`` (``cells`` flat, row-major), bit for
+    bit, computing only those cells: each cell's sum over the poses, its four taps and their weights are
+    :func:`warp_bilinear`'s."""
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = bel.shape
+    flat = _padded(bel, 2, outside).ravel()
+    width = ny + 4
+    one, below = np.uint64(1), np.uint64(width)
+    out = np.zeros(cells.size)
+    for s in range(poses.shape[0]):
+        tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
+        for m in range(cells.size):
+            i, j = cells[m] // ny, cells[m] % ny
+            px = x0 + (i + 0.5) * res
+            py = y0 + (j + 0.5) * res
+            u = (tx + c * px - sn * py - x0) * inv - 0.5
+            v = (ty + sn * px + c * py - y0) * inv - 0.5
+            fi, fj = np.floor(u), np.floor(v)
+            fu, fv = u - fi, v - fj
+            t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
+            val = flat[t] * (1.0 - fu) * (1.0 - fv)
+            val += flat[t + one] * (1.0 - fu) * fv
+            val += flat[t + below] * fu * (1.0 - fv)
+            val += flat[t + below + one] * fu * fv
+            out[m] += ws * val
+    for m in range(cells.size):
+        out[m] = min(max(out[m], 0.0), 1.0)
+    return out
+
+
+@jit
+def peak_candidates(grid: NDArray[np.float64], half: int, threshold: float) -> NDArray[np.intp]:
+    """The cells ``(K, 2)`` (row-major order) whose belief is above ``threshold`` and the maximum of the
+    ``(2 half + 1)``-square window around them: ``np.argwhere((grid > threshold) & (grid >= maximum_filter(grid,
+    2 half + 1, mode="constant", cval=0.0)))``, exactly (maxima do not round; the window's cells beyond the
+    border read 0.0, which a belief above a threshold >= 0 exceeds anyway)."""
+    nx, ny = grid.shape
+    out = np.empty((nx * ny, 2), dtype=np.intp)
+    k = 0
+    for i in range(nx):
+        i0, i1 = max(i - half, 0), min(i + half + 1, nx)
+        for j in range(ny):
+            g = grid[i, j]
+            if not g > threshold:
+                continue
+            j0, j1 = max(j - half, 0), min(j + half + 1, ny)
+            top = True
+            for a in range(i0, i1):
+                for b in range(j0, j1):
+                    if grid[a, b] > g:
+                        top = False
+                        break
+                if not top:
+                    break
+            if top:
+                out[k, 0], out[k, 1] = i, j
+                k += 1
+    return out[:k].copy()
+
+
+@jit
+def peak_centroids(
+    grid: NDArray[np.float64],
+    peaks: NDArray[np.intp],
+    di: NDArray[np.intp],
+    dj: NDArray[np.intp],
+    floor: float,
+    mask: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The belief-weighted mean cell ``(ci, cj)`` (P, 2) of each peak ``(i, j)`` over the cells at the offsets
+    ``(di, dj)`` inside the grid whose belief is at least ``floor``, and how many there are (P,); those cells set
+    in ``mask``: :func:`gridbridge.classifiers._peak_people`'s numpy sums (:func:`pairwise_sum` of the weights
+    and of the weights times the indices, in the offsets' order), bit for bit."""
+    nx, ny = grid.shape
+    w, wi, wj = np.empty(di.size), np.empty(di.size), np.empty(di.size)
+    centres = np.empty((peaks.shape[0], 2))
+    sizes = np.empty(peaks.shape[0], dtype=np.int64)
+    for p in range(peaks.shape[0]):
+        n = 0
+        for d in range(di.size):
+            a, b = peaks[p, 0] + di[d], peaks[p, 1] + dj[d]
+            if 0 <= a < nx and 0 <= b < ny and grid[a, b] >= floor:
+                g = grid[a, b]
+                w[n], wi[n], wj[n] = g, g * a, g * b
+                mask[a, b] = True
+                n += 1
+        total = pairwise_sum(w, 0, n)
+        centres[p, 0] = pairwise_sum(wi, 0, n) / total
+        centres[p, 1] = pairwise_sum(wj, 0, n) / total
+        sizes[p] = n
+    return centres, sizes
 
 
 @jit

@@ -34,6 +34,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gridbridge import jit, kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import Likelihood, _likelihood, detection_map, fov_mask, likelihood_from_detections
@@ -106,20 +107,40 @@ class IndependentLikelihood:
         per_det = np.full((d, *spec.shape), 0.5)
         log_lr = np.zeros(spec.shape)
         prior_odds = self.base_rate / (1.0 - self.base_rate)
+        compiled = jit.enabled()
         for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
             if det is None:
                 continue
             q = detection_map(spec, model, det)
             if model.uncertainty == "gaussian":  # the detection's probability mass per cell, not a peak of 1
                 q = q * min(1.0, spec.resolution**2 / (2.0 * np.pi * model.sigma_lateral * model.sigma_range))
-            cov = fov_mask(spec, model) | (q > 0.0)
-            lr_fire = model.ppv / (1.0 - model.ppv) / prior_odds
-            lr = q * lr_fire + (1.0 - q) * model.fnr**self.miss_weight
-            fired[i], covered[i] = q, cov
-            per_det[i] = np.where(cov, lr / (1.0 + lr), 0.5)
-            log_lr += np.where(cov, np.log(lr), 0.0)
+            fired[i] = q
+            odds = (model.ppv / (1.0 - model.ppv) / prior_odds, model.fnr**self.miss_weight)
+            if compiled:
+                lr = kernels.independent_terms(q, fov_mask(spec, model), odds, covered[i], per_det[i])
+                kernels.add_where(log_lr, np.log(lr), covered[i])
+            else:
+                self._terms_numpy(q, fov_mask(spec, model), odds, covered[i], per_det[i], log_lr)
         fused = 1.0 / (1.0 + np.exp(-log_lr))
         return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
+
+    @staticmethod
+    def _terms_numpy(
+        q: NDArray[np.float64],
+        fov: NDArray[np.bool_],
+        odds: tuple[float, float],
+        covered: NDArray[np.bool_],
+        per_det: NDArray[np.float64],
+        log_lr: NDArray[np.float64],
+    ) -> None:
+        """One detector's terms (:func:`gridbridge.kernels.independent_terms`' numpy twin): its field of view,
+        likelihood and log likelihood ratio written into ``covered``, ``per_det`` and ``log_lr``."""
+        lr_fire, miss = odds
+        cov = fov | (q > 0.0)
+        lr = q * lr_fire + (1.0 - q) * miss
+        covered[...] = cov
+        per_det[...] = np.where(cov, lr / (1.0 + lr), 0.5)
+        log_lr += np.where(cov, np.log(lr), 0.0)
 
 
 def update_components(

@@ -29,6 +29,7 @@ __all__ = [
     "check_probability",
     "check_real",
     "check_real_array",
+    "finite_rows",
 ]
 
 
@@ -242,3 +243,16 @@ def check_choice(value: str, name: str, choices: Sequence[str]) -> str:
     if value not in choices:
         raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}; got {value!r}")
     return value
+
+
+def finite_rows(points: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """``np.isfinite(points).all(axis=1)`` of a 2-D array ``(N, k)``, column by column: the same mask, several
+    times faster than the reduction along rows (this runs on every scan)."""
+    if points.ndim != 2:
+        raise ValueError(f"points must be a 2-D array, got shape {points.shape}")
+    if points.shape[1] == 0:
+        return np.ones(points.shape[0], dtype=bool)
+    out = np.isfinite(points[:, 0])
+    for c in range(1, points.shape[1]):
+        out &= np.isfinite(points[:, c])
+    return out

@@ -20,8 +20,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-#: The last release that landed (round three, stop 3); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "ca64a7a"
+#: The last release that landed (round three, stop 4); ``--baseline REV`` on a benchmark overrides it.
+PREVIOUS_RELEASE = "dd83d11"
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -278,6 +278,8 @@ def pair_legs(
     paired = np.zeros(k, dtype=bool)
     if k < 2:
         return np.zeros((0, 2), dtype=np.intp), paired
+    if _jit.enabled("pfpeople"):
+        return _kernels.pair_greedy(np.ascontiguousarray(pts), float(min_separation), float(max_separation))
     ii, jj = _pair_indices(k)
     d = np.hypot(*(pts[ii] - pts[jj]).T)
     ok = (d >= min_separation) & (d <= max_separation)
@@ -320,10 +322,10 @@ def people_and_single_legs(
     if widths.size != legs.shape[0]:
         raise ValueError(f"widths has {widths.size} entries for {legs.shape[0]} legs")
     together = widths > params.max_single_leg_width
-    single = np.flatnonzero(~together)
-    pairs, paired = pair_legs(legs[single], min_separation=params.min_separation, max_separation=params.max_separation)
-    alone = legs[single][~paired].reshape(-1, 2)
-    parts = [legs[together], 0.5 * (legs[single][pairs[:, 0]] + legs[single][pairs[:, 1]])]
+    narrow = legs[~together]  # the single legs, in order (taken once)
+    pairs, paired = pair_legs(narrow, min_separation=params.min_separation, max_separation=params.max_separation)
+    alone = narrow[~paired].reshape(-1, 2)
+    parts = [legs[together], 0.5 * (narrow[pairs[:, 0]] + narrow[pairs[:, 1]])]
     if params.count_single_legs:
         parts.append(alone)
     return np.concatenate(parts, axis=0).reshape(-1, 2), alone

@@ -19,7 +19,7 @@ from gridbridge import jit as _jit
 from gridbridge.jit import jit as njit
 from gridbridge.kernels import pairwise_sum
 
-__all__ = ["far_blobs", "features_angles", "features_rest", "jump_segments", "warm_up"]
+__all__ = ["far_blobs", "features_angles", "features_rest", "jump_segments", "pair_greedy", "warm_up"]
 
 #: What :func:`jump_segments` returns: points (P, 2), beams (P,), starts (S,), counts (S,), ranges before and after
 #: (S,), runs dropped.
@@ -451,6 +451,38 @@ def _blob_sums(
     return r, x, y, sr, centres
 
 
+@njit
+def pair_greedy(pts: NDArray[np.float64], lo: float, hi: float) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """:func:`pfpeople.detect.legs.pair_legs` in one pass, the same pairs: the admissible pairs ``i < j`` (distance
+    ``np.hypot`` in ``[lo, hi]``) taken closest first, ties in ``(i, j)`` order (a stable sort of the pairs in
+    that order by distance: ``np.lexsort((j, i, d))``'s order), each leg in at most one pair.
+
+    Returns the pairs ``(P, 2)`` and which of the ``K`` legs are paired.
+    """
+    k = pts.shape[0]
+    m = k * (k - 1) // 2
+    ii, jj = np.empty(m, dtype=np.intp), np.empty(m, dtype=np.intp)
+    d = np.empty(m)
+    n = 0
+    for i in range(k):
+        for j in range(i + 1, k):
+            dist = math.hypot(pts[i, 0] - pts[j, 0], pts[i, 1] - pts[j, 1])
+            if dist >= lo and dist <= hi:
+                ii[n], jj[n], d[n] = i, j, dist
+                n += 1
+    order = np.argsort(d[:n], kind="mergesort")
+    paired = np.zeros(k, dtype=np.bool_)
+    out = np.empty((min(n, k // 2), 2), dtype=np.intp)
+    p = 0
+    for t in order:
+        a, b = ii[t], jj[t]
+        if not paired[a] and not paired[b]:
+            paired[a] = paired[b] = True
+            out[p, 0], out[p, 1] = a, b
+            p += 1
+    return out[:p].copy(), paired
+
+
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them.
 
@@ -466,3 +498,4 @@ def warm_up() -> None:
     ct, _dt, ci, _di = features_angles(pts, starts, counts)
     features_rest(pts, starts, counts, np.zeros(ct.size), np.zeros(ci.size))
     far_blobs(pts, b, starts, counts, r0, r1, np.zeros(7))
+    pair_greedy(np.zeros((3, 2)), 0.1, 0.5)

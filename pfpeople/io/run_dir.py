@@ -83,6 +83,7 @@ from numpy.typing import NDArray
 
 from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
+from gridbridge.validation import finite_rows
 from pfpeople.io import locks
 from pfpeople.io.jsonio import dumps
 
@@ -340,12 +341,14 @@ def scan_records(
         if topic not in topics:
             topics.append(topic)
         pts = np.asarray(pts, dtype=float).reshape(-1, 2)
-        ok = np.isfinite(pts).all(axis=1)
-        rec = np.zeros(int(np.count_nonzero(ok)), dtype=SCAN_DTYPE)
+        ok = finite_rows(pts)
+        every = bool(ok.all())  # the pipeline's scans hold finite points only: no copies then
+        rec = np.zeros(pts.shape[0] if every else int(np.count_nonzero(ok)), dtype=SCAN_DTYPE)
         rec["frame"], rec["laser"] = frame, topics.index(topic)
-        rec["x"], rec["y"] = pts[ok, 0], pts[ok, 1]
+        rec["x"], rec["y"] = (pts[:, 0], pts[:, 1]) if every else (pts[ok, 0], pts[ok, 1])
         if static is not None:
-            rec["static"] = np.asarray(static, dtype=bool)[ok]
+            flags = np.asarray(static, dtype=bool)
+            rec["static"] = flags if every else flags[ok]
         parts.append(rec)
     return np.concatenate(parts) if parts else np.zeros(0, dtype=SCAN_DTYPE)
 
@@ -356,7 +359,9 @@ def particle_records(frame: int, x: NDArray[np.float64], y: NDArray[np.float64])
     x, y = np.asarray(x, dtype=float).reshape(-1), np.asarray(y, dtype=float).reshape(-1)
     idx = np.arange(len(x))
     if len(x) > MAX_PARTICLES_SAVED:
-        idx = np.sort(np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False))
+        chosen = np.zeros(len(x), dtype=bool)  # distinct indices: their mask's ones are them sorted
+        chosen[np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False)] = True
+        idx = np.flatnonzero(chosen)
     rec = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
     rec["frame"], rec["x"], rec["y"] = frame, x[idx], y[idx]
     return rec
@@ -624,8 +629,12 @@ class RunWriter:
     def _write_people(
         self, key: tuple[int, int, int, int], people: NDArray[np.float64], sizes: list[int], probs: list[float]
     ) -> None:
-        for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True):
-            self._people.writerow((*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}"))
+        self._people.writerows(
+            [
+                (*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}")
+                for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True)
+            ]
+        )
 
     def _write_support(
         self,
@@ -646,8 +655,7 @@ class RunWriter:
             from pfpeople.track import TRACK_COLUMNS
 
             self._tracks = self._csv("tracks.csv", TRACK_COLUMNS)
-        for row in tracks:
-            self._tracks.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in row])
+        self._tracks.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in row] for row in tracks])
 
     def _write_particles(self, frame: int, particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
         if particles is None:
@@ -699,8 +707,13 @@ class RunWriter:
             pts = np.asarray(det, dtype=float).reshape(-1, 2)
             given = static[i] if static is not None else None
             flags = np.zeros(len(pts), dtype=bool) if given is None else np.asarray(given, dtype=bool)
-            for (x, y), st in zip(pts.tolist(), flags.tolist(), strict=True):  # Python numbers: faster, same text
-                writer.writerow((*key, name, f"{x:.6f}", f"{y:.6f}", int(st)))
+            # Python numbers (faster, the same text), the rows in one call
+            writer.writerows(
+                [
+                    (*key, name, f"{x:.6f}", f"{y:.6f}", int(st))
+                    for (x, y), st in zip(pts.tolist(), flags.tolist(), strict=True)
+                ]
+            )
 
     def update(self, **items: Any) -> None:
         """Add or replace keys of ``run.json`` (written at once)."""

@@ -100,6 +100,7 @@ from gridbridge import (
 )
 from gridbridge import kernels as grid_kernels
 from gridbridge.components import Appearance, BeliefBounds
+from gridbridge.ego_motion import border_inflow
 from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
@@ -355,8 +356,7 @@ class ParticleFilter:
         key = poses.tobytes() + pose_w.tobytes()
         cached = self._ego_inflow_cache.get(key)
         if cached is None:
-            zeros = np.zeros(self.spec.shape)
-            cached = warp_belief(zeros, self.spec, poses, pose_w, outside=self.outside).ravel()
+            cached = border_inflow(self.spec, poses, pose_w, outside=self.outside).ravel()
             cached.setflags(write=False)
             if len(self._ego_inflow_cache) >= 64:
                 self._ego_inflow_cache.clear()
@@ -364,21 +364,19 @@ class ParticleFilter:
         return cached
 
     def _empty_cell_prior(
-        self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64]
+        self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64], empty: NDArray[np.bool_]
     ) -> NDArray[np.float64]:
-        """The linear grid prior of the previous posterior, warped with this step's sigma points (with the grid's
-        kernels compiled, those kernels called directly: the same results without re-checking the filter's arrays)."""
+        """The linear grid prior of the previous posterior, warped with this step's sigma points, in the ``empty``
+        cells (flat mask; compiled, the warp only there: :func:`gridbridge.kernels.warp_at`, the same floats)."""
         kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
-        if not jit.enabled("gridbridge"):
-            people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
-            return warp_belief(people, self.spec, poses, pose_w, outside=self.outside)
-        bel = np.ascontiguousarray(self.belief, dtype=np.float64)
-        people = grid_kernels.convolve_const(bel, np.ascontiguousarray(kernel, dtype=np.float64), self.outside)
-        if len(poses) == 1 and np.all(poses[0] == 0.0):
-            return people
+        people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
+        p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+        if not jit.enabled() or (len(p) == 1 and np.all(p[0] == 0.0)):  # (warp_belief's identity: a copy)
+            return warp_belief(people, self.spec, poses, pose_w, outside=self.outside).ravel()[empty]
+        w = np.asarray(pose_w, dtype=np.float64).ravel()
         grid = (float(self.spec.x0), float(self.spec.y0), float(self.spec.resolution))
-        w = np.asarray(pose_w, dtype=np.float64)
-        return grid_kernels.warp_bilinear(people, grid, np.ascontiguousarray(poses), w / w.sum(), self.outside)
+        cells = np.flatnonzero(empty)
+        return grid_kernels.warp_at(people, grid, np.ascontiguousarray(p), w / w.sum(), float(self.outside), cells)
 
     def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction:
         """Both predictions (phases 1-2 and the empty-cell prior of phase 4 in the module docstring).
@@ -404,7 +402,7 @@ class ParticleFilter:
             people_prior, sq = moved.prior, None
             empty = np.bincount(cells, minlength=self.spec.n_cells) == 0
         if empty.any():
-            sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w).ravel()[empty]
+            sensor_prior[empty] = self._empty_cell_prior(dt, poses, pose_w, empty)
         self.state = st
         self._pending = self._prediction(cells, empty, people_prior, sensor_prior, dt, sq)
         self.belief = self._pending.prior.reshape(self.spec.shape)

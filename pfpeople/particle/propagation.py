@@ -38,8 +38,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import special
 
-from gridbridge import GridSpec, Odometry, PeopleMotion, SensorMotionNoise, velocity_displacement
+from gridbridge import GridSpec, Odometry, PeopleMotion, SensorMotionNoise, jit, velocity_displacement
 from gridbridge.validation import check_positive, check_probability
+from pfpeople.particle import step_kernels as kernels
 from pfpeople.particle.state import ParticleState
 
 __all__ = [
@@ -172,7 +173,45 @@ def move_persistent(
     *,
     rng: np.random.Generator,
 ) -> None:
-    """The velocity-persistent people motion (fields replaced by new arrays); see the module docstring."""
+    """The velocity-persistent people motion (fields replaced by new arrays); see the module docstring.
+
+    Compiled (:func:`pfpeople.particle.step_kernels.persistent_walk`, ``persistent_velocities``) when
+    :func:`gridbridge.jit.enabled`, else :func:`_move_persistent_numpy`: the same draws in the same order and
+    the same particles bit for bit.
+    """
+    if not jit.enabled("pfpeople"):
+        _move_persistent_numpy(state, motion, params, dt, rng=rng)
+        return
+    n = state.size
+    heading = np.arctan2(state.vy, state.vx)  # numpy's (its SIMD atan2 is not the C library's)
+    u = rng.random(n)
+    rates = (1.0 - (1.0 - params.p_stop) ** dt, 1.0 - (1.0 - params.p_start) ** dt)
+    noise = rng.standard_normal((2, n))
+    sqdt = math.sqrt(dt)
+    walk = (
+        float(params.heading_noise * sqdt),
+        float(params.speed_reversion),
+        float(motion.mu),
+        float(dt),
+        float(params.speed_noise * sqdt),
+        float(motion.v_max),
+    )
+    speed, heading, new_idx, zero = kernels.persistent_walk(state.vx, state.vy, heading, u, noise, rates, walk)
+    speed[new_idx] = sample_speeds(motion, new_idx.size, rng=rng)
+    heading[new_idx] = rng.random(new_idx.size) * (2.0 * math.pi)
+    out = kernels.persistent_velocities(state.x, state.y, speed, heading, zero, float(dt))
+    state.x, state.y, state.vx, state.vy = out[0], out[1], out[2], out[3]
+
+
+def _move_persistent_numpy(
+    state: ParticleState,
+    motion: PeopleMotion,
+    params: PersistentMotion,
+    dt: float,
+    *,
+    rng: np.random.Generator,
+) -> None:
+    """:func:`move_persistent` in numpy (the compiled kernels' twin)."""
     n = state.size
     speed = np.hypot(state.vx, state.vy)
     heading = np.arctan2(state.vy, state.vx)

@@ -56,6 +56,8 @@ __all__ = [
     "move_ego_compact",
     "paper_move_ego_compact",
     "people_prior",
+    "persistent_velocities",
+    "persistent_walk",
     "scale_sums",
     "systematic_into",
 ]
@@ -177,6 +179,95 @@ def ego_rows_drawn(
         state, e1 = rng.standard_normal(state)
         state, e2 = rng.standard_normal(state)
         out[0, k], out[1, k], out[2, k], out[3, k] = _ego_row((e0, e1, e2), sd, control, dt, eps, False)
+    return out
+
+
+@jit
+def persistent_walk(
+    vx: NDArray[np.float64],
+    vy: NDArray[np.float64],
+    heading: NDArray[np.float64],
+    u: NDArray[np.float64],
+    noise: NDArray[np.float64],
+    rates: tuple[float, float],
+    walk: tuple[float, float, float, float, float, float],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_]]:
+    """:func:`pfpeople.particle.propagation.move_persistent`'s walk before the new walkers' draws, bit for bit.
+
+    Parameters
+    ----------
+    vx, vy : ndarray, shape (N,)
+        Velocities (m/s) before the step.
+    heading : ndarray, shape (N,)
+        ``np.arctan2(vy, vx)`` (numpy's, which the C library's ``atan2`` does not always equal).
+    u, noise : ndarray, shapes (N,) and (2, N)
+        The step's uniform and standard normal draws.
+    rates : tuple of float
+        The per-step probabilities ``(p_stop, p_start)``.
+    walk : tuple of float
+        ``(heading_noise * sqrt(dt), speed_reversion, mu, dt, speed_noise * sqrt(dt), v_max)``.
+
+    Returns
+    -------
+    speed, heading : ndarray, shape (N,)
+        The walked speed (m/s) and heading (rad) of every particle.
+    starts : ndarray of intp
+        Indices (ascending) of the standing particles that start walking (their draws are the caller's).
+    zero : ndarray of bool, shape (N,)
+        The particles that stand after the step (walkers that stop, standing ones that do not start).
+    """
+    p_stop, p_start = rates
+    hn, sr, mu, dt, sn, vmax = walk
+    two_vmax = 2.0 * vmax
+    n = vx.size
+    speed, head = np.empty(n), np.empty(n)
+    zero = np.zeros(n, dtype=np.bool_)
+    starts = np.empty(n, dtype=np.intp)
+    n_start = 0
+    for k in range(n):
+        s = math.hypot(vx[k], vy[k])
+        walking = s > 0.0
+        if walking:
+            zero[k] = u[k] < p_stop
+        elif u[k] < p_start:
+            starts[n_start] = k
+            n_start += 1
+        else:
+            zero[k] = True
+        head[k] = heading[k] + hn * noise[0, k]
+        s = s + sr * (mu - s) * dt + sn * noise[1, k]
+        s = abs(s)
+        if s > vmax:
+            s = two_vmax - s
+        s = s if s > 0.0 else 0.0  # np.clip(s, 0, v_max)
+        speed[k] = s if s < vmax else vmax
+    return speed, head, starts[:n_start], zero
+
+
+@jit
+def persistent_velocities(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    heading: NDArray[np.float64],
+    zero: NDArray[np.bool_],
+    dt: float,
+) -> NDArray[np.float64]:
+    """The end of :func:`pfpeople.particle.propagation.move_persistent`, bit for bit: ``speed`` zeroed where
+    ``zero``, the velocities ``speed (cos, sin)(heading)`` and the moved positions.
+
+    ``speed`` and ``heading`` (N,) hold the new walkers' draws already. Returns rows x, y, vx, vy, shape (4, N).
+    """
+    n = x.size
+    out = np.empty((4, n))
+    for k in range(n):
+        s = 0.0 if zero[k] else speed[k]
+        vx = s * math.cos(heading[k])
+        vy = s * math.sin(heading[k])
+        out[0, k] = x[k] + vx * dt
+        out[1, k] = y[k] + vy * dt
+        out[2, k] = vx
+        out[3, k] = vy
     return out
 
 

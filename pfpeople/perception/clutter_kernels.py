@@ -21,7 +21,16 @@ from gridbridge.kernels import pairwise_sum
 
 _F: TypeAlias = NDArray[np.float64]
 
-__all__ = ["ball_means", "moving_update", "self_update", "static_lookup", "update_evidence", "warm_up"]
+__all__ = [
+    "ball_means",
+    "moving_update",
+    "return_scores",
+    "scan_rays",
+    "self_update",
+    "static_lookup",
+    "update_evidence",
+    "warm_up",
+]
 
 
 @njit
@@ -270,6 +279,125 @@ def static_lookup(
     return out
 
 
+@njit
+def _ray(
+    vx: float,
+    vy: float,
+    length: float,
+    k: int,
+    rot: tuple[float, float, float],
+    steps: _F,
+    ru: _F,
+    n_free: NDArray[np.intp],
+) -> None:  # pragma: no cover - compiled
+    """Ray ``k`` of :func:`scan_rays` through ``(vx, vy)`` traced ``length`` m: its direction rotated into the map
+    frame in cells per m (``rot = (cos yaw, sin yaw, 1 / resolution)``) and its samples (``np.searchsorted``)."""
+    c, sn, inv = rot
+    r = math.hypot(vx, vy)
+    r = r if r >= 1e-9 else 1e-9  # np.maximum(r, 1e-9)
+    ux, uy = vx / r, vy / r
+    ru[k, 0], ru[k, 1] = (c * ux - sn * uy) * inv, (sn * ux + c * uy) * inv
+    n_free[k] = np.searchsorted(steps, length)
+
+
+@njit
+def _split_far(pts: _F, no_return: _F, max_range: float) -> tuple[_F, _F, _F]:  # pragma: no cover - compiled
+    """:func:`scan_rays`' returns within ``max_range`` (M, 2) with their ranges (M,), and the rays traced free
+    all along (the no-return beams, then the returns beyond ``max_range`` cut there)."""
+    r = np.empty(pts.shape[0])
+    far = np.empty(pts.shape[0], dtype=np.bool_)
+    for k in range(pts.shape[0]):
+        r[k] = math.hypot(pts[k, 0], pts[k, 1])
+        far[k] = r[k] > max_range
+    n_far = int(far.sum())
+    m = pts.shape[0] - n_far
+    keep, rk = np.empty((m, 2)), np.empty(m)
+    free_rays = np.empty((no_return.shape[0] + n_far, 2))
+    free_rays[: no_return.shape[0]] = no_return
+    a, b = 0, no_return.shape[0]
+    for k in range(pts.shape[0]):
+        if far[k]:
+            f = max_range / r[k]
+            free_rays[b, 0], free_rays[b, 1] = pts[k, 0] * f, pts[k, 1] * f
+            b += 1
+        else:
+            keep[a, 0], keep[a, 1], rk[a] = pts[k, 0], pts[k, 1], r[k]
+            a += 1
+    return keep, rk, free_rays
+
+
+@njit
+def scan_rays(
+    pts: _F, people: _F, no_return: _F, pose: tuple[float, float, float, float], geo: _F, steps: _F, n: int
+) -> tuple[_F, NDArray[np.bool_], NDArray[np.intp], NDArray[np.bool_], _F, NDArray[np.intp]]:  # pragma: no cover
+    """``StaticClutterMap.update``'s geometry of one scan in one pass, as its numpy code computes it
+    (``_rays``, ``cell_of`` of the returns moved into the map frame, ``_ray_dirs``).
+
+    ``pts`` are the finite returns (N, 2), ``people`` the excluded positions (K, 2), ``no_return`` the no-return
+    beams' end points (F, 2) (m, sensor frame); ``pose = (x, y, cos yaw, sin yaw)`` the sensor in the map frame;
+    ``geo = (max_range, exclude_radius, free_stride, free_margin, x0, y0, 1 / resolution)`` with the window's
+    corner ``(x0, y0)``; ``steps`` the sample distances; ``n`` the window's cells per side.
+
+    Returns the returns within ``max_range`` (M, 2), which of them lie near a person, their flat cells (0
+    outside) and whether inside the window, and the rays' directions (R, 2) and samples (R,): every
+    ``free_stride``-th return up to ``free_margin`` before it, then every ``free_stride``-th of the no-return
+    beams followed by the returns beyond ``max_range`` (cut there).
+    """
+    max_range, radius, stride_f, margin, x0, y0, inv = geo[0], geo[1], geo[2], geo[3], geo[4], geo[5], geo[6]
+    stride = int(stride_f)
+    x, y, c, sn = pose
+    keep, rk, free_rays = _split_far(pts, no_return, max_range)
+    m = keep.shape[0]
+    human = np.zeros(m, dtype=np.bool_)
+    cells = np.zeros(m, dtype=np.intp)
+    inside = np.zeros(m, dtype=np.bool_)
+    r2 = radius * radius
+    for k in range(m):
+        px, py = keep[k, 0], keep[k, 1]
+        if people.shape[0]:
+            best = np.inf
+            for q in range(people.shape[0]):
+                dx, dy = px - people[q, 0], py - people[q, 1]
+                best = min(best, dx * dx + dy * dy)
+            human[k] = best <= r2
+        i = math.floor(((x + c * px - sn * py) - x0) * inv)
+        j = math.floor(((y + sn * px + c * py) - y0) * inv)
+        if i >= 0 and i < n and j >= 0 and j < n:
+            cells[k], inside[k] = i * n + j, True
+    n_ret, n_fr = (m + stride - 1) // stride, (free_rays.shape[0] + stride - 1) // stride
+    ru, n_free = np.empty((n_ret + n_fr, 2)), np.empty(n_ret + n_fr, dtype=np.intp)
+    rot = (c, sn, inv)
+    for t in range(n_ret):
+        _ray(keep[t * stride, 0], keep[t * stride, 1], rk[t * stride] - margin, t, rot, steps, ru, n_free)
+    for t in range(n_fr):
+        fx, fy = free_rays[t * stride, 0], free_rays[t * stride, 1]
+        _ray(fx, fy, min(math.hypot(fx, fy), max_range), n_ret + t, rot, steps, ru, n_free)
+    return keep, human, cells, inside, ru, n_free
+
+
+@njit
+def return_scores(
+    ev: _F, hit_cells: NDArray[np.intp], offsets: NDArray[np.intp], static_time: float
+) -> _F:  # pragma: no cover - compiled
+    """``StaticClutterMap._return_scores``, exactly: per return, the largest evidence of its cell and of the cells
+    ``offsets`` (flat, wrapped) from it (``np.maximum`` in the offsets' order: maxima do not round), over
+    ``static_time``, clipped to [0, 1]."""
+    ncell = ev.size
+    out = np.empty(hit_cells.size)
+    for k in range(hit_cells.size):
+        c = hit_cells[k]
+        best = ev[c]
+        for off in offsets:
+            v = ev[(c + off) % ncell]
+            best = v if v > best or math.isnan(v) else best
+        t = best / static_time
+        if not math.isnan(t):  # np.clip: (t > 0 ? t : 0), then (t < 1 ? t : 1); NaN stays
+            t = t if t > 0.0 else 0.0
+            t = t if t < 1.0 else 1.0
+        out[k] = t
+    return out
+
+
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them
     (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
@@ -280,6 +408,11 @@ def warm_up() -> None:
     ev = np.zeros(4)
     update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)
     ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
+    return_scores(ev, np.zeros(1, dtype=np.intp), np.zeros(1, dtype=np.intp), 1.0)
+    one = np.ones((1, 2))
+    geo = np.array([10.0, 0.3, 1.0, 0.1, -1.0, -1.0, 1.0])
+    scan_rays(one, np.zeros((0, 2)), np.zeros((0, 2)), (0.0, 0.0, 1.0, 0.0), geo, np.ones(3), 2)
+    scan_rays(one, one, one, (0.0, 0.0, 1.0, 0.0), geo, np.ones(3), 2)
     e = np.zeros((0, 2))
     static_lookup(np.zeros((1, 2)), np.zeros(4), 2, (0.0, 0.0, 1.0, 0.0), (-1.0, -1.0, 1.0), np.ones(2))
     pts, ref = np.zeros((2, 2)), np.full((2, 2), np.nan)

@@ -76,8 +76,15 @@ from scipy.spatial import cKDTree
 
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D, near_any, rotate
-from gridbridge.validation import check_int, check_real
-from pfpeople.perception.clutter_kernels import ball_means, moving_update, static_lookup, update_evidence
+from gridbridge.validation import check_int, check_real, finite_rows
+from pfpeople.perception.clutter_kernels import (
+    ball_means,
+    moving_update,
+    return_scores,
+    scan_rays,
+    static_lookup,
+    update_evidence,
+)
 from pfpeople.perception.scan_matching import ScanOdometry
 from pfpeople.perception.self_returns import SelfReturns
 
@@ -101,10 +108,9 @@ def _positions(values: ArrayLike, name: str, *, drop_nonfinite: bool = False) ->
         return np.zeros((0, 2))
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise ValueError(f"{name} must have shape (N, 2) of (x, y) positions in metres, got {arr.shape}")
-    finite = np.isfinite(arr).all(axis=1)
     if drop_nonfinite:
-        return arr[finite]
-    if not finite.all():
+        return arr[finite_rows(arr)]
+    if not np.isfinite(arr).all():  # one reduction: every row finite is every value finite
         raise ValueError(f"{name} contains NaN or infinite positions")
     return arr
 
@@ -379,12 +385,12 @@ class StaticClutterMap:
             For an ``ego`` that is not a :class:`Pose2D`.
         """
         pts, people, step = self._begin_update(points, ego, exclude, dt, stamp_ns)
-        pts, human, rays, lengths = self._rays(pts, people, free)
-        cells, inside = self.cell_of(self.pose.apply(pts))
         s = self.evidence.reshape(-1)
         if _jit.enabled("pfpeople") and s.base is self.evidence:  # the same as below, compiled (clutter_kernels)
-            self._evidence_compiled(s, cells, inside, human, rays, lengths, step)
+            pts, cells, inside = self._update_compiled(s, pts, people, free, step)
         else:
+            pts, human, rays, lengths = self._rays(pts, people, free)
+            cells, inside = self.cell_of(self.pose.apply(pts))
             self._evidence_numpy(s, cells, inside, human, rays, lengths, step)
         # the latest returns, for the queries (all returns, people's too: a query looks at what is there now)
         self._hit_cells = cells[inside]
@@ -439,21 +445,27 @@ class StaticClutterMap:
         )
         return pts, human, rays, lengths
 
-    def _evidence_compiled(
+    def _update_compiled(
         self,
         s: NDArray[np.float64],
-        cells: NDArray[np.intp],
-        inside: NDArray[np.bool_],
-        human: NDArray[np.bool_],
-        rays: NDArray[np.float64],
-        lengths: NDArray[np.float64],
+        pts: NDArray[np.float64],
+        people: NDArray[np.float64],
+        free: ArrayLike | None,
         step: float,
-    ) -> None:
-        """The evidence update of one scan by :func:`pfpeople.perception.clutter_kernels.update_evidence` (the same
-        values
-        as :meth:`_evidence_numpy`)."""
+    ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_]]:
+        """The rest of :meth:`update` compiled, the same values as its numpy steps (:meth:`_rays`, :meth:`cell_of`,
+        :meth:`_evidence_numpy`): the scan's geometry by :func:`~pfpeople.perception.clutter_kernels.scan_rays`,
+        the evidence by :func:`~pfpeople.perception.clutter_kernels.update_evidence`. Returns the returns within
+        ``max_range`` (M, 2), their flat cells and whether they are inside the window."""
         c = self.config
-        ru, origin, n_free = self._ray_dirs(rays, lengths)
+        no_return = np.zeros((0, 2)) if free is None else _positions(free, "free", drop_nonfinite=True)
+        inv = 1.0 / c.resolution
+        o = self.origin
+        pose = (float(self.pose.x), float(self.pose.y), math.cos(self.pose.yaw), math.sin(self.pose.yaw))
+        geo = np.array([c.max_range, c.exclude_radius, c.free_stride, c.free_margin, o[0], o[1], inv])
+        pts, people, no_return = (np.ascontiguousarray(a) for a in (pts, people, no_return))
+        pts, human, cells, inside, ru, n_free = scan_rays(pts, people, no_return, pose, geo, self._steps, self.n)
+        origin = (np.array([self.pose.x, self.pose.y]) - o) * inv
         params = np.array(
             [c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, c.free_rate * step, c.s_min]
         )
@@ -461,6 +473,7 @@ class StaticClutterMap:
         update_evidence(
             s, self.n, cells[inside & ~human], cells[inside & human], ru, n_free, self._steps, origin, nb, params
         )
+        return pts, cells, inside
 
     def _evidence_numpy(
         self,
@@ -546,7 +559,7 @@ class StaticClutterMap:
         """
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         out = np.zeros(pts.shape[0], dtype=bool)
-        ok = np.isfinite(pts).all(axis=1)
+        ok = finite_rows(pts)
         if not ok.any():
             return out
         c = self.config
@@ -597,6 +610,10 @@ class StaticClutterMap:
 
     def _return_scores(self) -> NDArray[np.float64]:
         """Score of each latest return: the largest cell score within ``query_cells`` cells of its cell."""
+        if self._scores is None and _jit.enabled("pfpeople"):  # the same scores, compiled (clutter_kernels)
+            offsets = np.asarray(self._query_neighbours, dtype=np.intp)
+            ev = np.ascontiguousarray(self.evidence).reshape(-1)
+            self._scores = return_scores(ev, self._hit_cells, offsets, float(self.config.static_time))
         if self._scores is None:
             ev = self.evidence.reshape(-1)
             ncell = self.n * self.n
@@ -901,7 +918,7 @@ class ClutterSuppressor:
         self.map.update(points, ego=ego, exclude=excluded, stamp_ns=stamp_ns, dt=dt, free=free)
         if self.own is not None:
             self.own.update(points, ego if ok else None)
-        keep = [~self.is_clutter(d) if d.shape[0] else np.zeros(0, dtype=bool) for d in dets]
+        keep = [~flags for flags in self.clutter_flags(dets)]
         while len(self._moving_sets) < len(dets):
             self._moving_sets.append(copy.deepcopy(self._moving_sets[0]))
         moving = [mp.update(d, ego=ego, dt=self.map.last_dt) for mp, d in zip(self._moving_sets, dets, strict=False)]
@@ -927,6 +944,15 @@ class ClutterSuppressor:
             self._failures += 1
             self._backoff = min(2 ** (self._failures - 1), self.max_backoff) - 1
         return st.ego, ok
+
+    def clutter_flags(self, groups: Sequence[NDArray[np.float64]]) -> list[NDArray[np.bool_]]:
+        """:meth:`is_clutter` of each array of positions ``(M_i, 2)`` in ``groups``, in one query of them all
+        (each position's answer is its own: the same flags as a query per array)."""
+        sizes = [len(g) for g in groups]
+        if not any(sizes):
+            return [np.zeros(0, dtype=bool) for _ in groups]
+        flags = self.is_clutter(np.concatenate([np.asarray(g, dtype=float).reshape(-1, 2) for g in groups]))
+        return np.split(flags, np.cumsum(sizes)[:-1])
 
     def is_clutter(self, positions: ArrayLike) -> NDArray[np.bool_]:
         """``(M,)`` which positions (m, laser frame of the latest :meth:`step`) are static clutter: static in

@@ -27,6 +27,10 @@ from pfpeople.run_state import RunSummary, count
 
 __all__ = ["ClutterStage"]
 
+#: No positions (read only): a detector without support positions in a frame.
+_NONE = np.zeros((0, 2))
+_NONE.setflags(write=False)
+
 
 class ClutterStage:
     """Static-clutter suppression of the laser detections of a run (see the module docstring).
@@ -158,24 +162,16 @@ class ClutterStage:
         self.scan_static[topic] = sup.map.static_points(points)
         for k, keep in zip(idx, st.keep, strict=True):
             static[k] = ~keep
-            kept[k] = self._keep(k, keep, kept[k], found[k], sup)
+            kept[k] = self._keep(k, keep, kept[k])
+        if self.config.tracking.single_legs:  # only such a tracker needs the support positions' static flags
+            support = [f.support_sensor if (f := found[k]) is not None and len(f.support) else _NONE for k in idx]
+            for k, flags in zip(idx, sup.clutter_flags(support), strict=True):  # one query of them all
+                self.support_static[k] = flags
         if topic == self.config.driver and st.ego_ok and ego is None:
             return mount.compose(st.ego).compose(mount.inverse())
         return None
 
-    def _keep(
-        self,
-        k: int,
-        keep: NDArray[np.bool_],
-        grid: NDArray[np.float64] | None,
-        found: Detections | None,
-        sup: Any,
-    ) -> NDArray[np.float64] | None:
-        """Detector ``k``'s detections (grid frame) less the suppressed ones, counted; its support positions'
-        static flags set when the tracker takes single legs."""
+    def _keep(self, k: int, keep: NDArray[np.bool_], grid: NDArray[np.float64] | None) -> NDArray[np.float64] | None:
+        """Detector ``k``'s detections (grid frame) less the suppressed ones, counted."""
         count(self.summary.suppressed, self.adapters[k].config.name, int(np.count_nonzero(~keep)))
-        if found is not None and self.config.tracking.single_legs:  # only such a tracker needs them
-            self.support_static[k] = (
-                sup.is_clutter(found.support_sensor) if len(found.support) else np.zeros(0, dtype=bool)
-            )
         return grid[keep] if grid is not None and len(grid) else grid

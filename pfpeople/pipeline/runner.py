@@ -70,7 +70,7 @@ from gridbridge.classifiers import classify_frame
 from gridbridge.filter import BeliefFilter
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
-from gridbridge.validation import check_int
+from gridbridge.validation import check_int, finite_rows
 from pfpeople.config import BagConfig, FilterConfig, run_topics
 from pfpeople.detect import segment_kernels as _kernels
 from pfpeople.detect.adapters import (
@@ -488,7 +488,7 @@ class Pipeline:
             if f is None or f.scan is None or topic in out or getattr(a, "self_mounted", False):
                 continue
             pts = f.scan.points()
-            ok = np.isfinite(pts).all(axis=1)
+            ok = finite_rows(pts)
             static = front.scan_static.get(topic)
             out[topic] = (a.mount.apply(pts[ok]), None if static is None else static[ok])
         return out

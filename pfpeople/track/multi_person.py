@@ -430,11 +430,21 @@ class MultiPersonTracker:
 
         Coasting tracks are included, up to ``config.report_coast_s`` of coasting when that is set.
         """
+        return self._snapshots(self._confirmed_rows())
+
+    def _confirmed_rows(self) -> list[int]:
+        """The rows of :meth:`confirmed`'s tracks."""
         rc = self.config.report_coast_s
         rc = math.inf if rc is None else rc + 1e-9
-        return self._snapshots(
-            [i for i, m in enumerate(self._meta) if m.confirmed and not m.lost and (m.misses == 0 or m.coast_s <= rc)]
-        )
+        return [
+            i for i, m in enumerate(self._meta) if m.confirmed and not m.lost and (m.misses == 0 or m.coast_s <= rc)
+        ]
+
+    def confirmed_and_live(self) -> tuple[list[Track], list[Track]]:
+        """:meth:`confirmed` and :attr:`tracks` from one snapshot of the live tracks (the confirmed ones are the
+        same :class:`Track` objects as in the live list; read them, do not change their arrays)."""
+        live = self.tracks
+        return [live[i] for i in self._confirmed_rows()], live
 
     def _snapshots(self, idx: list[int]) -> list[Track]:
         if not idx:
@@ -508,6 +518,20 @@ class MultiPersonTracker:
         TypeError
             ``ego`` not a Pose2D, ``dt`` not a number.
         """
+        self.advance(positions, dt, scores=scores, ego=ego, support=support)
+        return self.confirmed()
+
+    def advance(
+        self,
+        positions: ArrayLike,
+        dt: float,
+        *,
+        scores: ArrayLike | None = None,
+        ego: Pose2D | None = None,
+        support: ArrayLike | None = None,
+    ) -> None:
+        """:meth:`update` without the snapshot of the confirmed tracks (take :meth:`confirmed_and_live` after it:
+        one snapshot for both); the same arguments and errors."""
         z = _check_positions(positions)
         c = _check_scores(scores, z.shape[0])
         sup = np.zeros((0, 2)) if support is None else _check_positions(support, "support")
@@ -527,7 +551,6 @@ class MultiPersonTracker:
             self._motion_and_reid(n_old, was_confirmed)
         self._delete()
         self._birth(z, c, cols)
-        return self.confirmed()
 
     def _move_and_predict(self, ego: Pose2D | None, dt: float) -> None:
         """Steps 1-2: move the tracks into the current sensor frame (``ego``: it in the previous one; None or the

@@ -44,6 +44,7 @@ Why, with the figures: ``docs/ablations.md``, "The reported people".
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -91,11 +92,31 @@ def snap_to_detections(positions: ArrayLike, detections: ArrayLike, radius: floa
 
 
 def _in_observed(xy: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | None) -> NDArray[np.bool_]:
-    """For positions ``(K, 2)`` (m, grid frame): inside the grid and, given ``observed``, in an observed cell."""
+    """For positions ``(K, 2)`` (m, grid frame): inside the grid and, given ``observed``, in an observed cell.
+
+    Up to 8 positions (a frame's tracks) are looked up in Python floats: :meth:`GridSpec.contains` and
+    :meth:`GridSpec.flat_index`'s arithmetic (a cell index off the grid is -1 there, which reads the last cell)."""
+    if len(xy) <= _FEW:
+        return np.array([_observed_at(x, y, spec, observed) for x, y in xy.tolist()], dtype=bool)
     seen = spec.contains(xy[:, 0], xy[:, 1])
     if observed is not None and seen.any():
         seen[seen] = np.asarray(observed, dtype=bool).ravel()[spec.flat_index(xy[seen, 0], xy[seen, 1])]
     return np.asarray(seen, dtype=bool)
+
+
+#: Up to this many positions :func:`_in_observed` looks up one by one.
+_FEW = 8
+
+
+def _observed_at(x: float, y: float, spec: GridSpec, observed: ArrayLike | None) -> bool:
+    """:func:`_in_observed` of one position (m, grid frame)."""
+    if not (spec.x0 <= x < spec.x1 and spec.y0 <= y < spec.y1):
+        return False
+    if observed is None:
+        return True
+    i, j = math.floor((x - spec.x0) / spec.resolution), math.floor((y - spec.y0) / spec.resolution)
+    k = i * spec.ny + j if 0 <= i < spec.nx and 0 <= j < spec.ny else -1
+    return bool(np.asarray(observed, dtype=bool).ravel()[k])
 
 
 def _observed_or_hit(tracks: Sequence[Track], spec: GridSpec, observed: ArrayLike) -> list[Track]:
@@ -307,10 +328,10 @@ class PeopleTracker:
             n_found = len(found.positions)
             found = replace(found, positions=pos[:n_found])
         support = support if self.use_support else None
-        tracks = self.tracker.update(pos, dt, scores=sc, ego=ego, support=support)
+        self.tracker.advance(pos, dt, scores=sc, ego=ego, support=support)
+        tracks, live = self.tracker.confirmed_and_live()  # one snapshot of the tracks a frame
         if self.observed_tracks_only and observed is not None and tracks:
             tracks = _observed_or_hit(tracks, spec, observed)
-        live = self.tracker.tracks if (views and self.see_through) or self.people != "classified" else []
         gone: set[int] = set()
         if views and self.see_through:
             gone = self._seen_through(live, tracks, views)

@@ -158,3 +158,19 @@ def test_sigma_points_and_velocity_model_are_bit_identical_to_the_reference() ->
             got3 = velocity_displacement(vv, ww, dt, gg, vy=lat)
             want3 = _reference_velocity_displacement(vv, ww, dt, gg, vy=lat)
             assert all(g.tobytes() == r.tobytes() for g, r in zip(got3, want3, strict=True))
+
+
+def test_node_displacement_is_velocity_displacement_per_control() -> None:
+    """The sigma points' Python-float velocity model against the numpy one, element by element, bit for bit."""
+    from gridbridge.ego_motion import _node_displacement
+
+    rng = np.random.default_rng(27)
+    for _ in range(3000):
+        v = float(rng.choice([0.0, -0.0, rng.normal(0.0, 1.0), rng.uniform(-3.0, 3.0)]))
+        w = float(rng.choice([0.0, -0.0, 1e-10, 1e-9, -1e-9, 2e-9, rng.normal(0.0, 1.0), rng.uniform(-40.0, 40.0)]))
+        gamma = float(rng.choice([0.0, rng.normal(0.0, 0.1)]))
+        vy = float(rng.choice([0.0, -0.0, rng.normal(0.0, 0.3)]))
+        dt = float(rng.choice([0.1, 0.1333333333, rng.uniform(0.001, 1.0)]))
+        want = velocity_displacement(np.array([v]), np.array([w]), dt, np.array([gamma]), vy=vy)
+        got = np.array(_node_displacement(v, w, gamma, dt, vy))
+        assert got.tobytes() == np.concatenate(want).tobytes(), (v, w, gamma, vy, dt)

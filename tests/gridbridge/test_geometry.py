@@ -71,3 +71,21 @@ def test_near_any_against_a_loop() -> None:
     assert near_any([[0.0, 0.0]], [[0.3, 0.4]], 0.5).tolist() == [True]  # the radius itself is near
     assert near_any(pts, np.zeros((0, 2)), 1.0).tolist() == [False] * 40
     assert near_any(np.zeros((0, 2)), others, 1.0).shape == (0,)
+
+
+def test_from_frame_of_a_few_points_is_the_numpy_arithmetic_bit_for_bit() -> None:
+    """Up to 8 points go through Python floats: the same floats as the numpy rows of a longer array."""
+    from gridbridge.geometry import from_frame
+
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        pose = Pose2D(
+            x=float(rng.normal(0, 5)), y=float(rng.choice([0.0, -0.0, rng.normal()])), yaw=float(rng.normal(0, 3))
+        )
+        pts = rng.normal(0, 10, (9, 2))
+        pts[rng.random((9, 2)) < 0.1] = -0.0
+        want = from_frame(pts, pose)
+        for k in range(9):
+            got = from_frame(pts[:k], pose)
+            assert got.shape == (k, 2) and got.tobytes() == want[:k].tobytes()
+    assert Pose2D(x=1.0).apply([2.0, 3.0]).tolist() == [[3.0, 3.0]]

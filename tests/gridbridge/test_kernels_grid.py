@@ -133,3 +133,132 @@ def test_grid_filter_runs_its_builtin_components_as_their_functions_do(builtin: 
     for a, b in zip(*runs, strict=True):
         for name in ("people_prior", "sensor_prior", "likelihood", "posterior"):
             assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+
+
+@pytest.mark.parametrize("miss_weight", [1.0, 0.6])
+def test_independent_likelihood_is_bit_identical(miss_weight: float) -> None:
+    """IndependentLikelihood on its compiled terms (independent_terms, add_where) and on numpy: every stage."""
+    from gridbridge.likelihoods import IndependentLikelihood
+
+    rng = np.random.default_rng(9)
+    pts = np.column_stack((rng.uniform(-1, 8, 14), rng.uniform(-3.5, 3.5, 14)))
+    footprint = DetectorModel(name="wide-legs", ppv=0.8, fnr=0.3, footprint_radius=0.45)
+    camera = DetectorModel(name="cam", ppv=0.7, fnr=0.4, uncertainty="gaussian", fov_min=-0.5, fov_max=0.5)
+    models = (*PAPER_DETECTORS, footprint, camera)
+    lik = IndependentLikelihood(base_rate=0.03, miss_weight=miss_weight)
+    for dets in ([pts[:5], None, pts[5:9], pts[9:], pts[2:6]], [None, np.zeros((0, 2)), pts, None, pts[:1]]):
+        fast, slow = _both(lik, SPEC, models, dets)
+        for name in ("fired", "covered", "detector_likelihoods", "likelihood"):
+            assert getattr(fast, name).tobytes() == getattr(slow, name).tobytes(), name
+
+
+def test_border_inflow_is_the_warp_of_an_empty_grid_bit_for_bit() -> None:
+    """warp_outside (the cells near the border only) against warp_bilinear of zeros and the numpy warp: small
+    and large motions, rotations of any angle, shifts beyond the grid, whole-cell shifts, one pose or several."""
+    from gridbridge import kernels
+    from gridbridge.ego_motion import border_inflow
+
+    rng = np.random.default_rng(12)
+    specs = (SPEC, GridSpec(nx=58, ny=68, resolution=0.3, x0=-7.2, y0=-10.2), GridSpec(nx=5, ny=3, resolution=0.1))
+    for k in range(400):
+        spec = specs[k % 3]
+        s = int(rng.integers(1, 8))
+        scale = float(rng.choice([0.01, 0.1, 1.0, 20.0]))
+        poses = np.column_stack(
+            (rng.normal(0, scale, s), rng.normal(0, scale, s), rng.choice([0.0, 1e-4, 0.05, 1.0, np.pi / 2, 3.0], s))
+        )
+        if k % 7 == 0:
+            poses[:, :2] = np.round(poses[:, :2] / spec.resolution) * spec.resolution
+            poses[:, 2] = 0.0
+        w = rng.random(s) + 0.1
+        w = w / w.sum()
+        outside = float(rng.choice([0.5, 0.02, 1.0]))
+        grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+        want = kernels.warp_bilinear(np.zeros(spec.shape), grid, poses, w, outside)
+        got = kernels.warp_outside((spec.nx, spec.ny), grid, poses, w, outside)
+        assert got.tobytes() == want.tobytes(), k
+        fast, slow = _both(border_inflow, spec, poses, w, outside=outside)
+        with jit.override(True):
+            assert fast.tobytes() == warp_belief(np.zeros(spec.shape), spec, poses, w, outside=outside).tobytes()
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+    zero = np.zeros((1, 3))
+    assert not border_inflow(SPEC, zero).any() and border_inflow(SPEC, zero).shape == SPEC.shape
+    with pytest.raises(ValueError, match="poses"):
+        border_inflow(SPEC, np.zeros((2, 2)))
+
+
+def test_warp_at_some_cells_is_the_whole_warp_there_bit_for_bit() -> None:
+    """warp_at against warp_bilinear(...)[cells]: random beliefs and cells, motions small and large."""
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(13)
+    spec = GridSpec(nx=31, ny=24, resolution=0.3, x0=-4.0, y0=-3.6)
+    grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+    for k in range(200):
+        bel = rng.random(spec.shape) * (rng.random(spec.shape) < 0.5)
+        outside = float(rng.choice([0.5, 0.02]))
+        s = int(rng.integers(1, 8))
+        poses = np.column_stack((rng.normal(0, 0.3, s), rng.normal(0, 0.3, s), rng.normal(0, 0.3, s)))
+        if k % 5 == 0:
+            poses[:, :2] *= 30.0
+        w = rng.random(s) + 0.1
+        w = w / w.sum()
+        cells = np.flatnonzero(rng.random(spec.n_cells) < float(rng.choice([0.02, 0.3, 1.0])))
+        want = kernels.warp_bilinear(bel, grid, poses, w, outside).ravel()[cells]
+        got = kernels.warp_at(bel, grid, poses, w, outside, cells)
+        assert got.tobytes() == want.tobytes(), k
+
+
+def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
+    """classify_peaks' candidates by peak_candidates against peak_maxima's maximum filter: plateaus (ties), peaks
+    at the border, windows of 1-4 cells, thresholds 0 to 0.9."""
+    from gridbridge import kernels
+    from gridbridge.classifiers import _ordered_candidates, classify_peaks, peak_maxima
+
+    rng = np.random.default_rng(14)
+    for k in range(300):
+        spec = GridSpec(nx=int(rng.integers(1, 30)), ny=int(rng.integers(1, 30)), resolution=0.3)
+        q = float(rng.choice([4, 20, 1000]))  # few levels: plateaus of equal beliefs
+        grid = np.round(rng.random(spec.shape) * q) / q
+        threshold = float(rng.choice([0.0, 0.3, 0.5, 0.9]))
+        sep = float(rng.choice([0.25, 0.6, 0.9, 1.2]))
+        is_max, value = peak_maxima(grid, spec, sep)
+        want = np.argwhere((value > threshold) & is_max)
+        half = max(1, int(np.ceil(sep / spec.resolution - 1e-9)))
+        got = kernels.peak_candidates(grid, half, threshold)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), k
+        fast, slow = _both(_ordered_candidates, grid, spec, threshold, sep, 0.0)
+        assert all(a.tobytes() == b.tobytes() for a, b in zip(fast, slow, strict=True))
+        radius = float(rng.choice([0.0, 0.35, 0.7]))
+        pf, ps = _both(classify_peaks, grid, spec, threshold=threshold, min_separation=sep, centroid_radius=radius)
+        for name in ("positions", "scores", "sizes", "mask"):  # peak_centroids' sums and the numpy ones
+            a, b = getattr(pf, name), getattr(ps, name)
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), name
+
+
+def _convolve_reference(bel: np.ndarray, kernel: np.ndarray, outside: float) -> np.ndarray:
+    """The linear prediction's sums as the compiled kernel adds them: per cell from 0.0 over the nonzero taps in
+    row-major order, clipped (the order of the kernel before its cells were summed eight at a time)."""
+    nx, ny = bel.shape
+    rad = kernel.shape[0] // 2
+    padded = np.full((nx + 2 * rad, ny + 2 * rad), outside)
+    padded[rad : rad + nx, rad : rad + ny] = bel
+    s = np.zeros((nx, ny))
+    for a in range(kernel.shape[0]):
+        for b in range(kernel.shape[1]):
+            if kernel[a, b] != 0.0:
+                s += kernel[a, b] * padded[2 * rad - a : 2 * rad - a + nx, 2 * rad - b : 2 * rad - b + ny]
+    return np.clip(s, 0.0, 1.0)
+
+
+def test_linear_prediction_sums_each_cell_in_tap_order_bit_for_bit() -> None:
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(15)
+    for k in range(60):
+        spec = GridSpec(nx=int(rng.integers(1, 40)), ny=int(rng.integers(1, 40)), resolution=0.3)
+        bel = rng.random(spec.shape) * (rng.random(spec.shape) < 0.6)
+        kern = people_motion_kernel(spec, dt=float(rng.choice([0.05, 0.1333, 0.4])), form="integrated")
+        outside = float(rng.choice([0.5, 0.02, 1.0]))
+        got = kernels.convolve_const(bel, np.ascontiguousarray(kern), outside)
+        assert got.tobytes() == _convolve_reference(bel, kern, outside).tobytes(), k

@@ -92,3 +92,17 @@ def test_a_wrong_type_is_also_a_value_error_for_the_configs_and_command_lines() 
 def test_bools_and_strings_that_used_to_slip_through_are_refused_by_name(build: Any, name: str) -> None:
     with pytest.raises(TypeError, match=rf"{name} must be a number, got (bool|str)"):
         build()
+
+
+def test_finite_rows_is_the_row_reduction() -> None:
+    from gridbridge.validation import finite_rows
+
+    rng = np.random.default_rng(6)
+    for k in (0, 1, 2, 3):
+        a = rng.normal(size=(50, k))
+        a[rng.random((50, k)) < 0.1] = np.nan
+        a[rng.random((50, k)) < 0.05] = -np.inf
+        assert finite_rows(a).tobytes() == np.isfinite(a).all(axis=1).tobytes()
+    assert finite_rows(np.zeros((0, 2))).shape == (0,)
+    with pytest.raises(ValueError, match="2-D"):
+        finite_rows(np.zeros(3))

@@ -86,13 +86,14 @@ def test_pairwise_sum_is_numpys_reduceat() -> None:
         assert pairwise_sum(v, lo, n) == v[lo : lo + n].sum()
 
 
-def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("extra", [{}, {"free_stride": 3, "max_range": 6.0}])
+def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch, extra: dict) -> None:
     """Two maps fed the same scans (a moving sensor, people to exclude, beams without a return) keep the same
     evidence bit for bit, one compiled and one in numpy."""
     from pfpeople.perception.clutter_map import ClutterConfig, StaticClutterMap
     from pfpeople.sensors import Pose2D
 
-    cfg = ClutterConfig(static_time=0.5)
+    cfg = ClutterConfig(static_time=0.5, **extra)
     maps = {True: StaticClutterMap(cfg), False: StaticClutterMap(cfg)}
     rng = np.random.default_rng(11)
     static = 0
@@ -105,6 +106,8 @@ def test_clutter_map_update_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatc
             with jit.override(on, "pfpeople"):
                 m.update(pts, ego=ego, exclude=people, dt=0.05 + 0.01 * (k % 5), free=free)
         assert maps[True].evidence.tobytes() == maps[False].evidence.tobytes()
+        for name in ("_hit_cells", "_hit_xy"):  # the returns the queries look at
+            assert getattr(maps[True], name).tobytes() == getattr(maps[False], name).tobytes()
         q = np.concatenate((pts, rng.normal(0, 20, (50, 2))))  # the map moved: the lookup's pose and window
         with jit.override(True, "pfpeople"):
             compiled = maps[True].static_points(q)
@@ -201,7 +204,8 @@ def test_static_scores_compiled_equal_numpy() -> None:
         got = {}
         for on in (True, False):
             with jit.override(on, "pfpeople"):
-                got[on] = (m.static_score(q).tobytes(), m.static_points(q).tobytes())
+                m._scores = None  # the returns' scores anew on each path (return_scores or numpy)
+                got[on] = (m.static_score(q).tobytes(), m.static_points(q).tobytes(), m._return_scores().tobytes())
         assert got[True] == got[False]
 
 
@@ -256,3 +260,25 @@ def test_self_returns_compiled_equal_numpy() -> None:
         assert dets[True]._ref.tobytes() == dets[False]._ref.tobytes()
         seen = seen or bool(dets[True].mask.any())
     assert seen
+
+
+def test_pair_legs_compiled_pairs_as_numpy() -> None:
+    """pair_greedy against pair_legs' numpy path: random legs, ties of distance (legs on a lattice), none or one
+    admissible pair, duplicates."""
+    from pfpeople.detect.legs import pair_legs
+
+    rng = np.random.default_rng(17)
+    for t in range(400):
+        k = int(rng.integers(0, 12))
+        legs = rng.uniform(-2.0, 2.0, (k, 2))
+        if t % 3 == 0:
+            legs = np.round(legs * 4.0) / 4.0  # a lattice: many equal distances
+        if t % 7 == 0 and k > 2:
+            legs[1] = legs[0]
+        lo, hi = float(rng.choice([0.0, 0.1, 0.25])), float(rng.choice([0.3, 0.6, 1.5]))
+        with jit.override(True, "pfpeople"):
+            fast = pair_legs(legs, min_separation=lo, max_separation=hi)
+        with jit.override(False, "pfpeople"):
+            slow = pair_legs(legs, min_separation=lo, max_separation=hi)
+        for a, b in zip(fast, slow, strict=True):
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), t

@@ -41,3 +41,32 @@ def test_run_output_is_readable_while_written_and_after_a_crash(tmp_path: Path) 
         RunWriter(tmp_path / "run", spec=spec, detector_names=["a"])
     with pytest.raises(FileNotFoundError, match="not a run directory"):
         load_run(tmp_path)
+
+
+def test_particle_records_are_the_sorted_seeded_subsample() -> None:
+    """particle_records: the frame-seeded choice without replacement, in index order (as np.sort of it)."""
+    from pfpeople.io.run_dir import MAX_PARTICLES_SAVED, PARTICLE_DTYPE, particle_records
+
+    rng = np.random.default_rng(2)
+    for n, frame in ((10, 0), (MAX_PARTICLES_SAVED, 3), (MAX_PARTICLES_SAVED + 1, 4), (20_500, 7)):
+        x, y = rng.normal(size=n), rng.normal(size=n)
+        rec = particle_records(frame, x, y)
+        idx = np.arange(n)
+        if n > MAX_PARTICLES_SAVED:
+            idx = np.sort(np.random.default_rng(frame).choice(n, MAX_PARTICLES_SAVED, replace=False))
+        want = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
+        want["frame"], want["x"], want["y"] = frame, x[idx], y[idx]
+        assert rec.tobytes() == want.tobytes()
+
+
+def test_scan_records_drop_nonfinite_points_and_keep_flags() -> None:
+    from pfpeople.io.run_dir import SCAN_DTYPE, scan_records
+
+    pts = np.array([[1.0, 2.0], [np.nan, 1.0], [3.0, 4.0], [5.0, np.inf]])
+    static = np.array([True, False, False, True])
+    topics: list[str] = []
+    rec = scan_records(7, {"/a": (pts, static), "/b": (pts[[0, 2]], None)}, topics)
+    assert topics == ["/a", "/b"] and rec.dtype == SCAN_DTYPE
+    assert rec["laser"].tolist() == [0, 0, 1, 1] and set(rec["frame"].tolist()) == {7}
+    assert rec["x"].tolist() == [1.0, 3.0, 1.0, 3.0] and rec["y"].tolist() == [2.0, 4.0, 2.0, 4.0]
+    assert rec["static"].tolist() == [1, 0, 0, 0]

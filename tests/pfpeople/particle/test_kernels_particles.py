@@ -17,12 +17,14 @@ import numpy as np
 import pytest
 
 from evaluation.bench.particles import filterpy_systematic
-from gridbridge import GridSpec, Odometry, jit
+from gridbridge import GridSpec, Odometry, PeopleMotion, jit
 from gridbridge.components import Appearance, BeliefBounds
 from pfpeople.particle.buffers import BufferPool
 from pfpeople.particle.components import PaperSampling, PersistentSampling, Resampling
 from pfpeople.particle.filter import ParticleFilter
+from pfpeople.particle.propagation import PersistentMotion, move_persistent
 from pfpeople.particle.resampling import resample_by_cell
+from pfpeople.particle.state import ParticleState
 
 pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
 
@@ -198,3 +200,56 @@ def test_ego_rows_are_sample_ego_poses_bit_for_bit(odo: Odometry) -> None:
     rows = kernels.ego_rows(e, sd, (odo.v, odo.omega, odo.vy), 0.1, _OMEGA_EPS)
     want = np.stack((poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2])))
     assert rows.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        PersistentMotion(),
+        PersistentMotion(heading_noise=3.0, speed_noise=2.0, speed_reversion=4.0, p_stop=0.9, p_start=0.9),
+        PersistentMotion(speed_noise=0.0, p_stop=0.0, p_start=1.0),
+    ],
+)
+def test_move_persistent_compiled_is_the_numpy_walk_bit_for_bit(params: PersistentMotion) -> None:
+    """The walk's kernels (persistent_walk, persistent_velocities) against the numpy twin over several steps:
+    walkers, standing particles (signed zeros too), speeds near v_max and beyond it."""
+    rng = np.random.default_rng(21)
+    n = 3000
+    vx, vy = rng.normal(size=n) * 1.5, rng.normal(size=n) * 1.5
+    vx[:800], vy[:800] = 0.0, 0.0
+    vx[800:900], vy[900:1000] = -0.0, -0.0
+    vx[1000:1100] = 2.9
+    motion = PeopleMotion(v_max=3.0)
+    out = []
+    for compiled in (True, False):
+        st = ParticleState(x=np.ones(n), y=np.zeros(n), vx=vx.copy(), vy=vy.copy(), w=np.ones(n))
+        draws = np.random.default_rng(5)
+        rows = []
+        with jit.override(compiled, "pfpeople"):
+            for dt in (0.1, 0.133, 0.5):
+                move_persistent(st, motion, params, dt, rng=draws)
+                rows.append(np.stack((st.x, st.y, st.vx, st.vy)).tobytes())
+        rows.append(draws.random(3).tobytes())  # the same number of draws on both paths
+        out.append(rows)
+    assert out[0] == out[1]
+
+
+@pytest.mark.parametrize("odo", [Odometry(v=0.5, omega=0.3), None])
+def test_empty_cell_prior_at_the_empty_cells_is_the_whole_warp_there(odo: Odometry | None) -> None:
+    """_empty_cell_prior (compiled: warp_convolved_at, only at the empty cells) against the whole grid's linear
+    prior warped by the compiled grid functions, read at those cells; standing (one pose at 0) too."""
+    from gridbridge import ego_motion_sigma_points, people_motion_kernel, predict_people, warp_belief
+
+    pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(3))
+    for t in range(4):
+        pf.step(DETECTIONS if t % 2 == 0 else [None, None, None], Odometry(v=0.4, omega=0.2), 0.1)
+    poses, w = ego_motion_sigma_points(odo, 0.1, pf.noise)
+    empty = np.random.default_rng(4).random(pf.spec.n_cells) < 0.2
+    with jit.override(True):
+        got = pf._empty_cell_prior(0.1, poses, w, empty)
+        kernel = people_motion_kernel(pf.spec, pf.motion, dt=0.1, form="integrated")
+        people = predict_people(pf.belief, kernel, outside=pf.outside, form="linear")
+        want = warp_belief(people, pf.spec, poses, w, outside=pf.outside).ravel()[empty]
+    assert got.tobytes() == want.tobytes()
+    with jit.override(False, "gridbridge"):
+        np.testing.assert_allclose(pf._empty_cell_prior(0.1, poses, w, empty), want, rtol=0, atol=1e-12)

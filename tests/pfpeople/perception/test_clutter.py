@@ -402,3 +402,37 @@ def test_suppressor_backoff_skips_scans_but_matches_again_after_it(rng: np.rando
         true = robot[k - 1].inverse().compose(robot[k])
         assert abs(egos[k].x - true.x) < 0.01 and abs(egos[k].y - true.y) < 0.01, k
         assert abs(egos[k].yaw - true.yaw) < math.radians(0.3), k
+
+
+def test_positions_check_keeps_finite_rows_and_refuses_nonfinite() -> None:
+    from pfpeople.perception.clutter_map import _positions
+
+    pts = np.array([[1.0, 2.0], [np.nan, 0.0], [3.0, np.inf], [4.0, 5.0]])
+    np.testing.assert_array_equal(_positions(pts, "p", drop_nonfinite=True), pts[[0, 3]])
+    np.testing.assert_array_equal(_positions(pts[[0, 3]], "p"), pts[[0, 3]])
+    assert _positions([], "p").shape == (0, 2)
+    with pytest.raises(ValueError, match="p contains NaN or infinite positions"):
+        _positions(pts, "p")
+    with pytest.raises(ValueError, match=r"shape \(N, 2\)"):
+        _positions(np.zeros((3, 3)), "p")
+
+
+def test_clutter_flags_of_several_groups_are_one_query_per_group() -> None:
+    """clutter_flags (one query of every group) gives each group the flags is_clutter gives it alone."""
+    sup = ClutterSuppressor(CFG)
+    robot = [Pose2D(x=-1.0 + 0.03 * k, y=0.0, yaw=0.0) for k in range(FRAMES_TO_STATIC + 5)]
+    rng = np.random.default_rng(8)
+    for k, pose in enumerate(robot):
+        ego = robot[k - 1].inverse().compose(pose) if k else Pose2D()
+        walker = np.array([2.0, 0.5 + 0.1 * k])
+        pts = ray_cast(pose, post() + legs(walker, phase=0.8 * k))
+        sup.step(pts, [pose.inverse().apply(POST)], ego=ego, dt=DT)
+        near_post = pose.inverse().apply(POST) + rng.normal(0.0, 0.05, (3, 2))
+        groups = [near_post[:2], np.zeros((0, 2)), np.vstack((near_post[2:], pts[:4])), rng.normal(0, 3, (5, 2))]
+        got = sup.clutter_flags(groups)
+        assert len(got) == 4
+        for g, flags in zip(groups, got, strict=True):
+            want = sup.is_clutter(g) if len(g) else np.zeros(0, dtype=bool)
+            assert flags.dtype == bool and flags.tolist() == want.tolist()
+    assert any(sup.is_clutter(pose.inverse().apply(POST[None, :])))
+    assert [f.shape for f in sup.clutter_flags([np.zeros((0, 2))] * 2)] == [(0,), (0,)]

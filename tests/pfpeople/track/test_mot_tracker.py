@@ -370,3 +370,27 @@ def test_coasting_track_does_not_take_a_contested_detection(contest_gate: float 
     if not hop:
         (b,) = [t for t in out if t.id != a.id]
         assert b.confirmed and b.hits == 5 and math.hypot(b.x - 2.0, b.y - 0.95) < 0.1
+
+
+def test_advance_and_one_snapshot_give_update_and_tracks() -> None:
+    """advance + confirmed_and_live: the same tracks as update + tracks, frame by frame (confirmed, tentative,
+    coasting and deleted tracks, support hits, ego-motion)."""
+    cfg = TrackerConfig(report_coast_s=0.25)
+    a, b = MultiPersonTracker(cfg), MultiPersonTracker(cfg)
+    rng = np.random.default_rng(3)
+    for k in range(60):
+        z = np.array([[1.0 + 0.1 * k, 0.5], [3.0, -1.0 + 0.05 * k], [5.0 - 0.08 * k, 2.0]])[: 1 + k % 3]
+        z = z + rng.normal(0.0, 0.02, z.shape)
+        sup = z[:1] + 0.05 if k % 4 == 0 else None
+        ego = Pose2D(x=0.02, y=0.0, yaw=0.01) if k % 2 else None
+        want = a.update(z, DT, ego=ego, support=sup)
+        want_live = a.tracks
+        b.advance(z, DT, ego=ego, support=sup)
+        got, got_live = b.confirmed_and_live()
+        assert len(want_live) >= len(want) and (len(want) > 0 or k < 5)
+        for x, y in ((want, got), (want_live, got_live)):
+            assert [(t.id, t.x, t.y, t.vx, t.vy, t.score, t.misses) for t in x] == [
+                (t.id, t.x, t.y, t.vx, t.vy, t.score, t.misses) for t in y
+            ]
+            assert all(np.array_equal(s.covariance, t.covariance) for s, t in zip(x, y, strict=True))
+        assert all(any(t is u for u in got_live) for t in got)

@@ -297,3 +297,20 @@ def test_observed_tracks_only_setting() -> None:
     assert cfg.tracking.observed_tracks_only is False and config_from_mapping(cfg.to_dict()) == cfg
     with pytest.raises(ValueError, match="observed_tracks_only must be true or false"):
         TrackingConfig(observed_tracks_only="yes")  # type: ignore[arg-type]
+
+
+def test_in_observed_of_a_few_positions_is_the_grid_lookup() -> None:
+    """_in_observed of up to 8 positions (Python floats) against the grid's vectorised lookup of more."""
+    from gridbridge.grid import GridSpec
+    from pfpeople.track.reported_people import _in_observed
+
+    spec = GridSpec(nx=7, ny=5, resolution=0.3, x0=-1.05, y0=-0.75)
+    rng = np.random.default_rng(4)
+    edges = [spec.x0, spec.x1, np.nextafter(spec.x1, -np.inf), spec.y0, spec.y1, np.nextafter(spec.y1, -np.inf)]
+    for t in range(300):
+        observed = rng.random(spec.shape) < 0.5 if t % 4 else None
+        pts = rng.uniform(-1.5, 1.5, (9, 2))
+        pts[rng.random((9, 2)) < 0.2] = rng.choice(edges)
+        want = _in_observed(pts, spec, observed)  # 9: the vectorised lookup
+        for k in range(9):
+            assert _in_observed(pts[:k], spec, observed).tolist() == want[:k].tolist(), t
