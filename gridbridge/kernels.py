@@ -200,6 +200,23 @@ def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outsid
 
 
 @jit
+def _bilinear_tap(flat: NDArray[np.float64], u: float, v: float, nx: int, ny: int, width: int) -> float:
+    """The bilinear value at fractional cell ``(u, v)`` of a grid ``(nx, ny)`` padded by 2 cells and flattened
+    (``flat``, rows of ``width = ny + 4``), the indices clamped into the pad: the warps' one tap, scipy's order
+    (taps (0, 0), (0, 1), (1, 0), (1, 1), each times the x then the y weight)."""
+    fi, fj = np.floor(u), np.floor(v)
+    fu, fv = u - fi, v - fj
+    # an unsigned index: no wrap-around test for negative indices
+    t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
+    one, below = np.uint64(1), np.uint64(width)
+    val = flat[t] * (1.0 - fu) * (1.0 - fv)
+    val += flat[t + one] * (1.0 - fu) * fv
+    val += flat[t + below] * fu * (1.0 - fv)
+    val += flat[t + below + one] * fu * fv
+    return float(val)
+
+
+@jit
 def warp_bilinear(
     bel: NDArray[np.float64],
     grid: tuple[float, float, float],
@@ -232,7 +249,6 @@ def warp_bilinear(
     nx, ny = bel.shape
     flat = _padded(bel, 2, outside).ravel()  # taps beyond the border read ``outside``; indices clamped into the pad
     width = ny + 4
-    one, below = np.uint64(1), np.uint64(width)
     out = np.zeros((nx, ny))
     for s in range(poses.shape[0]):
         tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
@@ -243,16 +259,7 @@ def warp_bilinear(
                 py = y0 + (j + 0.5) * res
                 u = (tx + c * px - sn * py - x0) * inv - 0.5
                 v = (ty + sn * px + c * py - y0) * inv - 0.5
-                fi, fj = np.floor(u), np.floor(v)
-                fu, fv = u - fi, v - fj
-                # an unsigned index: no wrap-around test for negative indices
-                t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
-                # scipy's order: taps (0, 0), (0, 1), (1, 0), (1, 1), each times the x then the y weight
-                val = flat[t] * (1.0 - fu) * (1.0 - fv)
-                val += flat[t + one] * (1.0 - fu) * fv
-                val += flat[t + below] * fu * (1.0 - fv)
-                val += flat[t + below + one] * fu * fv
-                row[j] += ws * val
+                row[j] += ws * _bilinear_tap(flat, u, v, nx, ny, width)
     for i in range(nx):
         for j in range(ny):
             out[i, j] = min(max(out[i, j], 0.0), 1.0)
@@ -335,7 +342,6 @@ def warp_outside(
     nx, ny = shape
     width = ny + 4
     flat = _padded(np.zeros((nx, ny)), 2, outside).ravel()
-    one, below = np.uint64(1), np.uint64(width)
     out = np.zeros((nx, ny))
     margin = 1e-3
     for s in range(poses.shape[0]):
@@ -356,14 +362,7 @@ def warp_outside(
                 py = y0 + (j + 0.5) * res
                 u = (tx + c * px - sn * py - x0) * inv - 0.5
                 v = (ty + sn * px + c * py - y0) * inv - 0.5
-                fi, fj = np.floor(u), np.floor(v)
-                fu, fv = u - fi, v - fj
-                t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
-                val = flat[t] * (1.0 - fu) * (1.0 - fv)
-                val += flat[t + one] * (1.0 - fu) * fv
-                val += flat[t + below] * fu * (1.0 - fv)
-                val += flat[t + below + one] * fu * fv
-                row[j] += ws * val
+                row[j] += ws * _bilinear_tap(flat, u, v, nx, ny, width)
     for i in range(nx):
         for j in range(ny):
             out[i, j] = min(max(out[i, j], 0.0), 1.0)
@@ -387,7 +386,6 @@ def warp_at(
     nx, ny = bel.shape
     flat = _padded(bel, 2, outside).ravel()
     width = ny + 4
-    one, below = np.uint64(1), np.uint64(width)
     out = np.zeros(cells.size)
     for s in range(poses.shape[0]):
         tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
@@ -397,14 +395,7 @@ def warp_at(
             py = y0 + (j + 0.5) * res
             u = (tx + c * px - sn * py - x0) * inv - 0.5
             v = (ty + sn * px + c * py - y0) * inv - 0.5
-            fi, fj = np.floor(u), np.floor(v)
-            fu, fv = u - fi, v - fj
-            t = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
-            val = flat[t] * (1.0 - fu) * (1.0 - fv)
-            val += flat[t + one] * (1.0 - fu) * fv
-            val += flat[t + below] * fu * (1.0 - fv)
-            val += flat[t + below + one] * fu * fv
-            out[m] += ws * val
+            out[m] += ws * _bilinear_tap(flat, u, v, nx, ny, width)
     for m in range(cells.size):
         out[m] = min(max(out[m], 0.0), 1.0)
     return out
