@@ -290,18 +290,17 @@ def _motion_columns(row: BenchRow, run: Path, gt: Path) -> None:
     ``row.extra`` and its note."""
     from evaluation.metrics.standing_walking import motion_split
 
-    m = motion_split(run, gt)
-    seen = motion_split(run, gt, min_hit_beams=SEEN_BEAMS)
+    m = motion_split(run, gt, seen_beams=SEEN_BEAMS)
     row.extra.update(
         recall_standing=m.recall_standing,
         recall_walking=m.recall_walking,
-        recall_standing_seen=seen.recall_standing,
-        recall_walking_seen=seen.recall_walking,
+        recall_standing_seen=m.recall_standing_seen,
+        recall_walking_seen=m.recall_walking_seen,
         suppressed_true=m.suppressed_true,
     )
     row.note += (
         f"; standing {_f(m.recall_standing)} walking {_f(m.recall_walking)}"
-        f" (seen: {_f(seen.recall_standing)} / {_f(seen.recall_walking)}) suppressed {_f(m.suppressed_true, 3)}"
+        f" (seen: {_f(m.recall_standing_seen)} / {_f(m.recall_walking_seen)}) suppressed {_f(m.suppressed_true, 3)}"
     )
 
 

@@ -13,9 +13,9 @@ simulator writes one, :mod:`evaluation.scenarios.scan.bagfile`):
   true people inside the run's grid;
 * **suppressed**: of the detections (``detections.csv``) within ``SUPPRESS_GATE_M`` of a true person, the fraction
   the static-clutter map suppressed (``static = 1``);
-* with ``min_hit_beams``, the recalls count only the true people with at least that many laser beams on them
-  (the ground truth's ``hit_beams``): standing people hide each other in groups and stand farther away, so the
-  recall of the people the laser sees compares standing and walking people at equal visibility.
+* the same recalls of the **seen** people only, those with at least ``seen_beams`` laser beams on them (the
+  ground truth's ``hit_beams``): standing people hide each other in groups and stand farther away, so the recall
+  of the people the laser sees compares standing and walking people at equal visibility.
 
 The run's grid frame must be the ground truth's frame (the scan-level scenes' grid is in the driving laser's
 frame); positions are compared as they are.
@@ -41,12 +41,17 @@ SUPPRESS_GATE_M = 0.3
 
 @dataclass(frozen=True)
 class MotionSplit:
-    """Recall of standing and walking people (``nan`` without such people) and the suppressed fraction."""
+    """Recall of standing and walking people, of everyone and of the people the laser sees (``nan`` without such
+    people), and the suppressed fraction."""
 
     recall_standing: float
     recall_walking: float
     n_standing: int
     n_walking: int
+    recall_standing_seen: float
+    recall_walking_seen: float
+    n_standing_seen: int
+    n_walking_seen: int
     suppressed_true: float
     n_true_detections: int
 
@@ -60,9 +65,9 @@ def _by_frame(path: Path, cols: tuple[str, ...]) -> dict[int, NDArray[np.float64
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
-def _truth(gt_csv: Path, grid: dict[str, float], min_hit_beams: int) -> dict[int, NDArray[np.float64]]:
-    """Ground truth inside the grid per scan: ``{scan_index: (P, 3) x, y, speed}``; with ``min_hit_beams`` > 0 the
-    speed of a row with fewer beams on the person is NaN (counted as neither standing nor walking)."""
+def _truth(gt_csv: Path, grid: dict[str, float]) -> dict[int, NDArray[np.float64]]:
+    """Ground truth inside the grid per scan: ``{scan_index: (P, 4) x, y, speed, hit_beams}`` (``hit_beams`` NaN
+    when the file has no such column)."""
     x0, y0, r = grid["x0"], grid["y0"], grid["resolution"]
     x1, y1 = x0 + grid["nx"] * r, y0 + grid["ny"] * r
     out: dict[int, list[list[float]]] = {}
@@ -71,16 +76,14 @@ def _truth(gt_csv: Path, grid: dict[str, float], min_hit_beams: int) -> dict[int
         names = reader.fieldnames or []
         if "speed_mps" not in names:
             raise ValueError(f"{gt_csv}: the standing / walking split needs a speed_mps column; has {names}")
-        if min_hit_beams > 0 and "hit_beams" not in names:
-            raise ValueError(f"{gt_csv}: min_hit_beams needs a hit_beams column; has {names}")
+        beams = "hit_beams" in names
         xc = next(c for c in names if c.startswith("x_") and c.endswith("_m"))
         yc = "y_" + xc[2:]
         for row in reader:
             x, y = float(row[xc]), float(row[yc])
             if x0 <= x < x1 and y0 <= y < y1:
-                seen = min_hit_beams <= 0 or int(row["hit_beams"]) >= min_hit_beams
-                speed = float(row["speed_mps"]) if seen else math.nan
-                out.setdefault(int(row["scan_index"]), []).append([x, y, speed])
+                b = float(row["hit_beams"]) if beams else math.nan
+                out.setdefault(int(row["scan_index"]), []).append([x, y, float(row["speed_mps"]), b])
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
@@ -95,7 +98,16 @@ def _matched(found: NDArray[np.float64], truth: NDArray[np.float64], gate: float
     return hit
 
 
-def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, min_hit_beams: int = 0) -> MotionSplit:
+def _count_recalls(hits: dict[str, list[int]], hit: NDArray[np.bool_], t: NDArray[np.float64], seen_beams: int) -> None:
+    """Add one scan's matched / true counts of standing and walking people, of everyone and of the seen ones."""
+    seen = t[:, 3] >= seen_beams  # False for NaN: no hit_beams column
+    for name, sel in (("standing", t[:, 2] < STANDING_MPS), ("walking", t[:, 2] >= STANDING_MPS)):
+        for key, mask in ((name, sel), (name + "_seen", sel & seen)):
+            hits[key][0] += int(np.count_nonzero(hit & mask))
+            hits[key][1] += int(np.count_nonzero(mask))
+
+
+def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, seen_beams: int = 3) -> MotionSplit:
     """Score a run directory's people by the motion of the true people (see the module docstring).
 
     Parameters
@@ -104,12 +116,12 @@ def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, 
         A ``pfpeople run`` output directory (``run.json``, ``people.csv``, ``detections.csv``).
     gt_csv : path
         Ground truth with ``scan_index``, ``x_<frame>_m``, ``y_<frame>_m`` and ``speed_mps`` columns, in the run's
-        grid frame.
+        grid frame; with a ``hit_beams`` column also the recall of the people the laser sees.
     gate : float
         Largest distance (m) of a match.
-    min_hit_beams : int
-        Recall only of the true people with at least this many beams on them (``hit_beams`` column); 0: of
-        everyone. The suppressed fraction always counts every true person.
+    seen_beams : int
+        The beams on a true person (``hit_beams``) from which they count as seen (the ``*_seen`` recalls; NaN
+        without a ``hit_beams`` column). The suppressed fraction always counts every true person.
 
     Returns
     -------
@@ -117,16 +129,13 @@ def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, 
     """
     run_dir, gt_csv = Path(run_dir), Path(gt_csv)
     grid = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))["grid"]
-    truth = _truth(gt_csv, grid, min_hit_beams)
+    truth = _truth(gt_csv, grid)
     people = _by_frame(run_dir / "people.csv", ("x_m", "y_m"))
     dets = _by_frame(run_dir / "detections.csv", ("x_m", "y_m", "static"))
-    hits = {"standing": [0, 0], "walking": [0, 0]}
+    hits = {k: [0, 0] for k in ("standing", "walking", "standing_seen", "walking_seen")}
     near, suppressed = 0, 0
     for k, t in truth.items():
-        hit = _matched(people.get(k, np.zeros((0, 2))), t, gate)
-        for name, sel in (("standing", t[:, 2] < STANDING_MPS), ("walking", t[:, 2] >= STANDING_MPS)):
-            hits[name][0] += int(np.count_nonzero(hit & sel))
-            hits[name][1] += int(np.count_nonzero(sel))
+        _count_recalls(hits, _matched(people.get(k, np.zeros((0, 2))), t, gate), t, seen_beams)
         d = dets.get(k)
         if d is not None and d.shape[0]:
             close = (
@@ -138,11 +147,16 @@ def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, 
     def ratio(a: int, b: int) -> float:
         return a / b if b else math.nan
 
+    st, wk, st_seen, wk_seen = (hits[k] for k in ("standing", "walking", "standing_seen", "walking_seen"))
     return MotionSplit(
-        recall_standing=ratio(*hits["standing"]),
-        recall_walking=ratio(*hits["walking"]),
-        n_standing=hits["standing"][1],
-        n_walking=hits["walking"][1],
+        recall_standing=ratio(*st),
+        recall_walking=ratio(*wk),
+        n_standing=st[1],
+        n_walking=wk[1],
+        recall_standing_seen=ratio(*st_seen),
+        recall_walking_seen=ratio(*wk_seen),
+        n_standing_seen=st_seen[1],
+        n_walking_seen=wk_seen[1],
         suppressed_true=ratio(suppressed, near),
         n_true_detections=near,
     )

@@ -58,17 +58,20 @@ def test_recall_of_everyone_and_the_suppressed_fraction(tmp_path: Path) -> None:
 
 def test_recall_of_the_people_the_laser_sees(tmp_path: Path) -> None:
     run, gt = _run_dir(tmp_path)
-    m = motion_split(run, gt, min_hit_beams=3)
-    assert (m.n_standing, m.recall_standing) == (2, 0.5)  # the hidden standing person is out
-    assert (m.n_walking, m.recall_walking) == (1, 1.0)  # the hidden walker is out
+    m = motion_split(run, gt, seen_beams=3)
+    assert (m.n_standing_seen, m.recall_standing_seen) == (2, 0.5)  # the hidden standing person is out
+    assert (m.n_walking_seen, m.recall_walking_seen) == (1, 1.0)  # the hidden walker is out
     assert (m.n_true_detections, m.suppressed_true) == (4, 0.5)  # the suppressed fraction counts everyone
+    assert motion_split(run, gt, seen_beams=9).n_standing_seen == 2  # 10 and 12 beams
+    assert motion_split(run, gt, seen_beams=11).n_standing_seen == 1
 
 
-def test_min_hit_beams_needs_the_column(tmp_path: Path) -> None:
+def test_without_hit_beams_no_one_counts_as_seen(tmp_path: Path) -> None:
     run, gt = _run_dir(tmp_path)
     lines = gt.read_text(encoding="utf-8").splitlines()
     cut = [",".join(c for i, c in enumerate(line.split(",")) if i != 5) for line in lines]
     gt.write_text("\n".join(cut) + "\n", encoding="utf-8")
-    assert motion_split(run, gt).n_standing == 3  # without the option it is not needed
-    with pytest.raises(ValueError, match="min_hit_beams needs a hit_beams column"):
-        motion_split(run, gt, min_hit_beams=3)
+    m = motion_split(run, gt)
+    assert m.n_standing == 3 and m.recall_standing == pytest.approx(1 / 3)  # everyone's recall as before
+    assert m.n_standing_seen == m.n_walking_seen == 0
+    assert math.isnan(m.recall_standing_seen) and math.isnan(m.recall_walking_seen)
