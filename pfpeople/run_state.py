@@ -114,6 +114,10 @@ class RunSummary:
     ``frame_id_changes`` the messages in a frame other than the detector's first one (each placed by its own
     frame's mount), ``frame_id_unplaced`` those of them TF does not place (no data).
 
+    ``suppressed`` counts, per detector, the detections the static-clutter map called static; ``readmitted`` those
+    of them the filter saw all the same, at the place a tracked person stopped
+    (:mod:`pfpeople.track.stopped_people`).
+
     ``blas_threads`` is the most threads a BLAS library of the run's process would use while the frames ran
     (:mod:`pfpeople.pipeline.blas`: 1 by default; 0: no BLAS library found), ``front_blas_threads`` the same in the
     front end's process (:mod:`pfpeople.pipeline.front_end`; the run's own process when there is one).
@@ -135,6 +139,7 @@ class RunSummary:
     frame_id_unplaced: dict[str, int] = field(default_factory=dict)
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
+    readmitted: dict[str, int] = field(default_factory=dict)
     laser_odometry_frames: int = 0
     ego_motion: dict[str, int] = field(default_factory=_ego_counts)
     sync: dict[str, dict[str, int]] = field(default_factory=dict)

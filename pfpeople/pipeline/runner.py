@@ -107,6 +107,7 @@ from pfpeople.pipeline.sensor_setup import (
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
 from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.track.reported_people import point_like, support_positions
+from pfpeople.track.stopped_people import StoppedPeople
 
 __all__ = [
     "FIRST_DT_S",
@@ -256,6 +257,8 @@ class Pipeline:
         #: Each frame's mounts, followed over TF time (set by :meth:`prepare`).
         self._mounts: MountTracker | None = None
         self.clutter: ClutterStage | None = None
+        #: The anchors of the tracks that walked and stopped (None: no tracker or no static-clutter map).
+        self._stopped: StoppedPeople | None = None
         self._warn = WarnOnce(log)
 
     # -- preparation -----------------------------------------------------------------------------------------
@@ -295,6 +298,7 @@ class Pipeline:
         self.clutter = ClutterStage(c, self.adapters, self.summary)
         self.odometry = self._odometry_factory(c, setup.base_to_grid, self.summary, self._warn)
         self.tracker = build_people_tracker(c.tracking, self.classifier, c.filter.mode)
+        self._stopped = StoppedPeople() if self.tracker is not None and self.clutter.active else None
         edges = [e for f in self.frame_mounts for e in setup.tf.edges(setup.grid_frame, f)]
         self._mount_watch = MountWatch(edges)
         self._mounts = MountTracker(setup.tf, setup.grid_frame, self.adapters, setup.first, self.summary, self._warn)
@@ -434,6 +438,12 @@ class Pipeline:
         if motion.restarted:
             self.filter.reset()
         raw: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
+        static = front.static
+        if self._stopped is not None:
+            if motion.restarted:
+                self._stopped.reset()
+            self._stopped.move(motion.motion)
+            dets, static = self._readmit(front, self._stopped)
         step = self.filter.step(dets, motion.odometry, motion.dt)
         belief = np.asarray(step.posterior, dtype=float)
         if motion.restarted and hasattr(self.classifier, "reset"):
@@ -461,6 +471,9 @@ class Pipeline:
                 views=self._laser_views(found) if self.tracker.see_through else None,
             )
             people_found, tracks = tracked.people, tracked.tracks
+            if self._stopped is not None:
+                let_through = [d for d, m in zip(front.dets, self.models, strict=True) if point_like(m)]
+                self._stopped.update(tracked.live, support_positions(let_through))
         people = people_found.positions.reshape(-1, 2)
         self.summary.frames += 1
         return FrameResult(
@@ -468,7 +481,7 @@ class Pipeline:
             dt=motion.dt,
             odometry=motion.odometry,
             detections=raw,
-            static=front.static,
+            static=static,
             belief=belief,
             people=people,
             people_size=[int(v) for v in people_found.sizes],
@@ -479,6 +492,24 @@ class Pipeline:
             support_static=None if support is None else front.support_static,
             scans=self._scans(front),
         )
+
+    def _readmit(
+        self, front: FrontResult, stopped: StoppedPeople
+    ) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None]]:
+        """The detections the filter sees and the static flags, the static detections at a stopped person's
+        anchor (:mod:`pfpeople.track.stopped_people`) readmitted (counted in ``readmitted``)."""
+        dets, static = list(front.dets), list(front.static)
+        for k, (f, st) in enumerate(zip(front.found, front.static, strict=True)):
+            if f is None or st is None or not st.any():
+                continue
+            back = stopped.readmit(f.grid[st])
+            if not back.any():
+                continue
+            flags = st.copy()
+            flags[np.flatnonzero(st)[back]] = False
+            static[k], dets[k] = flags, f.grid[~flags]
+            count(self.summary.readmitted, self.adapters[k].config.name, int(np.count_nonzero(back)))
+        return dets, static
 
     def _scans(self, front: FrontResult) -> dict[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]]:
         """Each laser topic's scan of the frame, once: valid end points (m, grid frame) and static flags."""

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -172,11 +172,14 @@ class TrackedFrame:
         The tracker's output (:meth:`MultiPersonTracker.confirmed`): what ``tracks.csv`` gets.
     coasted : int
         How many of ``people`` are coasting or support-continued tracks (the last ones).
+    live : list of Track
+        Every live track after the update (:attr:`MultiPersonTracker.tracks`), confirmed or not.
     """
 
     people: People
     tracks: list[Track]
     coasted: int
+    live: list[Track] = field(default_factory=list)
 
 
 class PeopleTracker:
@@ -337,9 +340,9 @@ class PeopleTracker:
             gone = self._seen_through(live, tracks, views)
             tracks = [t for t in tracks if t.id not in gone]
         if self.people == "classified":
-            return TrackedFrame(people=found, tracks=tracks, coasted=0)
+            return TrackedFrame(people=found, tracks=tracks, coasted=0, live=live)
         people, coasted = self._reported(live, found, grid, spec, observed, gone)
-        return TrackedFrame(people=people, tracks=tracks, coasted=coasted)
+        return TrackedFrame(people=people, tracks=tracks, coasted=coasted, live=live)
 
     def _seen_through(self, live: Sequence[Track], tracks: Sequence[Track], views: Sequence[LaserView]) -> set[int]:
         """The ids of the coasting tracks of ``live`` (every live track) that may be reported (as ``tracks``, or
