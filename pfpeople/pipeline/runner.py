@@ -438,12 +438,7 @@ class Pipeline:
         if motion.restarted:
             self.filter.reset()
         raw: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
-        static = front.static
-        if self._stopped is not None:
-            if motion.restarted:
-                self._stopped.reset()
-            self._stopped.move(motion.motion)
-            dets, static = self._readmit(front, self._stopped)
+        dets, static = self._readmit(front)
         step = self.filter.step(dets, motion.odometry, motion.dt)
         belief = np.asarray(step.posterior, dtype=float)
         if motion.restarted and hasattr(self.classifier, "reset"):
@@ -493,11 +488,16 @@ class Pipeline:
             scans=self._scans(front),
         )
 
-    def _readmit(
-        self, front: FrontResult, stopped: StoppedPeople
-    ) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None]]:
+    def _readmit(self, front: FrontResult) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None]]:
         """The detections the filter sees and the static flags, the static detections at a stopped person's
-        anchor (:mod:`pfpeople.track.stopped_people`) readmitted (counted in ``readmitted``)."""
+        anchor (:mod:`pfpeople.track.stopped_people`, its anchors moved into this frame first) readmitted (counted
+        in ``readmitted``)."""
+        stopped = self._stopped
+        if stopped is None:
+            return front.dets, front.static
+        if front.motion.restarted:
+            stopped.reset()
+        stopped.move(front.motion.motion)
         dets, static = list(front.dets), list(front.static)
         for k, (f, st) in enumerate(zip(front.found, front.static, strict=True)):
             if f is None or st is None or not st.any():
