@@ -432,7 +432,7 @@ class Pipeline:
     def _back(self, frame: Frame, front: FrontResult) -> FrameResult:
         """The filter, the classifier and the tracker on a frame's :meth:`_front` result."""
         assert self.filter is not None and self.clutter is not None
-        motion, found, dets = front.motion, front.found, front.dets
+        motion, found = front.motion, front.found
         if front.mounts:
             remount(self.adapters, front.mounts, self.filter)
         if motion.restarted:

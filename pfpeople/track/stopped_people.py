@@ -32,6 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.geometry import to_frame
 from pfpeople.sensors import Pose2D
 from pfpeople.track.multi_person import Track
 
@@ -55,6 +56,7 @@ class StoppedPeople:
         self._anchor: dict[int, tuple[float, float, bool]] = {}
 
     def __len__(self) -> int:
+        """The number of anchored tracks, stopped or not (:attr:`anchors` holds the stopped ones only)."""
         return len(self._anchor)
 
     @property
@@ -78,10 +80,8 @@ class StoppedPeople:
         """
         if ego is None or not self._anchor or (ego.x == 0.0 and ego.y == 0.0 and ego.yaw == 0.0):
             return
-        c, s = math.cos(ego.yaw), math.sin(ego.yaw)
-        for tid, (x, y, stopped) in self._anchor.items():
-            dx, dy = x - ego.x, y - ego.y
-            self._anchor[tid] = (c * dx + s * dy, -s * dx + c * dy, stopped)
+        xy = to_frame([(x, y) for x, y, _ in self._anchor.values()], ego).tolist()
+        self._anchor = {tid: (x, y, a[2]) for (tid, a), (x, y) in zip(self._anchor.items(), xy, strict=True)}
 
     def readmit(self, static_positions: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Which of the detections the map calls static lie within :data:`ANCHOR_RADIUS` of an anchor.
