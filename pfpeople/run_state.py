@@ -116,7 +116,9 @@ class RunSummary:
 
     ``suppressed`` counts, per detector, the detections the static-clutter map called static; ``readmitted`` those
     of them the filter saw all the same, at the place a tracked person stopped
-    (:mod:`pfpeople.track.stopped_people`).
+    (:mod:`pfpeople.track.stopped_people`). ``arrived`` counts the detections on places the map has seen occupied
+    long enough to be static that it lets through all the same, because the laser saw through most of their returns
+    within the last second (:mod:`pfpeople.perception.arrivals`); they are not in ``suppressed``.
 
     ``blas_threads`` is the most threads a BLAS library of the run's process would use while the frames ran
     (:mod:`pfpeople.pipeline.blas`: 1 by default; 0: no BLAS library found), ``front_blas_threads`` the same in the
@@ -140,6 +142,7 @@ class RunSummary:
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     readmitted: dict[str, int] = field(default_factory=dict)
+    arrived: dict[str, int] = field(default_factory=dict)
     laser_odometry_frames: int = 0
     ego_motion: dict[str, int] = field(default_factory=_ego_counts)
     sync: dict[str, dict[str, int]] = field(default_factory=dict)

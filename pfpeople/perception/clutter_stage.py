@@ -6,8 +6,10 @@ the grid frame. Each map keeps the people its detectors saw moving out of itself
 (:class:`pfpeople.perception.clutter_map.MovingPeople`).
 A detection the map calls static, or whose nearest return is the robot's own (:mod:`pfpeople.perception.self_returns`),
 is suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
-``suppressed``). Without odometry, the driving laser's scan-matched motion is
-returned in the grid frame (``T E_laser T^-1``) for laser odometry (:mod:`pfpeople.perception.odometry`).
+``suppressed``), unless it *arrived*: one of the laser's scans of the last second saw through most of its returns
+(:mod:`pfpeople.perception.arrivals`; a person who stands sways, furniture does not), counted in ``arrived``.
+Without odometry, the driving laser's scan-matched motion is returned in the grid frame (``T E_laser T^-1``) for
+laser odometry (:mod:`pfpeople.perception.odometry`).
 The detectors' support positions (single legs, :class:`pfpeople.detect.adapters.Detections`) that are suppressed so
 are dropped as well (:attr:`ClutterStage.support_static`); they never enter the map or its moving-people sets.
 """
@@ -23,6 +25,7 @@ from numpy.typing import NDArray
 from gridbridge.geometry import Pose2D
 from pfpeople.config import BagConfig
 from pfpeople.detect.adapters import Detections, DetectorAdapter
+from pfpeople.perception.arrivals import RecentScans
 from pfpeople.run_state import RunSummary, count
 
 __all__ = ["ClutterStage"]
@@ -72,6 +75,8 @@ class ClutterStage:
             for a in self.adapters:
                 if a.laser and a.config.topic not in self.suppressors:
                     self.suppressors[a.config.topic] = ClutterSuppressor(ccfg)
+        #: Per laser topic with a map, its scans of the last second (:mod:`pfpeople.perception.arrivals`).
+        self.recent = {topic: RecentScans() for topic in self.suppressors}
 
     @property
     def active(self) -> bool:
@@ -82,6 +87,8 @@ class ClutterStage:
         """Forget every map (the filter restarts after a gap)."""
         for sup in self.suppressors.values():
             sup.map.forget()
+        for recent in self.recent.values():
+            recent.clear()
 
     def step(
         self,
@@ -160,6 +167,11 @@ class ClutterStage:
             free=scan.free_rays(sup.map.config.max_range),
         )
         self.scan_static[topic] = sup.map.static_points(points)
+        recent = self.recent[topic]
+        if not st.ego_ok:
+            recent.clear()
+        self._arrivals(idx, st.keep, found, recent, points, sup.map.pose, stamp_ns)
+        recent.add(scan, sup.map.pose, stamp_ns)
         for k, keep in zip(idx, st.keep, strict=True):
             static[k] = ~keep
             kept[k] = self._keep(k, keep, kept[k])
@@ -170,6 +182,31 @@ class ClutterStage:
         if topic == self.config.driver and st.ego_ok and ego is None:
             return mount.compose(st.ego).compose(mount.inverse())
         return None
+
+    def _arrivals(
+        self,
+        idx: Sequence[int],
+        keeps: Sequence[NDArray[np.bool_]],
+        found: Sequence[Detections | None],
+        recent: RecentScans,
+        points: NDArray[np.float64],
+        pose: Pose2D,
+        stamp_ns: int,
+    ) -> None:
+        """The static detections (``~keeps[i]``) of the topic's detectors ``idx`` that arrived (``recent``, asked once
+        for them all; ``points`` and ``pose``: the scan's end points and laser frame in the map frame) are kept
+        (``keeps`` set in place) and counted in ``arrived``."""
+        static = [np.flatnonzero(~keep) for keep in keeps]
+        sizes = [len(s) for s in static]
+        if not any(sizes):
+            return
+        dets = [f.sensor[s] for k, s in zip(idx, static, strict=True) if (f := found[k]) is not None]
+        came = recent.arrived(np.concatenate(dets), points, pose, stamp_ns)
+        start = 0
+        for k, keep, s in zip(idx, keeps, static, strict=True):
+            mine, start = came[start : start + len(s)], start + len(s)
+            keep[s[mine]] = True
+            count(self.summary.arrived, self.adapters[k].config.name, int(np.count_nonzero(mine)))
 
     def _keep(self, k: int, keep: NDArray[np.bool_], grid: NDArray[np.float64] | None) -> NDArray[np.float64] | None:
         """Detector ``k``'s detections (grid frame) less the suppressed ones, counted."""

@@ -71,6 +71,7 @@ FRONT_COUNTERS = (
     "frame_id_unplaced",
     "max_lateral_m",
     "suppressed",
+    "arrived",
     "laser_odometry_frames",
     "ego_motion",
     "front_blas_threads",

@@ -1,0 +1,134 @@
+"""pfpeople.perception.arrivals: hand-made scans of a leg that came, a post that stood, and a moving laser."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gridbridge.geometry import Pose2D
+from pfpeople.perception import arrivals
+from pfpeople.perception.arrivals import MARGIN_M, RecentScans, seen_through_beams
+from pfpeople.sensors import LaserScan
+
+#: 181 beams over +-90 deg, one a degree.
+N, INC = 181, math.radians(1.0)
+S = 1_000_000_000  # ns per second
+
+
+def _scan(ranges: np.ndarray, range_max: float = 10.0) -> LaserScan:
+    return LaserScan(ranges=ranges, angle_min=-math.pi / 2, angle_increment=INC, range_max=range_max)
+
+
+def _wall(r: float = 8.0) -> np.ndarray:
+    return np.full(N, r)
+
+
+def _with_leg(ranges: np.ndarray, beam: int, r: float, half: int = 2) -> np.ndarray:
+    out = ranges.copy()
+    out[beam - half : beam + half + 1] = r
+    return out
+
+
+def _points(scan: LaserScan) -> np.ndarray:
+    return scan.points()
+
+
+def test_seen_through_by_beam_reading() -> None:
+    """A beam sees through a point it passed by MARGIN_M or more, or when it returned nothing; NaN says nothing."""
+    ranges = _wall(5.0)
+    ranges[100], ranges[110], ranges[120] = np.nan, np.inf, 10.0  # no reading, nothing (REP-117), range_max
+    ranges[130] = 0.01  # below range_min: too close to read
+    scan = LaserScan(ranges=ranges, angle_min=-math.pi / 2, angle_increment=INC, range_min=0.05, range_max=10.0)
+    bearing = lambda k: -math.pi / 2 + k * INC  # noqa: E731
+    at = lambda k, r: [r * math.cos(bearing(k)), r * math.sin(bearing(k))]  # noqa: E731
+    pts = np.array([at(90, 3.0), at(90, 5.0 - MARGIN_M + 0.01), at(100, 3.0), at(110, 3.0), at(120, 3.0), at(130, 3.0)])
+    assert seen_through_beams(pts, scan).tolist() == [True, False, False, True, True, False]
+    # the beam nearest the bearing decides: 0.4 beams off beam 100 is beam 100's, 0.6 beams off is beam 101's
+    assert seen_through_beams(np.array([at(100.4, 3.0), at(100.6, 3.0)]), scan).tolist() == [False, True]
+
+
+def test_outside_the_field_of_view_or_range_says_nothing() -> None:
+    scan = _scan(_wall(5.0), range_max=6.0)
+    behind, far = [-3.0, 0.0], [7.0, 0.0]
+    assert not seen_through_beams(np.array([behind, far]), scan).any()
+    assert seen_through_beams(np.array([[0.0, -3.0]]), scan).all()  # beam 0, at -90 deg, is in view
+    assert not seen_through_beams(np.array([[3.0, 0.0]]), _scan(np.zeros(0))).any()
+
+
+def test_a_leg_that_came_arrived_a_post_that_stood_did_not() -> None:
+    """The post at beam 60 is in every scan; the leg at beam 120 only from t = 0.5 s, where the wall showed before."""
+    recent = RecentScans()
+    post = (60, 3.0)
+    leg = (120, 3.0)
+    for k in range(10):  # 7.5 Hz, the laser standing
+        ranges = _with_leg(_wall(), *post)
+        if k >= 4:
+            ranges = _with_leg(ranges, *leg)
+        scan = _scan(ranges)
+        t = k * S * 2 // 15
+        if k == 9:
+            at = lambda b, r: [r * math.cos(-math.pi / 2 + b * INC), r * math.sin(-math.pi / 2 + b * INC)]  # noqa: E731
+            out = recent.arrived(np.array([at(*post), at(*leg)]), _points(scan), Pose2D(), t)
+            assert out.tolist() == [False, True]
+        recent.add(scan, Pose2D(), t)
+    assert len(recent) == 8  # 1 s at 7.5 Hz: the scans of t >= 0.2 s
+
+
+def test_scans_are_registered_by_their_poses() -> None:
+    """The laser drove 0.4 m forward past a post: with the poses the post's returns fall on the post in the old
+    scan (it did not arrive); taken as standing, the old scan's beams passed beside them (it would have)."""
+    post = np.array([[3.0, 1.0]])
+
+    def scan_at(x: float) -> LaserScan:
+        rel = post[0] - [x, 0.0]
+        b = round((math.atan2(rel[1], rel[0]) + math.pi / 2) / INC)
+        return _scan(_with_leg(_wall(), b, float(np.hypot(*rel)), half=1))
+
+    recent = RecentScans()
+    old, new = scan_at(0.0), scan_at(0.4)
+    recent.add(old, Pose2D(), 0)
+    here = np.array([[2.6, 1.0]])  # the post in the new laser frame
+    pts = _points(new)
+    assert not recent.arrived(here, pts, Pose2D(x=0.4), S // 2).any()
+    assert recent.arrived(here, pts, Pose2D(), S // 2).all()
+
+
+@pytest.mark.parametrize(("age_s", "used"), [(0.1, False), (0.5, True), (0.99, True)])
+def test_only_scans_min_age_to_window_old_are_looked_at(age_s: float, used: bool) -> None:
+    recent = RecentScans()
+    recent.add(_scan(_wall()), Pose2D(), 0)
+    now = _scan(_with_leg(_wall(), 90, 3.0))
+    assert recent.arrived(np.array([[3.0, 0.0]]), _points(now), Pose2D(), int(age_s * S)).tolist() == [used]
+
+
+def test_old_scans_are_dropped_and_clear_forgets() -> None:
+    recent = RecentScans()
+    recent.add(_scan(_wall()), Pose2D(), 0)
+    recent.add(_scan(_wall()), Pose2D(), int(1.5 * S))
+    assert len(recent) == 1
+    recent.clear()
+    assert len(recent) == 0
+    now = _scan(_with_leg(_wall(), 90, 3.0))
+    assert not recent.arrived(np.array([[3.0, 0.0]]), _points(now), Pose2D(), 2 * S).any()
+
+
+def test_half_of_the_returns_must_have_been_seen_through() -> None:
+    """Of a detection's returns, at least FRACTION must have been seen through by one earlier scan."""
+    recent = RecentScans()
+    recent.add(_scan(_with_leg(_wall(), 90, 3.0, half=2)), Pose2D(), 0)  # beams 88-92 stopped at 3 m a moment ago
+    det = np.array([[3.0, 0.0]])
+    wider = _points(_scan(_with_leg(_wall(), 90, 3.0, half=4)))  # beams 86-94 now: 4 of 9 returns are new
+    widest = _points(_scan(_with_leg(_wall(), 90, 3.0, half=5)))  # beams 85-95: 6 of 11
+    assert not recent.arrived(det, wider, Pose2D(), S // 2).any()
+    assert recent.arrived(det, widest, Pose2D(), S // 2).all()
+    assert arrivals.FRACTION == 0.5
+
+
+def test_no_views_or_no_returns_mean_no_arrival() -> None:
+    recent = RecentScans()
+    assert recent.arrived(np.zeros((0, 2)), np.zeros((0, 2)), Pose2D(), 0).shape == (0,)
+    recent.add(_scan(_wall()), Pose2D(), 0)
+    far_from_returns = np.array([[1.0, 0.0]])
+    assert not recent.arrived(far_from_returns, _points(_scan(_wall())), Pose2D(), S // 2).any()
