@@ -19,7 +19,15 @@ from gridbridge import jit as _jit
 from gridbridge.jit import jit as njit
 from gridbridge.kernels import pairwise_sum
 
-__all__ = ["far_blobs", "features_angles", "features_rest", "jump_segments", "pair_greedy", "warm_up"]
+__all__ = [
+    "context_terms",
+    "far_blobs",
+    "features_angles",
+    "features_rest",
+    "jump_segments",
+    "pair_greedy",
+    "warm_up",
+]
 
 #: What :func:`jump_segments` returns: points (P, 2), beams (P,), starts (S,), counts (S,), ranges before and after
 #: (S,), runs dropped.
@@ -190,9 +198,14 @@ def features_angles(
 
 @njit
 def _moments(
-    pts: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp], out: NDArray[np.float64]
+    pts: NDArray[np.float64],
+    starts: NDArray[np.intp],
+    counts: NDArray[np.intp],
+    out: NDArray[np.float64],
+    steps: NDArray[np.float64],
 ) -> None:  # pragma: no cover - compiled
-    """Columns 0-8 and 13 of the features (counts, spread, median, width, line and circle fits, steps)."""
+    """Columns 0-8 and 13 of the features (counts, spread, median, width, line and circle fits, steps); ``steps``
+    (N,) gets the length of every step ``p -> p + 1`` inside a segment (m)."""
     S = starts.size
     N = pts.shape[0]
     x = np.ascontiguousarray(pts[:, 0])
@@ -246,7 +259,7 @@ def _moments(
         hi = lo + c - 1
         out[s, 3] = math.hypot(x[hi] - x[lo], y[hi] - y[lo])
         _circle(x, y, lo, c, sxx[s], syy[s], sxy[s], suz[s], svz[s], cx[s], cy[s], lin, buf, out, s)
-        _steps(x, y, lo, c, out, s)
+        _steps(x, y, lo, c, out, s, steps)
 
 
 @njit
@@ -306,13 +319,21 @@ def _circle(
 
 @njit
 def _steps(
-    x: NDArray[np.float64], y: NDArray[np.float64], lo: int, c: int, out: NDArray[np.float64], s: int
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    lo: int,
+    c: int,
+    out: NDArray[np.float64],
+    s: int,
+    steps: NDArray[np.float64],
 ) -> None:  # pragma: no cover - compiled
-    """Columns 7 (boundary length) and 8 (boundary regularity) of segment ``s`` (sequential sums)."""
+    """Columns 7 (boundary length) and 8 (boundary regularity) of segment ``s`` (sequential sums); the step
+    lengths (m) into ``steps[lo:lo + c - 1]``."""
     step_sum = 0.0
     step_sq = 0.0
     for p in range(lo, lo + c - 1):
         st = math.hypot(x[p + 1] - x[p], y[p + 1] - y[p])
+        steps[p] = st
         step_sum += st
         step_sq += st * st
     n_steps = float(c) - 1.0
@@ -329,10 +350,14 @@ def features_rest(
     ang: NDArray[np.float64],
 ) -> NDArray[np.float64]:  # pragma: no cover - compiled
     """The feature matrix ``(S, 14)`` from the points and the turning / inscribed angles of
-    :func:`features_angles` (``th`` over the triples, ``ang`` over the interior points, rad in [0, 2 pi))."""
+    :func:`features_angles` (``th`` over the triples, ``ang`` over the interior points, rad in [0, 2 pi)).
+
+    A triple's side lengths ``|left - mid|`` and ``|right - mid|`` are the segment's step lengths of
+    :func:`_steps` (``np.hypot`` of the same differences, up to the sign: the same floats)."""
     S = starts.size
     out = np.empty((S, 14))
-    _moments(pts, starts, counts, out)
+    steps = np.empty(pts.shape[0])
+    _moments(pts, starts, counts, out, steps)
     k = 0
     for s in range(S):
         lo, c = starts[s], counts[s]
@@ -345,11 +370,7 @@ def features_rest(
             mr0 = pts[i, 0] - pts[i + 1, 0]
             mr1 = pts[i, 1] - pts[i + 1, 1]
             cross = ml0 * mr1 - ml1 * mr0
-            denom = (
-                math.hypot(ml0, ml1)
-                * math.hypot(mr0, mr1)
-                * math.hypot(pts[i + 2, 0] - pts[i, 0], pts[i + 2, 1] - pts[i, 1])
-            )
+            denom = steps[i + 1] * steps[i] * math.hypot(pts[i + 2, 0] - pts[i, 0], pts[i + 2, 1] - pts[i, 1])
             curv_sum += 2.0 * cross / denom if denom > 0 else 0.0
             th_sum += th[i]
         out[s, 9] = curv_sum / n
@@ -483,6 +504,90 @@ def pair_greedy(pts: NDArray[np.float64], lo: float, hi: float) -> tuple[NDArray
     return out[:p].copy(), paired
 
 
+#: Relative margin (far above the rounding of ``dx * dx + dy * dy`` and of ``hypot``: a few 1e-16) within which
+#: :func:`context_terms` compares distances by their ``hypot`` instead of their squares.
+_MARGIN = 1e-9
+#: Squared distances (m^2) below which :func:`context_terms` always computes the ``hypot`` (underflow).
+_TINY = 1e-300
+
+
+@njit
+def context_terms(
+    centroids: NDArray[np.float64], widths: NDArray[np.float64], cap: float, radius: float
+) -> NDArray[np.float64]:  # pragma: no cover - compiled
+    """:func:`pfpeople.detect.segments.context_features` of ``n >= 2`` centroids ``(n, 2)`` (m) and widths ``(n,)``
+    (m), ``cap`` and ``radius`` (m) its constants; ``(0, 4)`` when a centroid is not finite (the caller's numpy
+    code then decides).
+
+    Every row's distances are ``np.hypot`` of the centroids' differences, the own one ``inf``: the nearest is the
+    first minimum (``np.argmin``), the second nearest the second smallest value (``np.partition``'s ``[1]``).
+    The squared distances pick the candidates: a ``hypot`` is computed only where the square lies within
+    ``_MARGIN`` (relative) of the second smallest square or of ``radius ** 2``, or below ``_TINY``; every other
+    distance exceeds two candidates' (or is on the same side of ``radius``) by far more than rounding.
+
+    Returns
+    -------
+    ndarray, shape (n, 4)
+        The nearest and the second nearest distance (capped at ``cap``; the second ``cap`` when ``n == 2``),
+        the number of distances ``<= radius`` and the nearest segment's width.
+    """
+    n = centroids.shape[0]
+    for i in range(n):
+        if not (math.isfinite(centroids[i, 0]) and math.isfinite(centroids[i, 1])):
+            return np.empty((0, 4))
+    out = np.empty((n, 4))
+    d2 = np.empty(n)
+    for i in range(n):
+        m1, m2 = math.inf, math.inf
+        for j in range(n):
+            dx, dy = centroids[i, 0] - centroids[j, 0], centroids[i, 1] - centroids[j, 1]
+            v = math.inf if j == i else dx * dx + dy * dy
+            d2[j] = v
+            if v < m1:
+                m1, m2 = v, m1
+            elif v < m2:
+                m2 = v
+        _context_row(centroids, widths, i, d2, m2 * (1.0 + _MARGIN) + _TINY, cap, radius, out)
+        if n == 2:
+            out[i, 1] = cap
+    return out
+
+
+@njit
+def _context_row(
+    centroids: NDArray[np.float64],
+    widths: NDArray[np.float64],
+    i: int,
+    d2: NDArray[np.float64],
+    bound: float,
+    cap: float,
+    radius: float,
+    out: NDArray[np.float64],
+) -> None:  # pragma: no cover - compiled
+    """Row ``i`` of :func:`context_terms` from its squared distances ``d2`` (n,) (m^2, ``inf`` at ``i``): the
+    ``hypot`` of the candidates ``d2 <= bound`` and of the squares near ``radius ** 2``."""
+    r2 = radius * radius
+    lo, hi = r2 * (1.0 - _MARGIN), r2 * (1.0 + _MARGIN) + _TINY
+    best, second, near, count = math.inf, math.inf, 0, 0
+    for j in range(d2.size):
+        v = d2[j]
+        d = -1.0
+        if v <= bound or (v >= lo and v <= hi):
+            dx, dy = centroids[i, 0] - centroids[j, 0], centroids[i, 1] - centroids[j, 1]
+            d = math.inf if j == i else math.hypot(dx, dy)
+        if v <= bound:
+            if d < best:
+                second, best, near = best, d, j
+            elif d < second:
+                second = d
+        if v < lo or (v <= hi and d <= radius):
+            count += 1
+    out[i, 0] = min(best, cap)
+    out[i, 1] = min(second, cap)
+    out[i, 2] = float(count)
+    out[i, 3] = widths[near]
+
+
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them.
 
@@ -499,3 +604,4 @@ def warm_up() -> None:
     features_rest(pts, starts, counts, np.zeros(ct.size), np.zeros(ci.size))
     far_blobs(pts, b, starts, counts, r0, r1, np.zeros(7))
     pair_greedy(np.zeros((3, 2)), 0.1, 0.5)
+    context_terms(np.zeros((2, 2)), np.zeros(2), 3.0, 0.6)

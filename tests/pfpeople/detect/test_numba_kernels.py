@@ -73,6 +73,27 @@ def test_segment_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch)
         assert c.tobytes() == f.tobytes()  # the sign of zero too
 
 
+def test_context_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Random centroids, and ties: repeated centroids, equal distances (a grid), points exactly 0.6 m apart."""
+    rng = np.random.default_rng(5)
+    cases = [rng.uniform(-4, 4, (n, 2)) for n in (0, 1, 2, 3, 4, 30, 50) for _ in range(20)]
+    cases += [np.repeat(rng.uniform(-1, 1, (k, 2)), 3, axis=0) for k in (1, 2, 5)]
+    gx, gy = np.meshgrid(np.arange(4) * 0.3, np.arange(3) * 0.6)
+    cases += [np.column_stack((gx.ravel(), gy.ravel())), np.array([[0.0, 0.0], [0.6, 0.0], [0.0, 3.5]])]
+    ring = np.array([[np.cos(t), np.sin(t)] for t in np.linspace(0, 2 * np.pi, 13)[:-1]]) * 0.6  # near-equal
+    cases += [ring, ring + [0.6, 0.0], np.concatenate(([[0.0, 0.0]], ring))]  # and hypot at 0.6 +- rounding
+    base = rng.uniform(-3, 3, (6, 2))
+    for scale in (1e-160, 1e-15, 1e150, 1e160):  # underflowing and overflowing squares, ulp-close distances
+        cases += [base * scale, base + rng.normal(0, 1, (6, 2)) * scale]
+    cases += [np.array([[0.0, 0.0], [np.nan, 1.0], [0.5, 0.0]]), np.array([[0.0, 0.0], [np.inf, 1.0], [0.5, 0.0]])]
+    for c in cases:
+        w = rng.uniform(0.02, 0.6, c.shape[0])
+        with np.errstate(invalid="ignore", over="ignore"):  # the numpy twin on the non-finite centroids
+            a, b = _both(lambda: seg.context_features(c, w), monkeypatch)  # noqa: B023
+        assert a.shape == b.shape == (c.shape[0], 4)
+        assert a.tobytes() == b.tobytes()
+
+
 def test_pairwise_sum_is_numpys_reduceat() -> None:
     rng = np.random.default_rng(3)
     for _ in range(50):
