@@ -39,7 +39,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge import jit as _jit
-from gridbridge.geometry import near_any
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_int, check_positive
 from pfpeople.detect import segment_kernels as _kernels
@@ -49,6 +48,7 @@ from pfpeople.detect.segments import (
     scan_segments,
     segment_scan,
 )
+from pfpeople.perception.clutter_kernels import near_any
 from pfpeople.sensors import LaserScan
 
 __all__ = [

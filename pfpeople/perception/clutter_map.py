@@ -75,11 +75,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from gridbridge import jit as _jit
-from gridbridge.geometry import Pose2D, near_any, rotate
+from gridbridge.geometry import Pose2D, rotate
 from gridbridge.validation import check_int, check_real, finite_rows
 from pfpeople.perception.clutter_kernels import (
     ball_means,
     moving_update,
+    near_any,
     return_scores,
     scan_rays,
     static_lookup,

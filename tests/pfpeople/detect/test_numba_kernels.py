@@ -81,7 +81,7 @@ def test_context_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch)
     gx, gy = np.meshgrid(np.arange(4) * 0.3, np.arange(3) * 0.6)
     cases += [np.column_stack((gx.ravel(), gy.ravel())), np.array([[0.0, 0.0], [0.6, 0.0], [0.0, 3.5]])]
     ring = np.array([[np.cos(t), np.sin(t)] for t in np.linspace(0, 2 * np.pi, 13)[:-1]]) * 0.6  # near-equal
-    cases += [ring, ring + [0.6, 0.0], np.concatenate(([[0.0, 0.0]], ring))]  # and hypot at 0.6 +- rounding
+    cases += [ring, ring + np.array([0.6, 0.0]), np.concatenate(([[0.0, 0.0]], ring))]  # and hypot at 0.6 +- rounding
     base = rng.uniform(-3, 3, (6, 2))
     for scale in (1e-160, 1e-15, 1e150, 1e160):  # underflowing and overflowing squares, ulp-close distances
         cases += [base * scale, base + rng.normal(0, 1, (6, 2)) * scale]
@@ -92,6 +92,23 @@ def test_context_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch)
             a, b = _both(lambda: seg.context_features(c, w), monkeypatch)  # noqa: B023
         assert a.shape == b.shape == (c.shape[0], 4)
         assert a.tobytes() == b.tobytes()
+
+
+def test_near_any_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``near_any``: random points, points exactly at the radius, NaN and inf rows, empty sets."""
+    from gridbridge.geometry import near_any as numpy_near_any
+    from pfpeople.perception.clutter_kernels import near_any
+
+    rng = np.random.default_rng(9)
+    cases = [(rng.uniform(-3, 3, (n, 2)), rng.uniform(-3, 3, (k, 2))) for n in (0, 1, 7, 700) for k in (0, 1, 4)]
+    edge = np.array([[0.3, 0.0], [0.0, -0.3], [0.3000000000000001, 0.0], [np.nan, 0.0], [np.inf, 1.0], [1.0, 1.0]])
+    cases += [(edge, np.zeros((1, 2))), (edge, np.array([[0.0, 0.0], [np.nan, 0.0]])), (edge, edge)]
+    for p, o in cases:
+        for radius in (0.3, 0.5, 0.0):
+            with np.errstate(invalid="ignore"):
+                a, b = _both(lambda: near_any(p, o, radius), monkeypatch)  # noqa: B023
+                assert a.dtype == b.dtype == bool and np.array_equal(a, b)
+                assert np.array_equal(a, numpy_near_any(p, o, radius))
 
 
 def test_pairwise_sum_is_numpys_reduceat() -> None:
