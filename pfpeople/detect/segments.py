@@ -275,9 +275,8 @@ def _valid_points(
     latest = _LATEST_POINTS
     if latest is not None and latest[0] is scan and latest[1] == max_range:
         return latest[2]
-    valid = scan.valid
     with np.errstate(invalid="ignore"):
-        valid &= scan.ranges <= max_range
+        valid = scan.valid & (scan.ranges <= max_range)
     beams = np.flatnonzero(valid)
     if scan.angle_increment < 0:  # walk the beams counter-clockwise (see the module docstring)
         beams = beams[::-1]
