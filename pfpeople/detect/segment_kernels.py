@@ -42,6 +42,13 @@ _Runs: TypeAlias = tuple[
 ]
 
 
+#: Relative margin (far above the rounding of ``dx * dx + dy * dy`` and of ``hypot``: a few 1e-16) within which
+#: :func:`context_terms` and :func:`_runs` compare distances by their ``hypot`` instead of their squares.
+_MARGIN = 1e-9
+#: Squared distances (m^2) below which :func:`context_terms` always computes the ``hypot`` (underflow).
+_TINY = 1e-300
+
+
 @njit
 def _max(a: float, b: float) -> float:  # pragma: no cover - compiled
     """``np.maximum`` of two floats (NaN wins)."""
@@ -133,13 +140,21 @@ def _runs(
 ) -> tuple[NDArray[np.intp], int, int, int]:  # pragma: no cover - compiled
     """The runs of :func:`jump_segments`: their starts ``rs[:m]`` then ``rs[m] = V`` (points closer than ``jump``
     (m) to the previous one continue a run), their number ``m``, and the number and points of those kept
-    (at least ``min_points`` points)."""
+    (at least ``min_points`` points). The gaps are ``np.hypot``'s; only those whose square lies within
+    ``_MARGIN`` (relative) of ``jump ** 2`` are computed (the others lie on the same side of ``jump`` by far more
+    than rounding), unless ``jump ** 2`` is outside ``[_TINY, 1 / _TINY]``."""
     n = x.size
     rs = np.empty(n + 1, dtype=np.intp)  # run starts, then n
     m = 1
     rs[0] = 0
+    j2 = jump * jump
+    lo, hi = j2 * (1.0 - _MARGIN), j2 * (1.0 + _MARGIN)
+    if not (j2 >= _TINY and j2 <= 1.0 / _TINY):
+        lo, hi = -1.0, math.inf  # every gap by its hypot
     for i in range(n - 1):
-        if math.hypot(x[i + 1] - x[i], y[i + 1] - y[i]) > jump:
+        dx, dy = x[i + 1] - x[i], y[i + 1] - y[i]
+        v = dx * dx + dy * dy
+        if v > hi or (v >= lo and math.hypot(dx, dy) > jump):
             rs[m] = i + 1
             m += 1
     rs[m] = n
@@ -426,7 +441,7 @@ def far_blobs(
         params[4],
         params[5],
     )
-    r, x, y, sr, centres = _blob_sums(pts, starts, counts)
+    r, x, y, sr, centres = _blob_sums(pts, starts, counts, max_points)
     keep = np.zeros(R, dtype=np.bool_)
     small = np.zeros(R, dtype=np.bool_)
     for s in range(R):
@@ -449,16 +464,19 @@ def far_blobs(
 
 @njit
 def _blob_sums(
-    pts: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp]
+    pts: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp], max_points: float
 ) -> tuple[
     NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]
 ]:  # pragma: no cover - compiled
     """The ranges ``r`` (N,), coordinates ``x``, ``y`` (N,) (m) of the points of :func:`far_blobs`, the runs'
-    range sums ``sr`` (R,) (``np.add.reduceat``'s) and centroids (R, 2) (m)."""
+    range sums ``sr`` (R,) (``np.add.reduceat``'s) and centroids (R, 2) (m). The ranges of a run of more than
+    ``max_points`` points are 0 (such a run is neither small nor a blob: :func:`far_blobs` does not read them)."""
     N = pts.shape[0]
-    r = np.empty(N)
-    for p in range(N):
-        r[p] = math.hypot(pts[p, 0], pts[p, 1])
+    r = np.zeros(N)
+    for s in range(starts.size):
+        if float(counts[s]) <= max_points:
+            for p in range(starts[s], starts[s] + counts[s]):
+                r[p] = math.hypot(pts[p, 0], pts[p, 1])
     x = np.ascontiguousarray(pts[:, 0])
     y = np.ascontiguousarray(pts[:, 1])
     sr = _reduceat(r, starts, counts)
@@ -502,13 +520,6 @@ def pair_greedy(pts: NDArray[np.float64], lo: float, hi: float) -> tuple[NDArray
             out[p, 0], out[p, 1] = a, b
             p += 1
     return out[:p].copy(), paired
-
-
-#: Relative margin (far above the rounding of ``dx * dx + dy * dy`` and of ``hypot``: a few 1e-16) within which
-#: :func:`context_terms` compares distances by their ``hypot`` instead of their squares.
-_MARGIN = 1e-9
-#: Squared distances (m^2) below which :func:`context_terms` always computes the ``hypot`` (underflow).
-_TINY = 1e-300
 
 
 @njit

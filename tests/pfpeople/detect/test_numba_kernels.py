@@ -64,6 +64,28 @@ def test_segment_scan_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch, min
             _same_segments(c, f)
 
 
+@pytest.mark.parametrize("jump", [0.13, 0.3, 1e-170, 1e170])
+def test_jump_segments_at_the_jump_distance(jump: float) -> None:
+    """Gaps within a few ulps and within the kernel's margin of ``jump``, in every direction: the compiled runs
+    are numpy's (``np.hypot(gap) > jump``)."""
+    rng = np.random.default_rng(13)
+    rel = np.array([0.0, 1e-16, -1e-16, 2.2e-16, -2.2e-16, 5e-10, -5e-10, 1e-9, -1e-9, 2e-9, -2e-9, 0.5, -0.5])
+    steps = jump * (1.0 + rng.choice(rel, 3000))
+    theta = rng.uniform(0, 2 * np.pi, 3000)
+    x = np.concatenate(([0.0], np.cumsum(steps * np.cos(theta))))
+    y = np.concatenate(([0.0], np.cumsum(steps * np.sin(theta))))
+    r = np.hypot(x, y)
+    beams = np.arange(x.size, dtype=np.intp)
+    for min_points in (1, 3):
+        pts, kb, starts, counts, before, after, n_small = _kernels.jump_segments(x, y, r, beams, jump, min_points)
+        ref = seg._runs_numpy(np.column_stack((x, y)), r, beams, jump, min_points, 0)
+        assert np.array_equal(starts, ref.starts) and np.array_equal(counts, ref.counts)
+        assert np.array_equal(kb, ref.beams) and before.tobytes() == ref.range_before.tobytes()
+        assert after.tobytes() == ref.range_after.tobytes()
+        assert pts.tobytes() == ref.points.tobytes() and n_small == ref.n_dropped_small
+        assert 0 < len(starts) < x.size
+
+
 def test_segment_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
     for scan in _scans():
         segs = seg.segment_scan(scan)
