@@ -321,6 +321,16 @@ def people_and_single_legs(
     widths = np.asarray(widths, dtype=float).reshape(-1)
     if widths.size != legs.shape[0]:
         raise ValueError(f"widths has {widths.size} entries for {legs.shape[0]} legs")
+    if _jit.enabled("pfpeople"):
+        out: tuple[NDArray[np.float64], NDArray[np.float64]] = _kernels.people_pairs(
+            np.ascontiguousarray(legs),
+            np.ascontiguousarray(widths),
+            float(params.max_single_leg_width),
+            float(params.min_separation),
+            float(params.max_separation),
+            bool(params.count_single_legs),
+        )
+        return out
     together = widths > params.max_single_leg_width
     narrow = legs[~together]  # the single legs, in order (taken once)
     pairs, paired = pair_legs(narrow, min_separation=params.min_separation, max_separation=params.max_separation)

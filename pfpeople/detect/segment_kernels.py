@@ -26,6 +26,7 @@ __all__ = [
     "features_rest",
     "jump_segments",
     "pair_greedy",
+    "people_pairs",
     "warm_up",
 ]
 
@@ -599,6 +600,57 @@ def _context_row(
     out[i, 3] = widths[near]
 
 
+@njit
+def people_pairs(
+    legs: NDArray[np.float64], widths: NDArray[np.float64], max_single: float, lo: float, hi: float, singles: bool
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # pragma: no cover - compiled
+    """:func:`pfpeople.detect.legs.people_and_single_legs` of legs ``(K, 2)`` (m) and widths ``(K,)`` (m):
+    ``max_single``, ``lo``, ``hi`` and ``singles`` are its ``max_single_leg_width``, ``min_separation``,
+    ``max_separation`` and ``count_single_legs``.
+
+    Returns
+    -------
+    people : ndarray, shape (M, 2)
+        The legs-together segments (``width > max_single``) in order, the pairs' midpoints ``0.5 * (a + b)`` of
+        :func:`pair_greedy` on the narrow legs, then (``singles``) the narrow legs in no pair (m).
+    alone : ndarray, shape (S, 2)
+        The narrow legs in no pair, in order (m).
+    """
+    k = legs.shape[0]
+    together = np.empty(k, dtype=np.bool_)
+    n_tog = 0
+    for i in range(k):
+        together[i] = widths[i] > max_single
+        n_tog += together[i]
+    narrow = np.empty((k - n_tog, 2))
+    q = 0
+    for i in range(k):
+        if not together[i]:
+            narrow[q, 0], narrow[q, 1] = legs[i, 0], legs[i, 1]
+            q += 1
+    pairs, paired = pair_greedy(narrow, lo, hi)
+    n_alone = narrow.shape[0] - 2 * pairs.shape[0]
+    alone = np.empty((n_alone, 2))
+    people = np.empty((n_tog + pairs.shape[0] + (n_alone if singles else 0), 2))
+    q, a = 0, 0
+    for i in range(k):
+        if together[i]:
+            people[q, 0], people[q, 1] = legs[i, 0], legs[i, 1]
+            q += 1
+    for p in range(pairs.shape[0]):
+        for c in range(2):
+            people[q, c] = 0.5 * (narrow[pairs[p, 0], c] + narrow[pairs[p, 1], c])
+        q += 1
+    for i in range(narrow.shape[0]):
+        if not paired[i]:
+            alone[a, 0], alone[a, 1] = narrow[i, 0], narrow[i, 1]
+            a += 1
+            if singles:
+                people[q, 0], people[q, 1] = narrow[i, 0], narrow[i, 1]
+                q += 1
+    return people, alone
+
+
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them.
 
@@ -616,3 +668,4 @@ def warm_up() -> None:
     far_blobs(pts, b, starts, counts, r0, r1, np.zeros(7))
     pair_greedy(np.zeros((3, 2)), 0.1, 0.5)
     context_terms(np.zeros((2, 2)), np.zeros(2), 3.0, 0.6)
+    people_pairs(np.zeros((3, 2)), np.zeros(3), 0.25, 0.1, 0.6, False)

@@ -133,6 +133,27 @@ def test_near_any_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None
                 assert np.array_equal(a, numpy_near_any(p, o, radius))
 
 
+@pytest.mark.parametrize("count_single", [False, True])
+def test_people_and_single_legs_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch, count_single: bool) -> None:
+    """Random legs (none, one, many; ties in distance; legs together and NaN widths) give the same people and
+    single legs, bit for bit."""
+    from pfpeople.detect.legs import PairingParams, people_and_single_legs
+
+    rng = np.random.default_rng(21)
+    params = PairingParams(count_single_legs=count_single)
+    for k in [0, 1, 2, 3, 5, 8, 20] * 15:
+        legs = rng.uniform(-2, 2, (k, 2))
+        if k > 3 and rng.random() < 0.3:
+            legs[1] = legs[0] + [0.3, 0.0]
+            legs[2] = legs[0] - [0.3, 0.0]  # equal distances
+        widths = rng.uniform(0.05, 0.4, k)
+        if k and rng.random() < 0.2:
+            widths[0] = np.nan
+        a, b = _both(lambda: people_and_single_legs(legs, widths, params=params), monkeypatch)  # noqa: B023
+        for x, y in zip(a, b, strict=True):
+            assert x.shape == y.shape and x.dtype == y.dtype and x.tobytes() == y.tobytes()
+
+
 def test_pairwise_sum_is_numpys_reduceat() -> None:
     rng = np.random.default_rng(3)
     for _ in range(50):
