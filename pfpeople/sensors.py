@@ -59,10 +59,16 @@ class LaserScan:
 
     @property
     def valid(self) -> NDArray[np.bool_]:
-        """True for beams with a finite range inside [range_min, range_max]."""
-        r = self.ranges
-        with np.errstate(invalid="ignore"):
-            return np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
+        """True for beams with a finite range inside [range_min, range_max], shape (B,); computed once per scan
+        (read only)."""
+        v = self.__dict__.get("_valid")
+        if v is None:
+            r = self.ranges
+            with np.errstate(invalid="ignore"):
+                v = np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
+            v.flags.writeable = False
+            object.__setattr__(self, "_valid", v)
+        return v
 
     @property
     def no_return(self) -> NDArray[np.bool_]:

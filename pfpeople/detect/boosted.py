@@ -29,9 +29,11 @@ from numpy.typing import NDArray
 
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_number
+from pfpeople.detect.boost_trees import BoostTrees, load_trees
 from pfpeople.detect.legs import PairingParams, people_and_single_legs
 from pfpeople.detect.segments import FEATURE_NAMES, SegmentationParams
-from pfpeople.detect.training import boost_scores, scan_features
+from pfpeople.detect.training import boost_scores as _opencv_scores
+from pfpeople.detect.training import scan_features
 from pfpeople.sensors import LaserScan
 
 __all__ = ["DEFAULT_MODEL_NAME", "BoostedSegmentDetector", "default_model_path"]
@@ -73,6 +75,15 @@ def _load_boost(path: Path) -> Any:
     if not ok:
         raise ValueError(f"boosted model file {str(path)!r} is not {expect}")
     return boost
+
+
+def boost_scores(model: Any, X: NDArray[np.float32]) -> NDArray[np.float64]:
+    """Raw boosted scores ``(n,)`` of the float32 feature rows ``X`` ``(n, F)``: by the trees' walk of
+    :mod:`pfpeople.detect.boost_trees` when ``model`` is a :class:`~pfpeople.detect.boost_trees.BoostTrees`, else by
+    the OpenCV Boost ``model``'s ``predict`` (:func:`pfpeople.detect.training.boost_scores`): the same floats."""
+    if isinstance(model, BoostTrees):
+        return model.scores(X)
+    return _opencv_scores(model, X)
 
 
 #: The latest (scan, model key, legs) of :meth:`BoostedSegmentDetector._legs`.
@@ -135,6 +146,7 @@ class BoostedSegmentDetector:
             if isinstance(seg, dict):
                 self.segmentation = SegmentationParams(**seg)
         self._boost = _load_boost(path)
+        self._trees: BoostTrees | None = load_trees(path, self._boost, len(FEATURE_NAMES))
 
     def _resolved_path(self) -> Path:
         """``self.model_path.resolve()``, resolved once per path (a file system call per scan otherwise)."""
@@ -146,7 +158,13 @@ class BoostedSegmentDetector:
     def segment_scores(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centroids ``(S, 2)`` (m, scan frame) and boosted scores ``(S,)`` of every segment of ``scan``."""
         feats, centroids, _ = scan_features(scan, segmentation=self.segmentation)
-        return centroids, boost_scores(self._boost, feats.astype(np.float32))
+        return centroids, self._scores(feats)
+
+    def _scores(self, feats: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The raw boosted scores ``(S,)`` of the feature rows ``feats`` ``(S, F)`` (rounded to float32 first): the
+        model's trees walked by :mod:`pfpeople.detect.boost_trees` when they reproduce OpenCV's scores (checked at
+        load), else OpenCV's ``predict`` (:func:`pfpeople.detect.training.boost_scores`)."""
+        return boost_scores(self._boost if self._trees is None else self._trees, feats.astype(np.float32))
 
     def _legs(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centroids ``(K, 2)`` and widths ``(K,)`` of the segments classified as legs; the latest result is kept
@@ -158,7 +176,7 @@ class BoostedSegmentDetector:
         if latest is not None and latest[0] is scan and latest[1] == key:
             return latest[2]
         feats, centroids, widths = scan_features(scan, segmentation=self.segmentation)
-        keep = boost_scores(self._boost, feats.astype(np.float32)) > self.threshold
+        keep = self._scores(feats) > self.threshold
         _LATEST_LEGS = (scan, key, (centroids[keep], widths[keep]))
         return _LATEST_LEGS[2]
 

@@ -39,7 +39,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge import jit as _jit
-from gridbridge.geometry import near_any
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_int, check_positive
 from pfpeople.detect import segment_kernels as _kernels
@@ -49,6 +48,7 @@ from pfpeople.detect.segments import (
     scan_segments,
     segment_scan,
 )
+from pfpeople.perception.clutter_kernels import near_any
 from pfpeople.sensors import LaserScan
 
 __all__ = [
@@ -321,6 +321,16 @@ def people_and_single_legs(
     widths = np.asarray(widths, dtype=float).reshape(-1)
     if widths.size != legs.shape[0]:
         raise ValueError(f"widths has {widths.size} entries for {legs.shape[0]} legs")
+    if _jit.enabled("pfpeople"):
+        out: tuple[NDArray[np.float64], NDArray[np.float64]] = _kernels.people_pairs(
+            np.ascontiguousarray(legs),
+            np.ascontiguousarray(widths),
+            float(params.max_single_leg_width),
+            float(params.min_separation),
+            float(params.max_separation),
+            bool(params.count_single_legs),
+        )
+        return out
     together = widths > params.max_single_leg_width
     narrow = legs[~together]  # the single legs, in order (taken once)
     pairs, paired = pair_legs(narrow, min_separation=params.min_separation, max_separation=params.max_separation)

@@ -19,7 +19,16 @@ from gridbridge import jit as _jit
 from gridbridge.jit import jit as njit
 from gridbridge.kernels import pairwise_sum
 
-__all__ = ["far_blobs", "features_angles", "features_rest", "jump_segments", "pair_greedy", "warm_up"]
+__all__ = [
+    "context_terms",
+    "far_blobs",
+    "features_angles",
+    "features_rest",
+    "jump_segments",
+    "pair_greedy",
+    "people_pairs",
+    "warm_up",
+]
 
 #: What :func:`jump_segments` returns: points (P, 2), beams (P,), starts (S,), counts (S,), ranges before and after
 #: (S,), runs dropped.
@@ -32,6 +41,13 @@ _Runs: TypeAlias = tuple[
     NDArray[np.float64],
     int,
 ]
+
+
+#: Relative margin (far above the rounding of ``dx * dx + dy * dy`` and of ``hypot``: a few 1e-16) within which
+#: :func:`context_terms` and :func:`_runs` compare distances by their ``hypot`` instead of their squares.
+_MARGIN = 1e-9
+#: Squared distances (m^2) below which :func:`context_terms` always computes the ``hypot`` (underflow).
+_TINY = 1e-300
 
 
 @njit
@@ -125,13 +141,21 @@ def _runs(
 ) -> tuple[NDArray[np.intp], int, int, int]:  # pragma: no cover - compiled
     """The runs of :func:`jump_segments`: their starts ``rs[:m]`` then ``rs[m] = V`` (points closer than ``jump``
     (m) to the previous one continue a run), their number ``m``, and the number and points of those kept
-    (at least ``min_points`` points)."""
+    (at least ``min_points`` points). The gaps are ``np.hypot``'s; only those whose square lies within
+    ``_MARGIN`` (relative) of ``jump ** 2`` are computed (the others lie on the same side of ``jump`` by far more
+    than rounding), unless ``jump ** 2`` is outside ``[_TINY, 1 / _TINY]``."""
     n = x.size
     rs = np.empty(n + 1, dtype=np.intp)  # run starts, then n
     m = 1
     rs[0] = 0
+    j2 = jump * jump
+    lo, hi = j2 * (1.0 - _MARGIN), j2 * (1.0 + _MARGIN)
+    if not (j2 >= _TINY and j2 <= 1.0 / _TINY):
+        lo, hi = -1.0, math.inf  # every gap by its hypot
     for i in range(n - 1):
-        if math.hypot(x[i + 1] - x[i], y[i + 1] - y[i]) > jump:
+        dx, dy = x[i + 1] - x[i], y[i + 1] - y[i]
+        v = dx * dx + dy * dy
+        if v > hi or (v >= lo and math.hypot(dx, dy) > jump):
             rs[m] = i + 1
             m += 1
     rs[m] = n
@@ -190,9 +214,14 @@ def features_angles(
 
 @njit
 def _moments(
-    pts: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp], out: NDArray[np.float64]
+    pts: NDArray[np.float64],
+    starts: NDArray[np.intp],
+    counts: NDArray[np.intp],
+    out: NDArray[np.float64],
+    steps: NDArray[np.float64],
 ) -> None:  # pragma: no cover - compiled
-    """Columns 0-8 and 13 of the features (counts, spread, median, width, line and circle fits, steps)."""
+    """Columns 0-8 and 13 of the features (counts, spread, median, width, line and circle fits, steps); ``steps``
+    (N,) gets the length of every step ``p -> p + 1`` inside a segment (m)."""
     S = starts.size
     N = pts.shape[0]
     x = np.ascontiguousarray(pts[:, 0])
@@ -246,7 +275,7 @@ def _moments(
         hi = lo + c - 1
         out[s, 3] = math.hypot(x[hi] - x[lo], y[hi] - y[lo])
         _circle(x, y, lo, c, sxx[s], syy[s], sxy[s], suz[s], svz[s], cx[s], cy[s], lin, buf, out, s)
-        _steps(x, y, lo, c, out, s)
+        _steps(x, y, lo, c, out, s, steps)
 
 
 @njit
@@ -306,13 +335,21 @@ def _circle(
 
 @njit
 def _steps(
-    x: NDArray[np.float64], y: NDArray[np.float64], lo: int, c: int, out: NDArray[np.float64], s: int
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    lo: int,
+    c: int,
+    out: NDArray[np.float64],
+    s: int,
+    steps: NDArray[np.float64],
 ) -> None:  # pragma: no cover - compiled
-    """Columns 7 (boundary length) and 8 (boundary regularity) of segment ``s`` (sequential sums)."""
+    """Columns 7 (boundary length) and 8 (boundary regularity) of segment ``s`` (sequential sums); the step
+    lengths (m) into ``steps[lo:lo + c - 1]``."""
     step_sum = 0.0
     step_sq = 0.0
     for p in range(lo, lo + c - 1):
         st = math.hypot(x[p + 1] - x[p], y[p + 1] - y[p])
+        steps[p] = st
         step_sum += st
         step_sq += st * st
     n_steps = float(c) - 1.0
@@ -329,10 +366,14 @@ def features_rest(
     ang: NDArray[np.float64],
 ) -> NDArray[np.float64]:  # pragma: no cover - compiled
     """The feature matrix ``(S, 14)`` from the points and the turning / inscribed angles of
-    :func:`features_angles` (``th`` over the triples, ``ang`` over the interior points, rad in [0, 2 pi))."""
+    :func:`features_angles` (``th`` over the triples, ``ang`` over the interior points, rad in [0, 2 pi)).
+
+    A triple's side lengths ``|left - mid|`` and ``|right - mid|`` are the segment's step lengths of
+    :func:`_steps` (``np.hypot`` of the same differences, up to the sign: the same floats)."""
     S = starts.size
     out = np.empty((S, 14))
-    _moments(pts, starts, counts, out)
+    steps = np.empty(pts.shape[0])
+    _moments(pts, starts, counts, out, steps)
     k = 0
     for s in range(S):
         lo, c = starts[s], counts[s]
@@ -345,11 +386,7 @@ def features_rest(
             mr0 = pts[i, 0] - pts[i + 1, 0]
             mr1 = pts[i, 1] - pts[i + 1, 1]
             cross = ml0 * mr1 - ml1 * mr0
-            denom = (
-                math.hypot(ml0, ml1)
-                * math.hypot(mr0, mr1)
-                * math.hypot(pts[i + 2, 0] - pts[i, 0], pts[i + 2, 1] - pts[i, 1])
-            )
+            denom = steps[i + 1] * steps[i] * math.hypot(pts[i + 2, 0] - pts[i, 0], pts[i + 2, 1] - pts[i, 1])
             curv_sum += 2.0 * cross / denom if denom > 0 else 0.0
             th_sum += th[i]
         out[s, 9] = curv_sum / n
@@ -405,7 +442,7 @@ def far_blobs(
         params[4],
         params[5],
     )
-    r, x, y, sr, centres = _blob_sums(pts, starts, counts)
+    r, x, y, sr, centres = _blob_sums(pts, starts, counts, max_points)
     keep = np.zeros(R, dtype=np.bool_)
     small = np.zeros(R, dtype=np.bool_)
     for s in range(R):
@@ -428,16 +465,19 @@ def far_blobs(
 
 @njit
 def _blob_sums(
-    pts: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp]
+    pts: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp], max_points: float
 ) -> tuple[
     NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]
 ]:  # pragma: no cover - compiled
     """The ranges ``r`` (N,), coordinates ``x``, ``y`` (N,) (m) of the points of :func:`far_blobs`, the runs'
-    range sums ``sr`` (R,) (``np.add.reduceat``'s) and centroids (R, 2) (m)."""
+    range sums ``sr`` (R,) (``np.add.reduceat``'s) and centroids (R, 2) (m). The ranges of a run of more than
+    ``max_points`` points are 0 (such a run is neither small nor a blob: :func:`far_blobs` does not read them)."""
     N = pts.shape[0]
-    r = np.empty(N)
-    for p in range(N):
-        r[p] = math.hypot(pts[p, 0], pts[p, 1])
+    r = np.zeros(N)
+    for s in range(starts.size):
+        if float(counts[s]) <= max_points:
+            for p in range(starts[s], starts[s] + counts[s]):
+                r[p] = math.hypot(pts[p, 0], pts[p, 1])
     x = np.ascontiguousarray(pts[:, 0])
     y = np.ascontiguousarray(pts[:, 1])
     sr = _reduceat(r, starts, counts)
@@ -483,6 +523,134 @@ def pair_greedy(pts: NDArray[np.float64], lo: float, hi: float) -> tuple[NDArray
     return out[:p].copy(), paired
 
 
+@njit
+def context_terms(
+    centroids: NDArray[np.float64], widths: NDArray[np.float64], cap: float, radius: float
+) -> NDArray[np.float64]:  # pragma: no cover - compiled
+    """:func:`pfpeople.detect.segments.context_features` of ``n >= 2`` centroids ``(n, 2)`` (m) and widths ``(n,)``
+    (m), ``cap`` and ``radius`` (m) its constants; ``(0, 4)`` when a centroid is not finite (the caller's numpy
+    code then decides).
+
+    Every row's distances are ``np.hypot`` of the centroids' differences, the own one ``inf``: the nearest is the
+    first minimum (``np.argmin``), the second nearest the second smallest value (``np.partition``'s ``[1]``).
+    The squared distances pick the candidates: a ``hypot`` is computed only where the square lies within
+    ``_MARGIN`` (relative) of the second smallest square or of ``radius ** 2``, or below ``_TINY``; every other
+    distance exceeds two candidates' (or is on the same side of ``radius``) by far more than rounding.
+
+    Returns
+    -------
+    ndarray, shape (n, 4)
+        The nearest and the second nearest distance (capped at ``cap``; the second ``cap`` when ``n == 2``),
+        the number of distances ``<= radius`` and the nearest segment's width.
+    """
+    n = centroids.shape[0]
+    for i in range(n):
+        if not (math.isfinite(centroids[i, 0]) and math.isfinite(centroids[i, 1])):
+            return np.empty((0, 4))
+    out = np.empty((n, 4))
+    d2 = np.empty(n)
+    for i in range(n):
+        m1, m2 = math.inf, math.inf
+        for j in range(n):
+            dx, dy = centroids[i, 0] - centroids[j, 0], centroids[i, 1] - centroids[j, 1]
+            v = math.inf if j == i else dx * dx + dy * dy
+            d2[j] = v
+            if v < m1:
+                m1, m2 = v, m1
+            elif v < m2:
+                m2 = v
+        _context_row(centroids, widths, i, d2, m2 * (1.0 + _MARGIN) + _TINY, cap, radius, out)
+        if n == 2:
+            out[i, 1] = cap
+    return out
+
+
+@njit
+def _context_row(
+    centroids: NDArray[np.float64],
+    widths: NDArray[np.float64],
+    i: int,
+    d2: NDArray[np.float64],
+    bound: float,
+    cap: float,
+    radius: float,
+    out: NDArray[np.float64],
+) -> None:  # pragma: no cover - compiled
+    """Row ``i`` of :func:`context_terms` from its squared distances ``d2`` (n,) (m^2, ``inf`` at ``i``): the
+    ``hypot`` of the candidates ``d2 <= bound`` and of the squares near ``radius ** 2``."""
+    r2 = radius * radius
+    lo, hi = r2 * (1.0 - _MARGIN), r2 * (1.0 + _MARGIN) + _TINY
+    best, second, near, count = math.inf, math.inf, 0, 0
+    for j in range(d2.size):
+        v = d2[j]
+        d = -1.0
+        if v <= bound or (v >= lo and v <= hi):
+            dx, dy = centroids[i, 0] - centroids[j, 0], centroids[i, 1] - centroids[j, 1]
+            d = math.inf if j == i else math.hypot(dx, dy)
+        if v <= bound:
+            if d < best:
+                second, best, near = best, d, j
+            elif d < second:
+                second = d
+        if v < lo or (v <= hi and d <= radius):
+            count += 1
+    out[i, 0] = min(best, cap)
+    out[i, 1] = min(second, cap)
+    out[i, 2] = float(count)
+    out[i, 3] = widths[near]
+
+
+@njit
+def people_pairs(
+    legs: NDArray[np.float64], widths: NDArray[np.float64], max_single: float, lo: float, hi: float, singles: bool
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # pragma: no cover - compiled
+    """:func:`pfpeople.detect.legs.people_and_single_legs` of legs ``(K, 2)`` (m) and widths ``(K,)`` (m):
+    ``max_single``, ``lo``, ``hi`` and ``singles`` are its ``max_single_leg_width``, ``min_separation``,
+    ``max_separation`` and ``count_single_legs``.
+
+    Returns
+    -------
+    people : ndarray, shape (M, 2)
+        The legs-together segments (``width > max_single``) in order, the pairs' midpoints ``0.5 * (a + b)`` of
+        :func:`pair_greedy` on the narrow legs, then (``singles``) the narrow legs in no pair (m).
+    alone : ndarray, shape (S, 2)
+        The narrow legs in no pair, in order (m).
+    """
+    k = legs.shape[0]
+    together = np.empty(k, dtype=np.bool_)
+    n_tog = 0
+    for i in range(k):
+        together[i] = widths[i] > max_single
+        n_tog += together[i]
+    narrow = np.empty((k - n_tog, 2))
+    q = 0
+    for i in range(k):
+        if not together[i]:
+            narrow[q, 0], narrow[q, 1] = legs[i, 0], legs[i, 1]
+            q += 1
+    pairs, paired = pair_greedy(narrow, lo, hi)
+    n_alone = narrow.shape[0] - 2 * pairs.shape[0]
+    alone = np.empty((n_alone, 2))
+    people = np.empty((n_tog + pairs.shape[0] + (n_alone if singles else 0), 2))
+    q, a = 0, 0
+    for i in range(k):
+        if together[i]:
+            people[q, 0], people[q, 1] = legs[i, 0], legs[i, 1]
+            q += 1
+    for p in range(pairs.shape[0]):
+        for c in range(2):
+            people[q, c] = 0.5 * (narrow[pairs[p, 0], c] + narrow[pairs[p, 1], c])
+        q += 1
+    for i in range(narrow.shape[0]):
+        if not paired[i]:
+            alone[a, 0], alone[a, 1] = narrow[i, 0], narrow[i, 1]
+            a += 1
+            if singles:
+                people[q, 0], people[q, 1] = narrow[i, 0], narrow[i, 1]
+                q += 1
+    return people, alone
+
+
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them.
 
@@ -499,3 +667,5 @@ def warm_up() -> None:
     features_rest(pts, starts, counts, np.zeros(ct.size), np.zeros(ci.size))
     far_blobs(pts, b, starts, counts, r0, r1, np.zeros(7))
     pair_greedy(np.zeros((3, 2)), 0.1, 0.5)
+    context_terms(np.zeros((2, 2)), np.zeros(2), 3.0, 0.6)
+    people_pairs(np.zeros((3, 2)), np.zeros(3), 0.25, 0.1, 0.6, False)

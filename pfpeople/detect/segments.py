@@ -187,10 +187,16 @@ class Segments:
 
     @property
     def centroids(self) -> NDArray[np.float64]:
-        """Mean point of every segment, shape (S, 2) (m, scan frame)."""
-        if len(self) == 0:
-            return np.zeros((0, 2))
-        return np.add.reduceat(self.points, self.starts, axis=0) / self.counts[:, None]
+        """Mean point of every segment, shape (S, 2) (m, scan frame); computed once (read only)."""
+        c = self.__dict__.get("_centroids")
+        if c is None:
+            if len(self) == 0:
+                c = np.zeros((0, 2))
+            else:
+                c = np.add.reduceat(self.points, self.starts, axis=0) / self.counts[:, None]
+            c.flags.writeable = False
+            object.__setattr__(self, "_centroids", c)
+        return c
 
     def segment(self, s: int) -> NDArray[np.float64]:
         """Points of segment ``s``, shape (n_s, 2)."""
@@ -269,9 +275,8 @@ def _valid_points(
     latest = _LATEST_POINTS
     if latest is not None and latest[0] is scan and latest[1] == max_range:
         return latest[2]
-    valid = scan.valid
     with np.errstate(invalid="ignore"):
-        valid &= scan.ranges <= max_range
+        valid = scan.valid & (scan.ranges <= max_range)
     beams = np.flatnonzero(valid)
     if scan.angle_increment < 0:  # walk the beams counter-clockwise (see the module docstring)
         beams = beams[::-1]
@@ -360,6 +365,12 @@ def context_features(centroids: NDArray[np.float64], widths: NDArray[np.float64]
         ``neighbours_within_0_6m`` (a count) and ``neighbour_width`` (m) per segment.
     """
     n = centroids.shape[0]
+    if n >= 2 and _jit.enabled("pfpeople"):
+        c = np.ascontiguousarray(centroids, dtype=np.float64)
+        w = np.ascontiguousarray(widths, dtype=np.float64)
+        terms: NDArray[np.float64] = _kernels.context_terms(c, w, CONTEXT_CAP, _NEIGHBOUR_RADIUS)
+        if terms.shape[0] == n:
+            return terms
     out = np.zeros((n, _N_CONTEXT))
     out[:, :2] = CONTEXT_CAP
     if n < 2:

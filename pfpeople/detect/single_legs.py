@@ -27,11 +27,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.geometry import near_any
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_positive
 from pfpeople.detect.boosted import BoostedSegmentDetector
 from pfpeople.detect.legs import LegDetector
+from pfpeople.perception.clutter_kernels import near_any
 from pfpeople.sensors import LaserScan
 
 __all__ = ["SINGLE_LEG_SOURCES", "SingleLegDetector"]

@@ -13,8 +13,9 @@ import math
 from typing import TypeAlias
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from gridbridge import geometry as _geometry
 from gridbridge import jit as _jit
 from gridbridge.jit import jit as njit
 from gridbridge.kernels import pairwise_sum
@@ -24,6 +25,8 @@ _F: TypeAlias = NDArray[np.float64]
 __all__ = [
     "ball_means",
     "moving_update",
+    "near_any",
+    "near_mask",
     "return_scores",
     "scan_rays",
     "self_update",
@@ -73,17 +76,14 @@ def update_evidence(
     """
     free, hit = _marks(n, hit_cells, human_cells, ru, n_free, steps, origin, neighbours)
     s0, decay, dt, s_max, dec, s_min = params[0], params[1], params[2], params[3], params[4], params[5]
-    for i in range(n * n):
-        v = s[i] - s0
-        v = v * decay
-        v = v + s0
-        if hit[i]:
-            v = v + dt
-            v = v if v <= s_max else s_max
-        if free[i]:
-            v = v - dec
-            v = v if v >= s_min else s_min
-        s[i] = v
+    for i in range(n * n):  # both branches computed and one selected (no jumps: the compiler vectorises it)
+        v = (s[i] - s0) * decay + s0
+        h = v + dt
+        h = h if h <= s_max else s_max
+        v = h if hit[i] else v
+        f = v - dec
+        f = f if f >= s_min else s_min
+        s[i] = f if free[i] else v
 
 
 @njit
@@ -398,6 +398,48 @@ def return_scores(
     return out
 
 
+@njit
+def near_mask(
+    points: NDArray[np.float64], others: NDArray[np.float64], r2: float
+) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    """:func:`gridbridge.geometry.near_any` of ``points`` ``(N, 2)`` and ``K >= 1`` ``others`` ``(K, 2)`` (m) with
+    ``r2 = radius * radius`` (m^2): whether the smallest ``dx * dx + dy * dy`` of a point is ``<= r2``; a NaN
+    among its squares makes numpy's minimum NaN, so False.
+
+    Returns
+    -------
+    ndarray, shape (N,), bool
+    """
+    out = np.zeros(points.shape[0], dtype=np.bool_)
+    for i in range(points.shape[0]):
+        m = math.inf
+        for j in range(others.shape[0]):
+            dx = points[i, 0] - others[j, 0]
+            dy = points[i, 1] - others[j, 1]
+            v = dx * dx + dy * dy
+            if v != v:
+                m = v
+                break
+            if v < m:
+                m = v
+        out[i] = m <= r2
+    return out
+
+
+def near_any(points: ArrayLike, others: ArrayLike, radius: float) -> NDArray[np.bool_]:
+    """:func:`gridbridge.geometry.near_any` (``(N,)``: whether each of ``points`` ``(N, 2)`` lies within ``radius``
+    (m, inclusive) of a row of ``others`` ``(K, 2)``), by :func:`near_mask` when
+    ``gridbridge.jit.enabled("pfpeople")``: the same answers."""
+    if not _jit.enabled("pfpeople"):
+        return _geometry.near_any(points, others, radius)
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    o = np.asarray(others, dtype=float).reshape(-1, 2)
+    if not p.shape[0] or not o.shape[0]:
+        return np.zeros(p.shape[0], dtype=bool)
+    out: NDArray[np.bool_] = near_mask(np.ascontiguousarray(p), np.ascontiguousarray(o), float(radius * radius))
+    return out
+
+
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them
     (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
@@ -408,6 +450,7 @@ def warm_up() -> None:
     ev = np.zeros(4)
     update_evidence(ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), no, params)
     ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
+    near_mask(np.zeros((1, 2)), np.zeros((1, 2)), 0.01)
     return_scores(ev, np.zeros(1, dtype=np.intp), np.zeros(1, dtype=np.intp), 1.0)
     one = np.ones((1, 2))
     geo = np.array([10.0, 0.3, 1.0, 0.1, -1.0, -1.0, 1.0])

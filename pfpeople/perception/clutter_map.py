@@ -75,11 +75,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from gridbridge import jit as _jit
-from gridbridge.geometry import Pose2D, near_any, rotate
+from gridbridge.geometry import Pose2D, rotate
 from gridbridge.validation import check_int, check_real, finite_rows
 from pfpeople.perception.clutter_kernels import (
     ball_means,
     moving_update,
+    near_any,
     return_scores,
     scan_rays,
     static_lookup,
@@ -948,11 +949,16 @@ class ClutterSuppressor:
     def clutter_flags(self, groups: Sequence[NDArray[np.float64]]) -> list[NDArray[np.bool_]]:
         """:meth:`is_clutter` of each array of positions ``(M_i, 2)`` in ``groups``, in one query of them all
         (each position's answer is its own: the same flags as a query per array)."""
-        sizes = [len(g) for g in groups]
+        arrays = [np.asarray(g, dtype=float).reshape(-1, 2) for g in groups]
+        sizes = [a.shape[0] for a in arrays]
         if not any(sizes):
             return [np.zeros(0, dtype=bool) for _ in groups]
-        flags = self.is_clutter(np.concatenate([np.asarray(g, dtype=float).reshape(-1, 2) for g in groups]))
-        return np.split(flags, np.cumsum(sizes)[:-1])
+        flags = self.is_clutter(arrays[0] if len(arrays) == 1 else np.concatenate(arrays))
+        out, start = [], 0
+        for n in sizes:  # slices of the one answer (what np.split gives, without its overhead)
+            out.append(flags[start : start + n])
+            start += n
+        return out
 
     def is_clutter(self, positions: ArrayLike) -> NDArray[np.bool_]:
         """``(M,)`` which positions (m, laser frame of the latest :meth:`step`) are static clutter: static in

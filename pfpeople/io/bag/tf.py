@@ -26,8 +26,15 @@ import heapq
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
-from gridbridge.geometry import Pose2D, xy_from_translation, yaw_from_orientation, yaw_from_quaternion
+from gridbridge.geometry import (
+    MIN_QUATERNION_NORM,
+    Pose2D,
+    xy_from_translation,
+    yaw_from_orientation,
+    yaw_from_quaternion,
+)
 
 __all__ = [
     "MOUNT_CHANGE_M",
@@ -253,11 +260,13 @@ class MountWatch:
     def __init__(self, edges: Iterable[TfLink], *, tol_m: float = MOUNT_CHANGE_M, tol_rad: float = MOUNT_CHANGE_RAD):
         self.edges = {(e.parent, e.child): e for e in edges if e.topic}
         self.tol_m, self.tol_rad = tol_m, tol_rad
+        self._topics = sorted({e.topic for e in self.edges.values()})
 
     @property
     def topics(self) -> list[str]:
-        """The TF topics the watched edges came from (sorted)."""
-        return sorted({e.topic for e in self.edges.values()})
+        """The TF topics the watched edges came from (sorted; kept from the construction: the run asks at every TF
+        message)."""
+        return self._topics
 
     def check(self, msg: object) -> list[MountChange]:
         """The transforms of a ``tf2_msgs/TFMessage`` that change a watched edge (others are ignored)."""
@@ -280,17 +289,31 @@ class MountWatch:
         return out
 
 
+def _planar_pose(tr: Any, q: Any) -> Pose2D | None:
+    """The pose of a transform's translation ``tr`` and rotation ``q`` (message fields), or None where
+    :func:`gridbridge.geometry.xy_from_translation` or :func:`~gridbridge.geometry.yaw_from_orientation` would
+    refuse it (a non-finite translation, a non-finite or zero quaternion): their checks and floats, without
+    building the error texts nobody reads here."""
+    x, y, z = float(tr.x), float(tr.y), float(tr.z)
+    qx, qy, qz, qw = float(q.x), float(q.y), float(q.z), float(q.w)
+    isfinite = math.isfinite
+    if not (isfinite(x) and isfinite(y) and isfinite(z)):
+        return None
+    if not (isfinite(qx) and isfinite(qy) and isfinite(qz) and isfinite(qw)):
+        return None
+    if math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw) < MIN_QUATERNION_NORM:
+        return None
+    return Pose2D(x=x, y=y, yaw=yaw_from_quaternion(qx, qy, qz, qw))
+
+
 def _transforms(msg: object) -> Iterable[tuple[int, str, str, Pose2D]]:
     """``(stamp_ns, parent, child, pose)`` of every well-formed transform of a TFMessage (broken ones left out: the
     run refuses them before it starts, :meth:`TfBuffer.add_message`; one appearing later is not a usable mount)."""
     for t in getattr(msg, "transforms", None) or []:
-        tr, q = t.transform.translation, t.transform.rotation
-        parent, child = str(t.header.frame_id).lstrip("/"), str(t.child_frame_id).lstrip("/")
-        try:
-            x, y = xy_from_translation(tr.x, tr.y, tr.z, child)
-            pose = Pose2D(x=x, y=y, yaw=yaw_from_orientation(q.x, q.y, q.z, q.w, child))
-        except ValueError:
+        pose = _planar_pose(t.transform.translation, t.transform.rotation)
+        if pose is None:
             continue
+        parent, child = str(t.header.frame_id).lstrip("/"), str(t.child_frame_id).lstrip("/")
         yield int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec), parent, child, pose
 
 

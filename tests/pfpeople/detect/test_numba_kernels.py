@@ -64,6 +64,28 @@ def test_segment_scan_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch, min
             _same_segments(c, f)
 
 
+@pytest.mark.parametrize("jump", [0.13, 0.3, 1e-170, 1e170])
+def test_jump_segments_at_the_jump_distance(jump: float) -> None:
+    """Gaps within a few ulps and within the kernel's margin of ``jump``, in every direction: the compiled runs
+    are numpy's (``np.hypot(gap) > jump``)."""
+    rng = np.random.default_rng(13)
+    rel = np.array([0.0, 1e-16, -1e-16, 2.2e-16, -2.2e-16, 5e-10, -5e-10, 1e-9, -1e-9, 2e-9, -2e-9, 0.5, -0.5])
+    steps = jump * (1.0 + rng.choice(rel, 3000))
+    theta = rng.uniform(0, 2 * np.pi, 3000)
+    x = np.concatenate(([0.0], np.cumsum(steps * np.cos(theta))))
+    y = np.concatenate(([0.0], np.cumsum(steps * np.sin(theta))))
+    r = np.hypot(x, y)
+    beams = np.arange(x.size, dtype=np.intp)
+    for min_points in (1, 3):
+        pts, kb, starts, counts, before, after, n_small = _kernels.jump_segments(x, y, r, beams, jump, min_points)
+        ref = seg._runs_numpy(np.column_stack((x, y)), r, beams, jump, min_points, 0)
+        assert np.array_equal(starts, ref.starts) and np.array_equal(counts, ref.counts)
+        assert np.array_equal(kb, ref.beams) and before.tobytes() == ref.range_before.tobytes()
+        assert after.tobytes() == ref.range_after.tobytes()
+        assert pts.tobytes() == ref.points.tobytes() and n_small == ref.n_dropped_small
+        assert 0 < len(starts) < x.size
+
+
 def test_segment_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
     for scan in _scans():
         segs = seg.segment_scan(scan)
@@ -71,6 +93,65 @@ def test_segment_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch)
         assert c.shape == f.shape == (len(segs), len(seg.FEATURE_NAMES))
         assert np.array_equal(c, f, equal_nan=True)
         assert c.tobytes() == f.tobytes()  # the sign of zero too
+
+
+def test_context_features_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Random centroids, and ties: repeated centroids, equal distances (a grid), points exactly 0.6 m apart."""
+    rng = np.random.default_rng(5)
+    cases = [rng.uniform(-4, 4, (n, 2)) for n in (0, 1, 2, 3, 4, 30, 50) for _ in range(20)]
+    cases += [np.repeat(rng.uniform(-1, 1, (k, 2)), 3, axis=0) for k in (1, 2, 5)]
+    gx, gy = np.meshgrid(np.arange(4) * 0.3, np.arange(3) * 0.6)
+    cases += [np.column_stack((gx.ravel(), gy.ravel())), np.array([[0.0, 0.0], [0.6, 0.0], [0.0, 3.5]])]
+    ring = np.array([[np.cos(t), np.sin(t)] for t in np.linspace(0, 2 * np.pi, 13)[:-1]]) * 0.6  # near-equal
+    cases += [ring, ring + np.array([0.6, 0.0]), np.concatenate(([[0.0, 0.0]], ring))]  # and hypot at 0.6 +- rounding
+    base = rng.uniform(-3, 3, (6, 2))
+    for scale in (1e-160, 1e-15, 1e150, 1e160):  # underflowing and overflowing squares, ulp-close distances
+        cases += [base * scale, base + rng.normal(0, 1, (6, 2)) * scale]
+    cases += [np.array([[0.0, 0.0], [np.nan, 1.0], [0.5, 0.0]]), np.array([[0.0, 0.0], [np.inf, 1.0], [0.5, 0.0]])]
+    for c in cases:
+        w = rng.uniform(0.02, 0.6, c.shape[0])
+        with np.errstate(invalid="ignore", over="ignore"):  # the numpy twin on the non-finite centroids
+            a, b = _both(lambda: seg.context_features(c, w), monkeypatch)  # noqa: B023
+        assert a.shape == b.shape == (c.shape[0], 4)
+        assert a.tobytes() == b.tobytes()
+
+
+def test_near_any_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``near_any``: random points, points exactly at the radius, NaN and inf rows, empty sets."""
+    from gridbridge.geometry import near_any as numpy_near_any
+    from pfpeople.perception.clutter_kernels import near_any
+
+    rng = np.random.default_rng(9)
+    cases = [(rng.uniform(-3, 3, (n, 2)), rng.uniform(-3, 3, (k, 2))) for n in (0, 1, 7, 700) for k in (0, 1, 4)]
+    edge = np.array([[0.3, 0.0], [0.0, -0.3], [0.3000000000000001, 0.0], [np.nan, 0.0], [np.inf, 1.0], [1.0, 1.0]])
+    cases += [(edge, np.zeros((1, 2))), (edge, np.array([[0.0, 0.0], [np.nan, 0.0]])), (edge, edge)]
+    for p, o in cases:
+        for radius in (0.3, 0.5, 0.0):
+            with np.errstate(invalid="ignore"):
+                a, b = _both(lambda: near_any(p, o, radius), monkeypatch)  # noqa: B023
+                assert a.dtype == b.dtype == bool and np.array_equal(a, b)
+                assert np.array_equal(a, numpy_near_any(p, o, radius))
+
+
+@pytest.mark.parametrize("count_single", [False, True])
+def test_people_and_single_legs_compiled_equals_numpy(monkeypatch: pytest.MonkeyPatch, count_single: bool) -> None:
+    """Random legs (none, one, many; ties in distance; legs together and NaN widths) give the same people and
+    single legs, bit for bit."""
+    from pfpeople.detect.legs import PairingParams, people_and_single_legs
+
+    rng = np.random.default_rng(21)
+    params = PairingParams(count_single_legs=count_single)
+    for k in [0, 1, 2, 3, 5, 8, 20] * 15:
+        legs = rng.uniform(-2, 2, (k, 2))
+        if k > 3 and rng.random() < 0.3:
+            legs[1] = legs[0] + [0.3, 0.0]
+            legs[2] = legs[0] - [0.3, 0.0]  # equal distances
+        widths = rng.uniform(0.05, 0.4, k)
+        if k and rng.random() < 0.2:
+            widths[0] = np.nan
+        a, b = _both(lambda: people_and_single_legs(legs, widths, params=params), monkeypatch)  # noqa: B023
+        for x, y in zip(a, b, strict=True):
+            assert x.shape == y.shape and x.dtype == y.dtype and x.tobytes() == y.tobytes()
 
 
 def test_pairwise_sum_is_numpys_reduceat() -> None:

@@ -89,3 +89,26 @@ def test_the_edges_of_a_lookup_leave_out_the_shared_ones_and_the_fallbacks() -> 
     (moved,) = watch.check(_tf_msg("/mast", "laser", x=0.25, yaw=0.2))
     assert moved.edge.name == "mast -> laser" and moved.distance_m == pytest.approx(0.05)
     assert watch.check(_tf_msg("odom", "base_link", x=9.0)) == []  # not a mount edge
+
+
+def test_planar_pose_is_the_checked_conversions() -> None:
+    """``_planar_pose`` accepts what ``xy_from_translation`` and ``yaw_from_orientation`` accept, with their floats,
+    and refuses (None) what they refuse: non-finite translations, non-finite or zero quaternions."""
+    from gridbridge.geometry import yaw_from_orientation
+    from pfpeople.io.bag.tf import _planar_pose
+
+    rng = np.random.default_rng(4)
+    special = [0.0, -0.0, 1e-7, 4e-7, 5e-7, 1e-6, np.nan, np.inf, -np.inf, 1e300]
+    for _ in range(3000):
+        tr = [float(v) if rng.random() < 0.8 else float(rng.choice(special)) for v in rng.normal(0, 2, 3)]
+        q = [float(v) if rng.random() < 0.7 else float(rng.choice(special)) for v in rng.normal(0, 1, 4)]
+        if rng.random() < 0.1:
+            q = [float(v) for v in rng.choice(special[:6], 4)]  # norms around MIN_QUATERNION_NORM
+        got = _planar_pose(NS(x=tr[0], y=tr[1], z=tr[2]), NS(x=q[0], y=q[1], z=q[2], w=q[3]))
+        try:
+            x, y = xy_from_translation(*tr, "t")
+            want = Pose2D(x=x, y=y, yaw=yaw_from_orientation(*q, "t"))
+        except ValueError:
+            assert got is None
+            continue
+        assert got is not None and (got.x, got.y, got.yaw) == (want.x, want.y, want.yaw)
