@@ -213,19 +213,12 @@ def features_angles(
 
 
 @njit
-def _moments(
-    pts: NDArray[np.float64],
-    starts: NDArray[np.intp],
-    counts: NDArray[np.intp],
-    out: NDArray[np.float64],
-    steps: NDArray[np.float64],
-) -> None:  # pragma: no cover - compiled
-    """Columns 0-8 and 13 of the features (counts, spread, median, width, line and circle fits, steps); ``steps``
-    (N,) gets the length of every step ``p -> p + 1`` inside a segment (m)."""
-    S = starts.size
-    N = pts.shape[0]
-    x = np.ascontiguousarray(pts[:, 0])
-    y = np.ascontiguousarray(pts[:, 1])
+def _centred_sums(
+    x: NDArray[np.float64], y: NDArray[np.float64], starts: NDArray[np.intp], counts: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], ...]:  # pragma: no cover - compiled
+    """Per segment (S,): the centroid ``cx, cy`` and the sums of ``dx^2, dy^2, dx dy, dx z, dy z`` over its points
+    (``d`` = point - centroid, ``z = dx^2 + dy^2``), each summed as ``np.add.reduceat`` sums."""
+    N = x.size
     cx = _reduceat(x, starts, counts)
     cy = _reduceat(y, starts, counts)
     dxx = np.empty(N)
@@ -233,7 +226,7 @@ def _moments(
     dxy = np.empty(N)
     dxz = np.empty(N)
     dyz = np.empty(N)
-    for s in range(S):
+    for s in range(starts.size):
         n = float(counts[s])
         cx[s] = cx[s] / n
         cy[s] = cy[s] / n
@@ -249,8 +242,24 @@ def _moments(
     sxx = _reduceat(dxx, starts, counts)
     syy = _reduceat(dyy, starts, counts)
     sxy = _reduceat(dxy, starts, counts)
-    suz = _reduceat(dxz, starts, counts)
-    svz = _reduceat(dyz, starts, counts)
+    return cx, cy, sxx, syy, sxy, _reduceat(dxz, starts, counts), _reduceat(dyz, starts, counts)
+
+
+@njit
+def _moments(
+    pts: NDArray[np.float64],
+    starts: NDArray[np.intp],
+    counts: NDArray[np.intp],
+    out: NDArray[np.float64],
+    steps: NDArray[np.float64],
+) -> None:  # pragma: no cover - compiled
+    """Columns 0-8 and 13 of the features (counts, spread, median, width, line and circle fits, steps); ``steps``
+    (N,) gets the length of every step ``p -> p + 1`` inside a segment (m)."""
+    S = starts.size
+    N = pts.shape[0]
+    x = np.ascontiguousarray(pts[:, 0])
+    y = np.ascontiguousarray(pts[:, 1])
+    cx, cy, sxx, syy, sxy, suz, svz = _centred_sums(x, y, starts, counts)
     buf = np.empty(N)
     for s in range(S):
         lo, c = starts[s], counts[s]
