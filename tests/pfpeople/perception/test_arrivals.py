@@ -9,7 +9,7 @@ import pytest
 
 from gridbridge.geometry import Pose2D
 from pfpeople.perception import arrivals
-from pfpeople.perception.arrivals import MARGIN_M, RecentScans, seen_through_beams
+from pfpeople.perception.arrivals import MARGIN_M, SIDE_BEAMS, RecentScans, seen_through_beams
 from pfpeople.sensors import LaserScan
 
 #: 181 beams over +-90 deg, one a degree.
@@ -36,24 +36,32 @@ def _points(scan: LaserScan) -> np.ndarray:
 
 
 def test_seen_through_by_beam_reading() -> None:
-    """A beam sees through a point it passed by MARGIN_M or more, or when it returned nothing; NaN says nothing."""
+    """A beam sees through a point it passed by MARGIN_M or more, or when it returned nothing; NaN says nothing;
+    the nearest beam's SIDE_BEAMS neighbours on each side must see through it too."""
+    assert SIDE_BEAMS == 1
     ranges = _wall(5.0)
     ranges[100], ranges[110], ranges[120] = np.nan, np.inf, 10.0  # no reading, nothing (REP-117), range_max
     ranges[130] = 0.01  # below range_min: too close to read
+    ranges[111] = ranges[121] = np.inf
     scan = LaserScan(ranges=ranges, angle_min=-math.pi / 2, angle_increment=INC, range_min=0.05, range_max=10.0)
-    bearing = lambda k: -math.pi / 2 + k * INC  # noqa: E731
-    at = lambda k, r: [r * math.cos(bearing(k)), r * math.sin(bearing(k))]  # noqa: E731
-    pts = np.array([at(90, 3.0), at(90, 5.0 - MARGIN_M + 0.01), at(100, 3.0), at(110, 3.0), at(120, 3.0), at(130, 3.0)])
-    assert seen_through_beams(pts, scan).tolist() == [True, False, False, True, True, False]
-    # the beam nearest the bearing decides: 0.4 beams off beam 100 is beam 100's, 0.6 beams off is beam 101's
-    assert seen_through_beams(np.array([at(100.4, 3.0), at(100.6, 3.0)]), scan).tolist() == [False, True]
+    at = lambda k, r: [r * math.cos(-math.pi / 2 + k * INC), r * math.sin(-math.pi / 2 + k * INC)]  # noqa: E731
+    pts = [at(90, 3.0), at(90, 5.0 - MARGIN_M + 0.01), at(110.4, 3.0), at(120.4, 3.0), at(130, 3.0), at(132, 3.0)]
+    assert seen_through_beams(np.array(pts), scan).tolist() == [True, False, True, True, False, True]
+    # beams 99 and 101 read 5 m, but their neighbour 100 (NaN) says nothing; beam 98's neighbours read 5 m
+    assert seen_through_beams(np.array([at(99, 3.0), at(101, 3.0), at(98, 3.0)]), scan).tolist() == [False, False, True]
+    # the beam nearest the bearing decides which neighbours: 0.4 beams off 102 is beam 102's (101-103: seen),
+    # 0.6 beams off 101 is beam 102's too, 0.4 beams off 101 is beam 101's (100-102: not)
+    near = [at(102.4, 3.0), at(101.6, 3.0), at(101.4, 3.0)]
+    assert seen_through_beams(np.array(near), scan).tolist() == [True, True, False]
 
 
 def test_outside_the_field_of_view_or_range_says_nothing() -> None:
     scan = _scan(_wall(5.0), range_max=6.0)
-    behind, far = [-3.0, 0.0], [7.0, 0.0]
-    assert not seen_through_beams(np.array([behind, far]), scan).any()
-    assert seen_through_beams(np.array([[0.0, -3.0]]), scan).all()  # beam 0, at -90 deg, is in view
+    behind, edge, far = [-3.0, 0.0], [0.0, -3.0], [7.0, 0.0]  # beam 0 lies at -90 deg: no beam beside it
+    assert not seen_through_beams(np.array([behind, edge, far]), scan).any()
+    assert seen_through_beams(
+        np.array([[3.0 * math.cos(-math.pi / 2 + INC), 3.0 * math.sin(-math.pi / 2 + INC)]]), scan
+    ).all()
     assert not seen_through_beams(np.array([[3.0, 0.0]]), _scan(np.zeros(0))).any()
 
 
@@ -117,10 +125,11 @@ def test_old_scans_are_dropped_and_clear_forgets() -> None:
 def test_half_of_the_returns_must_have_been_seen_through() -> None:
     """Of a detection's returns, at least FRACTION must have been seen through by one earlier scan."""
     recent = RecentScans()
-    recent.add(_scan(_with_leg(_wall(), 90, 3.0, half=2)), Pose2D(), 0)  # beams 88-92 stopped at 3 m a moment ago
+    recent.add(_scan(_with_leg(_wall(), 90, 3.0, half=1)), Pose2D(), 0)  # beams 89-91 stopped at 3 m a moment ago
     det = np.array([[3.0, 0.0]])
-    wider = _points(_scan(_with_leg(_wall(), 90, 3.0, half=4)))  # beams 86-94 now: 4 of 9 returns are new
-    widest = _points(_scan(_with_leg(_wall(), 90, 3.0, half=5)))  # beams 85-95: 6 of 11
+    # seen through now: the returns whose beam and both neighbours read 8 m before (beams up to 87, from 93 on)
+    wider = _points(_scan(_with_leg(_wall(), 90, 3.0, half=4)))  # beams 86-94: 86, 87, 93, 94 (4 of 9)
+    widest = _points(_scan(_with_leg(_wall(), 90, 3.0, half=6)))  # beams 84-96: 84-87 and 93-96 (8 of 13)
     assert not recent.arrived(det, wider, Pose2D(), S // 2).any()
     assert recent.arrived(det, widest, Pose2D(), S // 2).all()
     assert arrivals.FRACTION == 0.5
