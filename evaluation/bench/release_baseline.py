@@ -20,8 +20,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-#: The last release that landed (round three, stop 4); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "dd83d11"
+#: The last release that landed (round three, stop 6); ``--baseline REV`` on a benchmark overrides it.
+PREVIOUS_RELEASE = "8c77f4e"
 
 REPO = Path(__file__).resolve().parents[2]
 
