@@ -213,7 +213,7 @@ def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
     """classify_peaks' candidates by peak_candidates against peak_maxima's maximum filter: plateaus (ties), peaks
     at the border, windows of 1-4 cells, thresholds 0 to 0.9."""
     from gridbridge import kernels
-    from gridbridge.classifiers import _ordered_candidates, classify_peaks, peak_maxima
+    from gridbridge.classifiers import classify_peaks, ordered_candidates, peak_maxima
 
     rng = np.random.default_rng(14)
     for k in range(300):
@@ -227,7 +227,7 @@ def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
         half = max(1, int(np.ceil(sep / spec.resolution - 1e-9)))
         got = kernels.peak_candidates(grid, half, threshold)
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), k
-        fast, slow = _both(_ordered_candidates, grid, spec, threshold, sep, 0.0)
+        fast, slow = _both(ordered_candidates, grid, spec, threshold, sep, 0.0)
         assert all(a.tobytes() == b.tobytes() for a, b in zip(fast, slow, strict=True))
         radius = float(rng.choice([0.0, 0.35, 0.7]))
         pf, ps = _both(classify_peaks, grid, spec, threshold=threshold, min_separation=sep, centroid_radius=radius)
