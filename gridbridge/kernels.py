@@ -9,6 +9,8 @@ kernel                 numpy twin                                   agreement
 :func:`warp_bilinear`  :func:`gridbridge.ego_motion.warp_belief`     1e-12 (scipy's spline weights, BLAS sum)
 :func:`warp_outside`   :func:`warp_bilinear` of a zero belief       bit for bit (the cells it skips add +0.0)
 :func:`warp_at`        :func:`warp_bilinear` at some cells          bit for bit (the same sums, only there)
+:func:`warp_taps`      the cells :func:`warp_at` reads               exact (the same coordinates and indices)
+:func:`convolve_at`    :func:`convolve_const` at some cells          bit for bit (the same sums, only there)
 :func:`peak_candidates` :func:`gridbridge.classifiers.peak_maxima`   exact (maxima and comparisons only)
 :func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
@@ -39,6 +41,7 @@ from gridbridge.jit import jit
 
 __all__ = [
     "add_where",
+    "convolve_at",
     "convolve_const",
     "fuse_update",
     "gaussian_args",
@@ -52,6 +55,7 @@ __all__ = [
     "warp_at",
     "warp_bilinear",
     "warp_outside",
+    "warp_taps",
 ]
 
 
@@ -196,6 +200,47 @@ def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outsid
             for t in range(values.size):
                 s0 += values[t] * flat[base + jj + offsets[t]]
             out[i, jj] = min(max(s0, 0.0), 1.0)
+    return out
+
+
+@jit
+def convolve_at(
+    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float, at: NDArray[np.bool_]
+) -> NDArray[np.float64]:
+    """:func:`convolve_const` at the cells ``at`` only, bit for bit, 0.0 elsewhere.
+
+    Parameters
+    ----------
+    bel : ndarray, shape (nx, ny)
+        The belief.
+    kernel : ndarray, shape (2R + 1, 2R + 1)
+        The linear people-motion kernel.
+    outside : float
+        Belief beyond the border.
+    at : ndarray of bool, shape (nx, ny)
+        The cells to compute (e.g. :func:`warp_taps`).
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        Each cell of ``at``: its sum over the kernel's nonzero taps in row-major order from 0.0, clipped to
+        [0, 1] (:func:`convolve_const`'s sum of that cell); 0.0 at the others.
+    """
+    nx, ny = bel.shape
+    rad = kernel.shape[0] // 2
+    width = ny + 2 * rad
+    flat = _padded(bel, rad, outside).ravel()
+    offsets, values = _tap_offsets(kernel, width)
+    out = np.zeros((nx, ny))
+    for i in range(nx):
+        base = i * width
+        for j in range(ny):
+            if not at[i, j]:
+                continue
+            s0 = 0.0
+            for t in range(values.size):
+                s0 += values[t] * flat[base + j + offsets[t]]
+            out[i, j] = min(max(s0, 0.0), 1.0)
     return out
 
 
@@ -399,6 +444,50 @@ def warp_at(
     for m in range(cells.size):
         out[m] = min(max(out[m], 0.0), 1.0)
     return out
+
+
+@jit
+def warp_taps(
+    shape: tuple[int, int], grid: tuple[float, float, float], poses: NDArray[np.float64], cells: NDArray[np.intp]
+) -> NDArray[np.bool_]:
+    """The grid cells whose values :func:`warp_at` reads at ``cells``: the four bilinear taps of every pose at
+    every cell that lie inside the grid (the others read the border value).
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The grid's ``(nx, ny)``.
+    grid : tuple
+        ``(x0, y0, resolution)`` (m).
+    poses : ndarray, shape (S, 3)
+        Displacements ``(dx, dy, dtheta)`` of the new sensor frame in the old one (m, m, rad).
+    cells : ndarray of int, shape (C,)
+        Flat (row-major) indices of the warped cells.
+
+    Returns
+    -------
+    ndarray of bool, shape (nx, ny)
+        True where a tap reads the cell: :func:`warp_at` gives the same floats for any belief equal to the
+        given one there (its source coordinates and clamped tap indices are computed as there).
+    """
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = shape
+    read = np.zeros((nx, ny), dtype=np.bool_)
+    for s in range(poses.shape[0]):
+        tx, ty, c, sn = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2])
+        for m in range(cells.size):
+            i, j = cells[m] // ny, cells[m] % ny
+            px = x0 + (i + 0.5) * res
+            py = y0 + (j + 0.5) * res
+            u = (tx + c * px - sn * py - x0) * inv - 0.5
+            v = (ty + sn * px + c * py - y0) * inv - 0.5
+            fi = int(min(max(np.floor(u), -2.0), float(nx)))  # _bilinear_tap's tap (0, 0), unpadded
+            fj = int(min(max(np.floor(v), -2.0), float(ny)))
+            for a in range(max(fi, 0), min(fi + 2, nx)):
+                for b in range(max(fj, 0), min(fj + 2, ny)):
+                    read[a, b] = True
+    return read
 
 
 @jit

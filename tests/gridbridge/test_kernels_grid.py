@@ -209,6 +209,72 @@ def test_warp_at_some_cells_is_the_whole_warp_there_bit_for_bit() -> None:
         assert got.tobytes() == want.tobytes(), k
 
 
+def _warp_taps_numpy(
+    shape: tuple[int, int], grid: tuple[float, float, float], poses: np.ndarray, cells: np.ndarray
+) -> np.ndarray:
+    """warp_taps' numpy twin: the same source coordinates (products and sums in the same order), the clamped
+    tap (0, 0) and its three neighbours, those inside the grid."""
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = shape
+    read = np.zeros(shape, dtype=bool)
+    i, j = cells // ny, cells % ny
+    px, py = x0 + (i + 0.5) * res, y0 + (j + 0.5) * res
+    for tx, ty, th in poses.tolist():
+        c, sn = np.cos(th), np.sin(th)
+        u = (tx + c * px - sn * py - x0) * inv - 0.5
+        v = (ty + sn * px + c * py - y0) * inv - 0.5
+        fi = np.clip(np.floor(u), -2.0, float(nx)).astype(np.intp)
+        fj = np.clip(np.floor(v), -2.0, float(ny)).astype(np.intp)
+        for a in (0, 1):
+            for b in (0, 1):
+                ok = (fi + a >= 0) & (fi + a < nx) & (fj + b >= 0) & (fj + b < ny)
+                read[fi[ok] + a, fj[ok] + b] = True
+    return read
+
+
+def test_warp_taps_are_the_cells_warp_at_reads() -> None:
+    """warp_taps against its numpy twin (the same mask) and against warp_at itself: a belief that differs from
+    the given one (NaN) everywhere else warps to the same floats, bit for bit; motions small and large (taps
+    beyond the border), few to every cell."""
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(17)
+    spec = GridSpec(nx=31, ny=24, resolution=0.3, x0=-4.0, y0=-3.6)
+    grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+    for k in range(200):
+        bel = rng.random(spec.shape)
+        s = int(rng.integers(1, 8))
+        poses = np.column_stack((rng.normal(0, 0.3, s), rng.normal(0, 0.3, s), rng.normal(0, 0.3, s)))
+        if k % 5 == 0:
+            poses[:, :2] *= 30.0
+        w = rng.random(s) + 0.1
+        w = w / w.sum()
+        cells = np.flatnonzero(rng.random(spec.n_cells) < float(rng.choice([0.02, 0.3, 1.0])))
+        taps = kernels.warp_taps(spec.shape, grid, poses, cells)
+        assert taps.dtype == np.bool_ and np.array_equal(taps, _warp_taps_numpy(spec.shape, grid, poses, cells)), k
+        want = kernels.warp_at(bel, grid, poses, w, 0.5, cells)
+        got = kernels.warp_at(np.where(taps, bel, np.nan), grid, poses, w, 0.5, cells)
+        assert got.tobytes() == want.tobytes(), k
+
+
+@pytest.mark.parametrize("outside", [0.5, 0.0, 0.02])
+def test_convolve_at_some_cells_is_the_whole_convolution_there_bit_for_bit(outside: float) -> None:
+    """convolve_at against convolve_const (whose numpy twin is scipy's convolution) at the chosen cells, bit for
+    bit, 0.0 at the others; the kernels of several time steps (radii), cells at the border included."""
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(19)
+    for k in range(60):
+        spec = GridSpec(nx=int(rng.integers(1, 40)), ny=int(rng.integers(1, 40)), resolution=0.3)
+        bel = rng.random(spec.shape) * (rng.random(spec.shape) < 0.5)
+        kernel = people_motion_kernel(spec, dt=float(rng.choice([0.05, 0.133, 0.4])), form="integrated")
+        at = rng.random(spec.shape) < float(rng.choice([0.05, 0.5, 1.0]))
+        want = kernels.convolve_const(bel, kernel, outside)
+        got = kernels.convolve_at(bel, kernel, outside, at)
+        assert got[at].tobytes() == want[at].tobytes() and not got[~at].any(), k
+
+
 def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
     """classify_peaks' candidates by peak_candidates against peak_maxima's maximum filter: plateaus (ties), peaks
     at the border, windows of 1-4 cells, thresholds 0 to 0.9."""
