@@ -272,7 +272,10 @@ def test_convolve_at_some_cells_is_the_whole_convolution_there_bit_for_bit(outsi
         at = rng.random(spec.shape) < float(rng.choice([0.05, 0.5, 1.0]))
         want = kernels.convolve_const(bel, kernel, outside)
         got = kernels.convolve_at(bel, kernel, outside, at)
-        assert got[at].tobytes() == want[at].tobytes() and not got[~at].any(), k
+        assert got[at].tobytes() == want[at].tobytes(), k
+        blocks = np.repeat(at.reshape(spec.nx, -1, 4).any(axis=2), 4, axis=1) if spec.ny % 4 == 0 else None
+        other = (got == 0.0) | (got == want)  # the rest of a computed block holds its value, other cells 0.0
+        assert other.all() and (blocks is None or not got[~blocks].any()), k
 
 
 def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
