@@ -311,20 +311,21 @@ def warp_bilinear(
     nx, ny = bel.shape
     flat = _padded(bel, 2, outside).ravel()  # taps beyond the border read ``outside``; indices clamped into the pad
     width = ny + 4
-    out = np.zeros((nx, ny))
-    for s in range(poses.shape[0]):
-        tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
-        for i in range(nx):
-            px = x0 + (i + 0.5) * res
-            row = out[i]
-            for j in range(ny):
-                py = y0 + (j + 0.5) * res
-                u = (tx + c * px - sn * py - x0) * inv - 0.5
-                v = (ty + sn * px + c * py - y0) * inv - 0.5
-                row[j] += ws * _bilinear_tap(flat, u, v, nx, ny, width)
+    n_poses = poses.shape[0]
+    c, sn = np.empty(n_poses), np.empty(n_poses)
+    for s in range(n_poses):
+        c[s], sn[s] = math.cos(poses[s, 2]), math.sin(poses[s, 2])
+    out = np.empty((nx, ny))
     for i in range(nx):
+        px = x0 + (i + 0.5) * res
         for j in range(ny):
-            out[i, j] = min(max(out[i, j], 0.0), 1.0)
+            py = y0 + (j + 0.5) * res
+            acc = 0.0  # each cell's sum over the poses in their order, in a register (as warp_at adds them)
+            for s in range(n_poses):
+                u = (poses[s, 0] + c[s] * px - sn[s] * py - x0) * inv - 0.5
+                v = (poses[s, 1] + sn[s] * px + c[s] * py - y0) * inv - 0.5
+                acc += weights[s] * _bilinear_tap(flat, u, v, nx, ny, width)
+            out[i, j] = min(max(acc, 0.0), 1.0)
     return out
 
 

@@ -188,7 +188,8 @@ def test_border_inflow_is_the_warp_of_an_empty_grid_bit_for_bit() -> None:
 
 
 def test_warp_at_some_cells_is_the_whole_warp_there_bit_for_bit() -> None:
-    """warp_at against warp_bilinear(...)[cells]: random beliefs and cells, motions small and large."""
+    """warp_at (each pose over the cells) against warp_bilinear(...)[cells] (each cell over the poses): the same sums
+    in the same order, bit for bit; random beliefs and cells, motions small and large."""
     from gridbridge import kernels
 
     rng = np.random.default_rng(13)
