@@ -14,6 +14,7 @@ kernel                 numpy twin                                   agreement
 :func:`peak_candidates` :func:`gridbridge.classifiers.peak_maxima`   exact (maxima and comparisons only)
 :func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
+:func:`bayes_update`   :func:`gridbridge.measurement.bayes_update_unchecked`  bit for bit (the same operations)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
                        and :func:`scatter_max`                      the two kernels)
@@ -41,6 +42,7 @@ from gridbridge.jit import jit
 
 __all__ = [
     "add_where",
+    "bayes_update",
     "convolve_at",
     "convolve_const",
     "fuse_update",
@@ -569,6 +571,31 @@ def peak_centroids(
         centres[p, 1] = pairwise_sum(wj, 0, n) / total
         sizes[p] = n
     return centres, sizes
+
+
+@jit
+def bayes_update(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The binary Bayes update of eq. 12 cell by cell, bit for bit
+    :func:`gridbridge.measurement.bayes_update_unchecked`.
+
+    Parameters
+    ----------
+    p, lik : ndarray, shape (nx, ny)
+        The prior and the fused likelihood P(D | p), probabilities.
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        ``lik p / (lik p + (1 - lik)(1 - p))`` where the denominator is above 0, else the prior.
+    """
+    nx, ny = p.shape
+    out = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            num = lik[i, j] * p[i, j]
+            den = num + (1.0 - lik[i, j]) * (1.0 - p[i, j])
+            out[i, j] = num / den if den > 0.0 else p[i, j]
+    return out
 
 
 @jit

@@ -332,3 +332,21 @@ def test_linear_prediction_sums_each_cell_in_tap_order_bit_for_bit() -> None:
         outside = float(rng.choice([0.5, 0.02, 1.0]))
         got = kernels.convolve_const(bel, np.ascontiguousarray(kern), outside)
         assert got.tobytes() == _convolve_reference(bel, kern, outside).tobytes(), k
+
+
+def test_bayes_update_is_the_numpy_update_bit_for_bit() -> None:
+    """kernels.bayes_update against bayes_update_unchecked: random priors and likelihoods, the 0/0 cells (L = 1
+    with prior 0, L = 0 with prior 1: the prior kept), exact 0, 1 and 0.5 values."""
+    from gridbridge import kernels
+    from gridbridge.measurement import bayes_update_unchecked
+
+    rng = np.random.default_rng(23)
+    for k in range(100):
+        shape = (int(rng.integers(1, 40)), int(rng.integers(1, 40)))
+        p, lik = rng.random(shape), rng.random(shape)
+        for a in (p, lik):
+            a[rng.random(shape) < 0.1] = rng.choice([0.0, 1.0, 0.5])
+        got, want = kernels.bayes_update(p, lik), bayes_update_unchecked(p, lik)
+        assert got.tobytes() == want.tobytes(), k
+    p, lik = np.array([[0.0, 1.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0, 1.0]])
+    assert kernels.bayes_update(p, lik).tobytes() == bayes_update_unchecked(p, lik).tobytes()
