@@ -66,7 +66,7 @@ def seen_through(
             continue
         with np.errstate(invalid="ignore"):
             usable = np.isposinf(ranges) | (scan.valid & (ranges >= scan.range_min))
-        for i in np.flatnonzero(~out & (r > 1e-6) & (r <= scan.range_max)).tolist():
+        for i in (~out & (r > 1e-6) & (r <= scan.range_max)).nonzero()[0].tolist():
             half = math.atan2(half_width, float(r[i]))
             # the bearing from the first beam, in the scan's direction (a 360 deg scan may start anywhere)
             if inc > 0:
@@ -80,5 +80,5 @@ def seen_through(
             if lo < 0 or hi >= n or hi < lo:  # (partly) outside the field of view
                 continue
             window = ranges[lo : hi + 1]
-            out[i] = bool(usable[lo : hi + 1].all() and np.all(window >= r[i] + margin))
+            out[i] = bool(usable[lo : hi + 1].all() and (window >= r[i] + margin).all())
     return out
