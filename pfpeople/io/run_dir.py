@@ -364,11 +364,13 @@ def particle_records(frame: int, x: NDArray[np.float64], y: NDArray[np.float64])
     """:data:`PARTICLE_DTYPE` records of at most :data:`MAX_PARTICLES_SAVED` of the particles ``(x, y)`` (a
     uniform subsample without replacement, seeded by ``frame``: the same run writes the same file)."""
     x, y = np.asarray(x, dtype=float).reshape(-1), np.asarray(y, dtype=float).reshape(-1)
-    idx = np.arange(len(x))
-    if len(x) > MAX_PARTICLES_SAVED:
-        chosen = np.zeros(len(x), dtype=bool)  # distinct indices: their mask's ones are them sorted
-        chosen[np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False)] = True
-        idx = np.flatnonzero(chosen)
+    if len(x) <= MAX_PARTICLES_SAVED:
+        rec = np.zeros(len(x), dtype=PARTICLE_DTYPE)
+        rec["frame"], rec["x"], rec["y"] = frame, x, y
+        return rec
+    chosen = np.zeros(len(x), dtype=bool)  # distinct indices: their mask's ones are them sorted
+    chosen[np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False)] = True
+    idx = chosen.nonzero()[0]
     rec = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
     rec["frame"], rec["x"], rec["y"] = frame, x[idx], y[idx]
     return rec
