@@ -15,6 +15,7 @@ kernel                 numpy twin                                   agreement
 :func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`bayes_update`   :func:`gridbridge.measurement.bayes_update_unchecked`  bit for bit (the same operations)
+:func:`appear`         :meth:`gridbridge.components.Appearance.apply`  bit for bit (the same operations)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
                        and :func:`scatter_max`                      the two kernels)
@@ -42,6 +43,7 @@ from gridbridge.jit import jit
 
 __all__ = [
     "add_where",
+    "appear",
     "bayes_update",
     "convolve_at",
     "convolve_const",
@@ -571,6 +573,33 @@ def peak_centroids(
         centres[p, 1] = pairwise_sum(wj, 0, n) / total
         sizes[p] = n
     return centres, sizes
+
+
+@jit
+def appear(p: NDArray[np.float64], b: float, where: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Appearances in the observed cells (:meth:`gridbridge.components.Appearance.apply`), bit for bit its numpy
+    ``np.where(where, p + b (1 - p), p)``.
+
+    Parameters
+    ----------
+    p : ndarray, shape (nx, ny)
+        The prior (probabilities).
+    b : float
+        The appearance probability of the step.
+    where : ndarray of bool, shape (nx, ny)
+        The observed cells.
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        ``p + b (1 - p)`` where observed, ``p`` elsewhere.
+    """
+    nx, ny = p.shape
+    out = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            out[i, j] = p[i, j] + b * (1.0 - p[i, j]) if where[i, j] else p[i, j]
+    return out
 
 
 @jit

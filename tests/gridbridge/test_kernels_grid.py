@@ -350,3 +350,17 @@ def test_bayes_update_is_the_numpy_update_bit_for_bit() -> None:
         assert got.tobytes() == want.tobytes(), k
     p, lik = np.array([[0.0, 1.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0, 1.0]])
     assert kernels.bayes_update(p, lik).tobytes() == bayes_update_unchecked(p, lik).tobytes()
+
+
+def test_appearance_compiled_is_the_numpy_one_bit_for_bit() -> None:
+    """Appearance.apply with a field of view, compiled (kernels.appear) against its numpy path: random priors
+    (0 and 1 included), masks and time steps."""
+    rng = np.random.default_rng(29)
+    for k in range(60):
+        shape = (int(rng.integers(1, 40)), int(rng.integers(1, 40)))
+        p = rng.random(shape)
+        p[rng.random(shape) < 0.1] = rng.choice([0.0, 1.0])
+        where = rng.random(shape) < 0.7
+        app = Appearance(rate=float(rng.choice([0.0, 0.1, 2.0])))
+        fast, slow = _both(app.apply, p, float(rng.uniform(0.01, 1.0)), where=where)
+        assert fast.dtype == slow.dtype and fast.tobytes() == slow.tobytes(), k
