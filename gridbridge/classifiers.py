@@ -215,6 +215,18 @@ def classify_peaks(
     check_positive(min_separation, "min_separation")
     check_positive(centroid_radius, "centroid_radius", allow_zero=True)
     smooth = check_positive(check_number(smooth, "smooth"), "smooth", allow_zero=True)
+    return _classify_checked(grid, spec, threshold, min_separation, centroid_radius, smooth)
+
+
+def _classify_checked(
+    grid: NDArray[np.float64],
+    spec: GridSpec,
+    threshold: float,
+    min_separation: float,
+    centroid_radius: float,
+    smooth: float,
+) -> People:
+    """:func:`classify_peaks` of a checked belief grid ``(nx, ny)`` with checked settings (as there)."""
     cand, values = ordered_candidates(grid, spec, threshold, min_separation, smooth)
     if len(cand) == 0:
         return People(
@@ -386,6 +398,9 @@ class PeakClassifier:
         ``(nx, ny)``: the cells some detector covered this frame) are not people."""
         if self.only_observed and observed is not None:
             belief = np.where(np.asarray(observed, dtype=bool), spec.check_grid(belief, "belief"), 0.0)
+            if belief.shape == spec.shape:  # the checked grid, zero outside: classify_peaks without checking it again
+                args = (self.threshold, self.min_separation, self.centroid_radius, float(self.smooth))
+                return _classify_checked(belief, spec, *args)
         return classify_peaks(
             belief,
             spec,
