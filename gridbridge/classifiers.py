@@ -42,6 +42,7 @@ __all__ = [
     "ThresholdClassifier",
     "classify_frame",
     "classify_peaks",
+    "ordered_candidates",
     "peak_maxima",
     "people_cells",
 ]
@@ -214,7 +215,19 @@ def classify_peaks(
     check_positive(min_separation, "min_separation")
     check_positive(centroid_radius, "centroid_radius", allow_zero=True)
     smooth = check_positive(check_number(smooth, "smooth"), "smooth", allow_zero=True)
-    cand, values = _ordered_candidates(grid, spec, threshold, min_separation, smooth)
+    return _classify_checked(grid, spec, threshold, min_separation, centroid_radius, smooth)
+
+
+def _classify_checked(
+    grid: NDArray[np.float64],
+    spec: GridSpec,
+    threshold: float,
+    min_separation: float,
+    centroid_radius: float,
+    smooth: float,
+) -> People:
+    """:func:`classify_peaks` of a checked belief grid ``(nx, ny)`` with checked settings (as there)."""
+    cand, values = ordered_candidates(grid, spec, threshold, min_separation, smooth)
     if len(cand) == 0:
         return People(
             positions=np.zeros((0, 2)),
@@ -226,10 +239,14 @@ def classify_peaks(
     return _peak_people(grid, spec, cand[kept], values[kept], threshold, centroid_radius)
 
 
-def _ordered_candidates(
+def ordered_candidates(
     grid: NDArray[np.float64], spec: GridSpec, threshold: float, min_separation: float, smooth: float
 ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
-    """Step 1 of :func:`classify_peaks`: the candidate peaks in decreasing belief order.
+    """Step 1 of :func:`classify_peaks`: the candidate peaks in decreasing belief order (also the weaker peaks
+    of :func:`pfpeople.track.belief_inputs.tracker_inputs`).
+
+    Compiled (:func:`gridbridge.kernels.peak_candidates`, only the cells above ``threshold`` are looked at) when
+    ``smooth = 0``; otherwise by :func:`peak_maxima`'s maximum filters. The two give the same cells.
 
     Parameters
     ----------
@@ -381,6 +398,9 @@ class PeakClassifier:
         ``(nx, ny)``: the cells some detector covered this frame) are not people."""
         if self.only_observed and observed is not None:
             belief = np.where(np.asarray(observed, dtype=bool), spec.check_grid(belief, "belief"), 0.0)
+            if belief.shape == spec.shape:  # the checked grid, zero outside: classify_peaks without checking it again
+                args = (self.threshold, self.min_separation, self.centroid_radius, float(self.smooth))
+                return _classify_checked(belief, spec, *args)
         return classify_peaks(
             belief,
             spec,

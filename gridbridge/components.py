@@ -38,6 +38,7 @@ from typing import Literal, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gridbridge import jit, kernels
 from gridbridge.ego_motion import Odometry, predict_sensor
 from gridbridge.grid import GridSpec
 from gridbridge.params import PeopleMotion, SensorMotionNoise
@@ -201,6 +202,10 @@ class Appearance:
         """
         p = check_grid_array(prior, "prior", ndim=None)
         b = self.probability(dt)
+        if where is not None and jit.enabled() and p.ndim == 2:
+            mask = np.asarray(where, dtype=bool)
+            if mask.shape == p.shape:  # the same operations in one compiled pass
+                return kernels.appear(np.ascontiguousarray(p), b, np.ascontiguousarray(mask))
         out = p + b * (1.0 - p)
         if where is not None:
             out = np.where(np.asarray(where, dtype=bool), out, p)

@@ -34,7 +34,7 @@ from gridbridge.ego_motion import Odometry, ego_motion_sigma_points
 from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood, update_components
 from gridbridge.limits import check_dt
-from gridbridge.measurement import Likelihood, bayes_update, bayes_update_unchecked, fov_mask
+from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
 from gridbridge.people_motion import _check_paper_kernel, quantise_dt
 from gridbridge.validation import check_choice, check_number, check_probability
@@ -358,7 +358,8 @@ class GridFilter:
         prior = self.belief
         people = prior if self._people_prior is None else self._people_prior
         if self._builtin() and jit.enabled() and prior.dtype == np.float64 and prior.shape == lik.likelihood.shape:
-            posterior = bayes_update_unchecked(prior, lik.likelihood)  # both the filter's own probabilities
+            # both the filter's own probabilities: bayes_update_unchecked's operations, compiled
+            posterior = kernels.bayes_update(np.ascontiguousarray(prior), np.ascontiguousarray(lik.likelihood))
         else:
             posterior = bayes_update(prior, lik.likelihood)
         if self.bounds is not None:

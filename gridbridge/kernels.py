@@ -9,9 +9,13 @@ kernel                 numpy twin                                   agreement
 :func:`warp_bilinear`  :func:`gridbridge.ego_motion.warp_belief`     1e-12 (scipy's spline weights, BLAS sum)
 :func:`warp_outside`   :func:`warp_bilinear` of a zero belief       bit for bit (the cells it skips add +0.0)
 :func:`warp_at`        :func:`warp_bilinear` at some cells          bit for bit (the same sums, only there)
+:func:`warp_taps`      the cells :func:`warp_at` reads               exact (the same coordinates and indices)
+:func:`convolve_at`    :func:`convolve_const` at some cells          bit for bit (the same sums, only there)
 :func:`peak_candidates` :func:`gridbridge.classifiers.peak_maxima`   exact (maxima and comparisons only)
 :func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
+:func:`bayes_update`   :func:`gridbridge.measurement.bayes_update_unchecked`  bit for bit (the same operations)
+:func:`appear`         :meth:`gridbridge.components.Appearance.apply`  bit for bit (the same operations)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
                        and :func:`scatter_max`                      the two kernels)
@@ -39,6 +43,9 @@ from gridbridge.jit import jit
 
 __all__ = [
     "add_where",
+    "appear",
+    "bayes_update",
+    "convolve_at",
     "convolve_const",
     "fuse_update",
     "gaussian_args",
@@ -52,6 +59,7 @@ __all__ = [
     "warp_at",
     "warp_bilinear",
     "warp_outside",
+    "warp_taps",
 ]
 
 
@@ -200,6 +208,64 @@ def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outsid
 
 
 @jit
+def convolve_at(
+    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float, at: NDArray[np.bool_]
+) -> NDArray[np.float64]:
+    """:func:`convolve_const` at the cells ``at`` only (by blocks of four cells of a row), bit for bit.
+
+    Parameters
+    ----------
+    bel : ndarray, shape (nx, ny)
+        The belief.
+    kernel : ndarray, shape (2R + 1, 2R + 1)
+        The linear people-motion kernel.
+    outside : float
+        Belief beyond the border.
+    at : ndarray of bool, shape (nx, ny)
+        The cells to compute (e.g. :func:`warp_taps`).
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        :func:`convolve_const`'s value (each cell's sum over the kernel's nonzero taps in row-major order from
+        0.0, clipped to [0, 1]) at every cell of ``at`` and at the other cells of its block ``[4 q, 4 q + 4)`` of
+        the row (four sums side by side, as there); 0.0 at the cells of the other blocks.
+    """
+    nx, ny = bel.shape
+    rad = kernel.shape[0] // 2
+    width = ny + 2 * rad
+    flat = _padded(bel, rad, outside).ravel()
+    offsets, values = _tap_offsets(kernel, width)
+    out = np.zeros((nx, ny))
+    for i in range(nx):
+        base = i * width
+        for j in range(0, ny, 4):
+            n = min(4, ny - j)
+            wanted = False
+            for jj in range(j, j + n):
+                wanted = wanted or at[i, jj]
+            if not wanted:
+                continue
+            if n < 4:
+                for jj in range(j, ny):
+                    s0 = 0.0
+                    for t in range(values.size):
+                        s0 += values[t] * flat[base + jj + offsets[t]]
+                    out[i, jj] = min(max(s0, 0.0), 1.0)
+                continue
+            s0 = s1 = s2 = s3 = 0.0
+            for t in range(values.size):
+                k, o = values[t], base + j + offsets[t]
+                s0 += k * flat[o]
+                s1 += k * flat[o + 1]
+                s2 += k * flat[o + 2]
+                s3 += k * flat[o + 3]
+            out[i, j], out[i, j + 1] = min(max(s0, 0.0), 1.0), min(max(s1, 0.0), 1.0)
+            out[i, j + 2], out[i, j + 3] = min(max(s2, 0.0), 1.0), min(max(s3, 0.0), 1.0)
+    return out
+
+
+@jit
 def _bilinear_tap(flat: NDArray[np.float64], u: float, v: float, nx: int, ny: int, width: int) -> float:
     """The bilinear value at fractional cell ``(u, v)`` of a grid ``(nx, ny)`` padded by 2 cells and flattened
     (``flat``, rows of ``width = ny + 4``), the indices clamped into the pad: the warps' one tap, scipy's order
@@ -249,20 +315,21 @@ def warp_bilinear(
     nx, ny = bel.shape
     flat = _padded(bel, 2, outside).ravel()  # taps beyond the border read ``outside``; indices clamped into the pad
     width = ny + 4
-    out = np.zeros((nx, ny))
-    for s in range(poses.shape[0]):
-        tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
-        for i in range(nx):
-            px = x0 + (i + 0.5) * res
-            row = out[i]
-            for j in range(ny):
-                py = y0 + (j + 0.5) * res
-                u = (tx + c * px - sn * py - x0) * inv - 0.5
-                v = (ty + sn * px + c * py - y0) * inv - 0.5
-                row[j] += ws * _bilinear_tap(flat, u, v, nx, ny, width)
+    n_poses = poses.shape[0]
+    c, sn = np.empty(n_poses), np.empty(n_poses)
+    for s in range(n_poses):
+        c[s], sn[s] = math.cos(poses[s, 2]), math.sin(poses[s, 2])
+    out = np.empty((nx, ny))
     for i in range(nx):
+        px = x0 + (i + 0.5) * res
         for j in range(ny):
-            out[i, j] = min(max(out[i, j], 0.0), 1.0)
+            py = y0 + (j + 0.5) * res
+            acc = 0.0  # each cell's sum over the poses in their order, in a register (as warp_at adds them)
+            for s in range(n_poses):
+                u = (poses[s, 0] + c[s] * px - sn[s] * py - x0) * inv - 0.5
+                v = (poses[s, 1] + sn[s] * px + c[s] * py - y0) * inv - 0.5
+                acc += weights[s] * _bilinear_tap(flat, u, v, nx, ny, width)
+            out[i, j] = min(max(acc, 0.0), 1.0)
     return out
 
 
@@ -402,6 +469,50 @@ def warp_at(
 
 
 @jit
+def warp_taps(
+    shape: tuple[int, int], grid: tuple[float, float, float], poses: NDArray[np.float64], cells: NDArray[np.intp]
+) -> NDArray[np.bool_]:
+    """The grid cells whose values :func:`warp_at` reads at ``cells``: the four bilinear taps of every pose at
+    every cell that lie inside the grid (the others read the border value).
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The grid's ``(nx, ny)``.
+    grid : tuple
+        ``(x0, y0, resolution)`` (m).
+    poses : ndarray, shape (S, 3)
+        Displacements ``(dx, dy, dtheta)`` of the new sensor frame in the old one (m, m, rad).
+    cells : ndarray of int, shape (C,)
+        Flat (row-major) indices of the warped cells.
+
+    Returns
+    -------
+    ndarray of bool, shape (nx, ny)
+        True where a tap reads the cell: :func:`warp_at` gives the same floats for any belief equal to the
+        given one there (its source coordinates and clamped tap indices are computed as there).
+    """
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = shape
+    read = np.zeros((nx, ny), dtype=np.bool_)
+    for s in range(poses.shape[0]):
+        tx, ty, c, sn = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2])
+        for m in range(cells.size):
+            i, j = cells[m] // ny, cells[m] % ny
+            px = x0 + (i + 0.5) * res
+            py = y0 + (j + 0.5) * res
+            u = (tx + c * px - sn * py - x0) * inv - 0.5
+            v = (ty + sn * px + c * py - y0) * inv - 0.5
+            fi = int(min(max(np.floor(u), -2.0), float(nx)))  # _bilinear_tap's tap (0, 0), unpadded
+            fj = int(min(max(np.floor(v), -2.0), float(ny)))
+            for a in range(max(fi, 0), min(fi + 2, nx)):
+                for b in range(max(fj, 0), min(fj + 2, ny)):
+                    read[a, b] = True
+    return read
+
+
+@jit
 def peak_candidates(grid: NDArray[np.float64], half: int, threshold: float) -> NDArray[np.intp]:
     """The cells ``(K, 2)`` (row-major order) whose belief is above ``threshold`` and the maximum of the
     ``(2 half + 1)``-square window around them: ``np.argwhere((grid > threshold) & (grid >= maximum_filter(grid,
@@ -462,6 +573,58 @@ def peak_centroids(
         centres[p, 1] = pairwise_sum(wj, 0, n) / total
         sizes[p] = n
     return centres, sizes
+
+
+@jit
+def appear(p: NDArray[np.float64], b: float, where: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Appearances in the observed cells (:meth:`gridbridge.components.Appearance.apply`), bit for bit its numpy
+    ``np.where(where, p + b (1 - p), p)``.
+
+    Parameters
+    ----------
+    p : ndarray, shape (nx, ny)
+        The prior (probabilities).
+    b : float
+        The appearance probability of the step.
+    where : ndarray of bool, shape (nx, ny)
+        The observed cells.
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        ``p + b (1 - p)`` where observed, ``p`` elsewhere.
+    """
+    nx, ny = p.shape
+    out = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            out[i, j] = p[i, j] + b * (1.0 - p[i, j]) if where[i, j] else p[i, j]
+    return out
+
+
+@jit
+def bayes_update(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The binary Bayes update of eq. 12 cell by cell, bit for bit
+    :func:`gridbridge.measurement.bayes_update_unchecked`.
+
+    Parameters
+    ----------
+    p, lik : ndarray, shape (nx, ny)
+        The prior and the fused likelihood P(D | p), probabilities.
+
+    Returns
+    -------
+    ndarray, shape (nx, ny)
+        ``lik p / (lik p + (1 - lik)(1 - p))`` where the denominator is above 0, else the prior.
+    """
+    nx, ny = p.shape
+    out = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            num = lik[i, j] * p[i, j]
+            den = num + (1.0 - lik[i, j]) * (1.0 - p[i, j])
+            out[i, j] = num / den if den > 0.0 else p[i, j]
+    return out
 
 
 @jit

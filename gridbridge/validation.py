@@ -65,7 +65,7 @@ def check_grid_array(
         lo, hi = arr.min(), arr.max()
         if lo >= 0.0 and hi <= 1.0:  # False for NaN too: one check of two passes (this runs on every grid)
             return arr
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ValueError(f"{name} contains NaN or infinite values")
     if probability and arr.size:
         raise ValueError(f"{name} must hold probabilities in [0, 1], got values in [{arr.min():.6g}, {arr.max():.6g}]")
@@ -99,7 +99,7 @@ def check_positions(positions: ArrayLike, name: str) -> NDArray[np.float64]:
         return np.zeros((0, 2))
     if pts.ndim != 2 or pts.shape[1] != 2:
         raise ValueError(f"{name} must have shape (N, 2) of (x, y) positions in metres, got {pts.shape}")
-    if not np.all(np.isfinite(pts)):
+    if not np.isfinite(pts).all():
         raise ValueError(f"{name} contains NaN or infinite positions")
     return pts
 

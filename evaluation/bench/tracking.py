@@ -10,9 +10,9 @@ gives it the laser detectors' single legs). The tracker is warmed up for 20 fram
 then the median over ``--repeats`` of the mean time per update over ``--frames`` frames is reported, on one
 core (run it with ``OMP_NUM_THREADS=1``, set here before numpy loads when not set).
 
-The pipeline also gives the tracker the weaker belief peaks (:func:`pfpeople.track.tracker_inputs`: a maximum
-filter over the grid, and in frames with a local maximum between ``[tracking] peak_threshold`` = 0.5 and the
-classifier's 0.7 a second peak pass): column ``inputs ms`` times that on a belief grid of the scan-level scenes'
+The pipeline also gives the tracker the weaker belief peaks (:func:`pfpeople.track.tracker_inputs`: the
+classifier's candidate peaks above ``[tracking] peak_threshold`` = 0.5, and for those up to the classifier's 0.7
+their suppression and centroids): column ``inputs ms`` times that on a belief grid of the scan-level scenes'
 size (58 x 68 cells of 0.3 m) with a Gaussian blob (sd 0.2 m, peak uniform in [0.55, 0.95], so most frames with
 many people have a weak one) at every person of the frame, the people (peaks above 0.7) given; ``total ms``
 is what tracking adds to a pipeline frame (inputs + update with single legs).

@@ -293,6 +293,14 @@ def _npy_header(n: int, nx: int, ny: int) -> bytes:
     return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(body)) + body.encode("latin1")
 
 
+def _pwrite_all(fh: BinaryIO, data: bytes) -> None:
+    """Write ``data`` at the start of the flushed file ``fh`` without moving its position (``os.pwrite``, again
+    for the rest after a short write)."""
+    fd, done = fh.fileno(), 0
+    while done < len(data):
+        done += os.pwrite(fd, data[done:], done)
+
+
 class _RecordFile:
     """A ``.npy`` file of structured records (shape ``(n,)``) grown row by row; the header counts the rows written.
 
@@ -318,17 +326,14 @@ class _RecordFile:
         return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(body)) + body.encode("latin1")
 
     def append(self, records: NDArray[Any]) -> None:
-        """Write ``records`` (of :attr:`dtype`), then the header that counts them."""
+        """Write ``records`` (of :attr:`dtype`) and flush them, then the header that counts them (written in place
+        by ``os.pwrite``, which leaves the file's position at its end)."""
         if not len(records):
             return
-        self.fh.write(np.ascontiguousarray(records, dtype=self.dtype).tobytes())
-        end = self.fh.tell()
+        self.fh.write(np.ascontiguousarray(records, dtype=self.dtype).data)
         self.fh.flush()
         self.rows += len(records)
-        self.fh.seek(0)
-        self.fh.write(self._header())
-        self.fh.seek(end)
-        self.fh.flush()
+        _pwrite_all(self.fh, self._header())
 
 
 def scan_records(
@@ -350,6 +355,8 @@ def scan_records(
             flags = np.asarray(static, dtype=bool)
             rec["static"] = flags if every else flags[ok]
         parts.append(rec)
+    if len(parts) == 1:  # one laser: its records as they are
+        return parts[0]
     return np.concatenate(parts) if parts else np.zeros(0, dtype=SCAN_DTYPE)
 
 
@@ -357,11 +364,13 @@ def particle_records(frame: int, x: NDArray[np.float64], y: NDArray[np.float64])
     """:data:`PARTICLE_DTYPE` records of at most :data:`MAX_PARTICLES_SAVED` of the particles ``(x, y)`` (a
     uniform subsample without replacement, seeded by ``frame``: the same run writes the same file)."""
     x, y = np.asarray(x, dtype=float).reshape(-1), np.asarray(y, dtype=float).reshape(-1)
-    idx = np.arange(len(x))
-    if len(x) > MAX_PARTICLES_SAVED:
-        chosen = np.zeros(len(x), dtype=bool)  # distinct indices: their mask's ones are them sorted
-        chosen[np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False)] = True
-        idx = np.flatnonzero(chosen)
+    if len(x) <= MAX_PARTICLES_SAVED:
+        rec = np.zeros(len(x), dtype=PARTICLE_DTYPE)
+        rec["frame"], rec["x"], rec["y"] = frame, x, y
+        return rec
+    chosen = np.zeros(len(x), dtype=bool)  # distinct indices: their mask's ones are them sorted
+    chosen[np.random.default_rng(frame).choice(len(x), MAX_PARTICLES_SAVED, replace=False)] = True
+    idx = chosen.nonzero()[0]
     rec = np.zeros(len(idx), dtype=PARTICLE_DTYPE)
     rec["frame"], rec["x"], rec["y"] = frame, x[idx], y[idx]
     return rec
@@ -419,6 +428,7 @@ class RunWriter:
             "frames": 0,
         }
         self._files: list[TextIO] = []
+        self._flushes: list[tuple[str, Callable[[], object]]] = []
         self._closed = False
         try:
             self._write_json()
@@ -557,14 +567,20 @@ class RunWriter:
                 ]
             )
             self._run_steps(  # after the tables: support.csv and tracks.csv may have been created just now
-                [(os.path.basename(fh.name), fh.flush) for fh in self._files]
-                + [
+                [
+                    *self._flush_steps(),
                     ("scans.npy", lambda: self._write_scans(frame, scans) if scans is not None else None),
                     ("particles.npy", lambda: self._write_particles(frame, particles)),
                     ("grids.npy", lambda: self._append_grid(belief)),
                 ]
             )
             self.n_frames += 1
+
+    def _flush_steps(self) -> list[tuple[str, Callable[[], object]]]:
+        """The ``(file name, flush)`` steps of the tables, made anew only when a table was added."""
+        if len(self._flushes) != len(self._files):
+            self._flushes = [(os.path.basename(fh.name), fh.flush) for fh in self._files]
+        return self._flushes
 
     def _check_frame(
         self,
@@ -667,13 +683,9 @@ class RunWriter:
     def _append_grid(self, belief: NDArray[np.float64]) -> None:
         """Append the belief to ``grids.npy``; its header counts the frame only once the grid (and every table row)
         is on disk."""
-        self._grids.write(belief.astype("<f4").tobytes())
-        end = self._grids.tell()
+        self._grids.write(np.ascontiguousarray(belief, dtype="<f4").data)  # row-major, as tobytes()
         self._grids.flush()
-        self._grids.seek(0)
-        self._grids.write(_npy_header(self.n_frames + 1, self.spec.nx, self.spec.ny))
-        self._grids.seek(end)
-        self._grids.flush()
+        _pwrite_all(self._grids, _npy_header(self.n_frames + 1, self.spec.nx, self.spec.ny))
 
     def _write_scans(
         self, frame: int, scans: Mapping[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]]

@@ -367,16 +367,22 @@ class ParticleFilter:
         self, dt: float, poses: NDArray[np.float64], pose_w: NDArray[np.float64], empty: NDArray[np.bool_]
     ) -> NDArray[np.float64]:
         """The linear grid prior of the previous posterior, warped with this step's sigma points, in the ``empty``
-        cells (flat mask; compiled, the warp only there: :func:`gridbridge.kernels.warp_at`, the same floats)."""
+        cells (flat mask). Compiled: the prior only at the cells the warp's taps read
+        (:func:`gridbridge.kernels.warp_taps`, :func:`gridbridge.kernels.convolve_at`), the warp only at the empty
+        cells (:func:`gridbridge.kernels.warp_at`): the same floats as the whole grid's."""
         kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
-        people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
         p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         if not jit.enabled() or (len(p) == 1 and np.all(p[0] == 0.0)):  # (warp_belief's identity: a copy)
+            people = predict_people(self.belief, kernel, outside=self.outside, form="linear")
             return warp_belief(people, self.spec, poses, pose_w, outside=self.outside).ravel()[empty]
         w = np.asarray(pose_w, dtype=np.float64).ravel()
         grid = (float(self.spec.x0), float(self.spec.y0), float(self.spec.resolution))
         cells = np.flatnonzero(empty)
-        return grid_kernels.warp_at(people, grid, np.ascontiguousarray(p), w / w.sum(), float(self.outside), cells)
+        p = np.ascontiguousarray(p)
+        taps = grid_kernels.warp_taps(self.spec.shape, grid, p, cells)
+        bel = np.ascontiguousarray(self.belief, dtype=np.float64)
+        people = grid_kernels.convolve_at(bel, np.ascontiguousarray(kernel), float(self.outside), taps)
+        return grid_kernels.warp_at(people, grid, p, w / w.sum(), float(self.outside), cells)
 
     def predict(self, odometry: Odometry | tuple[float, float] | None, dt: float) -> Prediction:
         """Both predictions (phases 1-2 and the empty-cell prior of phase 4 in the module docstring).

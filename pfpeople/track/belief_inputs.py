@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge.classifiers import PeakClassifier, People, peak_maxima
+from gridbridge.classifiers import PeakClassifier, People, ordered_candidates
 from gridbridge.grid import GridSpec
 
 __all__ = ["tracker_inputs"]
@@ -71,41 +71,37 @@ def tracker_inputs(
     grid = spec.check_grid(belief, "belief")
     if low.only_observed and observed is not None:
         grid = np.where(np.asarray(observed, dtype=bool), grid, 0.0)
-    is_max, value = peak_maxima(grid, spec, low.min_separation, low.smooth)  # as classify_peaks
-    sel = (value > low.threshold) & (value <= high) & is_max
-    if not np.any(sel):
+    # classify_peaks' candidates above the lower threshold, by decreasing belief (ties: row-major order)
+    cand, values = ordered_candidates(grid, spec, low.threshold, low.min_separation, low.smooth)
+    sel = values <= high
+    if not sel.any():
         return pos, sc
-    cand = np.argwhere(sel)
-    values = value[cand[:, 0], cand[:, 1]]
-    kept = _weak_maxima(cand, values, (low.min_separation / spec.resolution) ** 2 - 1e-9)
+    cand, values = cand[sel], values[sel]
+    kept = _weak_maxima(cand, (low.min_separation / spec.resolution) ** 2 - 1e-9)
     if len(pos) and kept:  # a peak the people already hold (a classifier with hysteresis keeps people below high)
         kept = _not_held(cand, kept, pos, spec, 0.5 * low.min_separation)
     x, y = _centroids(grid, spec, cand[kept], low.centroid_radius, 0.5 * low.threshold)
     return np.concatenate([pos, np.column_stack((x, y))]), np.concatenate([sc, values[kept]])
 
 
-def _weak_maxima(cand: NDArray[np.intp], values: NDArray[np.float64], sep2: float) -> list[int]:
+def _weak_maxima(cand: NDArray[np.intp], sep2: float) -> list[int]:
     """The weaker local maxima kept by non-maximum suppression among themselves (module docstring).
 
     Parameters
     ----------
     cand : ndarray of int, shape (K, 2)
-        The weaker maxima's cells ``(i, j)``, in row-major order.
-    values : ndarray, shape (K,)
-        Their beliefs.
+        The weaker maxima's cells ``(i, j)``, by decreasing belief (ties: row-major order).
     sep2 : float
         The squared suppression distance (cells^2): a maximum closer than it to a kept one is dropped.
 
     Returns
     -------
     list of int
-        Indices into ``cand`` of the kept maxima, by decreasing belief (ties: row-major order).
+        Indices into ``cand`` of the kept maxima, in increasing order (by decreasing belief).
     """
-    order = np.lexsort((cand[:, 1], cand[:, 0], -values))
     kept: list[int] = []
     cl = cand.tolist()
-    for k in order.tolist():
-        i, j = cl[k]
+    for k, (i, j) in enumerate(cl):
         if any((i - cl[m][0]) ** 2 + (j - cl[m][1]) ** 2 < sep2 for m in kept):
             continue
         kept.append(k)

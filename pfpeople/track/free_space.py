@@ -64,9 +64,8 @@ def seen_through(
         inc = float(scan.angle_increment)
         if n == 0 or inc == 0.0:
             continue
-        with np.errstate(invalid="ignore"):
-            usable = np.isposinf(ranges) | (scan.valid & (ranges >= scan.range_min))
-        for i in np.flatnonzero(~out & (r > 1e-6) & (r <= scan.range_max)).tolist():
+        lo_range, hi_range = float(scan.range_min), float(scan.range_max)
+        for i in (~out & (r > 1e-6) & (r <= scan.range_max)).nonzero()[0].tolist():
             half = math.atan2(half_width, float(r[i]))
             # the bearing from the first beam, in the scan's direction (a 360 deg scan may start anywhere)
             if inc > 0:
@@ -79,6 +78,11 @@ def seen_through(
             lo, hi = math.ceil(min(k0, k1) - 1e-9), math.floor(max(k0, k1) + 1e-9)
             if lo < 0 or hi >= n or hi < lo:  # (partly) outside the field of view
                 continue
-            window = ranges[lo : hi + 1]
-            out[i] = bool(usable[lo : hi + 1].all() and np.all(window >= r[i] + margin))
+            # every beam usable (no return: +inf; or a valid range, LaserScan.valid, at least range_min) and
+            # returning at least margin behind: the beams' tests in Python floats (the same comparisons)
+            behind = float(r[i]) + margin
+            out[i] = all(
+                (v == math.inf or (math.isfinite(v) and lo_range <= v <= hi_range)) and v >= behind
+                for v in ranges[lo : hi + 1].tolist()
+            )
     return out

@@ -352,7 +352,7 @@ def _check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[n
         return np.zeros((0, 2))
     if z.ndim != 2 or z.shape[1] != 2:
         raise ValueError(f"{name} must have shape (M, 2), got {z.shape}")
-    if not np.all(np.isfinite(z)):
+    if not np.isfinite(z).all():
         raise ValueError(f"{name} contains NaN or infinite values")
     return z
 
@@ -563,7 +563,7 @@ class MultiPersonTracker:
         """Step 7 for the ``n_old`` tracks of the previous frame (``moved`` once ``moved_distance`` from their
         birth position), then step 6b for those confirmed in this frame (``was_confirmed``: per row, before)."""
         far = np.hypot(*(self._s[:n_old, :2] - self._origin[:n_old]).T) >= self.config.moved_distance
-        for j in np.flatnonzero(far).tolist():
+        for j in far.nonzero()[0].tolist():
             self._meta[j].moved = True
         if self.config.reid_distance > 0:
             self._reidentify([i for i, m in enumerate(self._meta) if m.confirmed and not was_confirmed[i]])
@@ -671,15 +671,13 @@ class MultiPersonTracker:
 
     def _apply_ego(self, ego: Pose2D) -> None:
         c, sn = math.cos(ego.yaw), math.sin(ego.yaw)
-        rot = np.array([[c, sn], [-sn, c]])  # R(-yaw)
-        self._s[:, 0] -= ego.x
-        self._s[:, 1] -= ego.y
+        rot = np.array([[c, sn], [-sn, c]])  # R(-yaw); the products by its transpose view, as numpy's matmul has them
+        shift = np.array([ego.x, ego.y])
+        self._s[:, :2] -= shift
         self._s[:, :2] = self._s[:, :2] @ rot.T
         self._s[:, 2:] = self._s[:, 2:] @ rot.T
-        self._origin = (self._origin - np.array([ego.x, ego.y])) @ rot.T
-        b = np.zeros((4, 4))
-        b[:2, :2] = rot
-        b[2:, 2:] = rot
+        self._origin = (self._origin - shift) @ rot.T
+        b = np.array([[c, sn, 0.0, 0.0], [-sn, c, 0.0, 0.0], [0.0, 0.0, c, sn], [0.0, 0.0, -sn, c]])  # R(-yaw) twice
         self._p = b @ self._p @ b.T
 
     def _predict(self, dt: float) -> None:
@@ -710,7 +708,7 @@ class MultiPersonTracker:
         if z.shape[0]:
             d2 = ((sup[:, None, :] - z[None, :, :]) ** 2).sum(axis=2).min(axis=1)
             cols = cols[d2 > cfg.support_exclusion**2]
-        cand = np.flatnonzero(tracks)
+        cand = tracks.nonzero()[0]
         # only the pairs within the distance gate can be assigned: most frames have none
         near = ((self._s[cand, None, :2] - sup[None, cols, :]) ** 2).sum(axis=2) <= cfg.gate_distance**2
         if not near.any():
@@ -749,10 +747,10 @@ class MultiPersonTracker:
             cost = cost + np.array([0.0 if t.confirmed else _TENTATIVE for t in meta])[:, None]
         cost = np.where(allowed, cost, _INFEASIBLE)
         # Only rows/columns with an allowed pair take part (smaller problem, same optimum).
-        r_idx = np.flatnonzero(allowed.any(axis=1))
-        c_idx = np.flatnonzero(allowed.any(axis=0))
-        sub = cost[np.ix_(r_idx, c_idx)]
-        rr, cc = linear_sum_assignment(sub)
+        r_idx = np.nonzero(allowed.any(axis=1))[0]  # (1-D: np.flatnonzero without its ravel)
+        c_idx = np.nonzero(allowed.any(axis=0))[0]
+        every = r_idx.size == cost.shape[0] and c_idx.size == cost.shape[1]
+        rr, cc = linear_sum_assignment(cost if every else cost[r_idx[:, None], c_idx])
         ok = allowed[r_idx[rr], c_idx[cc]]
         out_rows = r_idx[rr[ok]] if rows is None else rows[r_idx[rr[ok]]]
         return out_rows.astype(np.intp), c_idx[cc[ok]].astype(np.intp)
@@ -813,14 +811,14 @@ class MultiPersonTracker:
                 can_confirm = m.hits + max(0, cfg.confirm_window - m.age) >= cfg.confirm_hits
                 gone = m.misses >= cfg.tentative_max_misses or not can_confirm or m.score < cfg.delete_score
             keep[i] = not gone
-        self._drop(np.flatnonzero(~keep))
+        self._drop((~keep).nonzero()[0])
 
     def _birth(self, z: NDArray[np.float64], c: NDArray[np.float64], used: NDArray[np.intp]) -> None:
         cfg = self.config
         free = np.ones(z.shape[0], dtype=bool)
         free[used] = False
         free &= c >= cfg.birth_min_score
-        new = np.flatnonzero(free)
+        new = free.nonzero()[0]
         if new.size == 0:
             return
         s0 = np.zeros((new.size, 4))

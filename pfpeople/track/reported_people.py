@@ -97,7 +97,8 @@ def _in_observed(xy: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | 
     Up to 8 positions (a frame's tracks) are looked up in Python floats: :meth:`GridSpec.contains` and
     :meth:`GridSpec.flat_index`'s arithmetic (a cell index off the grid is -1 there, which reads the last cell)."""
     if len(xy) <= _FEW:
-        return np.array([_observed_at(x, y, spec, observed) for x, y in xy.tolist()], dtype=bool)
+        flat = None if observed is None else np.asarray(observed, dtype=bool).ravel()  # once for every position
+        return np.array([_observed_at(x, y, spec, flat) for x, y in xy.tolist()], dtype=bool)
     seen = spec.contains(xy[:, 0], xy[:, 1])
     if observed is not None and seen.any():
         seen[seen] = np.asarray(observed, dtype=bool).ravel()[spec.flat_index(xy[seen, 0], xy[seen, 1])]
@@ -108,15 +109,16 @@ def _in_observed(xy: NDArray[np.float64], spec: GridSpec, observed: ArrayLike | 
 _FEW = 8
 
 
-def _observed_at(x: float, y: float, spec: GridSpec, observed: ArrayLike | None) -> bool:
-    """:func:`_in_observed` of one position (m, grid frame)."""
+def _observed_at(x: float, y: float, spec: GridSpec, flat: NDArray[np.bool_] | None) -> bool:
+    """:func:`_in_observed` of one position (m, grid frame); ``flat``: the observed cells ``(nx ny,)``
+    (row-major), None: every cell."""
     if not (spec.x0 <= x < spec.x1 and spec.y0 <= y < spec.y1):
         return False
-    if observed is None:
+    if flat is None:
         return True
     i, j = math.floor((x - spec.x0) / spec.resolution), math.floor((y - spec.y0) / spec.resolution)
     k = i * spec.ny + j if 0 <= i < spec.nx and 0 <= j < spec.ny else -1
-    return bool(np.asarray(observed, dtype=bool).ravel()[k])
+    return bool(flat[k])
 
 
 def _observed_or_hit(tracks: Sequence[Track], spec: GridSpec, observed: ArrayLike) -> list[Track]:

@@ -188,7 +188,8 @@ def test_border_inflow_is_the_warp_of_an_empty_grid_bit_for_bit() -> None:
 
 
 def test_warp_at_some_cells_is_the_whole_warp_there_bit_for_bit() -> None:
-    """warp_at against warp_bilinear(...)[cells]: random beliefs and cells, motions small and large."""
+    """warp_at (each pose over the cells) against warp_bilinear(...)[cells] (each cell over the poses): the same sums
+    in the same order, bit for bit; random beliefs and cells, motions small and large."""
     from gridbridge import kernels
 
     rng = np.random.default_rng(13)
@@ -209,11 +210,80 @@ def test_warp_at_some_cells_is_the_whole_warp_there_bit_for_bit() -> None:
         assert got.tobytes() == want.tobytes(), k
 
 
+def _warp_taps_numpy(
+    shape: tuple[int, int], grid: tuple[float, float, float], poses: np.ndarray, cells: np.ndarray
+) -> np.ndarray:
+    """warp_taps' numpy twin: the same source coordinates (products and sums in the same order), the clamped
+    tap (0, 0) and its three neighbours, those inside the grid."""
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = shape
+    read = np.zeros(shape, dtype=bool)
+    i, j = cells // ny, cells % ny
+    px, py = x0 + (i + 0.5) * res, y0 + (j + 0.5) * res
+    for tx, ty, th in poses.tolist():
+        c, sn = np.cos(th), np.sin(th)
+        u = (tx + c * px - sn * py - x0) * inv - 0.5
+        v = (ty + sn * px + c * py - y0) * inv - 0.5
+        fi = np.clip(np.floor(u), -2.0, float(nx)).astype(np.intp)
+        fj = np.clip(np.floor(v), -2.0, float(ny)).astype(np.intp)
+        for a in (0, 1):
+            for b in (0, 1):
+                ok = (fi + a >= 0) & (fi + a < nx) & (fj + b >= 0) & (fj + b < ny)
+                read[fi[ok] + a, fj[ok] + b] = True
+    return read
+
+
+def test_warp_taps_are_the_cells_warp_at_reads() -> None:
+    """warp_taps against its numpy twin (the same mask) and against warp_at itself: a belief that differs from
+    the given one (NaN) everywhere else warps to the same floats, bit for bit; motions small and large (taps
+    beyond the border), few to every cell."""
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(17)
+    spec = GridSpec(nx=31, ny=24, resolution=0.3, x0=-4.0, y0=-3.6)
+    grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+    for k in range(200):
+        bel = rng.random(spec.shape)
+        s = int(rng.integers(1, 8))
+        poses = np.column_stack((rng.normal(0, 0.3, s), rng.normal(0, 0.3, s), rng.normal(0, 0.3, s)))
+        if k % 5 == 0:
+            poses[:, :2] *= 30.0
+        w = rng.random(s) + 0.1
+        w = w / w.sum()
+        cells = np.flatnonzero(rng.random(spec.n_cells) < float(rng.choice([0.02, 0.3, 1.0])))
+        taps = kernels.warp_taps(spec.shape, grid, poses, cells)
+        assert taps.dtype == np.bool_ and np.array_equal(taps, _warp_taps_numpy(spec.shape, grid, poses, cells)), k
+        want = kernels.warp_at(bel, grid, poses, w, 0.5, cells)
+        got = kernels.warp_at(np.where(taps, bel, np.nan), grid, poses, w, 0.5, cells)
+        assert got.tobytes() == want.tobytes(), k
+
+
+@pytest.mark.parametrize("outside", [0.5, 0.0, 0.02])
+def test_convolve_at_some_cells_is_the_whole_convolution_there_bit_for_bit(outside: float) -> None:
+    """convolve_at against convolve_const (whose numpy twin is scipy's convolution) at the chosen cells, bit for
+    bit, 0.0 at the others; the kernels of several time steps (radii), cells at the border included."""
+    from gridbridge import kernels
+
+    rng = np.random.default_rng(19)
+    for k in range(60):
+        spec = GridSpec(nx=int(rng.integers(1, 40)), ny=int(rng.integers(1, 40)), resolution=0.3)
+        bel = rng.random(spec.shape) * (rng.random(spec.shape) < 0.5)
+        kernel = people_motion_kernel(spec, dt=float(rng.choice([0.05, 0.133, 0.4])), form="integrated")
+        at = rng.random(spec.shape) < float(rng.choice([0.05, 0.5, 1.0]))
+        want = kernels.convolve_const(bel, kernel, outside)
+        got = kernels.convolve_at(bel, kernel, outside, at)
+        assert got[at].tobytes() == want[at].tobytes(), k
+        blocks = np.repeat(at.reshape(spec.nx, -1, 4).any(axis=2), 4, axis=1) if spec.ny % 4 == 0 else None
+        other = (got == 0.0) | (got == want)  # the rest of a computed block holds its value, other cells 0.0
+        assert other.all() and (blocks is None or not got[~blocks].any()), k
+
+
 def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
     """classify_peaks' candidates by peak_candidates against peak_maxima's maximum filter: plateaus (ties), peaks
     at the border, windows of 1-4 cells, thresholds 0 to 0.9."""
     from gridbridge import kernels
-    from gridbridge.classifiers import _ordered_candidates, classify_peaks, peak_maxima
+    from gridbridge.classifiers import classify_peaks, ordered_candidates, peak_maxima
 
     rng = np.random.default_rng(14)
     for k in range(300):
@@ -227,7 +297,7 @@ def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
         half = max(1, int(np.ceil(sep / spec.resolution - 1e-9)))
         got = kernels.peak_candidates(grid, half, threshold)
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), k
-        fast, slow = _both(_ordered_candidates, grid, spec, threshold, sep, 0.0)
+        fast, slow = _both(ordered_candidates, grid, spec, threshold, sep, 0.0)
         assert all(a.tobytes() == b.tobytes() for a, b in zip(fast, slow, strict=True))
         radius = float(rng.choice([0.0, 0.35, 0.7]))
         pf, ps = _both(classify_peaks, grid, spec, threshold=threshold, min_separation=sep, centroid_radius=radius)
@@ -262,3 +332,35 @@ def test_linear_prediction_sums_each_cell_in_tap_order_bit_for_bit() -> None:
         outside = float(rng.choice([0.5, 0.02, 1.0]))
         got = kernels.convolve_const(bel, np.ascontiguousarray(kern), outside)
         assert got.tobytes() == _convolve_reference(bel, kern, outside).tobytes(), k
+
+
+def test_bayes_update_is_the_numpy_update_bit_for_bit() -> None:
+    """kernels.bayes_update against bayes_update_unchecked: random priors and likelihoods, the 0/0 cells (L = 1
+    with prior 0, L = 0 with prior 1: the prior kept), exact 0, 1 and 0.5 values."""
+    from gridbridge import kernels
+    from gridbridge.measurement import bayes_update_unchecked
+
+    rng = np.random.default_rng(23)
+    for k in range(100):
+        shape = (int(rng.integers(1, 40)), int(rng.integers(1, 40)))
+        p, lik = rng.random(shape), rng.random(shape)
+        for a in (p, lik):
+            a[rng.random(shape) < 0.1] = rng.choice([0.0, 1.0, 0.5])
+        got, want = kernels.bayes_update(p, lik), bayes_update_unchecked(p, lik)
+        assert got.tobytes() == want.tobytes(), k
+    p, lik = np.array([[0.0, 1.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0, 1.0]])
+    assert kernels.bayes_update(p, lik).tobytes() == bayes_update_unchecked(p, lik).tobytes()
+
+
+def test_appearance_compiled_is_the_numpy_one_bit_for_bit() -> None:
+    """Appearance.apply with a field of view, compiled (kernels.appear) against its numpy path: random priors
+    (0 and 1 included), masks and time steps."""
+    rng = np.random.default_rng(29)
+    for k in range(60):
+        shape = (int(rng.integers(1, 40)), int(rng.integers(1, 40)))
+        p = rng.random(shape)
+        p[rng.random(shape) < 0.1] = rng.choice([0.0, 1.0])
+        where = rng.random(shape) < 0.7
+        app = Appearance(rate=float(rng.choice([0.0, 0.1, 2.0])))
+        fast, slow = _both(app.apply, p, float(rng.uniform(0.01, 1.0)), where=where)
+        assert fast.dtype == slow.dtype and fast.tobytes() == slow.tobytes(), k

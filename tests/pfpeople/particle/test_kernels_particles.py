@@ -236,8 +236,9 @@ def test_move_persistent_compiled_is_the_numpy_walk_bit_for_bit(params: Persiste
 
 @pytest.mark.parametrize("odo", [Odometry(v=0.5, omega=0.3), None])
 def test_empty_cell_prior_at_the_empty_cells_is_the_whole_warp_there(odo: Odometry | None) -> None:
-    """_empty_cell_prior (compiled: warp_convolved_at, only at the empty cells) against the whole grid's linear
-    prior warped by the compiled grid functions, read at those cells; standing (one pose at 0) too."""
+    """_empty_cell_prior (compiled: the linear prior only at the cells warp_taps finds, convolve_at, warped only at
+    the empty cells, warp_at) against the whole grid's linear prior warped by the compiled grid functions, read at
+    those cells; standing (one pose at 0) too."""
     from gridbridge import ego_motion_sigma_points, people_motion_kernel, predict_people, warp_belief
 
     pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(3))

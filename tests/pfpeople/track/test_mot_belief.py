@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from evaluation.harness.mot_eval import _drop_matched, read_tracks_csv
+from gridbridge.classifiers import PeakClassifier
 from gridbridge.grid import GridSpec
 from pfpeople.config import TrackingConfig, config_from_mapping
 from pfpeople.pipeline.assembly import build_people_tracker
@@ -140,3 +141,48 @@ def test_tracker_inputs_weak_peaks_equal_a_low_threshold_pass() -> None:
         np.testing.assert_allclose(pos[len(people) :], ref.positions[weak], atol=1e-9)
         n_weak += int(weak.sum())
     assert n_weak > 20  # the test exercises weak peaks
+
+
+def _weak_peaks_by_maximum_filter(b: np.ndarray, low: PeakClassifier, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """The weaker peaks of the previous tracker_inputs: every cell's maximum filter (peak_maxima), the cells in
+    ``(low, high]`` in row-major order, sorted, non-maximum suppression, centroids."""
+    from gridbridge.classifiers import peak_maxima
+    from pfpeople.track.belief_inputs import _centroids
+
+    is_max, value = peak_maxima(b, SPEC, low.min_separation, low.smooth)
+    cand = np.argwhere((value > low.threshold) & (value <= high) & is_max)
+    values = value[cand[:, 0], cand[:, 1]]
+    sep2 = (low.min_separation / SPEC.resolution) ** 2 - 1e-9
+    kept: list[int] = []
+    for k in np.lexsort((cand[:, 1], cand[:, 0], -values)).tolist():
+        if all((cand[k, 0] - cand[m, 0]) ** 2 + (cand[k, 1] - cand[m, 1]) ** 2 >= sep2 for m in kept):
+            kept.append(k)
+    x, y = _centroids(b, SPEC, cand[kept], low.centroid_radius, 0.5 * low.threshold)
+    return np.column_stack((x, y)), values[kept]
+
+
+@pytest.mark.parametrize("numba", [True, False])
+@pytest.mark.parametrize("smooth", [0.0, 0.8])
+def test_tracker_inputs_weak_peaks_bit_for_bit_the_maximum_filter_ones(numba: bool, smooth: float) -> None:
+    """The weaker peaks by the classifier's candidates (ordered_candidates) are those of the full-grid maximum
+    filter, bit for bit: random grids with plateaus (few belief levels), blobs at the border, compiled or not."""
+    from gridbridge import jit
+    from gridbridge.classifiers import PeakClassifier
+    from pfpeople.track import tracker_inputs
+
+    rng = np.random.default_rng(31)
+    low = PeakClassifier(threshold=0.5, smooth=smooth, only_observed=False)
+    n_weak = 0
+    for _ in range(60):
+        b = np.full(SPEC.shape, 0.01)
+        for _ in range(int(rng.integers(1, 10))):
+            b = np.maximum(b, _blob(rng.uniform(-0.5, 9.5), rng.uniform(-5, 5), rng.uniform(0.4, 0.95)))
+        b = np.round(b * 20) / 20 if rng.random() < 0.5 else b
+        people = PeakClassifier(threshold=0.7, smooth=smooth).classify(b, SPEC)
+        with jit.override(numba):
+            pos, sc = tracker_inputs(people, b, SPEC, low=low, high=0.7)
+        want_pos, want_sc = _weak_peaks_by_maximum_filter(b, low, 0.7)
+        n = len(people)
+        assert pos[n:].tobytes() == want_pos.reshape(-1, 2).tobytes() and sc[n:].tobytes() == want_sc.tobytes()
+        n_weak += len(want_sc)
+    assert n_weak > 20

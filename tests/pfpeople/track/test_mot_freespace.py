@@ -94,3 +94,52 @@ def test_people_tracker_leaves_out_a_coasting_track_the_laser_sees_through() -> 
     assert run(False, _scan()) == (1, 1)
     assert run(True, _scan()) == (0, 0)  # the laser sees the wall through the predicted place
     assert run(True, _scan([(3.0, 0.6, 0.2)])) == (1, 1)  # something stands there (or in front): kept
+
+
+def _seen_through_by_masks(positions: np.ndarray, views: list[tuple[LaserScan, Pose2D]]) -> np.ndarray:
+    """The previous seen_through's beam test: the usable mask of every beam (+inf, or LaserScan.valid at least
+    range_min), then the window's masks."""
+    pts = np.asarray(positions, dtype=float).reshape(-1, 2)
+    out = np.zeros(len(pts), dtype=bool)
+    for scan, mount in views:
+        local = mount.inverse().apply(pts)
+        r = np.hypot(local[:, 0], local[:, 1])
+        bearing = np.arctan2(local[:, 1], local[:, 0])
+        ranges, inc = scan.ranges, float(scan.angle_increment)
+        with np.errstate(invalid="ignore"):
+            usable = np.isposinf(ranges) | (scan.valid & (ranges >= scan.range_min))
+        for i in np.flatnonzero(~out & (r > 1e-6) & (r <= scan.range_max)).tolist():
+            half = math.atan2(0.5, float(r[i]))
+            rel = (float(bearing[i]) - scan.angle_min) % (2.0 * math.pi)
+            k0, k1 = (rel - half) / inc, (rel + half) / inc
+            lo, hi = math.ceil(min(k0, k1) - 1e-9), math.floor(max(k0, k1) + 1e-9)
+            if lo < 0 or hi >= ranges.size or hi < lo:
+                continue
+            out[i] = bool(usable[lo : hi + 1].all() and np.all(ranges[lo : hi + 1] >= r[i] + 0.5))
+    return out
+
+
+def test_the_beam_tests_in_python_floats_are_the_masks() -> None:
+    """seen_through's per-window beam tests against the whole-scan masks: ranges with NaN, +inf, -inf, below
+    range_min and above range_max, two lasers, many places."""
+    rng = np.random.default_rng(41)
+    n_seen = 0
+    for k in range(40):
+        views = []
+        for _ in range(2):
+            ranges = rng.uniform(0.0, 12.0, 720) if rng.random() < 0.3 else rng.uniform(7.0, 12.0, 720)
+            bad = rng.random(720) < float(rng.choice([0.0, 0.03, 0.3]))
+            ranges[bad] = rng.choice([np.nan, np.inf, -np.inf, 0.01, 30.0], int(bad.sum()))
+            scan = LaserScan(
+                ranges=ranges,
+                angle_min=-math.pi,
+                angle_increment=math.radians(0.5),
+                range_min=0.05,
+                range_max=float(rng.choice([10.0, 25.0, math.inf])),
+            )
+            views.append((scan, Pose2D(x=rng.normal(0, 0.3), y=rng.normal(0, 0.3), yaw=rng.normal(0, 0.5))))
+        pts = rng.uniform(-7.0, 7.0, (30, 2))
+        got = seen_through(pts, views)
+        assert got.tolist() == _seen_through_by_masks(pts, views).tolist(), k
+        n_seen += int(got.sum())
+    assert n_seen > 50  # places seen through and not
