@@ -184,10 +184,8 @@ class _Beams:
 
     @classmethod
     def of(cls, scan: LaserScan) -> _Beams:
-        ranges = scan.ranges
-        with np.errstate(invalid="ignore"):
-            read = scan.valid & (ranges >= scan.range_min)
-        far = np.where(scan.no_return, np.inf, np.where(read, ranges, -np.inf))
+        ranges = scan.ranges  # a beam with a reading: ``valid`` (finite, range_min to range_max)
+        far = np.where(scan.no_return, np.inf, np.where(scan.valid, ranges, -np.inf))
         return cls(float(scan.angle_min), float(scan.angle_increment), float(scan.range_max), far)
 
     def seen_through(self, local: NDArray[np.float64]) -> NDArray[np.bool_]:

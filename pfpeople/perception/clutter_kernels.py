@@ -266,15 +266,18 @@ def self_update(
 def static_lookup(
     pts: _F, ev: _F, n: int, pose: tuple[float, float, float, float], corner: tuple[float, float, float], lim: _F
 ) -> NDArray[np.bool_]:  # pragma: no cover - compiled
-    """``StaticClutterMap.static_points`` of the finite points ``pts`` (N, 2) (m, sensor frame), as its numpy
-    code does it: moved into the map frame by ``pose`` = ``(x, y, cos yaw, sin yaw)``, the cell of each from
-    ``corner`` = ``(x0, y0, 1 / resolution)`` in the flat evidence ``ev`` (n * n,) (s), static when inside the
-    window and ``ev / lim[0] >= lim[1]`` (``static_time`` (s), ``static_threshold - 1e-9``). Returns (N,)."""
+    """``StaticClutterMap.static_points`` of the points ``pts`` (N, 2) (m, sensor frame; rows with a NaN or an
+    infinite coordinate are not static), as its numpy code does it: moved into the map frame by ``pose`` =
+    ``(x, y, cos yaw, sin yaw)``, the cell of each from ``corner`` = ``(x0, y0, 1 / resolution)`` in the flat
+    evidence ``ev`` (n * n,) (s), static when inside the window and ``ev / lim[0] >= lim[1]`` (``static_time``
+    (s), ``static_threshold - 1e-9``). Returns (N,)."""
     x, y, c, s = pose
     x0, y0, inv = corner
     out = np.zeros(pts.shape[0], dtype=np.bool_)
     for k in range(pts.shape[0]):
         px, py = pts[k, 0], pts[k, 1]
+        if not (math.isfinite(px) and math.isfinite(py)):
+            continue
         i = math.floor(((x + c * px - s * py) - x0) * inv)
         j = math.floor(((y + s * px + c * py) - y0) * inv)
         if i >= 0 and i < n and j >= 0 and j < n:

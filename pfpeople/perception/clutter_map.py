@@ -559,17 +559,18 @@ class StaticClutterMap:
             :meth:`static_score`): cheap enough for every return of every scan.
         """
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        out = np.zeros(pts.shape[0], dtype=bool)
-        ok = finite_rows(pts)
-        if not ok.any():
-            return out
         c = self.config
         ev = self.evidence.reshape(-1)
         if _jit.enabled("pfpeople"):  # the same as below, compiled (pfpeople.perception.clutter_kernels)
             o, yaw = self.origin, self.pose.yaw
             pose = (self.pose.x, self.pose.y, math.cos(yaw), math.sin(yaw))
             lim = np.array([c.static_time, c.static_threshold - 1e-9])
-            out[ok] = static_lookup(pts[ok], ev, self.n, pose, (float(o[0]), float(o[1]), 1.0 / c.resolution), lim)
+            corner = (float(o[0]), float(o[1]), 1.0 / c.resolution)
+            found: NDArray[np.bool_] = static_lookup(np.ascontiguousarray(pts), ev, self.n, pose, corner, lim)
+            return found
+        out = np.zeros(pts.shape[0], dtype=bool)
+        ok = finite_rows(pts)
+        if not ok.any():
             return out
         cells, inside = self.cell_of(self.pose.apply(pts[ok]))
         score = ev[cells] / c.static_time
