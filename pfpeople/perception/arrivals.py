@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gridbridge import jit as _jit
 from gridbridge.geometry import Pose2D
-from pfpeople.perception.clutter_kernels import ball_pairs, frames_apply, seen_counts
+from pfpeople.perception.clutter_kernels import arrived_flags, view_points
 from pfpeople.sensors import LaserScan
 
 __all__ = [
@@ -152,24 +152,21 @@ def _arrived_compiled(
     det: NDArray[np.float64], pts: NDArray[np.float64], views: list[tuple[_Beams, Pose2D]]
 ) -> NDArray[np.bool_]:
     """:meth:`RecentScans.arrived` of detections ``det`` (M, 2) and points ``pts`` (N, 2) against ``views``
-    (non-empty), by :func:`~pfpeople.perception.clutter_kernels.ball_pairs`,
-    :func:`~pfpeople.perception.clutter_kernels.frames_apply` and
-    :func:`~pfpeople.perception.clutter_kernels.seen_counts`, with numpy's ``hypot`` and ``arctan2`` of every
+    (non-empty), by :func:`~pfpeople.perception.clutter_kernels.view_points` and
+    :func:`~pfpeople.perception.clutter_kernels.arrived_flags`, with numpy's ``hypot`` and ``arctan2`` of every
     view's points in one call each: the same operations as the numpy code, the same answers."""
     m = det.shape[0]
-    owner, which = ball_pairs(np.ascontiguousarray(det), np.ascontiguousarray(pts), RADIUS_M * RADIUS_M)
+    poses = np.array([(p.x, p.y, math.cos(p.yaw), math.sin(p.yaw)) for _, p in views])
+    owner, local = view_points(np.ascontiguousarray(det), np.ascontiguousarray(pts), RADIUS_M * RADIUS_M, poses)
     if not owner.size:
         return np.zeros(m, dtype=bool)
-    poses = np.array([(p.x, p.y, math.cos(p.yaw), math.sin(p.yaw)) for _, p in views])
-    local = frames_apply(np.ascontiguousarray(pts[which]), poses)
     r = np.hypot(local[:, 0], local[:, 1])
     bearing = np.arctan2(local[:, 1], local[:, 0])
     far = np.concatenate([b.far for b, _ in views])
     starts = np.cumsum([0] + [b.far.size for b, _ in views]).astype(np.intp)
     geo = np.array([(b.angle_min, b.increment, b.range_max) for b, _ in views])
-    seen = seen_counts(r, bearing, owner, m, far, starts, geo, SIDE_BEAMS, MARGIN_M)
-    need = FRACTION * np.bincount(owner, minlength=m)
-    return np.asarray((seen >= need).any(axis=0) & (need > 0), dtype=bool)
+    out: NDArray[np.bool_] = arrived_flags(r, bearing, owner, m, far, starts, geo, (SIDE_BEAMS, MARGIN_M, FRACTION))
+    return out
 
 
 @dataclass(frozen=True)

@@ -23,18 +23,17 @@ from gridbridge.kernels import pairwise_sum
 _F: TypeAlias = NDArray[np.float64]
 
 __all__ = [
+    "arrived_flags",
     "ball_means",
-    "ball_pairs",
-    "frames_apply",
     "moving_update",
     "near_any",
     "near_mask",
     "return_scores",
     "scan_rays",
-    "seen_counts",
     "self_update",
     "static_lookup",
     "update_evidence",
+    "view_points",
     "warm_up",
 ]
 
@@ -467,27 +466,29 @@ def warm_up() -> None:
     pts, ref = np.zeros((2, 2)), np.full((2, 2), np.nan)
     self_update(pts, ref, np.zeros(2), (1.0, 0.05, 0.5), True, 0.0, 0.0, 1.0, 0.0)
     tracks = (e, e, e, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0))
-    owner, _ = ball_pairs(np.zeros((1, 2)), np.zeros((2, 2)), 0.1)
-    frames_apply(np.zeros((2, 2)), np.array([[0.0, 0.0, 1.0, 0.0]]))
-    seen_counts(
-        np.ones(2), np.zeros(2), owner, 1, np.full(3, np.inf), np.array([0, 3]), np.array([[-1.0, 1.0, 9.0]]), 1, 0.3
-    )
+    owner, _ = view_points(np.zeros((1, 2)), np.zeros((2, 2)), 0.1, np.array([[0.0, 0.0, 1.0, 0.0]]))
+    far, geo = np.full(3, np.inf), np.array([[-1.0, 1.0, 9.0]])
+    arrived_flags(np.ones(2), np.zeros(2), owner, 1, far, np.array([0, 3]), geo, (1, 0.3, 0.5))
     moving_update(
         moving_update(tracks, np.zeros((1, 2)), 0.1, 0.3, 2.0, 0.3, 5.0, 8), np.ones((1, 2)), 0.2, 0.3, 2.0, 0.3, 5.0, 8
     )
 
 
 @njit
-def ball_pairs(
-    det: NDArray[np.float64], pts: NDArray[np.float64], r2: float
-) -> tuple[NDArray[np.intp], NDArray[np.intp]]:  # pragma: no cover - compiled
-    """``np.nonzero(dx * dx + dy * dy <= r2)`` of detections ``det`` (M, 2) against points ``pts`` (N, 2) (m;
-    ``dx = pts_x - det_x``): the (detection, point) pairs within ``sqrt(r2)`` m, detection-major (NaN rows are near
-    nothing).
+def view_points(
+    det: NDArray[np.float64], pts: NDArray[np.float64], r2: float, poses: NDArray[np.float64]
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:  # pragma: no cover - compiled
+    """The (detection, point) pairs within ``sqrt(r2)`` m of detections ``det`` (M, 2) and points ``pts`` (N, 2)
+    (m; ``dx * dx + dy * dy <= r2`` with ``dx = pts_x - det_x``, NaN rows near nothing; detection-major, as
+    ``np.nonzero`` of the (M, N) test lists them), and their points moved by each of ``poses`` (V, 4), rows
+    ``(x, y, cos yaw, sin yaw)``, as :func:`gridbridge.geometry.from_frame` does it.
 
     Returns
     -------
-    owner, which : ndarray of intp, shape (P,)
+    owner : ndarray of intp, shape (P,)
+        The detection of each pair.
+    local : ndarray, shape (V * P, 2)
+        The pairs' points in each pose's frame, pose-major.
     """
     near = np.zeros((det.shape[0], pts.shape[0]), dtype=np.bool_)
     total = 0
@@ -499,29 +500,19 @@ def ball_pairs(
                 near[m, n] = True
                 total += 1
     owner = np.empty(total, dtype=np.intp)
-    which = np.empty(total, dtype=np.intp)
+    local = np.empty((poses.shape[0] * total, 2))
     k = 0
     for m in range(det.shape[0]):
         for n in range(pts.shape[0]):
             if near[m, n]:
-                owner[k], which[k] = m, n
+                owner[k] = m
+                px, py = pts[n, 0], pts[n, 1]
+                for v in range(poses.shape[0]):
+                    x, y, c, s = poses[v, 0], poses[v, 1], poses[v, 2], poses[v, 3]
+                    local[v * total + k, 0] = x + c * px - s * py
+                    local[v * total + k, 1] = y + s * px + c * py
                 k += 1
-    return owner, which
-
-
-@njit
-def frames_apply(pts: NDArray[np.float64], poses: NDArray[np.float64]) -> NDArray[np.float64]:  # pragma: no cover
-    """``Pose2D.apply`` of points ``pts`` (P, 2) by each of ``poses`` (V, 4) rows ``(x, y, cos yaw, sin yaw)``:
-    ``(V * P, 2)``, pose-major, the operations of :func:`gridbridge.geometry.from_frame` in its order."""
-    p = pts.shape[0]
-    out = np.empty((poses.shape[0] * p, 2))
-    for v in range(poses.shape[0]):
-        x, y, c, s = poses[v, 0], poses[v, 1], poses[v, 2], poses[v, 3]
-        for i in range(p):
-            px, py = pts[i, 0], pts[i, 1]
-            out[v * p + i, 0] = x + c * px - s * py
-            out[v * p + i, 1] = y + s * px + c * py
-    return out
+    return owner, local
 
 
 @njit
@@ -537,7 +528,7 @@ def _remainder(a: float, b: float) -> float:  # pragma: no cover - compiled
 
 
 @njit
-def seen_counts(
+def arrived_flags(
     r: NDArray[np.float64],
     bearing: NDArray[np.float64],
     owner: NDArray[np.intp],
@@ -545,11 +536,11 @@ def seen_counts(
     far: NDArray[np.float64],
     starts: NDArray[np.intp],
     geo: NDArray[np.float64],
-    side: int,
-    margin: float,
-) -> NDArray[np.float64]:  # pragma: no cover - compiled
-    """Per view and owner, how many of the owner's points the view saw through
-    (``pfpeople.perception.arrivals._Beams.seen_through``, its operations in its order).
+    rule: tuple[int, float, float],
+) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    """Which of M detections one view saw through at least a fraction of the points of
+    (``pfpeople.perception.arrivals.RecentScans.arrived``; per point ``_Beams.seen_through``, its operations in
+    its order).
 
     Parameters
     ----------
@@ -565,32 +556,38 @@ def seen_counts(
     starts : ndarray of intp, shape (V + 1,)
     geo : ndarray, shape (V, 3)
         Per view ``(angle_min, increment, range_max)``.
-    side, margin : int, float
-        :data:`~pfpeople.perception.arrivals.SIDE_BEAMS`, :data:`~pfpeople.perception.arrivals.MARGIN_M`.
+    rule : tuple
+        ``(SIDE_BEAMS, MARGIN_M, FRACTION)`` of :mod:`pfpeople.perception.arrivals`.
 
     Returns
     -------
-    ndarray, shape (V, M)
+    ndarray of bool, shape (M,)
     """
+    side, margin, fraction = rule
     views, p = geo.shape[0], owner.shape[0]
-    out = np.zeros((views, m))
+    count = np.zeros(m)
+    for i in range(p):
+        count[owner[i]] += 1.0
+    out = np.zeros(m, dtype=np.bool_)
+    seen = np.zeros(m)
     two_pi = 2.0 * np.pi
     for v in range(views):
         lo, n = starts[v], starts[v + 1] - starts[v]
         a0, inc, rmax = geo[v, 0], geo[v, 1], geo[v, 2]
-        if n == 0 or inc == 0.0:
-            continue
-        for i in range(p):
+        seen[:] = 0.0
+        for i in range(p if n > 0 and inc != 0.0 else 0):
             q = v * p + i
             rel = _remainder(bearing[q] - a0, two_pi) if inc > 0 else -_remainder(a0 - bearing[q], two_pi)
             k = np.int64(np.rint(rel / inc))
             if k < side or k >= n - side or not r[q] <= rmax:
                 continue
-            need = r[q] + margin
             ok = True
             for d in range(-side, side + 1):
-                if not far[lo + k + d] >= need:
+                if not far[lo + k + d] >= r[q] + margin:
                     ok = False
             if ok:
-                out[v, owner[i]] += 1.0
+                seen[owner[i]] += 1.0
+        for j in range(m):
+            need = fraction * count[j]
+            out[j] = out[j] or (seen[j] >= need and need > 0)
     return out
