@@ -74,10 +74,16 @@ class LaserScan:
     def no_return(self) -> NDArray[np.bool_]:
         """True for beams that saw nothing within range: ``+inf`` (REP-117), or ``range_max`` and above (the
         drivers that write "max range" or "max range and more"), shape (B,). NaN (an erroneous reading) and values below
-        ``range_min`` (``-inf``: too close) are neither returns nor free space."""
-        r = self.ranges
-        with np.errstate(invalid="ignore"):
-            return np.asarray((r >= self.range_max) | np.isposinf(r), dtype=bool)
+        ``range_min`` (``-inf``: too close) are neither returns nor free space. Computed once per scan (read
+        only)."""
+        m = self.__dict__.get("_no_return")
+        if m is None:
+            r = self.ranges
+            with np.errstate(invalid="ignore"):
+                m = np.asarray((r >= self.range_max) | np.isposinf(r), dtype=bool)
+            m.flags.writeable = False
+            object.__setattr__(self, "_no_return", m)
+        return m
 
     def free_rays(self, max_range: float) -> NDArray[np.float64]:
         """End points ``(F, 2)`` (m, scan frame) of the :attr:`no_return` beams, cut at ``min(range_max,

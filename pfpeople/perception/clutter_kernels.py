@@ -23,6 +23,7 @@ from gridbridge.kernels import pairwise_sum
 _F: TypeAlias = NDArray[np.float64]
 
 __all__ = [
+    "arrived_flags",
     "ball_means",
     "moving_update",
     "near_any",
@@ -32,6 +33,7 @@ __all__ = [
     "self_update",
     "static_lookup",
     "update_evidence",
+    "view_points",
     "warm_up",
 ]
 
@@ -263,15 +265,18 @@ def self_update(
 def static_lookup(
     pts: _F, ev: _F, n: int, pose: tuple[float, float, float, float], corner: tuple[float, float, float], lim: _F
 ) -> NDArray[np.bool_]:  # pragma: no cover - compiled
-    """``StaticClutterMap.static_points`` of the finite points ``pts`` (N, 2) (m, sensor frame), as its numpy
-    code does it: moved into the map frame by ``pose`` = ``(x, y, cos yaw, sin yaw)``, the cell of each from
-    ``corner`` = ``(x0, y0, 1 / resolution)`` in the flat evidence ``ev`` (n * n,) (s), static when inside the
-    window and ``ev / lim[0] >= lim[1]`` (``static_time`` (s), ``static_threshold - 1e-9``). Returns (N,)."""
+    """``StaticClutterMap.static_points`` of the points ``pts`` (N, 2) (m, sensor frame; rows with a NaN or an
+    infinite coordinate are not static), as its numpy code does it: moved into the map frame by ``pose`` =
+    ``(x, y, cos yaw, sin yaw)``, the cell of each from ``corner`` = ``(x0, y0, 1 / resolution)`` in the flat
+    evidence ``ev`` (n * n,) (s), static when inside the window and ``ev / lim[0] >= lim[1]`` (``static_time``
+    (s), ``static_threshold - 1e-9``). Returns (N,)."""
     x, y, c, s = pose
     x0, y0, inv = corner
     out = np.zeros(pts.shape[0], dtype=np.bool_)
     for k in range(pts.shape[0]):
         px, py = pts[k, 0], pts[k, 1]
+        if not (math.isfinite(px) and math.isfinite(py)):
+            continue
         i = math.floor(((x + c * px - s * py) - x0) * inv)
         j = math.floor(((y + s * px + c * py) - y0) * inv)
         if i >= 0 and i < n and j >= 0 and j < n:
@@ -461,6 +466,128 @@ def warm_up() -> None:
     pts, ref = np.zeros((2, 2)), np.full((2, 2), np.nan)
     self_update(pts, ref, np.zeros(2), (1.0, 0.05, 0.5), True, 0.0, 0.0, 1.0, 0.0)
     tracks = (e, e, e, np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0))
+    owner, _ = view_points(np.zeros((1, 2)), np.zeros((2, 2)), 0.1, np.array([[0.0, 0.0, 1.0, 0.0]]))
+    far, geo = np.full(3, np.inf), np.array([[-1.0, 1.0, 9.0]])
+    arrived_flags(np.ones(2), np.zeros(2), owner, 1, far, np.array([0, 3]), geo, (1, 0.3, 0.5))
     moving_update(
         moving_update(tracks, np.zeros((1, 2)), 0.1, 0.3, 2.0, 0.3, 5.0, 8), np.ones((1, 2)), 0.2, 0.3, 2.0, 0.3, 5.0, 8
     )
+
+
+@njit
+def view_points(
+    det: NDArray[np.float64], pts: NDArray[np.float64], r2: float, poses: NDArray[np.float64]
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:  # pragma: no cover - compiled
+    """The (detection, point) pairs within ``sqrt(r2)`` m of detections ``det`` (M, 2) and points ``pts`` (N, 2)
+    (m; ``dx * dx + dy * dy <= r2`` with ``dx = pts_x - det_x``, NaN rows near nothing; detection-major, as
+    ``np.nonzero`` of the (M, N) test lists them), and their points moved by each of ``poses`` (V, 4), rows
+    ``(x, y, cos yaw, sin yaw)``, as :func:`gridbridge.geometry.from_frame` does it.
+
+    Returns
+    -------
+    owner : ndarray of intp, shape (P,)
+        The detection of each pair.
+    local : ndarray, shape (V * P, 2)
+        The pairs' points in each pose's frame, pose-major.
+    """
+    near = np.zeros((det.shape[0], pts.shape[0]), dtype=np.bool_)
+    total = 0
+    for m in range(det.shape[0]):
+        for n in range(pts.shape[0]):
+            dx = pts[n, 0] - det[m, 0]
+            dy = pts[n, 1] - det[m, 1]
+            if dx * dx + dy * dy <= r2:
+                near[m, n] = True
+                total += 1
+    owner = np.empty(total, dtype=np.intp)
+    local = np.empty((poses.shape[0] * total, 2))
+    k = 0
+    for m in range(det.shape[0]):
+        for n in range(pts.shape[0]):
+            if near[m, n]:
+                owner[k] = m
+                px, py = pts[n, 0], pts[n, 1]
+                for v in range(poses.shape[0]):
+                    x, y, c, s = poses[v, 0], poses[v, 1], poses[v, 2], poses[v, 3]
+                    local[v * total + k, 0] = x + c * px - s * py
+                    local[v * total + k, 1] = y + s * px + c * py
+                k += 1
+    return owner, local
+
+
+@njit
+def _remainder(a: float, b: float) -> float:  # pragma: no cover - compiled
+    """numpy's float ``a % b`` (``npy_divmod``: ``fmod`` with the divisor's sign)."""
+    mod = np.fmod(a, b)
+    if mod != 0.0:
+        if (b < 0.0) != (mod < 0.0):
+            mod += b
+    else:
+        mod = math.copysign(0.0, b)
+    return mod
+
+
+@njit
+def arrived_flags(
+    r: NDArray[np.float64],
+    bearing: NDArray[np.float64],
+    owner: NDArray[np.intp],
+    m: int,
+    far: NDArray[np.float64],
+    starts: NDArray[np.intp],
+    geo: NDArray[np.float64],
+    rule: tuple[int, float, float],
+) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    """Which of M detections one view saw through at least a fraction of the points of
+    (``pfpeople.perception.arrivals.RecentScans.arrived``; per point ``_Beams.seen_through``, its operations in
+    its order).
+
+    Parameters
+    ----------
+    r, bearing : ndarray, shape (V * P,)
+        Range (m) and bearing (rad) of the P points in each view's scan frame, view-major.
+    owner : ndarray of intp, shape (P,)
+        The detection each point belongs to (0 to M - 1).
+    m : int
+        The number of detections M.
+    far : ndarray, shape (sum of the views' beams,)
+        The views' beam ranges beyond which they saw nothing, concatenated; view v's are
+        ``far[starts[v]:starts[v + 1]]``.
+    starts : ndarray of intp, shape (V + 1,)
+    geo : ndarray, shape (V, 3)
+        Per view ``(angle_min, increment, range_max)``.
+    rule : tuple
+        ``(SIDE_BEAMS, MARGIN_M, FRACTION)`` of :mod:`pfpeople.perception.arrivals`.
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+    """
+    side, margin, fraction = rule
+    views, p = geo.shape[0], owner.shape[0]
+    count = np.zeros(m)
+    for i in range(p):
+        count[owner[i]] += 1.0
+    out = np.zeros(m, dtype=np.bool_)
+    seen = np.zeros(m)
+    two_pi = 2.0 * np.pi
+    for v in range(views):
+        lo, n = starts[v], starts[v + 1] - starts[v]
+        a0, inc, rmax = geo[v, 0], geo[v, 1], geo[v, 2]
+        seen[:] = 0.0
+        for i in range(p if n > 0 and inc != 0.0 else 0):
+            q = v * p + i
+            rel = _remainder(bearing[q] - a0, two_pi) if inc > 0 else -_remainder(a0 - bearing[q], two_pi)
+            k = np.int64(np.rint(rel / inc))
+            if k < side or k >= n - side or not r[q] <= rmax:
+                continue
+            ok = True
+            for d in range(-side, side + 1):
+                if not far[lo + k + d] >= r[q] + margin:
+                    ok = False
+            if ok:
+                seen[owner[i]] += 1.0
+        for j in range(m):
+            need = fraction * count[j]
+            out[j] = out[j] or (seen[j] >= need and need > 0)
+    return out

@@ -267,6 +267,10 @@ class StaticClutterMap:
         self._neighbours = [di * self.n + dj for di in range(-p, p + 1) for dj in range(-p, p + 1)]
         q = c.query_cells
         self._query_neighbours = [di * self.n + dj for di in range(-q, q + 1) for dj in range(-q, q + 1)]
+        # the same offsets as arrays for the compiled kernels (made once, read only)
+        self._neighbour_array = np.asarray(self._neighbours, dtype=np.intp)
+        self._query_array = np.asarray(self._query_neighbours, dtype=np.intp)
+        self._neighbour_array.flags.writeable = self._query_array.flags.writeable = False
 
     def reset(self) -> None:
         """Forget everything (the next update starts a new map at the sensor)."""
@@ -470,7 +474,7 @@ class StaticClutterMap:
         params = np.array(
             [c.unknown_evidence, math.exp(-step / c.forget_time), step, c.s_max, c.free_rate * step, c.s_min]
         )
-        nb = np.asarray(self._neighbours, dtype=np.intp)
+        nb = self._neighbour_array
         update_evidence(
             s, self.n, cells[inside & ~human], cells[inside & human], ru, n_free, self._steps, origin, nb, params
         )
@@ -559,17 +563,18 @@ class StaticClutterMap:
             :meth:`static_score`): cheap enough for every return of every scan.
         """
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        out = np.zeros(pts.shape[0], dtype=bool)
-        ok = finite_rows(pts)
-        if not ok.any():
-            return out
         c = self.config
         ev = self.evidence.reshape(-1)
         if _jit.enabled("pfpeople"):  # the same as below, compiled (pfpeople.perception.clutter_kernels)
             o, yaw = self.origin, self.pose.yaw
             pose = (self.pose.x, self.pose.y, math.cos(yaw), math.sin(yaw))
             lim = np.array([c.static_time, c.static_threshold - 1e-9])
-            out[ok] = static_lookup(pts[ok], ev, self.n, pose, (float(o[0]), float(o[1]), 1.0 / c.resolution), lim)
+            corner = (float(o[0]), float(o[1]), 1.0 / c.resolution)
+            found: NDArray[np.bool_] = static_lookup(np.ascontiguousarray(pts), ev, self.n, pose, corner, lim)
+            return found
+        out = np.zeros(pts.shape[0], dtype=bool)
+        ok = finite_rows(pts)
+        if not ok.any():
             return out
         cells, inside = self.cell_of(self.pose.apply(pts[ok]))
         score = ev[cells] / c.static_time
@@ -612,7 +617,7 @@ class StaticClutterMap:
     def _return_scores(self) -> NDArray[np.float64]:
         """Score of each latest return: the largest cell score within ``query_cells`` cells of its cell."""
         if self._scores is None and _jit.enabled("pfpeople"):  # the same scores, compiled (clutter_kernels)
-            offsets = np.asarray(self._query_neighbours, dtype=np.intp)
+            offsets = self._query_array
             ev = np.ascontiguousarray(self.evidence).reshape(-1)
             self._scores = return_scores(ev, self._hit_cells, offsets, float(self.config.static_time))
         if self._scores is None:

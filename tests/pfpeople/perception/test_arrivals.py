@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from gridbridge import jit
 from gridbridge.geometry import Pose2D
 from pfpeople.perception import arrivals
 from pfpeople.perception.arrivals import MARGIN_M, SIDE_BEAMS, RecentScans, seen_through_beams
@@ -141,3 +142,55 @@ def test_no_views_or_no_returns_mean_no_arrival() -> None:
     recent.add(_scan(_wall()), Pose2D(), 0)
     far_from_returns = np.array([[1.0, 0.0]])
     assert not recent.arrived(far_from_returns, _points(_scan(_wall())), Pose2D(), S // 2).any()
+
+
+def _random_scan(rng: np.random.Generator, k: int) -> LaserScan:
+    """A cluttered random scan: leg-like blobs on a wall, NaN / inf / too close / range_max beams, either turn
+    direction, part or all of a turn."""
+    beams = int(rng.choice([5, 181, 768]))
+    ranges = np.full(beams, 6.0) + rng.normal(0, 0.5, beams).cumsum() * 0.05
+    for _ in range(rng.integers(0, 10)):
+        c, w = int(rng.integers(0, beams)), int(rng.integers(1, 10))
+        ranges[c : c + w] = rng.uniform(0.5, 5.0)
+    bad = rng.random(beams)
+    ranges[bad < 0.03] = np.nan
+    ranges[(bad >= 0.03) & (bad < 0.06)] = np.inf
+    ranges[(bad >= 0.06) & (bad < 0.07)] = 10.0
+    ranges[(bad >= 0.07) & (bad < 0.08)] = 0.01
+    span = float(rng.choice([math.pi, 2 * math.pi]))
+    inc = (-1 if k % 3 == 0 else 1) * span / beams
+    start = float(rng.uniform(-4.0, 4.0))
+    return LaserScan(ranges=ranges, angle_min=start, angle_increment=inc, range_min=0.05, range_max=10.0)
+
+
+@pytest.mark.skipif(not jit.enabled("pfpeople"), reason="numba is not installed or PFPEOPLE_NUMBA=0")
+def test_arrived_compiled_equals_numpy() -> None:
+    """The compiled :meth:`RecentScans.arrived` gives the numpy code's answers on random scans, poses and
+    detections (some near many returns, some near none)."""
+    rng = np.random.default_rng(3)
+    answers = []
+    for case in range(30):
+        recent = RecentScans()
+        pose = Pose2D()
+        for k in range(12):
+            scan = _random_scan(rng, case + k)
+            dx, dy, dyaw = (float(v) for v in rng.normal(0, [0.03, 0.03, 0.02]))
+            pose = pose.compose(Pose2D(x=dx, y=dy, yaw=dyaw))
+            stamp = k * S * 2 // 15
+            pts = scan.points()
+            finite = pts[np.isfinite(pts).all(axis=1)]
+            m = int(rng.integers(0, 9))
+            det = (
+                finite[rng.integers(0, len(finite), m)] + rng.normal(0, 0.1, (m, 2))
+                if len(finite)
+                else np.zeros((0, 2))
+            )
+            det = np.concatenate((det, rng.uniform(-8, 8, (int(rng.integers(0, 3)), 2))))
+            with jit.override(False, "pfpeople"):
+                want = recent.arrived(det, pts, pose, stamp)
+            got = recent.arrived(det, pts, pose, stamp)
+            assert got.dtype == want.dtype == bool and np.array_equal(got, want)
+            answers.append(want)
+            recent.add(scan, pose, stamp)
+    every = np.concatenate(answers)
+    assert every.any() and not every.all()

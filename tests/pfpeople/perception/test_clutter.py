@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from gridbridge import jit
 from pfpeople.perception.clutter_map import ClutterConfig, ClutterSuppressor, MovingPeople, StaticClutterMap
 from pfpeople.sensors import Pose2D
 
@@ -436,3 +437,22 @@ def test_clutter_flags_of_several_groups_are_one_query_per_group() -> None:
             assert flags.dtype == bool and flags.tolist() == want.tolist()
     assert any(sup.is_clutter(pose.inverse().apply(POST[None, :])))
     assert [f.shape for f in sup.clutter_flags([np.zeros((0, 2))] * 2)] == [(0,), (0,)]
+
+
+@pytest.mark.skipif(not jit.enabled("pfpeople"), reason="numba is not installed or PFPEOPLE_NUMBA=0")
+def test_static_points_with_nonfinite_rows_compiled_equal_numpy(rng: np.random.Generator) -> None:
+    """``static_points`` of scans with NaN and infinite rows, and of points outside the window: the compiled
+    look-up (which skips the non-finite rows itself) gives the numpy code's flags."""
+    m = StaticClutterMap()
+    post = np.array([[2.0, 0.5], [2.02, 0.52], [-1.0, 3.0]])
+    for _ in range(40):
+        m.update(post + rng.normal(0, 0.005, post.shape), dt=0.13)
+    q = np.concatenate((post, rng.normal(0, 4, (200, 2)), [[np.nan, 1.0], [1.0, np.inf], [-np.inf, np.nan]]))
+    q = np.concatenate((q, [[1e6, 0.0], [0.0, -1e6]]))
+    rng.shuffle(q)
+    with jit.override(False, "pfpeople"):
+        want = m.static_points(q)
+    got = m.static_points(q)
+    assert got.dtype == want.dtype == bool and got.tobytes() == want.tobytes()
+    assert want.any() and not want.all()
+    assert not m.static_points(np.full((3, 2), np.nan)).any() and m.static_points(np.zeros((0, 2))).shape == (0,)
