@@ -737,12 +737,25 @@ def point_map(
     if radius <= 0.0:
         return
     for p in range(x.size):
-        for i in range(nx):
+        # the cells whose centre lies within radius + 1 cell on both axes: the others fail the test by far
+        i0, i1 = _cell_span(x[p], x0, res, radius, nx)
+        j0, j1 = _cell_span(y[p], y0, res, radius, ny)
+        for i in range(i0, i1):
             dx = x0 + (i + 0.5) * res - x[p]
-            for j in range(ny):
+            for j in range(j0, j1):
                 dy = y0 + (j + 0.5) * res - y[p]
                 if dx**2 + dy**2 <= radius**2:
                     fired[i, j] = 1.0
+
+
+@jit
+def _cell_span(c: float, c0: float, res: float, radius: float, n: int) -> tuple[int, int]:
+    """The cells ``[first, last)`` of an axis (``n`` cells from ``c0``, size ``res``) whose centre may lie within
+    ``radius`` of ``c`` (a cell of margin each side; empty when ``c`` is far off the grid or not finite)."""
+    lo, hi = (c - radius - c0) / res - 1.5, (c + radius - c0) / res + 0.5
+    if not (lo < n and hi > 0.0):
+        return 0, 0
+    return math.floor(max(lo, 0.0)), math.ceil(min(hi, float(n)))
 
 
 @jit
