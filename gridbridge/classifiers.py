@@ -519,10 +519,19 @@ def people_cells(mask: ArrayLike, spec: GridSpec, positions: ArrayLike, keep: Ar
     cells = np.flatnonzero(mask)
     if not cells.size or not keep.any():
         return out
-    gx, gy = spec.cell_centres()
-    d = np.hypot(gx.ravel()[cells, None] - pos[None, :, 0], gy.ravel()[cells, None] - pos[None, :, 1])
+    gx, gy = _flat_centres(spec)
+    d = np.hypot(gx[cells, None] - pos[None, :, 0], gy[cells, None] - pos[None, :, 1])
     out.ravel()[cells[keep[np.argmin(d, axis=1)]]] = True
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _flat_centres(spec: GridSpec) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:meth:`GridSpec.cell_centres` raveled (row-major, ``(nx ny,)`` each; read-only, shared between calls)."""
+    gx, gy = (np.ascontiguousarray(g).ravel() for g in spec.cell_centres())
+    gx.setflags(write=False)
+    gy.setflags(write=False)
+    return gx, gy
 
 
 def classify_frame(

@@ -176,8 +176,9 @@ def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outsid
     """``sum_k T(c <- k) bel_k`` (the linear people prediction) with ``outside`` beyond the border, clipped to
     [0, 1]: ``scipy.ndimage.convolve(bel, kernel, mode="constant", cval=outside)`` to round-off.
 
-    Each cell's sum runs over the kernel's nonzero taps in row-major order from 0.0; four neighbouring cells of
-    a row are summed side by side (independent sums the processor overlaps, each in that order).
+    Each cell's sum runs over the kernel's nonzero taps in row-major order from 0.0. A row's sums are kept side
+    by side and each tap adds its products to all of them (the same additions per cell, in the same order, over
+    contiguous cells the compiler vectorises).
     """
     nx, ny = bel.shape
     rad = kernel.shape[0] // 2
@@ -185,25 +186,18 @@ def convolve_const(bel: NDArray[np.float64], kernel: NDArray[np.float64], outsid
     flat = _padded(bel, rad, outside).ravel()
     offsets, values = _tap_offsets(kernel, width)
     out = np.empty((nx, ny))
+    acc = np.empty(ny)
     for i in range(nx):
         base = i * width
-        j = 0
-        while j + 4 <= ny:
-            s0 = s1 = s2 = s3 = 0.0
-            for t in range(values.size):
-                k, o = values[t], base + j + offsets[t]
-                s0 += k * flat[o]
-                s1 += k * flat[o + 1]
-                s2 += k * flat[o + 2]
-                s3 += k * flat[o + 3]
-            out[i, j], out[i, j + 1] = min(max(s0, 0.0), 1.0), min(max(s1, 0.0), 1.0)
-            out[i, j + 2], out[i, j + 3] = min(max(s2, 0.0), 1.0), min(max(s3, 0.0), 1.0)
-            j += 4
-        for jj in range(j, ny):
-            s0 = 0.0
-            for t in range(values.size):
-                s0 += values[t] * flat[base + jj + offsets[t]]
-            out[i, jj] = min(max(s0, 0.0), 1.0)
+        acc[:] = 0.0
+        for t in range(values.size):
+            k = values[t]
+            src = flat[base + offsets[t] : base + offsets[t] + ny]
+            for j in range(ny):
+                acc[j] += k * src[j]
+        row = out[i]
+        for j in range(ny):
+            row[j] = min(max(acc[j], 0.0), 1.0)
     return out
 
 
@@ -283,6 +277,53 @@ def _bilinear_tap(flat: NDArray[np.float64], u: float, v: float, nx: int, ny: in
 
 
 @jit
+def _row_taps(
+    au: float,
+    av: float,
+    sn: float,
+    c: float,
+    py: NDArray[np.float64],
+    grid: tuple[float, float, float],
+    shape: tuple[int, int],
+    taps: tuple[NDArray[np.uint64], NDArray[np.float64], NDArray[np.float64]],
+) -> None:
+    """One pose's source coordinates along a grid row (``au = t_x + c p_x``, ``av = t_y + s p_x``): each cell's
+    tap (0, 0) into the padded belief and its fractions ``(fu, fv)`` written into ``taps``, computed as in
+    :func:`_bilinear_tap`."""
+    x0, y0, res = grid
+    inv = 1.0 / res
+    nx, ny = shape
+    width = ny + 4
+    tap, fu, fv = taps
+    for j in range(ny):
+        u = (au - sn * py[j] - x0) * inv - 0.5
+        v = (av + c * py[j] - y0) * inv - 0.5
+        fi, fj = np.floor(u), np.floor(v)
+        fu[j], fv[j] = u - fi, v - fj
+        tap[j] = np.uint64((min(max(fi, -2.0), float(nx)) + 2.0) * width + min(max(fj, -2.0), float(ny)) + 2.0)
+
+
+@jit
+def _add_row_taps(
+    row: NDArray[np.float64],
+    flat: NDArray[np.float64],
+    ws: float,
+    width: int,
+    taps: tuple[NDArray[np.uint64], NDArray[np.float64], NDArray[np.float64]],
+) -> None:
+    """``row[j] += ws * tap`` of the bilinear taps :func:`_row_taps` placed (:func:`_bilinear_tap`'s sum)."""
+    tap, fu, fv = taps
+    one, below = np.uint64(1), np.uint64(width)
+    for j in range(row.size):
+        t, a, b = tap[j], fu[j], fv[j]
+        val = flat[t] * (1.0 - a) * (1.0 - b)
+        val += flat[t + one] * (1.0 - a) * b
+        val += flat[t + below] * a * (1.0 - b)
+        val += flat[t + below + one] * a * b
+        row[j] += ws * val
+
+
+@jit
 def warp_bilinear(
     bel: NDArray[np.float64],
     grid: tuple[float, float, float],
@@ -308,28 +349,27 @@ def warp_bilinear(
     Returns
     -------
     ndarray, shape (nx, ny)
-        ``sum_s w_s bel_old(R(dtheta_s) p + t_s)`` at every new cell centre p.
+        ``sum_s w_s bel_old(R(dtheta_s) p + t_s)`` at every new cell centre p: each cell's sum over the poses in
+        their order from 0.0 (pose by pose over the grid, as :func:`warp_at`); a row's taps are placed first
+        (:func:`_row_taps`), then read (:func:`_add_row_taps`).
     """
     x0, y0, res = grid
-    inv = 1.0 / res  # a product, not numpy's quotient: coordinates within an ulp, the loop vectorised
     nx, ny = bel.shape
     flat = _padded(bel, 2, outside).ravel()  # taps beyond the border read ``outside``; indices clamped into the pad
-    width = ny + 4
-    n_poses = poses.shape[0]
-    c, sn = np.empty(n_poses), np.empty(n_poses)
-    for s in range(n_poses):
-        c[s], sn[s] = math.cos(poses[s, 2]), math.sin(poses[s, 2])
-    out = np.empty((nx, ny))
+    py = np.empty(ny)
+    for j in range(ny):
+        py[j] = y0 + (j + 0.5) * res
+    taps = (np.empty(ny, dtype=np.uint64), np.empty(ny), np.empty(ny))
+    out = np.zeros((nx, ny))
+    for s in range(poses.shape[0]):
+        tx, ty, c, sn, ws = poses[s, 0], poses[s, 1], math.cos(poses[s, 2]), math.sin(poses[s, 2]), weights[s]
+        for i in range(nx):
+            px = x0 + (i + 0.5) * res
+            _row_taps(tx + c * px, ty + sn * px, sn, c, py, grid, (nx, ny), taps)
+            _add_row_taps(out[i], flat, ws, ny + 4, taps)
     for i in range(nx):
-        px = x0 + (i + 0.5) * res
         for j in range(ny):
-            py = y0 + (j + 0.5) * res
-            acc = 0.0  # each cell's sum over the poses in their order, in a register (as warp_at adds them)
-            for s in range(n_poses):
-                u = (poses[s, 0] + c[s] * px - sn[s] * py - x0) * inv - 0.5
-                v = (poses[s, 1] + sn[s] * px + c[s] * py - y0) * inv - 0.5
-                acc += weights[s] * _bilinear_tap(flat, u, v, nx, ny, width)
-            out[i, j] = min(max(acc, 0.0), 1.0)
+            out[i, j] = min(max(out[i, j], 0.0), 1.0)
     return out
 
 
@@ -697,12 +737,25 @@ def point_map(
     if radius <= 0.0:
         return
     for p in range(x.size):
-        for i in range(nx):
+        # the cells whose centre lies within radius + 1 cell on both axes: the others fail the test by far
+        i0, i1 = _cell_span(x[p], x0, res, radius, nx)
+        j0, j1 = _cell_span(y[p], y0, res, radius, ny)
+        for i in range(i0, i1):
             dx = x0 + (i + 0.5) * res - x[p]
-            for j in range(ny):
+            for j in range(j0, j1):
                 dy = y0 + (j + 0.5) * res - y[p]
                 if dx**2 + dy**2 <= radius**2:
                     fired[i, j] = 1.0
+
+
+@jit
+def _cell_span(c: float, c0: float, res: float, radius: float, n: int) -> tuple[int, int]:
+    """The cells ``[first, last)`` of an axis (``n`` cells from ``c0``, size ``res``) whose centre may lie within
+    ``radius`` of ``c`` (a cell of margin each side; empty when ``c`` is far off the grid or not finite)."""
+    lo, hi = (c - radius - c0) / res - 1.5, (c + radius - c0) / res + 0.5
+    if not (lo < n and hi > 0.0):
+        return 0, 0
+    return math.floor(max(lo, 0.0)), math.ceil(min(hi, float(n)))
 
 
 @jit
