@@ -528,6 +528,33 @@ def _remainder(a: float, b: float) -> float:  # pragma: no cover - compiled
 
 
 @njit
+def _seen_point(
+    r: float,
+    bearing: float,
+    far: NDArray[np.float64],
+    lo: int,
+    n: int,
+    a0: float,
+    inc: float,
+    rmax: float,
+    side: int,
+    margin: float,
+    two_pi: float,
+) -> bool:  # pragma: no cover - compiled
+    """Whether the view whose ``n`` beams are ``far[lo:lo + n]`` saw through the point at range ``r`` and
+    ``bearing`` (``_Beams.seen_through`` for one point)."""
+    rel = _remainder(bearing - a0, two_pi) if inc > 0 else -_remainder(a0 - bearing, two_pi)
+    k = np.int64(np.rint(rel / inc))
+    if k < side or k >= n - side or not r <= rmax:
+        return False
+    ok = True
+    for d in range(-side, side + 1):
+        if not far[lo + k + d] >= r + margin:
+            ok = False
+    return ok
+
+
+@njit
 def arrived_flags(
     r: NDArray[np.float64],
     bearing: NDArray[np.float64],
@@ -577,15 +604,7 @@ def arrived_flags(
         seen[:] = 0.0
         for i in range(p if n > 0 and inc != 0.0 else 0):
             q = v * p + i
-            rel = _remainder(bearing[q] - a0, two_pi) if inc > 0 else -_remainder(a0 - bearing[q], two_pi)
-            k = np.int64(np.rint(rel / inc))
-            if k < side or k >= n - side or not r[q] <= rmax:
-                continue
-            ok = True
-            for d in range(-side, side + 1):
-                if not far[lo + k + d] >= r[q] + margin:
-                    ok = False
-            if ok:
+            if _seen_point(r[q], bearing[q], far, lo, n, a0, inc, rmax, side, margin, two_pi):
                 seen[owner[i]] += 1.0
         for j in range(m):
             need = fraction * count[j]
