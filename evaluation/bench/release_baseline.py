@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 #: The last release that landed (round three, stop 6); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "8c77f4e"
+PREVIOUS_RELEASE = "9704fe4"
 
 REPO = Path(__file__).resolve().parents[2]
 
