@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-#: The last release that landed (round three, stop 6); ``--baseline REV`` on a benchmark overrides it.
+#: The last release that landed (round three, stop 7); ``--baseline REV`` on a benchmark overrides it.
 PREVIOUS_RELEASE = "9704fe4"
 
 REPO = Path(__file__).resolve().parents[2]
