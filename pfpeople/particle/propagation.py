@@ -233,9 +233,9 @@ def _move_persistent_numpy(
     fresh_heading = rng.random(new_idx.size) * (2.0 * math.pi)
     speed[new_idx] = fresh_speed
     heading[new_idx] = fresh_heading
-    speed[stops | ~(walking | starts)] = 0.0
-    state.vx = speed * np.cos(heading)
-    state.vy = speed * np.sin(heading)
+    stand = stops | ~(walking | starts)
+    state.vx = np.where(stand, 0.0, speed * np.cos(heading))  # +0 where standing (never -0)
+    state.vy = np.where(stand, 0.0, speed * np.sin(heading))
     state.x = state.x + state.vx * dt
     state.y = state.y + state.vy * dt
 

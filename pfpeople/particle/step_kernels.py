@@ -253,17 +253,18 @@ def persistent_velocities(
     zero: NDArray[np.bool_],
     dt: float,
 ) -> NDArray[np.float64]:
-    """The end of :func:`pfpeople.particle.propagation.move_persistent`, bit for bit: ``speed`` zeroed where
-    ``zero``, the velocities ``speed (cos, sin)(heading)`` and the moved positions.
+    """The end of :func:`pfpeople.particle.propagation.move_persistent`, bit for bit: the velocities
+    ``speed (cos, sin)(heading)``, ``(+0, +0)`` where ``zero`` (no trigonometry there), and the moved positions.
 
     ``speed`` and ``heading`` (N,) hold the new walkers' draws already. Returns rows x, y, vx, vy, shape (4, N).
     """
     n = x.size
     out = np.empty((4, n))
     for k in range(n):
-        s = 0.0 if zero[k] else speed[k]
-        vx = s * math.cos(heading[k])
-        vy = s * math.sin(heading[k])
+        vx, vy = 0.0, 0.0
+        if not zero[k]:
+            vx = speed[k] * math.cos(heading[k])
+            vy = speed[k] * math.sin(heading[k])
         out[0, k] = x[k] + vx * dt
         out[1, k] = y[k] + vy * dt
         out[2, k] = vx
