@@ -553,12 +553,13 @@ def warp_taps(
 
 
 @jit
-def peak_candidates(grid: NDArray[np.float64], half: int, threshold: float) -> NDArray[np.intp]:
-    """The cells ``(K, 2)`` (row-major order) whose belief is above ``threshold`` and the maximum of the
-    ``(2 half + 1)``-square window around them: ``np.argwhere((grid > threshold) & (grid >= maximum_filter(grid,
-    2 half + 1, mode="constant", cval=0.0)))``, exactly (maxima do not round; the window's cells beyond the
-    border read 0.0, which a belief above a threshold >= 0 exceeds anyway)."""
+def peak_candidates(grid: NDArray[np.float64], window: NDArray[np.bool_], threshold: float) -> NDArray[np.intp]:
+    """The cells ``(K, 2)`` (row-major order) whose belief is above ``threshold`` and the maximum of the cells of
+    ``window`` (shape ``(2 half + 1, 2 half + 1)``, centred on them): ``np.argwhere((grid > threshold) & (grid >=
+    maximum_filter(grid, footprint=window, mode="constant", cval=0.0)))``, exactly (maxima do not round; the
+    window's cells beyond the border read 0.0, which a belief above a threshold >= 0 exceeds anyway)."""
     nx, ny = grid.shape
+    half = window.shape[0] // 2
     out = np.empty((nx * ny, 2), dtype=np.intp)
     k = 0
     for i in range(nx):
@@ -571,7 +572,7 @@ def peak_candidates(grid: NDArray[np.float64], half: int, threshold: float) -> N
             top = True
             for a in range(i0, i1):
                 for b in range(j0, j1):
-                    if grid[a, b] > g:
+                    if window[a - i + half, b - j + half] and grid[a, b] > g:
                         top = False
                         break
                 if not top:

@@ -66,7 +66,7 @@ def test_the_config_reaches_both_peak_classifiers_and_the_tracker_inputs() -> No
     pos, sc = tracker_inputs(people, g, SPEC, low=low, high=0.7)
     assert pos.shape == (1, 2) and sc.tolist() == [pytest.approx(0.65)]  # one weaker peak, not two
     pos, _ = tracker_inputs(people, g, SPEC, low=PeakClassifier(threshold=0.5, min_separation=0.6), high=0.7)
-    assert pos.shape == (2, 2)
+    assert pos.shape == (4, 2)  # unsmoothed: the two high cells and the plateau's corners 0.6 m from both
 
 
 @pytest.mark.parametrize("bad", [-0.5, float("nan"), True, "1"])

@@ -305,7 +305,7 @@ def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
     """classify_peaks' candidates by peak_candidates against peak_maxima's maximum filter: plateaus (ties), peaks
     at the border, windows of 1-4 cells, thresholds 0 to 0.9."""
     from gridbridge import kernels
-    from gridbridge.classifiers import classify_peaks, ordered_candidates, peak_maxima
+    from gridbridge.classifiers import classify_peaks, maximum_window, ordered_candidates, peak_maxima
 
     rng = np.random.default_rng(14)
     for k in range(300):
@@ -316,8 +316,7 @@ def test_peak_candidates_are_the_maximum_filter_candidates() -> None:
         sep = float(rng.choice([0.25, 0.6, 0.9, 1.2]))
         is_max, value = peak_maxima(grid, spec, sep)
         want = np.argwhere((value > threshold) & is_max)
-        half = max(1, int(np.ceil(sep / spec.resolution - 1e-9)))
-        got = kernels.peak_candidates(grid, half, threshold)
+        got = kernels.peak_candidates(grid, maximum_window(sep, spec.resolution), threshold)
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), k
         fast, slow = _both(ordered_candidates, grid, spec, threshold, sep, 0.0)
         assert all(a.tobytes() == b.tobytes() for a, b in zip(fast, slow, strict=True))
