@@ -33,9 +33,9 @@ def test_peak_classifier_two_blobs_and_nms() -> None:
     b[11, 15] = 0.9 * 0.6  # a weaker neighbour: pulls the centroid along +x
     b[20, 5] = 0.7  # (6.15, -2.85)
     b[20, 6] = 0.69  # not a peak (its neighbour is higher)
-    b[21, 8] = 0.65  # within the 5 x 5 window (half-width ceil(0.6 / 0.3) cells) of the 0.69 cell: no peak
+    b[21, 8] = 0.65  # 0.67 m from the 0.69 cell, 0.95 m from the 0.7 peak: a peak of its own at min_separation 0.6
     pos, sc = peak_classifier(b, SPEC)
-    assert sc.tolist() == pytest.approx([0.9, 0.7])
+    assert sc.tolist() == pytest.approx([0.9, 0.7, 0.65])
     w = np.array([0.9, 0.54])
     assert pos[0] == pytest.approx([(3.15 * w[0] + 3.45 * w[1]) / w.sum(), 0.15])
     assert pos[1, 0] == pytest.approx(6.15) and pos[1, 1] == pytest.approx((-2.85 * 0.7 - 2.55 * 0.69) / 1.39)

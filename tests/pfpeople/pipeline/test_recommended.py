@@ -146,16 +146,22 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
 
 
 def _greedy_nms(belief: np.ndarray, spec: GridSpec, threshold: float, sep: float) -> set[tuple[int, int]]:
-    """Brute-force reference: every local max of its window, greedy by value (ties row-major), O(n^2)."""
-    half = max(1, math.ceil(sep / spec.resolution - 1e-9))
+    """Brute-force reference: every cell no higher than any cell closer than ``sep`` or next to it (the 8
+    neighbours), greedy by value (ties row-major), O(n^2)."""
+    s2 = (sep / spec.resolution) ** 2
     cands = []
     for i in range(spec.nx):
         for j in range(spec.ny):
             v = belief[i, j]
             if v <= threshold:
                 continue
-            win = belief[max(i - half, 0) : i + half + 1, max(j - half, 0) : j + half + 1]
-            if v >= win.max():
+            near = [
+                belief[a, b]
+                for a in range(spec.nx)
+                for b in range(spec.ny)
+                if (a - i) ** 2 + (b - j) ** 2 < s2 - 1e-9 or max(abs(a - i), abs(b - j)) == 1
+            ]
+            if v >= max(near, default=0.0):
                 cands.append((-v, i, j))
     kept: list[tuple[int, int]] = []
     for _, i, j in sorted(cands):
