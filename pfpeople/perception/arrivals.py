@@ -14,7 +14,10 @@ the odometry's drift lets the beams beside a chair leg "see through" it (on the 
 :class:`RecentScans` keeps one laser's scans of the last :data:`WINDOW_S` seconds with the pose of each in the
 static-clutter map's frame, and says for each queried detection whether one of up to :data:`VIEWS` scans
 :data:`MIN_AGE_S` to :data:`WINDOW_S` old saw through at least :data:`FRACTION` of its returns (the current
-scan's end points within :data:`RADIUS_M` of it). A scan sees through a point (m, that scan's frame) when the
+scan's end points within :data:`RADIUS_M` of it). A person who stands does not sway in every second, so the place
+where a detection of a precise detector (PPV :data:`HOLD_MIN_PPV` or more) arrived is *held* for :data:`HOLD_S`
+seconds: that detector's static detections within :data:`HOLD_RADIUS_M` of it count as arrived too. Only arrivals
+renew a place, so a false arrival (a chair's edge uncovered by a registration error) lapses. A scan sees through a point (m, that scan's frame) when the
 beam nearest the point's bearing and its :data:`SIDE_BEAMS` neighbours on each side each returned at least
 :data:`MARGIN_M` farther, or returned nothing (``+inf`` or ``range_max`` and beyond, REP-117); a point outside
 the scan's field of view or beyond its ``range_max``, or a beam without a reading (NaN, below ``range_min``),
@@ -70,6 +73,18 @@ SIDE_BEAMS = 1
 #: A detection's returns are the current scan's end points within this distance (m): the static-clutter map's
 #: ``query_radius``.
 RADIUS_M = 0.35
+#: How long (s) a place where a detection arrived stays a person's: a person who stands shifts their weight every
+#: few seconds (the simulator: sway with a 2 s time constant, a step now and then), so their legs arrive again
+#: before the hold ends; a chair never does, and its false arrival (registration error) lapses.
+HOLD_S = 5.0
+#: A held place readmits the static detections within this distance (m): the benchmark's person radius, wider
+#: than a standing person's detection jitter (0.05-0.1 m), as :data:`pfpeople.track.stopped_people.ANCHOR_RADIUS`.
+HOLD_RADIUS_M = 0.3
+#: The PPV (precision) a detector needs for its arrivals to be held: a held detection reaches the filter for
+#: :data:`HOLD_S` seconds on one arrival's evidence, so only a detector that is right at least as often as the
+#: fused output must be (the precision target of 0.9) may be trusted that long; the others' detections still
+#: arrive scan by scan.
+HOLD_MIN_PPV = 0.9
 
 
 class RecentScans:
@@ -85,6 +100,8 @@ class RecentScans:
 
     def __init__(self) -> None:
         self._scans: deque[tuple[int, _Beams, Pose2D]] = deque()
+        #: The held places: (stamp ns, x m, y m in the map frame) of the holdable detections that arrived
+        self._places: deque[tuple[int, float, float]] = deque()
 
     def __len__(self) -> int:
         """The number of scans held."""
@@ -93,6 +110,7 @@ class RecentScans:
     def clear(self) -> None:
         """Forget every scan (for an unknown ego-motion, or a restart)."""
         self._scans.clear()
+        self._places.clear()
 
     def add(self, scan: LaserScan, pose: Pose2D, stamp_ns: int) -> None:
         """Hold ``scan`` (taken at ``stamp_ns``, ns) with ``pose``, its laser frame in the map frame; drop the scans
@@ -101,7 +119,9 @@ class RecentScans:
         while (stamp_ns - self._scans[0][0]) * 1e-9 > WINDOW_S + 1e-9:
             self._scans.popleft()
 
-    def arrived(self, detections: ArrayLike, points: ArrayLike, pose: Pose2D, stamp_ns: int) -> NDArray[np.bool_]:
+    def arrived(
+        self, detections: ArrayLike, points: ArrayLike, pose: Pose2D, stamp_ns: int, holdable: ArrayLike | None = None
+    ) -> NDArray[np.bool_]:
         """Which detections sit where an earlier scan saw through most of their returns.
 
         Parameters
@@ -114,12 +134,41 @@ class RecentScans:
             The current laser frame in the map frame.
         stamp_ns : int
             The current scan's time (ns).
+        holdable : array_like of bool, shape (M,), optional
+            The detections whose arrivals are held (:data:`HOLD_S`) and which a held place readmits (default
+            none).
 
         Returns
         -------
         ndarray of bool, shape (M,)
+            The detections that arrived now, or that are holdable and lie within :data:`HOLD_RADIUS_M` of a place
+            where a holdable one arrived in the last :data:`HOLD_S` seconds (the places are kept in the map frame;
+            only arrivals, not held detections, renew them).
         """
         det = np.asarray(detections, dtype=float).reshape(-1, 2)
+        came = self._came(det, points, pose, stamp_ns)
+        ok = np.zeros(det.shape[0], dtype=bool) if holdable is None else np.asarray(holdable, dtype=bool)
+        if ok.shape != came.shape:
+            raise ValueError(f"holdable must have one flag per detection ({came.shape[0]}), got shape {ok.shape}")
+        held = self._held(det, pose, stamp_ns) & ok
+        if (came & ok).any():
+            self._places.extend((int(stamp_ns), float(x), float(y)) for x, y in pose.apply(det[came & ok]))
+        return came | held
+
+    def _held(self, det: NDArray[np.float64], pose: Pose2D, stamp_ns: int) -> NDArray[np.bool_]:
+        """Which detections (M, 2; current laser frame) lie within :data:`HOLD_RADIUS_M` of a held place (the
+        places older than :data:`HOLD_S` dropped first)."""
+        while self._places and (stamp_ns - self._places[0][0]) * 1e-9 > HOLD_S + 1e-9:
+            self._places.popleft()
+        if not self._places or not det.shape[0]:
+            return np.zeros(det.shape[0], dtype=bool)
+        places = np.array([(x, y) for _, x, y in self._places])
+        here = pose.inverse().apply(places)
+        d2 = (here[None, :, 0] - det[:, None, 0]) ** 2 + (here[None, :, 1] - det[:, None, 1]) ** 2
+        return (d2 <= HOLD_RADIUS_M * HOLD_RADIUS_M).any(axis=1)
+
+    def _came(self, det: NDArray[np.float64], points: ArrayLike, pose: Pose2D, stamp_ns: int) -> NDArray[np.bool_]:
+        """Which detections (M, 2) arrived by the held scans (the first part of :meth:`arrived`)."""
         out = np.zeros(det.shape[0], dtype=bool)
         views = self._views(pose, stamp_ns)
         if not views or not det.shape[0]:

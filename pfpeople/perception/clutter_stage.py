@@ -7,7 +7,8 @@ the grid frame. Each map keeps the people its detectors saw moving out of itself
 A detection the map calls static, or whose nearest return is the robot's own (:mod:`pfpeople.perception.self_returns`),
 is suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
 ``suppressed``), unless it *arrived*: one of the laser's scans of the last second saw through most of its returns
-(:mod:`pfpeople.perception.arrivals`; a person who stands sways, furniture does not), counted in ``arrived``.
+(:mod:`pfpeople.perception.arrivals`; a person who stands sways, furniture does not), or a detector of PPV 0.9 or
+more arrived within 0.3 m in the last 5 s (the place is held), counted in ``arrived``.
 Without odometry, the driving laser's scan-matched motion is returned in the grid frame (``T E_laser T^-1``) for
 laser odometry (:mod:`pfpeople.perception.odometry`).
 The detectors' support positions (single legs, :class:`pfpeople.detect.adapters.Detections`) that are suppressed so
@@ -25,7 +26,7 @@ from numpy.typing import NDArray
 from gridbridge.geometry import Pose2D
 from pfpeople.config import BagConfig
 from pfpeople.detect.adapters import Detections, DetectorAdapter
-from pfpeople.perception.arrivals import RecentScans
+from pfpeople.perception.arrivals import HOLD_MIN_PPV, RecentScans
 from pfpeople.run_state import RunSummary, count
 
 __all__ = ["ClutterStage"]
@@ -201,7 +202,8 @@ class ClutterStage:
         if not any(sizes):
             return
         dets = [f.sensor[s] for k, s in zip(idx, static, strict=True) if (f := found[k]) is not None]
-        came = recent.arrived(np.concatenate(dets), points, pose, stamp_ns)
+        held = [np.full(len(s), self.adapters[k].model.ppv >= HOLD_MIN_PPV) for k, s in zip(idx, static, strict=True)]
+        came = recent.arrived(np.concatenate(dets), points, pose, stamp_ns, np.concatenate(held))
         start = 0
         for k, keep, s in zip(idx, keeps, static, strict=True):
             mine, start = came[start : start + len(s)], start + len(s)

@@ -194,3 +194,41 @@ def test_arrived_compiled_equals_numpy() -> None:
             recent.add(scan, pose, stamp)
     every = np.concatenate(answers)
     assert every.any() and not every.all()
+
+
+def _held_scene() -> tuple[RecentScans, np.ndarray]:
+    """A leg came at beam 90 (3 m) at t = 0.5 s where the wall showed at t = 0: it arrived, holdable."""
+    recent = RecentScans()
+    recent.add(_scan(_wall()), Pose2D(), 0)
+    leg = np.array([[3.0, 0.0]])
+    now = _points(_scan(_with_leg(_wall(), 90, 3.0)))
+    assert recent.arrived(leg, now, Pose2D(), S // 2, holdable=[True]).tolist() == [True]
+    return recent, leg
+
+
+@pytest.mark.parametrize(("t_s", "held"), [(1.5, True), (0.5 + arrivals.HOLD_S - 0.01, True), (5.6, False)])
+def test_a_holdable_arrival_holds_its_place_for_hold_s(t_s: float, held: bool) -> None:
+    """After one arrival, a holdable detection at the same place of the map frame (the laser drove 0.5 m
+    forward: 2.5 m ahead now) is let through without new evidence until HOLD_S after the arrival; one
+    HOLD_RADIUS_M away and more, or not holdable, it is not."""
+    recent, _ = _held_scene()
+    pose = Pose2D(x=0.5)
+    t = int(t_s * S)
+    same = np.array([[2.5, 0.0], [2.5, arrivals.HOLD_RADIUS_M - 0.02], [2.5, arrivals.HOLD_RADIUS_M + 0.02]])
+    stood = _points(_scan(_with_leg(_wall(), 90, 2.5)))  # no scan saw through it: no arrival of its own
+    got = recent.arrived(same, stood, pose, t, holdable=[True, True, True])
+    assert got.tolist() == [held, held, False]
+    assert not recent.arrived(same[:1], stood, pose, t, holdable=[False]).any()
+    assert not recent.arrived(same[:1], stood, pose, t).any()  # default: nothing held
+
+
+def test_held_detections_do_not_renew_the_place_and_clear_forgets_it() -> None:
+    recent, leg = _held_scene()
+    stood = _points(_scan(_with_leg(_wall(), 90, 3.0)))
+    assert recent.arrived(leg, stood, Pose2D(), 4 * S, holdable=[True]).all()  # held, 3.5 s after the arrival
+    assert not recent.arrived(leg, stood, Pose2D(), 6 * S, holdable=[True]).any()  # 5.5 s after: lapsed
+    recent2, _ = _held_scene()
+    recent2.clear()
+    assert not recent2.arrived(leg, stood, Pose2D(), S, holdable=[True]).any()
+    with pytest.raises(ValueError, match="holdable must have one flag per detection"):
+        recent2.arrived(leg, stood, Pose2D(), S, holdable=[True, False])
