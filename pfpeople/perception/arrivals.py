@@ -17,11 +17,12 @@ static-clutter map's frame, and says for each queried detection whether one of u
 scan's end points within :data:`RADIUS_M` of it). A person who stands does not sway in every second, so the place
 where a detection of a precise detector (PPV :data:`HOLD_MIN_PPV` or more) arrived is *held* for :data:`HOLD_S`
 seconds: that detector's static detections within :data:`HOLD_RADIUS_M` of it count as arrived too. Only arrivals
-renew a place, so a false arrival (a chair's edge uncovered by a registration error) lapses. A scan sees through a point (m, that scan's frame) when the
-beam nearest the point's bearing and its :data:`SIDE_BEAMS` neighbours on each side each returned at least
-:data:`MARGIN_M` farther, or returned nothing (``+inf`` or ``range_max`` and beyond, REP-117); a point outside
-the scan's field of view or beyond its ``range_max``, or a beam without a reading (NaN, below ``range_min``),
-says nothing.
+renew a place, so a false arrival (a chair's edge uncovered by a registration error) lapses.
+
+A scan sees through a point (m, that scan's frame) when the beam nearest the point's bearing and its
+:data:`SIDE_BEAMS` neighbours on each side each returned at least :data:`MARGIN_M` farther, or returned nothing
+(``+inf`` or ``range_max`` and beyond, REP-117); a point outside the scan's field of view or beyond its
+``range_max``, or a beam without a reading (NaN, below ``range_min``), says nothing.
 
 Frames: the map frame ``M`` of :class:`pfpeople.perception.clutter_map.StaticClutterMap` (``map.pose`` is the
 current laser frame in ``M``); detections and points in the current laser frame (m, REP-103).
@@ -165,7 +166,7 @@ class RecentScans:
         places = np.array([(x, y) for _, x, y in self._places])
         here = pose.inverse().apply(places)
         d2 = (here[None, :, 0] - det[:, None, 0]) ** 2 + (here[None, :, 1] - det[:, None, 1]) ** 2
-        return (d2 <= HOLD_RADIUS_M * HOLD_RADIUS_M).any(axis=1)
+        return np.asarray((d2 <= HOLD_RADIUS_M * HOLD_RADIUS_M).any(axis=1), dtype=bool)
 
     def _came(self, det: NDArray[np.float64], points: ArrayLike, pose: Pose2D, stamp_ns: int) -> NDArray[np.bool_]:
         """Which detections (M, 2) arrived by the held scans (the first part of :meth:`arrived`)."""
