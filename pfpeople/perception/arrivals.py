@@ -74,10 +74,11 @@ SIDE_BEAMS = 1
 #: A detection's returns are the current scan's end points within this distance (m): the static-clutter map's
 #: ``query_radius``.
 RADIUS_M = 0.35
-#: How long (s) a place where a detection arrived stays a person's: a person who stands shifts their weight every
-#: few seconds (the simulator: sway with a 2 s time constant, a step now and then), so their legs arrive again
-#: before the hold ends; a chair never does, and its false arrival (registration error) lapses.
-HOLD_S = 5.0
+#: How long (s) a place where a detection arrived stays a person's: the time constant of a standing person's sway
+#: (the simulator's, 2 s; the issue measured 0.1-0.4 m over 2-4 s), after which their legs have moved and arrive
+#: again; a chair's false arrival (a registration error) lapses. Held 5 s, wheelchair's false arrivals (robot at
+#: 1 m/s) became false tracks (MOTA -0.02 on two seeds, ``docs/ablations.md``).
+HOLD_S = 2.0
 #: A held place readmits the static detections within this distance (m): the benchmark's person radius, wider
 #: than a standing person's detection jitter (0.05-0.1 m), as :data:`pfpeople.track.stopped_people.ANCHOR_RADIUS`.
 HOLD_RADIUS_M = 0.3

@@ -8,7 +8,7 @@ A detection the map calls static, or whose nearest return is the robot's own (:m
 is suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
 ``suppressed``), unless it *arrived*: one of the laser's scans of the last second saw through most of its returns
 (:mod:`pfpeople.perception.arrivals`; a person who stands sways, furniture does not), or a detector of PPV 0.9 or
-more arrived within 0.3 m in the last 5 s (the place is held), counted in ``arrived``.
+more arrived within 0.3 m in the last 2 s (the place is held), counted in ``arrived``.
 Without odometry, the driving laser's scan-matched motion is returned in the grid frame (``T E_laser T^-1``) for
 laser odometry (:mod:`pfpeople.perception.odometry`).
 The detectors' support positions (single legs, :class:`pfpeople.detect.adapters.Detections`) that are suppressed so

@@ -206,7 +206,9 @@ def _held_scene() -> tuple[RecentScans, np.ndarray]:
     return recent, leg
 
 
-@pytest.mark.parametrize(("t_s", "held"), [(1.5, True), (0.5 + arrivals.HOLD_S - 0.01, True), (5.6, False)])
+@pytest.mark.parametrize(
+    ("t_s", "held"), [(1.5, True), (0.5 + arrivals.HOLD_S - 0.01, True), (0.5 + arrivals.HOLD_S + 0.1, False)]
+)
 def test_a_holdable_arrival_holds_its_place_for_hold_s(t_s: float, held: bool) -> None:
     """After one arrival, a holdable detection at the same place of the map frame (the laser drove 0.5 m
     forward: 2.5 m ahead now) is let through without new evidence until HOLD_S after the arrival; one
@@ -225,8 +227,10 @@ def test_a_holdable_arrival_holds_its_place_for_hold_s(t_s: float, held: bool) -
 def test_held_detections_do_not_renew_the_place_and_clear_forgets_it() -> None:
     recent, leg = _held_scene()
     stood = _points(_scan(_with_leg(_wall(), 90, 3.0)))
-    assert recent.arrived(leg, stood, Pose2D(), 4 * S, holdable=[True]).all()  # held, 3.5 s after the arrival
-    assert not recent.arrived(leg, stood, Pose2D(), 6 * S, holdable=[True]).any()  # 5.5 s after: lapsed
+    assert arrivals.HOLD_S == 2.0
+    assert recent.arrived(leg, stood, Pose2D(), 2 * S, holdable=[True]).all()  # held, 1.5 s after the arrival
+    # 2.4 s after it: lapsed (the held detection at 2 s did not renew the place)
+    assert not recent.arrived(leg, stood, Pose2D(), int(2.9 * S), holdable=[True]).any()
     recent2, _ = _held_scene()
     recent2.clear()
     assert not recent2.arrived(leg, stood, Pose2D(), S, holdable=[True]).any()
