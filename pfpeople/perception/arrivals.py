@@ -170,7 +170,7 @@ class RecentScans:
         return np.asarray((d2 <= HOLD_RADIUS_M * HOLD_RADIUS_M).any(axis=1), dtype=bool)
 
     def _came(self, det: NDArray[np.float64], points: ArrayLike, pose: Pose2D, stamp_ns: int) -> NDArray[np.bool_]:
-        """Which detections (M, 2) arrived by the held scans (the first part of :meth:`arrived`)."""
+        """Which detections (M, 2) arrived by the recent scans alone (the first part of :meth:`arrived`)."""
         out = np.zeros(det.shape[0], dtype=bool)
         views = self._views(pose, stamp_ns)
         if not views or not det.shape[0]:

@@ -9,7 +9,7 @@ it from starting one), so the track follows the person through the dip instead o
 see the same strong peaks) plus the peaks that :func:`gridbridge.classifiers.classify_peaks` with the lower
 threshold would add: local maxima of the (observed) belief in ``(low, high]``. They are computed directly, not by
 a second classifier pass (whose per-peak loops over every person would double the classification cost of a
-frame): a weaker local maximum is never suppressed by a person's peak (non-maximum suppression reaches less far
+frame): a weaker local maximum is never suppressed by a person's peak (non-maximum suppression reaches no farther
 than the local-maximum window, so a stronger peak that close would have made it no maximum), only by an equal
 weaker one (a plateau: the first in row-major order is kept); its position is the belief-weighted mean of the
 cells within ``centroid_radius`` of at least half the lower threshold, its score its belief, as there. A weaker
