@@ -697,7 +697,8 @@ class Pipeline:
         an existing one; ``bag_input`` copies the input's LaserScan topics and ``/tf``, ``/tf_static`` into it.
         No output may write over an input bag (:func:`pfpeople.io.run_dir.check_output_paths`).
         The outputs are sinks (:mod:`pfpeople.io.sinks`), written in order with signals deferred, so a frame goes to
-        every output or to none.
+        every output or to none; a signal that arrives while a frame is computed is raised once it is written (raised
+        inside a compiled kernel, it would surface as a ``SystemError``).
         """
         with interrupt_signals():
             return self._run(
@@ -781,8 +782,11 @@ class Pipeline:
         written = 0
         try:  # from here on, whatever stops the run is recorded by the open sinks and the frames written stay valid
             open_sinks(sinks[1:], info, opened)
-            for r in results:
-                with deferred_signals():  # a frame goes to every output or to none
+            while True:
+                with deferred_signals():  # a frame is made and written whole: a signal is raised between frames
+                    r = next(results, None)
+                    if r is None:
+                        break
                     for sink in opened:
                         sink.write(r)
                     written += 1

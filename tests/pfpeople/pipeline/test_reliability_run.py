@@ -199,3 +199,36 @@ def test_a_row_cut_short_is_not_a_frame(tmp_path: Path) -> None:
     (out / "frames.csv").write_text(text[: text.rindex("\n", 0, len(text) - 1) + 8])  # last row cut after 7 chars
     run = load_run(out)
     assert run.n_frames == 2 and len(run.frames["frame"]) == 2
+
+
+def test_a_signal_during_a_frame_is_raised_after_it_is_written(tmp_path: Path) -> None:
+    """SIGTERM arriving while frame 3 is computed (here: from inside its filter step, where compiled kernels run
+    and a raised signal would become a SystemError) ends the run after frame 3 is on disk: 4 frames, interrupted."""
+    from bag_fixtures import config, write_bag
+
+    from pfpeople.io.bag.reader import BagSource
+    from pfpeople.io.run_dir import RunInterrupted, interrupt_signals
+    from pfpeople.pipeline.runner import Pipeline, make_filter
+
+    bag = tmp_path / "synthetic.bag"
+    write_bag(bag)
+    cfg = config()
+
+    def factory(spec: GridSpec, models: object) -> object:
+        filt = make_filter(cfg.filter, spec, models)  # type: ignore[arg-type]
+        step, calls = filt.step, []
+
+        def signalled_step(*args: object, **kwargs: object) -> object:
+            calls.append(1)
+            if len(calls) == 4:
+                os.kill(os.getpid(), signal.SIGTERM)
+            return step(*args, **kwargs)
+
+        filt.step = signalled_step  # type: ignore[method-assign]
+        return filt
+
+    with interrupt_signals(), BagSource(bag) as src, pytest.raises(RunInterrupted):
+        Pipeline(cfg, front_process=False, filter_factory=factory).run(src, tmp_path / "run")  # type: ignore[arg-type]
+    meta = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert meta["status"] == "interrupted" and meta["frames"] == 4
+    assert (tmp_path / "run" / "frames.csv").read_text().count("\n") == 5
