@@ -38,8 +38,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge import jit as _jit
-from gridbridge.geometry import Pose2D
-from pfpeople.perception.clutter_kernels import arrived_flags, view_points
+from gridbridge.geometry import Pose2D, to_frame
+from pfpeople.perception.clutter_kernels import arrived_flags, near_any, view_points
 from pfpeople.sensors import LaserScan
 
 __all__ = [
@@ -164,10 +164,8 @@ class RecentScans:
             self._places.popleft()
         if not self._places or not det.shape[0]:
             return np.zeros(det.shape[0], dtype=bool)
-        places = np.array([(x, y) for _, x, y in self._places])
-        here = pose.inverse().apply(places)
-        d2 = (here[None, :, 0] - det[:, None, 0]) ** 2 + (here[None, :, 1] - det[:, None, 1]) ** 2
-        return np.asarray((d2 <= HOLD_RADIUS_M * HOLD_RADIUS_M).any(axis=1), dtype=bool)
+        here = to_frame(np.array([(x, y) for _, x, y in self._places]), pose)  # map frame -> current laser frame
+        return near_any(det, here, HOLD_RADIUS_M)
 
     def _came(self, det: NDArray[np.float64], points: ArrayLike, pose: Pose2D, stamp_ns: int) -> NDArray[np.bool_]:
         """Which detections (M, 2) arrived by the recent scans alone (the first part of :meth:`arrived`)."""

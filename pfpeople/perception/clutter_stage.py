@@ -202,8 +202,9 @@ class ClutterStage:
         if not any(sizes):
             return
         dets = [f.sensor[s] for k, s in zip(idx, static, strict=True) if (f := found[k]) is not None]
-        held = [np.full(len(s), self.adapters[k].model.ppv >= HOLD_MIN_PPV) for k, s in zip(idx, static, strict=True)]
-        came = recent.arrived(np.concatenate(dets), points, pose, stamp_ns, np.concatenate(held))
+        precise = [self.adapters[k].model.ppv >= HOLD_MIN_PPV for k in idx]  # their arrivals are held
+        holdable = np.concatenate([np.full(len(s), p) for s, p in zip(static, precise, strict=True)])
+        came = recent.arrived(np.concatenate(dets), points, pose, stamp_ns, holdable)
         start = 0
         for k, keep, s in zip(idx, keeps, static, strict=True):
             mine, start = came[start : start + len(s)], start + len(s)
