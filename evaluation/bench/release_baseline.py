@@ -20,8 +20,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-#: The last release that landed (round three, stop 7); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "9704fe4"
+#: The last release that landed (round three, stop 8); ``--baseline REV`` on a benchmark overrides it.
+PREVIOUS_RELEASE = "0f26e60"
 
 REPO = Path(__file__).resolve().parents[2]
 
