@@ -20,8 +20,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-#: The last release that landed (round three, stop 8); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "0f26e60"
+#: The last release that landed (round three, stop 9); ``--baseline REV`` on a benchmark overrides it.
+PREVIOUS_RELEASE = "c56fb80"
 
 REPO = Path(__file__).resolve().parents[2]
 
