@@ -11,7 +11,9 @@ Every run is a worker process (``--worker``) that runs the whole pipeline (bag r
 clutter map, the filter, classification, tracking and the run directory) and prints one JSON line: frames,
 wall-clock seconds, frames per second, the real-time factor (recorded seconds processed per wall-clock second),
 the CPU time per frame of the same span and the real-time factor it gives (steadier than the wall clock on a
-loaded machine), the filter step's CPU time (ms per frame), the peak resident memory of the worker process,
+loaded machine), the filter step's CPU time (ms per frame), the wall-clock latency of the first and of the
+slowest frame (``1st ms``, ``max ms``: from asking the pipeline for a frame to getting it, so a kernel loaded in
+the frames shows there), the peak resident memory of the worker process,
 the BLAS threads per library during the run (``BLAS``, :mod:`pfpeople.pipeline.blas`) and, with ``--stages``, the CPU
 time of each stage (:mod:`evaluation.bench.stage_timer`). With ``--baseline REV`` (default
 :data:`evaluation.bench.release_baseline.PREVIOUS_RELEASE`; ``none`` skips it) the same worker also runs with the
@@ -83,12 +85,23 @@ def _timed_pipeline(cfg: Any, front_process: bool) -> Any:
     class Timed(base):
         filter_cpu_s = 0.0
         cpu_s = 0.0
+        frame_s: list[float]
 
         def frames(self, bag: Any, *, max_frames: int | None = None) -> Any:
             t0 = time.process_time()  # the CPU time of what summary.elapsed_s times
+            self.frame_s = []  # each frame's wall-clock latency: from asking for it to getting it
+            it = super().frames(bag, max_frames=max_frames)
             try:
-                yield from super().frames(bag, max_frames=max_frames)
+                while True:
+                    start = time.perf_counter()
+                    try:
+                        frame = next(it)
+                    except StopIteration:
+                        return
+                    self.frame_s.append(time.perf_counter() - start)
+                    yield frame
             finally:
+                it.close()
                 self.cpu_s = time.process_time() - t0
 
         def prepare(self, bag: Any) -> Any:
@@ -175,6 +188,8 @@ def worker(args: argparse.Namespace) -> dict[str, Any]:
         "cpu_ms": 1e3 * pipe.cpu_s / max(n, 1),
         "cpu_rtf": span / pipe.cpu_s if pipe.cpu_s > 0 else float("nan"),
         "filter_cpu_ms": 1e3 * pipe.filter_cpu_s / max(n, 1),
+        "first_frame_ms": 1e3 * pipe.frame_s[0] if pipe.frame_s else float("nan"),
+        "max_frame_ms": 1e3 * max(pipe.frame_s, default=float("nan")),
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "blas_threads": _blas_threads(summary),
         "n_particles": getattr(pipe.filter, "n_particles", None),
@@ -267,7 +282,8 @@ def _recall(run_dir: Path, gt: Path, real: bool) -> str:
 
 HEAD = (
     f"{'case':<17}{'filter':<9}{'variant':<12}{'code':<9}{'frames':>7}{'wall s':>8}{'fps':>8}{'RT x':>8}"
-    f"{'ratio':>7}{'CPU ms':>8}{'CPU RT':>8}{'ratio':>7}{'filt ms':>8}{'RSS MB':>8}{'BLAS':>5}  same  recall"
+    f"{'ratio':>7}{'CPU ms':>8}{'CPU RT':>8}{'ratio':>7}{'filt ms':>8}{'1st ms':>8}{'max ms':>8}{'RSS MB':>8}"
+    f"{'BLAS':>5}  same  recall"
 )
 
 
@@ -275,7 +291,8 @@ def _row(case: str, kind: str, label: str, code: str, r: dict[str, Any], ratios:
     return (
         f"{case:<17}{kind:<9}{label:<12}{code:<9}{r['frames']:>7}{r['elapsed_s']:>8.2f}{r['fps']:>8.1f}"
         f"{r['rtf']:>8.1f}{ratios[0]:>7}{r['cpu_ms']:>8.2f}{r['cpu_rtf']:>8.1f}{ratios[1]:>7}"
-        f"{r['filter_cpu_ms']:>8.3f}{r['peak_rss_mb']:>8.0f}{r.get('blas_threads') or '-':>5}  {rest}"
+        f"{r['filter_cpu_ms']:>8.3f}{r['first_frame_ms']:>8.1f}{r['max_frame_ms']:>8.1f}{r['peak_rss_mb']:>8.0f}"
+        f"{r.get('blas_threads') or '-':>5}  {rest}"
     )
 
 

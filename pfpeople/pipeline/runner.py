@@ -104,6 +104,7 @@ from pfpeople.pipeline.sensor_setup import (
     setup_sensors,
     warn_coarse_lasers,
 )
+from pfpeople.pipeline.warm_up import warm_up_back_end
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
 from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.track.reported_people import point_like, support_positions
@@ -295,6 +296,11 @@ class Pipeline:
         factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
         self.filter = factory(self.spec, self.models)
         self.classifier = build_classifier(c.classifier, c.filter.mode)
+        if self._filter_factory is None:  # a caller's filter may share state with its copies: not warmed up
+            warm_up_back_end(self.filter, self.classifier, self.spec, self.models)  # copies: the run is unchanged
+        load_decoders = getattr(bag, "load_decoders", None)  # a caller's source may have none
+        if load_decoders is not None:
+            load_decoders([*self._topics(), *c.tf_topics])
         self.clutter = ClutterStage(c, self.adapters, self.summary)
         self.odometry = self._odometry_factory(c, setup.base_to_grid, self.summary, self._warn)
         self.tracker = build_people_tracker(c.tracking, self.classifier, c.filter.mode)

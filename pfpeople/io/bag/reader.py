@@ -432,6 +432,14 @@ class BagSource:
     def end_time_ns(self) -> int:
         return int(self._reader.end_time)
 
+    def load_decoders(self, topics: Iterable[str]) -> None:
+        """Generate the message decoders of ``topics`` now (rosbags writes each message type's decoder at its
+        first message, 1-3 ms a type: without this the first frame of a run waits for them)."""
+        wanted = set(topics)
+        typestore = self._reader.typestore
+        for msgtype in sorted({c.msgtype for c in self._reader.connections if c.topic in wanted}):
+            typestore.get_msgdef(msgtype)
+
     def require(self, topics: Iterable[str], *, types: dict[str, Sequence[str]] | None = None) -> None:
         """Check that ``topics`` exist (and have one of ``types[topic]``); errors list what the bag has."""
         have = self.topics
