@@ -41,7 +41,7 @@ _DT = FIRST_DT_S
 
 
 def warm_up_back_end(filt: Any, classifier: Any, spec: GridSpec, models: Sequence[DetectorModel]) -> bool:
-    """Run copies of ``filt`` and ``classifier`` on two made-up frames so their compiled kernels load now.
+    """Run copies of ``filt`` and ``classifier`` on four made-up frames so their compiled kernels load now.
 
     Parameters
     ----------
