@@ -60,8 +60,6 @@ def test_warm_up_skips_a_filter_it_cannot_copy() -> None:
     """A caller's filter that cannot be deep-copied (it holds a lock) is left alone: False, no error."""
 
     class Locked:
-        lock = threading.Lock()
-
         def __init__(self) -> None:
             self.lock = threading.Lock()
 
