@@ -10,7 +10,7 @@ map, with the same floating-point operations, so the two give the same evidence 
 from __future__ import annotations
 
 import math
-from typing import Any, TypeAlias
+from typing import TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -445,13 +445,6 @@ def near_any(points: ArrayLike, others: ArrayLike, radius: float) -> NDArray[np.
     return out
 
 
-def _read_only(a: NDArray[Any]) -> NDArray[Any]:
-    """A read-only copy of ``a`` (numba compiles a kernel once per writeable flag of its arrays)."""
-    out = a.copy()
-    out.flags.writeable = False
-    return out
-
-
 def warm_up() -> None:
     """Load (or compile) the kernels of this module now, so the first scan of a run does not wait for them
     (nothing happens when ``gridbridge.jit.enabled("pfpeople")`` is False)."""
@@ -460,16 +453,15 @@ def warm_up() -> None:
     no = np.zeros(0, dtype=np.intp)
     params = np.array([1.0, 1.0, 0.1, 20.0, 0.05, -1.0])
     ev = np.zeros(4)
-    frozen = _read_only(no)  # the run passes some arrays read-only (cached): another signature
-    for last in (no, frozen):
+    pts, cells, frozen = np.zeros((1, 2)), np.zeros(1, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    for writeable in (True, False):  # the run passes some arrays read-only (cached): numba compiles each flag apart
+        pts.flags.writeable = cells.flags.writeable = frozen.flags.writeable = writeable
         update_evidence(
-            ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), last, params
+            ev, 2, no, no, np.zeros((1, 2)), np.ones(1, dtype=np.intp), np.ones(1), np.zeros(2), frozen, params
         )
-    ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
-    for pts in (np.zeros((1, 2)), _read_only(np.zeros((1, 2)))):
         near_mask(pts, pts, 0.01)
-    for cells in (np.zeros(1, dtype=np.intp), _read_only(np.zeros(1, dtype=np.intp))):
         return_scores(ev, np.zeros(1, dtype=np.intp), cells, 1.0)
+    ball_means(np.zeros((1, 2)), np.ones(1), np.zeros((1, 2)), 0.1)
     one = np.ones((1, 2))
     geo = np.array([10.0, 0.3, 1.0, 0.1, -1.0, -1.0, 1.0])
     scan_rays(one, np.zeros((0, 2)), np.zeros((0, 2)), (0.0, 0.0, 1.0, 0.0), geo, np.ones(3), 2)

@@ -6,7 +6,7 @@ warm-up the first frames of a run wait for them (a latency a robot sees, and fra
 front end's kernels have their own warm-ups (:func:`pfpeople.detect.segment_kernels.warm_up`,
 :func:`pfpeople.perception.clutter_kernels.warm_up`).
 
-:func:`warm_up_back_end` steps a deep copy of the filter four times (no odometry, standing, turning twice) with
+:func:`warm_up_back_end` steps a deep copy of the filter three times (no odometry, standing, turning) with
 one detection a metre ahead of each detector, and classifies each posterior with a copy of the classifier. The
 copies are dropped: the run's filter, its random generator and its classifier are not touched, so every run file is the
 same as without the warm-up (tests/pfpeople/pipeline/test_warm_up.py checks both).
@@ -33,15 +33,15 @@ __all__ = ["warm_up_back_end"]
 
 log = logging.getLogger(__name__)
 
-#: The warm-up steps' controls: no odometry, standing still, then driving and turning twice (each path of the
+#: The warm-up steps' controls: no odometry, standing still, then driving and turning (each path of the
 #: ego-motion prediction has its own kernels).
-_CONTROLS = (None, Odometry(), Odometry(v=0.5, omega=0.3), Odometry(v=0.5, omega=0.3))
+_CONTROLS = (None, Odometry(), Odometry(v=0.5, omega=0.3))
 #: The warm-up steps' time step (s): the first frame's (its people-motion kernel is computed and cached now).
 _DT = FIRST_DT_S
 
 
 def warm_up_back_end(filt: Any, classifier: Any, spec: GridSpec, models: Sequence[DetectorModel]) -> bool:
-    """Run copies of ``filt`` and ``classifier`` on four made-up frames so their compiled kernels load now.
+    """Run copies of ``filt`` and ``classifier`` on three made-up frames so their compiled kernels load now.
 
     Parameters
     ----------
