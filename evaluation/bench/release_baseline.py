@@ -20,8 +20,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-#: The last release that landed (round three, stop 9); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "c56fb80"
+#: The last release that landed (round three, stop 10); ``--baseline REV`` on a benchmark overrides it.
+PREVIOUS_RELEASE = "64d4302"
 
 REPO = Path(__file__).resolve().parents[2]
 
