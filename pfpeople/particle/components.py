@@ -180,8 +180,8 @@ class VelocityEgoSampling:
         dt = check_positive(dt, "dt")
         o = Odometry() if odometry is None else odometry
         sd = np.sqrt(np.asarray(self.noise.variances(o.v, o.omega), dtype=np.float64))
-        e = rng.standard_normal((3, min(n, self.pool)))
-        return kernels.ego_rows(e, sd, (float(o.v), float(o.omega), float(o.vy)), dt, _OMEGA_EPS)
+        control = (float(o.v), float(o.omega), float(o.vy))
+        return kernels.ego_rows_from(rng, min(n, self.pool), sd, control, dt, _OMEGA_EPS)
 
     def rows_drawn(self, odometry: Odometry | None, dt: float, n: int, *, seed: np.uint64 | int) -> NDArray[np.float64]:
         """:meth:`rows` with the normal draws made in the kernel from a SplitMix64 stream (``seed``, 64 bits;

@@ -175,18 +175,15 @@ def move_persistent(
 ) -> None:
     """The velocity-persistent people motion (fields replaced by new arrays); see the module docstring.
 
-    Compiled (:func:`pfpeople.particle.step_kernels.persistent_walk`, ``persistent_velocities``) when
-    :func:`gridbridge.jit.enabled`, else :func:`_move_persistent_numpy`: the same draws in the same order and
-    the same particles bit for bit.
+    Compiled (:func:`pfpeople.particle.step_kernels.persistent_walk`, which makes the draws from ``rng``, and
+    ``persistent_velocities``) when :func:`gridbridge.jit.enabled`, else :func:`_move_persistent_numpy`: the same
+    draws in the same order and the same particles bit for bit.
     """
     if not jit.enabled("pfpeople"):
         _move_persistent_numpy(state, motion, params, dt, rng=rng)
         return
-    n = state.size
     heading = np.arctan2(state.vy, state.vx)  # numpy's (its SIMD atan2 is not the C library's)
-    u = rng.random(n)
     rates = (1.0 - (1.0 - params.p_stop) ** dt, 1.0 - (1.0 - params.p_start) ** dt)
-    noise = rng.standard_normal((2, n))
     sqdt = math.sqrt(dt)
     walk = (
         float(params.heading_noise * sqdt),
@@ -196,9 +193,8 @@ def move_persistent(
         float(params.speed_noise * sqdt),
         float(motion.v_max),
     )
-    speed, heading, new_idx, zero = kernels.persistent_walk(state.vx, state.vy, heading, u, noise, rates, walk)
-    speed[new_idx] = sample_speeds(motion, new_idx.size, rng=rng)
-    heading[new_idx] = rng.random(new_idx.size) * (2.0 * math.pi)
+    speed, heading, new_idx, zero, u_speed = kernels.persistent_walk(rng, state.vx, state.vy, heading, rates, walk)
+    speed[new_idx] = speeds_from_uniform(motion, u_speed)
     out = kernels.persistent_velocities(state.x, state.y, speed, heading, zero, float(dt))
     state.x, state.y, state.vx, state.vy = out[0], out[1], out[2], out[3]
 

@@ -50,6 +50,7 @@ __all__ = [
     "ego_compact",
     "ego_rows",
     "ego_rows_drawn",
+    "ego_rows_from",
     "forced_ancestors",
     "gather_ancestors",
     "gather_resampled",
@@ -166,6 +167,15 @@ def ego_rows(
 
 
 @jit
+def ego_rows_from(
+    g: np.random.Generator, n: int, sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
+) -> NDArray[np.float64]:
+    """:func:`ego_rows` of ``n`` displacements whose draws ``g.standard_normal((3, n))`` are made here, bit for bit
+    numpy's (numba's ``Generator`` runs numpy's algorithms on the same bit generator), shape (4, n)."""
+    return ego_rows(g.standard_normal((3, n)), sd, control, dt, eps)
+
+
+@jit
 def ego_rows_drawn(
     seed: np.uint64, n: int, sd: NDArray[np.float64], control: tuple[float, float, float], dt: float, eps: float
 ) -> NDArray[np.float64]:
@@ -184,24 +194,27 @@ def ego_rows_drawn(
 
 @jit
 def persistent_walk(
+    g: np.random.Generator,
     vx: NDArray[np.float64],
     vy: NDArray[np.float64],
     heading: NDArray[np.float64],
-    u: NDArray[np.float64],
-    noise: NDArray[np.float64],
     rates: tuple[float, float],
     walk: tuple[float, float, float, float, float, float],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_]]:
-    """:func:`pfpeople.particle.propagation.move_persistent`'s walk before the new walkers' draws, bit for bit.
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_], NDArray[np.float64]]:
+    """:func:`pfpeople.particle.propagation.move_persistent`'s walk and its draws from ``g``, bit for bit.
+
+    numba's ``Generator`` methods are numpy's algorithms on the same bit generator: ``g`` gives the numpy path's
+    draws in its order (N uniforms, N heading normals, N speed normals, then the new walkers' K speed uniforms and K
+    heading uniforms) and is left where the numpy path leaves it.
 
     Parameters
     ----------
+    g : numpy.random.Generator
+        The filter's generator (advanced by the draws).
     vx, vy : ndarray, shape (N,)
         Velocities (m/s) before the step.
     heading : ndarray, shape (N,)
         ``np.arctan2(vy, vx)`` (numpy's, which the C library's ``atan2`` does not always equal).
-    u, noise : ndarray, shapes (N,) and (2, N)
-        The step's uniform and standard normal draws.
     rates : tuple of float
         The per-step probabilities ``(p_stop, p_start)``.
     walk : tuple of float
@@ -210,38 +223,44 @@ def persistent_walk(
     Returns
     -------
     speed, heading : ndarray, shape (N,)
-        The walked speed (m/s) and heading (rad) of every particle.
-    starts : ndarray of intp
-        Indices (ascending) of the standing particles that start walking (their draws are the caller's).
+        The walked speed (m/s) and heading (rad) of every particle; the new walkers' headings are drawn (uniform in
+        [0, 2 pi)), their speeds are the caller's (from ``u_speed``).
+    starts : ndarray of intp, shape (K,)
+        Indices (ascending) of the standing particles that start walking.
     zero : ndarray of bool, shape (N,)
         The particles that stand after the step (walkers that stop, standing ones that do not start).
+    u_speed : ndarray, shape (K,)
+        The new walkers' speed uniforms in [0, 1) (:func:`pfpeople.particle.propagation.speeds_from_uniform`).
     """
     p_stop, p_start = rates
     hn, sr, mu, dt, sn, vmax = walk
     two_vmax = 2.0 * vmax
     n = vx.size
-    speed, head = np.empty(n), np.empty(n)
+    u = g.random(n)
+    head, speed = np.empty(n), np.empty(n)
+    for k in range(n):  # the heading normals (row 0 of the numpy path's (2, N) draw) ...
+        head[k] = heading[k] + hn * g.standard_normal()
     zero = np.zeros(n, dtype=np.bool_)
     starts = np.empty(n, dtype=np.intp)
     n_start = 0
-    for k in range(n):
+    for k in range(n):  # ... then the speed normals (row 1)
         s = math.hypot(vx[k], vy[k])
-        walking = s > 0.0
-        if walking:
+        if s > 0.0:
             zero[k] = u[k] < p_stop
         elif u[k] < p_start:
             starts[n_start] = k
             n_start += 1
         else:
             zero[k] = True
-        head[k] = heading[k] + hn * noise[0, k]
-        s = s + sr * (mu - s) * dt + sn * noise[1, k]
-        s = abs(s)
+        s = abs(s + sr * (mu - s) * dt + sn * g.standard_normal())
         if s > vmax:
             s = two_vmax - s
         s = s if s > 0.0 else 0.0  # np.clip(s, 0, v_max)
         speed[k] = s if s < vmax else vmax
-    return speed, head, starts[:n_start], zero
+    u_speed = g.random(n_start)
+    for i in range(n_start):
+        head[starts[i]] = g.random() * (2.0 * math.pi)
+    return speed, head, starts[:n_start], zero, u_speed
 
 
 @jit

@@ -200,6 +200,14 @@ def test_ego_rows_are_sample_ego_poses_bit_for_bit(odo: Odometry) -> None:
     rows = kernels.ego_rows(e, sd, (odo.v, odo.omega, odo.vy), 0.1, _OMEGA_EPS)
     want = np.stack((poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2])))
     assert rows.tobytes() == want.tobytes()
+    # The component's rows draw in the kernel from the generator (ego_rows_from): the same bits, and the generator
+    # left where numpy's draws leave it.
+    from pfpeople.particle.components import VelocityEgoSampling
+
+    drawing, numpy_draws = np.random.default_rng(2), np.random.default_rng(2)
+    assert VelocityEgoSampling(noise=noise).rows(odo, 0.1, 500, rng=drawing).tobytes() == want.tobytes()
+    numpy_draws.standard_normal((3, 500))
+    assert drawing.random(4).tobytes() == numpy_draws.random(4).tobytes()
 
 
 @pytest.mark.parametrize(
