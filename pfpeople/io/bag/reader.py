@@ -65,10 +65,12 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.highlevel import AnyReader
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_typestore
 
 from gridbridge.geometry import Pose2D, yaw_from_orientation
+from pfpeople.io.bag.ros1_decoders import Decoder, ros1_decoder
 from pfpeople.sensors import CameraImage, LaserScan
 
 __all__ = [
@@ -440,6 +442,13 @@ class BagSource:
         for msgtype in sorted({c.msgtype for c in self._reader.connections if c.topic in wanted}):
             typestore.get_msgdef(msgtype)
 
+    def _decoder(self, conn: Any) -> Decoder | None:
+        """The fast decoder of a ROS1 connection of standard TF or odometry messages (:mod:`.ros1_decoders`),
+        else None (rosbags decodes)."""
+        if not self._ros1:
+            return None
+        return ros1_decoder(conn.msgtype, str(conn.digest), self._reader.typestore)
+
     def require(self, topics: Iterable[str], *, types: dict[str, Sequence[str]] | None = None) -> None:
         """Check that ``topics`` exist (and have one of ``types[topic]``); errors list what the bag has."""
         have = self.topics
@@ -481,6 +490,7 @@ class BagSource:
         wanted = set(topics)
         self.require(wanted)
         conns = [c for c in self._reader.connections if c.topic in wanted]
+        decoders = {c.id: self._decoder(c) for c in conns}
         counters: dict[str, int] = {}
         last: tuple[int, str, int] | None = None  # (index, topic, bag time) of the latest message; text on error
         it = self._reader.messages(connections=conns)
@@ -497,7 +507,8 @@ class BagSource:
                 ) from None
             conn, bag_time, raw = item
             try:
-                msg = self._reader.deserialize(raw, conn.msgtype)
+                decode = decoders[conn.id]
+                msg = self._reader.deserialize(raw, conn.msgtype) if decode is None else _decoded(decode, raw)
             except Exception as exc:
                 raise BagReadError(
                     f"cannot decode a {conn.msgtype} message on topic {conn.topic!r} at bag time {bag_time} ns "
@@ -512,6 +523,14 @@ class BagSource:
             yield BagMessage(
                 conn.topic, conn.msgtype, index, int(bag_time), int(bag_time if stamp is None else stamp), frame_id, msg
             )
+
+
+def _decoded(decode: Decoder, raw: Any) -> object:
+    """``decode(raw)`` raising rosbags' reader error as :meth:`AnyReader.deserialize` does (the same error text)."""
+    try:
+        return decode(raw)
+    except SerdeError as err:
+        raise AnyReaderError(*err.args) from None
 
 
 def laser_from_msg(msg: Any, *, stamp_ns: int, frame_id: str, topic: str = "") -> LaserScan:
