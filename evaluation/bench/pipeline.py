@@ -24,7 +24,13 @@ and whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``det
     python -m evaluation.bench.pipeline [--cases wheelchair lobby person_following] [--filters grid particle]
         [--max-frames N] [--repeat N] [--baseline REV|none] [--stages] [--data ../shared/data] [--work DIR]
         [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000] [--motion-model paper persistent] [--busy N]
+        [--side-by-side]
     python -m evaluation.bench.pipeline --worker --bag BAG --config CFG --filter grid --out RUN [--stages] ...
+
+``--side-by-side`` runs the codes of a round at the same time, each worker pinned to a core of its own, the codes
+swapping cores from round to round. This machine's speed drifts by 10-20 % over seconds to minutes (a shared host):
+runs one after the other see different speeds, runs side by side see the same, so their ratio is steadier. Each run
+then has the other core busy (shared caches and memory bandwidth): its own figures are those of a loaded machine.
 
 ``--busy N`` loads the machine the same for every code measured: N processes spin on a core each while the runs
 go (on this 2-core machine ``--busy 1`` leaves the pipeline one core, as other jobs often do).
@@ -47,6 +53,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
@@ -212,6 +219,11 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--max-overflow", nargs="+", type=float, default=[None], help="particle filter max_overflow")
     ap.add_argument("--particles", nargs="+", type=int, default=[None], help="particle counts")
     ap.add_argument("--motion-model", nargs="+", default=[None], choices=("paper", "persistent"))
+    ap.add_argument(
+        "--side-by-side",
+        action="store_true",
+        help="run the codes of a round at the same time, each on its own core (steadier ratios; needs 2 cores)",
+    )
     ap.add_argument("--json", default=None, help="also write every run's figures to this JSON file")
     ap.add_argument(
         "--busy", type=int, default=0, help="load the machine: N processes spinning on a core each while it measures"
@@ -325,17 +337,14 @@ def _measure(
 ) -> list[dict[str, Any]]:
     """``--repeat`` interleaved rounds of one case, filter and variant with every code in ``roots``; prints a row
     per run and returns the runs' figures (``code`` and ``round`` added)."""
-    run_worker = _local("release_baseline").run_worker
     bag, config, gt = spec
     runs: list[dict[str, Any]] = []
     for k in range(max(a.repeat, 1)):
         with tempfile.TemporaryDirectory() as tmp:
-            outs: dict[str, Path] = {}
-            for code, root in roots.items():
-                outs[code] = Path(tmp) / code
-                argv = _worker_argv(bag, config, kind, outs[code], v, a)
-                r = dict(run_worker(root, "evaluation.bench.pipeline", argv), code=code, round=k)
-                runs.append(r)
+            outs = {code: Path(tmp) / code for code in roots}
+            argvs = {code: _worker_argv(bag, config, kind, outs[code], v, a) for code in roots}
+            figures = _round(roots, argvs, k if a.side_by_side else None)
+            runs += [dict(figures[code], code=code, round=k) for code in roots]
             this = runs[-len(roots)]
             rel = runs[-1] if "release" in roots else None
             same = "-" if rel is None else ("yes" if _same_outputs(outs["this"], outs["release"]) else "NO")
@@ -349,6 +358,23 @@ def _measure(
                     rest = f"{same:<5} " + (_recall(outs[r["code"]], gt, case == REAL) if gt.is_file() else "")
                 print(_row(case, kind, _label(v), r["code"], r, ratios, rest), flush=True)
     return runs
+
+
+def _round(roots: dict[str, Path], argvs: dict[str, list[str]], side_by_side: int | None) -> dict[str, Any]:
+    """One round: each code's worker run, one after the other, or (``side_by_side``, the round's number) all at
+    once, code ``i`` pinned to CPU ``(i + round) % CPUs`` (the codes swap CPUs from round to round)."""
+    run_worker = _local("release_baseline").run_worker
+    if side_by_side is None:
+        return {code: run_worker(root, "evaluation.bench.pipeline", argvs[code]) for code, root in roots.items()}
+    cpus = sorted(os.sched_getaffinity(0))
+    with ThreadPoolExecutor(max_workers=len(roots)) as pool:
+        futures = {
+            code: pool.submit(
+                run_worker, root, "evaluation.bench.pipeline", argvs[code], cpu=cpus[(i + side_by_side) % len(cpus)]
+            )
+            for i, (code, root) in enumerate(roots.items())
+        }
+        return {code: f.result() for code, f in futures.items()}
 
 
 def _summary(case: str, kind: str, v: tuple[Any, ...], runs: list[dict[str, Any]], stages: bool) -> None:
@@ -399,6 +425,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(json.dumps(worker(_worker_args(argv))))
         return 0
     roots = _roots(a)
+    if a.side_by_side and (len(os.sched_getaffinity(0)) < len(roots) or 2 in a.processes or a.busy):
+        print("--side-by-side needs a core per code measured, one process per run and no --busy", file=sys.stderr)
+        return 2
     print(f"code: {', '.join(f'{c} = {p}' for c, p in roots.items())}")
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"load: {a.busy} busy-loop process(es) while measuring; load average before: {load}")

@@ -13,6 +13,7 @@ The worker prints one JSON document on its last line of standard output; :func:`
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import subprocess
@@ -74,7 +75,7 @@ def release_checkout(rev: str = PREVIOUS_RELEASE, repo: Path = REPO) -> Path:
     return dest
 
 
-def run_worker(root: Path, module: str, args: list[str], *, timeout: float = 3600.0) -> Any:
+def run_worker(root: Path, module: str, args: list[str], *, timeout: float = 3600.0, cpu: int | None = None) -> Any:
     """Run ``python -m module args`` with ``root`` first on the import path and return its last line as JSON.
 
     Parameters
@@ -88,6 +89,8 @@ def run_worker(root: Path, module: str, args: list[str], *, timeout: float = 360
         The worker's arguments.
     timeout : float
         Seconds before the worker is killed.
+    cpu : int, optional
+        The one CPU the worker may run on (``os.sched_setaffinity``); None: any.
 
     Returns
     -------
@@ -107,7 +110,13 @@ def run_worker(root: Path, module: str, args: list[str], *, timeout: float = 360
     )
     try:
         proc = subprocess.run(
-            [sys.executable, "-c", code, *args], env=env, capture_output=True, text=True, timeout=timeout, cwd=root
+            [sys.executable, "-c", code, *args],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            cwd=root,
+            preexec_fn=None if cpu is None else functools.partial(os.sched_setaffinity, 0, {cpu}),
         )
     except subprocess.TimeoutExpired as exc:
         raise BaselineError(f"{module} in {root} ran over {timeout:g} s") from exc

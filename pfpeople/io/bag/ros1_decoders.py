@@ -7,7 +7,8 @@ into the same classes (the reader's typestore's) with the same values.
 They serve a connection only when its type and its definition's MD5 sum are the standard ones
 (:func:`ros1_decoder` says which); any other type or definition decodes with rosbags. Bad bytes raise rosbags'
 error, :class:`rosbags.serde.SerdeError` ("Could not deserialize ...", "ROS1 message size mismatch ...",
-"Invalid string length ..."), so the reader's error naming the topic and the bag time keeps its form. ``tests/pfpeople/io/test_ros1_decoders.py`` decodes every such message of the test bags both ways.
+"Invalid string length ..."), so the reader's error naming the topic and the bag time keeps its form.
+``tests/pfpeople/io/test_ros1_decoders.py`` decodes every such message of the test bags both ways.
 """
 
 from __future__ import annotations

@@ -75,3 +75,37 @@ def test_worker_names_the_motion_model_of_this_checkout_and_of_a_release() -> No
     assert bench_pipeline._motion_model(pf) == "persistent"
     assert bench_pipeline._motion_model(SimpleNamespace(motion_model="paper")) == "paper"  # a release's filter
     assert bench_pipeline._motion_model(GridFilter()) is None
+
+
+def test_side_by_side_rounds_pin_each_code_to_its_own_cpu_and_swap(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The round's runs go at once (both started before either ends), code i on CPU (i + round) mod CPUs."""
+    import os
+    import threading
+
+    started: list[str] = []
+    both = threading.Barrier(2, timeout=10)
+
+    def fake(root: Path, module: str, argv: list[str], *, cpu: int | None = None) -> dict:
+        started.append(argv[0])
+        both.wait()  # raises BrokenBarrierError if the other run does not start while this one runs
+        return {"cpu": cpu, "argv": argv}
+
+    monkeypatch.setattr(bench_pipeline._local("release_baseline"), "run_worker", fake)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+    roots = {"this": Path("a"), "release": Path("b")}
+    argvs = {"this": ["t"], "release": ["r"]}
+    assert bench_pipeline._round(roots, argvs, 0) == {
+        "this": {"cpu": 0, "argv": ["t"]},
+        "release": {"cpu": 1, "argv": ["r"]},
+    }
+    assert bench_pipeline._round(roots, argvs, 1) == {
+        "this": {"cpu": 1, "argv": ["t"]},
+        "release": {"cpu": 0, "argv": ["r"]},
+    }
+    assert sorted(started) == ["r", "r", "t", "t"]
+
+
+@pytest.mark.parametrize("extra", [["--processes", "2"], ["--busy", "1"]])
+def test_side_by_side_refuses_what_it_cannot_measure(extra: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench_pipeline.main(["--side-by-side", "--baseline", "none", *extra]) == 2
+    assert "--side-by-side needs a core per code measured" in capsys.readouterr().err

@@ -196,3 +196,13 @@ def test_a_release_worker_imports_the_release_modules_not_this_checkouts(tmp_pat
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "release"
+
+
+def test_run_worker_pins_the_worker_to_one_cpu(toy_repo: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    (toy_repo / "affinity.py").write_text("import json, os\nprint(json.dumps(sorted(os.sched_getaffinity(0))))\n")
+    monkeypatch.setattr(release_baseline, "REPO", toy_repo)
+    cpu = max(os.sched_getaffinity(0))
+    assert run_worker(toy_repo, "affinity", [], cpu=cpu) == [cpu]
+    assert run_worker(toy_repo, "affinity", []) == sorted(os.sched_getaffinity(0))  # unpinned: the parent's CPUs
