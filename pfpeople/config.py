@@ -30,8 +30,8 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [filter]
     kind = "grid"               # "grid" (gridbridge.GridFilter) or "particle" (pfpeople.ParticleFilter)
     mode = "recommended"        # "recommended" (the product's default) or "paper" (Batista & Pereira as written)
-    # form, initial, n_particles, seed, motion_model, max_overflow, base_rate, appearance_rate, belief_max,
-    # laser_footprint: see FilterConfig (unset = the mode's default)
+    # form, initial, n_particles, seed, motion_model, compiled_draws, max_overflow, base_rate, appearance_rate,
+    # belief_max, laser_footprint: see FilterConfig (unset = the mode's default)
 
     [classifier]
     kind = "peaks"              # "peaks" (recommended mode's default), "blobs" (paper's), "threshold"
@@ -202,6 +202,10 @@ class FilterConfig:
         Particle people-motion sampler (:mod:`pfpeople.particle.propagation`); None: ``"persistent"`` in the recommended
         mode (walkers keep their heading and speed: compact person blobs, README "Recommended particles"),
         ``"paper"`` (the paper's memoryless model, what the grid filter predicts) in the paper mode.
+    compiled_draws : bool
+        Particle filter with the persistent people motion: draw it inside the compiled step
+        (:class:`pfpeople.particle.components.PersistentSampling`'s ``compiled_draws``), faster, the same
+        distributions, other draws than the default's (the paper's people motion always draws there).
     max_overflow : float or None
         Particle filter: births may push the count this fraction above ``n_particles`` before they trigger a
         resampling (:class:`pfpeople.ParticleFilter`); None: 0.1 in the recommended mode (29 % of the steps
@@ -224,6 +228,7 @@ class FilterConfig:
     n_particles: int | None = None
     seed: int = 0
     motion_model: str | None = None
+    compiled_draws: bool = False
     max_overflow: float | None = None
     base_rate: float = 0.02
     appearance_rate: float = 0.05
@@ -246,6 +251,8 @@ class FilterConfig:
             raise ValueError(
                 f"FilterConfig.motion_model must be 'paper', 'persistent' or unset, got {self.motion_model!r}"
             )
+        if not isinstance(self.compiled_draws, bool):
+            raise TypeError(f"FilterConfig.compiled_draws must be true or false, got {self.compiled_draws!r}")
         if self.max_overflow is not None:
             check_real(self.max_overflow, "FilterConfig.max_overflow", low=0.0, high=10.0)
         for name in ("base_rate", "belief_max"):

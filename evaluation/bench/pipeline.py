@@ -5,7 +5,8 @@ Cases (``--cases``): the 768-beam, 7.5 Hz scan-level scenes ``wheelchair`` and `
 ``pfpeople inspect BAG --write-config``, the recommended mode) and ``person_following`` (the real
 person-following bag, 7170 scans of 245 beams at 10 Hz, with its built-in configuration). Each case runs with
 each filter of ``--filters`` (the recommended grid and particle filters) and each variant of ``--processes``
-(default 1: everything in one process), ``--max-overflow``, ``--particles`` and ``--motion-model``.
+(default 1: everything in one process), ``--max-overflow``, ``--particles``, ``--motion-model`` and ``--draws``
+(the particle filter's ``compiled_draws``; releases before round three's eleventh stop lack it: ``--baseline none``).
 
 Every run is a worker process (``--worker``) that runs the whole pipeline (bag reading, the detectors, the
 clutter map, the filter, classification, tracking and the run directory) and prints one JSON line: frames,
@@ -23,7 +24,8 @@ and whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``det
 
     python -m evaluation.bench.pipeline [--cases wheelchair lobby person_following] [--filters grid particle]
         [--max-frames N] [--repeat N] [--baseline REV|none] [--stages] [--data ../shared/data] [--work DIR]
-        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000] [--motion-model paper persistent] [--busy N]
+        [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000] [--motion-model paper persistent]
+        [--draws numpy compiled] [--busy N]
         [--side-by-side]
     python -m evaluation.bench.pipeline --worker --bag BAG --config CFG --filter grid --out RUN [--stages] ...
 
@@ -140,6 +142,7 @@ def _worker_config(args: argparse.Namespace) -> Any:
         ("n_particles", args.particles),
         ("max_overflow", args.max_overflow),
         ("motion_model", args.motion_model),
+        ("compiled_draws", None if args.draws is None else args.draws == "compiled"),
     ):
         if value is not None:
             filt = replace(filt, **{field: value})
@@ -220,6 +223,9 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--particles", nargs="+", type=int, default=[None], help="particle counts")
     ap.add_argument("--motion-model", nargs="+", default=[None], choices=("paper", "persistent"))
     ap.add_argument(
+        "--draws", nargs="+", default=[None], choices=("numpy", "compiled"), help="particle filter compiled_draws"
+    )
+    ap.add_argument(
         "--side-by-side",
         action="store_true",
         help="run the codes of a round at the same time, each on its own core (steadier ratios; needs 2 cores)",
@@ -238,10 +244,10 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _worker_argv(bag: Path, config: str, kind: str, out: Path, v: tuple[Any, ...], a: argparse.Namespace) -> list[str]:
-    n, ovf, count, model = v
+    n, ovf, count, model, draws = v
     argv = ["--worker", "--bag", str(bag), "--config", config, "--filter", kind, "--out", str(out)]
     argv += ["--processes", str(n)]
-    for flag, value in (("--max-overflow", ovf), ("--particles", count), ("--motion-model", model)):
+    for flag, value in (("--max-overflow", ovf), ("--particles", count), ("--motion-model", model), ("--draws", draws)):
         if value is not None and kind == "particle":
             argv += [flag, str(value)]
     if a.max_frames is not None:
@@ -252,7 +258,7 @@ def _worker_argv(bag: Path, config: str, kind: str, out: Path, v: tuple[Any, ...
 def _worker_args(argv: list[str]) -> argparse.Namespace:
     """The worker's namespace: the parser's, with one value per variant option."""
     args = _parser().parse_args(argv)
-    for name in ("processes", "max_overflow", "particles", "motion_model"):
+    for name in ("processes", "max_overflow", "particles", "motion_model", "draws"):
         setattr(args, name, getattr(args, name)[0])
     return args
 
@@ -309,9 +315,9 @@ def _row(case: str, kind: str, label: str, code: str, r: dict[str, Any], ratios:
 
 
 def _label(v: tuple[Any, ...]) -> str:
-    n, ovf, count, model = v
+    n, ovf, count, model, draws = v
     out = f"{n}proc"
-    for tag, value in (("ovf", ovf), ("N", count), ("", model)):
+    for tag, value in (("ovf", ovf), ("N", count), ("", model), ("", draws)):
         if value is not None:
             out += f" {tag}{value}"
     return out
@@ -450,11 +456,12 @@ def _measure_all(a: argparse.Namespace, roots: dict[str, Path]) -> list[dict[str
         for kind in a.filters:
             particle = kind == "particle"
             variants = [
-                (n, o, c, m)
+                (n, o, c, m, d)
                 for n in a.processes
                 for o in (a.max_overflow if particle else [None])
                 for c in (a.particles if particle else [None])
                 for m in (a.motion_model if particle else [None])
+                for d in (a.draws if particle else [None])
             ]
             for v in variants:
                 runs = _measure(case, kind, v, spec, a, roots)

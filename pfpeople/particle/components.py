@@ -120,15 +120,26 @@ class PersistentSampling:
         The persistence (heading and speed noise, stop and start rates).
     redraw_in_cell : bool
         Re-draw each particle uniformly in its cell before it moves.
+    compiled_draws : bool
+        With the compiled step (:func:`gridbridge.jit.enabled`, no re-draw in cells), draw the people motion, the
+        births and the sensor motion's noise inside its kernels, as for :class:`PaperSampling`
+        (:func:`pfpeople.particle.step_kernels.persistent_move_ego_compact`): the same distributions, other draws
+        than the numpy path's, and no normal draw for a particle that stands. False (default): the numpy path's
+        draws, bit for bit.
     """
 
     name: ClassVar[str] = "persistent"
     motion: PeopleMotion = field(default_factory=PeopleMotion)
     persistent: PersistentMotion = field(default_factory=PersistentMotion)
     redraw_in_cell: bool = False
+    compiled_draws: bool = False
 
     def __post_init__(self) -> None:
         _check_sampler(self.motion, self.redraw_in_cell, "PersistentSampling")
+        if not isinstance(self.compiled_draws, bool):
+            raise TypeError(
+                f"PersistentSampling.compiled_draws must be a bool, got {type(self.compiled_draws).__name__}"
+            )
         if not isinstance(self.persistent, PersistentMotion):
             raise TypeError(
                 f"PersistentSampling.persistent must be a PersistentMotion, got {type(self.persistent).__name__}"

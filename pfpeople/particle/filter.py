@@ -74,9 +74,10 @@ Use at least about 5 particles per cell.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -109,7 +110,13 @@ from gridbridge.validation import check_int, check_probability
 from pfpeople.particle import rng_kernels
 from pfpeople.particle import step_kernels as kernels
 from pfpeople.particle.buffers import BufferPool
-from pfpeople.particle.components import PaperSampling, PeopleSampler, Resampling, VelocityEgoSampling
+from pfpeople.particle.components import (
+    PaperSampling,
+    PeopleSampler,
+    PersistentSampling,
+    Resampling,
+    VelocityEgoSampling,
+)
 from pfpeople.particle.propagation import apply_ego_motion, redraw_in_cells, sample_velocity_prior
 from pfpeople.particle.resampling import resample_by_cell, resample_scaled, resample_state, systematic
 from pfpeople.particle.state import ParticleState, uniform_in_cells
@@ -304,12 +311,45 @@ class ParticleFilter:
         """Whether the compiled step draws the people motion and the births inside its kernels: the paper's people
         motion without the re-draw in cells (any other sampler draws as the numpy path, bit for bit)."""
         people = self.people_motion
-        return jit.enabled("pfpeople") and type(people) is PaperSampling and not people.redraw_in_cell
+        inside = type(people) is PaperSampling or (type(people) is PersistentSampling and people.compiled_draws)
+        return jit.enabled("pfpeople") and inside and not people.redraw_in_cell
 
     def _walk(self) -> rng_kernels.WalkParams:
         """The paper's people motion as the kernels take it (:func:`rng_kernels.walk_params`)."""
         m = self.motion
         return rng_kernels.walk_params(m.p_stationary, m.mu, m.sigma, m.v_max)
+
+    def _move_drawn(
+        self,
+        st: ParticleState,
+        seeds: NDArray[np.uint64],
+        dt: float,
+        rows: NDArray[np.float64],
+        moves: bool,
+        grid: tuple[float, float, float, int, int],
+        into: tuple[_Rows, NDArray[np.intp]],
+        sums: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]],
+    ) -> tuple[int, int]:
+        """Phases 1-2 with the people motion drawn inside the pass (:meth:`_draws_inside`): the paper's
+        (:func:`step_kernels.paper_move_ego_compact`) or the persistent one
+        (:func:`step_kernels.persistent_move_ego_compact`). Returns the survivors' count and the count inside
+        after the people motion."""
+        buf, cells = into
+        if type(self.people_motion) is PersistentSampling:
+            src = (st.x, st.y, st.vx, st.vy, st.w)
+            return kernels.persistent_move_ego_compact(
+                src, seeds, self._walk(), self._persist(dt), rows, moves, grid, buf, cells, sums
+            )
+        return kernels.paper_move_ego_compact(
+            st.x, st.y, st.w, seeds, self._walk(), dt, rows, moves, grid, buf, cells, sums
+        )
+
+    def _persist(self, dt: float) -> tuple[float, float, float, float, float, float]:
+        """The persistent people motion over ``dt`` s as :func:`step_kernels.persistent_move_ego_compact` takes it."""
+        p = cast(PersistentSampling, self.people_motion).persistent
+        sqdt = math.sqrt(dt)
+        rates = (1.0 - (1.0 - p.p_stop) ** dt, 1.0 - (1.0 - p.p_start) ** dt)
+        return (*rates, p.heading_noise * sqdt, p.speed_reversion, float(dt), p.speed_noise * sqdt)
 
     def _born_from_mass(self, mass: NDArray[np.float64], free: int) -> tuple[ParticleState, NDArray[np.intp]]:
         """Particles carrying ``mass`` (flat, per cell): one per cell above the floor plus a share of ``free``."""
@@ -516,11 +556,11 @@ class ParticleFilter:
     def _predict_compiled(self, odo: Odometry | None, dt: float) -> _Compiled:
         """Phases 1-2 in one pass over the particles (compiled).
 
-        The paper's people motion (:class:`PaperSampling` without the re-draw) is drawn inside the pass
-        (:func:`step_kernels.paper_move_ego_compact`, seeded from :attr:`rng`): the same distributions as the numpy
-        path, other draws. Any other sampler draws as on the numpy path, whose particles the pass then gives bit for
-        bit; its births at the border need the count inside after the people motion first, so a counting pass
-        (:func:`step_kernels.people_prior`) precedes.
+        The paper's people motion (:class:`PaperSampling` without the re-draw), and the persistent one with
+        ``compiled_draws``, are drawn inside the pass (:meth:`_move_drawn`, seeded from :attr:`rng`): the same
+        distributions as the numpy path, other draws. Any other sampler draws as on the numpy path, whose particles
+        the pass then gives bit for bit; its births at the border need the count inside after the people motion
+        first, so a counting pass (:func:`step_kernels.people_prior`) precedes.
         """
         n_cells, grid = self.spec.n_cells, self._grid()
         poses, pose_w = ego_motion_sigma_points(odo, dt, self.noise)
@@ -532,8 +572,7 @@ class ParticleFilter:
         if self._draws_inside():
             rows = self._ego_rows(odo, dt, st.size, moves)
             seeds, sq = self.rng.integers(0, 2**64, size=4, dtype=np.uint64), np.zeros(n_cells)
-            args = (st.x, st.y, st.w, seeds, self._walk(), dt, rows, moves, grid, buf, cells, (prior, mass, counts, sq))
-            j, n_inside = kernels.paper_move_ego_compact(*args)
+            j, n_inside = self._move_drawn(st, seeds, dt, rows, moves, grid, (buf, cells), (prior, mass, counts, sq))
             born, born_cells = self._people_births(dt, n_inside)
             born_rows = self._ego_rows(odo, dt, born.size, moves)
         else:

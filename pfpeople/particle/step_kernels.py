@@ -57,6 +57,7 @@ __all__ = [
     "move_ego_compact",
     "paper_move_ego_compact",
     "people_prior",
+    "persistent_move_ego_compact",
     "persistent_velocities",
     "persistent_walk",
     "scale_sums",
@@ -845,6 +846,89 @@ def paper_move_ego_compact(
                 scratch[0:2, : i1 - i0] = scratch[0:2, i0:i1].copy()
             _move_segment(b0 + i0, b0 + i1, (x, y, w), poses, p0, dt, ego, grid, scratch, out, cells)
             nd, n_in = _sum_block(b0 + i0, w[b0 + i0 : b0 + i1], scratch, grid, out, cells, sums, drops, nd)
+            n_inside += n_in
+            i0, p0 = i1, 0
+    return _fill_drops(n, drops, nd, out, cells), n_inside
+
+
+@jit
+def _block_persistent(
+    keys: NDArray[np.uint64],
+    k0: int,
+    v: tuple[NDArray[np.float64], NDArray[np.float64]],
+    walk: rng.WalkParams,
+    persist: tuple[float, float, float, float, float, float],
+    state: np.uint64,
+    scratch: NDArray[np.float64],
+    m: int,
+) -> np.uint64:
+    """The persistent people motion's velocities (m/s) of particles ``k0, ..., k0 + m - 1`` into
+    ``scratch[0:2, :m]``, drawn here (:func:`pfpeople.particle.propagation.move_persistent`'s model).
+
+    Particle k's uniform is draw k of the stream ``keys[0]``: a walker (``v`` nonzero) stops below ``p_stop``, else
+    turns by ``heading_noise sqrt(dt)`` and its speed relaxes to ``mu`` with ``speed_noise sqrt(dt)`` (two normals
+    of the sequential stream ``state``; reflected into [0, v_max]); a standing particle starts below ``p_start``
+    with a velocity of the paper's prior (:func:`rng_kernels.walker_velocity` on ``state``). Only walkers and
+    starters draw normals. ``persist = (p_stop, p_start, heading_noise sqrt(dt), speed_reversion, dt,
+    speed_noise sqrt(dt))`` (per-step probabilities). Returns the new state.
+    """
+    p_stop, p_start, hn, sr, dt, sn = persist
+    mu, vmax = walk[1], walk[3]
+    vx, vy = scratch[0, :m], scratch[1, :m]
+    for i in range(m):
+        a, b = v[0][k0 + i], v[1][k0 + i]
+        s = math.hypot(a, b)
+        u = rng.uniform(rng.hashed(keys[0], k0 + i))
+        vx[i], vy[i] = 0.0, 0.0
+        if s > 0.0 and u >= p_stop:
+            state, z1 = rng.standard_normal(state)
+            state, z2 = rng.standard_normal(state)
+            s = abs(s + sr * (mu - s) * dt + sn * z2)
+            s = min(max(2.0 * vmax - s if s > vmax else s, 0.0), vmax)
+            sin_h, cos_h = rng.sincos(math.atan2(b, a) + hn * z1)
+            vx[i], vy[i] = s * cos_h, s * sin_h
+        elif s == 0.0 and u < p_start:
+            state, a, b = rng.walker_velocity(state, walk)
+            vx[i], vy[i] = a, b
+    return state
+
+
+@jit
+def persistent_move_ego_compact(
+    src: Rows5,
+    seeds: NDArray[np.uint64],
+    walk: rng.WalkParams,
+    persist: tuple[float, float, float, float, float, float],
+    poses: NDArray[np.float64],
+    ego: bool,
+    grid: tuple[float, float, float, int, int],
+    out: Rows5,
+    cells: NDArray[np.intp],
+    sums: _Sums4,
+) -> tuple[int, int]:
+    """:func:`paper_move_ego_compact` with the persistent people motion drawn inside (:func:`_block_persistent`):
+    the same distributions as :func:`pfpeople.particle.propagation.move_persistent`, other draws, no normal draw
+    for a particle that stands.
+
+    ``src = (x, y, vx, vy, w)`` are the particles (m, m, m/s, m/s, mass); ``seeds`` (4,): stream keys (the first
+    used) and the sequential state, from the filter's ``Generator``; ``persist`` as :func:`_block_persistent`'s (its
+    ``dt`` the step's, s); the rest and the returns as :func:`paper_move_ego_compact`'s.
+    """
+    n, n_pose, dt = src[0].size, poses.shape[1], persist[4]
+    scratch = np.empty((8, _BLOCK))
+    drops = np.empty(n, dtype=np.intp)
+    state = seeds[3]
+    nd = n_inside = 0
+    for b0 in range(0, n, _BLOCK):
+        m = min(_BLOCK, n - b0)
+        state = _block_persistent(seeds, b0, (src[2], src[3]), walk, persist, state, scratch, m)
+        i0, p0 = 0, b0 % n_pose
+        while i0 < m:  # runs of consecutive poses, as in paper_move_ego_compact
+            i1 = min(m, i0 + n_pose - p0) if ego else m
+            if i0 > 0:
+                scratch[0:2, : i1 - i0] = scratch[0:2, i0:i1].copy()
+            _move_segment(b0 + i0, b0 + i1, (src[0], src[1], src[4]), poses, p0, dt, ego, grid, scratch, out, cells)
+            nd, n_in = _sum_block(b0 + i0, src[4][b0 + i0 : b0 + i1], scratch, grid, out, cells, sums, drops, nd)
             n_inside += n_in
             i0, p0 = i1, 0
     return _fill_drops(n, drops, nd, out, cells), n_inside

@@ -409,3 +409,87 @@ def test_sensor_noise_drawn_in_the_kernel_matches_numpy_draws(odo: Odometry) -> 
         assert abs(a.var() - b.var()) < 5.0 * math.sqrt(2.0 / a.size) * max(a.var(), 1e-300) + 1e-30
     np.testing.assert_allclose(np.hypot(drawn[2], drawn[3]), 1.0, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(ego.rows_drawn(odo, 0.1, 1000, seed=17), drawn[:, :1000])  # a prefix: same stream
+
+
+# ------------------------------------------------------------------ the persistent people motion, drawn inside
+
+
+def _walkers_and_standers(n: int, seed: int) -> ParticleState:
+    """Particles well inside the paper's grid: the first half walk (speeds 0.3-2.5 m/s, any heading), the rest
+    stand."""
+    st = _interior(n, seed)
+    rng = np.random.default_rng(seed + 100)
+    speed, heading = rng.uniform(0.3, 2.5, n // 2), rng.uniform(-math.pi, math.pi, n // 2)
+    st.vx, st.vy = np.zeros(n), np.zeros(n)
+    st.vx[: n // 2], st.vy[: n // 2] = speed * np.cos(heading), speed * np.sin(heading)
+    return st
+
+
+def test_compiled_persistent_motion_matches_move_persistent_in_distribution() -> None:
+    """The compiled pass (persistent_move_ego_compact, no sensor motion) against move_persistent's numpy draws on
+    the same particles, dt = 0.3 s: stop and start fractions within 5 binomial standard errors of the rates; the
+    walkers' change of speed and turn and the starters' speed and heading, two-sample KS at alpha = 1e-3; standing
+    particles do not move."""
+    from pfpeople.particle.propagation import PersistentMotion, move_persistent
+
+    n, dt, params = 200_000, 0.3, PersistentMotion()
+    st = _walkers_and_standers(n, 4)
+    pf = ParticleFilter(rng=np.random.default_rng(0), people_motion=PersistentSampling(compiled_draws=True))
+    out, cells = tuple(np.empty(n) for _ in range(5)), np.empty(n, dtype=np.intp)
+    sums = (
+        np.zeros(SPEC.n_cells),
+        np.zeros(SPEC.n_cells),
+        np.zeros(SPEC.n_cells, dtype=np.intp),
+        np.zeros(SPEC.n_cells),
+    )
+    src = (st.x, st.y, st.vx, st.vy, st.w)
+    j, n_in = kernels.persistent_move_ego_compact(src, _seeds(5), WALK, pf._persist(dt), np.zeros((4, 1)), False, GRID,
+                                                  out, cells, sums)  # fmt: skip
+    assert j == n_in == n  # nobody left: the pass keeps every particle in place
+    x, vx, vy = out[0], out[2], out[3]
+    moved = st.copy()
+    move_persistent(moved, MOTION, params, dt, rng=np.random.default_rng(6))
+    walkers = np.arange(n) < n // 2
+    heading0, speed0 = np.arctan2(st.vy, st.vx), np.hypot(st.vx, st.vy)
+    p_stop, p_start = 1.0 - (1.0 - params.p_stop) ** dt, 1.0 - (1.0 - params.p_start) ** dt
+    got = {}
+    for name, (gx, gvx, gvy) in {"compiled": (x, vx, vy), "numpy": (moved.x, moved.vx, moved.vy)}.items():
+        s = np.hypot(gvx, gvy)
+        assert _binomial_ok(int(np.sum(walkers & (s == 0.0))), n // 2, p_stop), name
+        assert _binomial_ok(int(np.sum(~walkers & (s > 0.0))), n - n // 2, p_start), name
+        np.testing.assert_array_equal(gx[~walkers & (s == 0.0)], st.x[~walkers & (s == 0.0)])
+        turn = np.angle(np.exp(1j * (np.arctan2(gvy, gvx) - heading0)))
+        go, start = walkers & (s > 0.0), ~walkers & (s > 0.0)
+        got[name] = ((s - speed0)[go], turn[go], s[start], np.arctan2(gvy, gvx)[start])
+        np.testing.assert_allclose(gx - st.x, gvx * dt, rtol=0, atol=1e-12)
+    for a, b in zip(got["compiled"], got["numpy"], strict=True):
+        assert stats.ks_2samp(a, b).pvalue > ALPHA
+    assert stats.kstest(got["compiled"][2], SPEED.cdf).pvalue > ALPHA  # a starter's speed: the paper's prior
+
+
+def test_compiled_persistent_filter_same_seed_same_bits_and_numpy_belief_within_monte_carlo_noise() -> None:
+    """PersistentSampling(compiled_draws=True): the same seed gives the same bits; the posterior after 6 steps
+    (20 000 particles) agrees with the numpy path's as two numpy runs agree (the bounds of
+    :func:`test_compiled_belief_agrees_with_numpy_within_monte_carlo_noise`, seeds 0-3 against 0-3 and 4-7)."""
+
+    def run(seed: int, on: bool) -> np.ndarray:
+        with jit.override(on):
+            pf = ParticleFilter(n_particles=20_000, rng=np.random.default_rng(seed),
+                                people_motion=PersistentSampling(compiled_draws=True))  # fmt: skip
+            return _steps(pf, 6)[-1].posterior
+
+    comp = [run(seed, True) for seed in range(4)]
+    np.testing.assert_array_equal(run(0, True), comp[0])
+    ref, other = [run(seed, False) for seed in range(4)], [run(seed, False) for seed in range(4, 8)]
+    mad = lambda a, b: float(np.mean(np.abs(a - b)))  # noqa: E731
+    cross = np.mean([mad(c, r) for c, r in zip(comp, ref, strict=True)])
+    within = np.mean([mad(r, o) for r, o in zip(ref, other, strict=True)])
+    assert cross < 1.2 * within, (cross, within)
+    avg = mad(np.mean(comp, axis=0), np.mean(ref, axis=0))
+    assert avg < 1.3 * mad(np.mean(ref, axis=0), np.mean(other, axis=0)), avg
+    assert abs(np.mean(comp) - np.mean(ref)) < 0.002
+
+
+def test_compiled_draws_must_be_a_bool() -> None:
+    with pytest.raises(TypeError, match=r"PersistentSampling\.compiled_draws must be a bool, got int"):
+        PersistentSampling(compiled_draws=1)  # type: ignore[arg-type]

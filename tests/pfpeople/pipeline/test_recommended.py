@@ -103,6 +103,9 @@ def test_build_filter_composes_the_modes() -> None:
     assert isinstance(paper_pf.people_motion, PaperSampling)  # the grid's prediction, sampled
     explicit = FilterConfig(kind="particle", motion_model="paper")
     assert build_filter(explicit, spec, CALIBRATED_LASER_DETECTORS).people_motion == PaperSampling()  # type: ignore[union-attr]
+    drawn = build_filter(FilterConfig(kind="particle", compiled_draws=True), spec, CALIBRATED_LASER_DETECTORS)
+    assert drawn.people_motion == PersistentSampling(compiled_draws=True)  # type: ignore[union-attr]
+    assert pf.people_motion == PersistentSampling()  # the default: numpy's draws
     overflow = build_filter(FilterConfig(kind="particle", max_overflow=0.3), spec, PAPER_DETECTORS)
     assert overflow.resampling == Resampling(max_overflow=0.3)  # type: ignore[union-attr]
     with pytest.raises(ValueError, match="form must be 'linear'"):
@@ -139,6 +142,9 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
     ):
         FilterConfig(motion_model="cv")
     assert config_from_mapping({**doc, "filter": {"motion_model": "paper"}}).filter.motion_model == "paper"
+    assert config_from_mapping({**doc, "filter": {"compiled_draws": True}}).filter.compiled_draws is True
+    with pytest.raises(TypeError, match=r"FilterConfig\.compiled_draws must be true or false, got 'yes'"):
+        config_from_mapping({**doc, "filter": {"compiled_draws": "yes"}})
     with pytest.raises(ValueError, match=r"ClassifierConfig\.kind"):
         ClassifierConfig(kind="cnn")
     assert build_classifier(ClassifierConfig()).threshold == PEAK_THRESHOLD  # type: ignore[attr-defined]
