@@ -25,14 +25,13 @@ and whether the two runs wrote the same ``people.csv``, ``tracks.csv`` and ``det
     python -m evaluation.bench.pipeline [--cases wheelchair lobby person_following] [--filters grid particle]
         [--max-frames N] [--repeat N] [--baseline REV|none] [--stages] [--data ../shared/data] [--work DIR]
         [--processes 1 2] [--max-overflow 0 0.1] [--particles 5000] [--motion-model paper persistent]
-        [--draws numpy compiled] [--busy N]
-        [--side-by-side]
+        [--draws numpy compiled] [--busy N] [--side-by-side]
     python -m evaluation.bench.pipeline --worker --bag BAG --config CFG --filter grid --out RUN [--stages] ...
 
 ``--side-by-side`` runs the codes of a round at the same time, each worker pinned to a core of its own, the codes
-swapping cores from round to round. This machine's speed drifts by 10-20 % over seconds to minutes (a shared host):
-runs one after the other see different speeds, runs side by side see the same, so their ratio is steadier. Each run
-then has the other core busy (shared caches and memory bandwidth): its own figures are those of a loaded machine.
+swapping cores from round to round. On a machine whose speed drifts (a shared host), runs one after the other see
+different speeds and runs side by side the same, so their ratio is steadier (``docs/speed.md``). Each run then has
+the other core busy (shared caches and memory bandwidth): its own figures are those of a loaded machine.
 
 ``--busy N`` loads the machine the same for every code measured: N processes spin on a core each while the runs
 go (on this 2-core machine ``--busy 1`` leaves the pipeline one core, as other jobs often do).

@@ -309,7 +309,8 @@ class ParticleFilter:
 
     def _draws_inside(self) -> bool:
         """Whether the compiled step draws the people motion and the births inside its kernels: the paper's people
-        motion without the re-draw in cells (any other sampler draws as the numpy path, bit for bit)."""
+        motion, or the persistent one with ``compiled_draws``, without the re-draw in cells (any other sampler
+        draws as the numpy path, bit for bit)."""
         people = self.people_motion
         inside = type(people) is PaperSampling or (type(people) is PersistentSampling and people.compiled_draws)
         return jit.enabled("pfpeople") and inside and not people.redraw_in_cell

@@ -3,18 +3,20 @@ systematic resampling without a sort (same distributions as the numpy code, othe
 
 Each kernel is one pass over the particles doing the work of several numpy calls. Two kinds:
 
-* **Drawing inside** (:func:`paper_move_ego_compact`, :func:`born_particles`, :func:`ego_rows_drawn`) and
-  **resampling without a sort** (:func:`cell_systematic_ancestors` with :func:`gather_ancestors`, after
-  :func:`scale_sums`): the people motion of :class:`~pfpeople.particle.components.PaperSampling` (stay or walk,
-  truncated-normal speed, uniform heading), the births' positions and velocities and the sensor motion's noise
+* **Drawing inside** (:func:`paper_move_ego_compact`, :func:`persistent_move_ego_compact`, :func:`born_particles`,
+  :func:`ego_rows_drawn`) and **resampling without a sort** (:func:`cell_systematic_ancestors` with
+  :func:`gather_ancestors`, after :func:`scale_sums`): the people motion of
+  :class:`~pfpeople.particle.components.PaperSampling` (stay or walk, truncated-normal speed, uniform heading) and of
+  ``PersistentSampling(compiled_draws=True)``, the births' positions and velocities and the sensor motion's noise
   make their draws in the kernel from SplitMix64 streams seeded by the filter's ``Generator``
   (:mod:`pfpeople.particle.rng_kernels`); the systematic resampling by cell takes its uniforms from the
   ``Generator`` as the numpy code does but finds each cell's forced ancestor on the running sums in particle order,
   not in the particles sorted by cell. The distributions are the numpy path's, the draws are not: a seeded filter
   is deterministic on either path but the two paths give different particles
   (``tests/pfpeople/particle/test_compiled_draws.py`` tests the distributions and the filter's belief).
-* **Bit-identical** to the numpy code, the random draws made by the caller with numpy's ``Generator`` in the same
-  order (the other people-motion samplers, the sensor motion's poses, the other resampling schemes): every kernel
+* **Bit-identical** to the numpy code (the other people-motion samplers, the sensor motion's poses, the other
+  resampling schemes), the random draws made with numpy's ``Generator`` in the same order, by the caller or in the
+  kernel (numba runs the ``Generator``'s own algorithms: :func:`persistent_walk`, :func:`ego_rows_from`): every kernel
   does the same IEEE operations in the same order as the numpy code it replaces: cell sums accumulate
   sequentially in particle order (as ``np.bincount``), running sums are sequential (as ``np.cumsum``), and
   ``math.cos`` / ``math.sin`` are the C library's, as numpy's float64 ufuncs on this platform (the tests check).
