@@ -832,7 +832,7 @@ def paper_move_ego_compact(
     n_inside : int
         The number inside the grid after the people motion.
     """
-    n, n_pose = x.size, poses.shape[1]
+    n = x.size
     scratch = np.empty((8, _BLOCK))
     widx = np.empty(_BLOCK + 1, dtype=np.intp)
     drops = np.empty(n, dtype=np.intp)
@@ -841,16 +841,41 @@ def paper_move_ego_compact(
     for b0 in range(0, n, _BLOCK):
         m = min(_BLOCK, n - b0)
         state, n_walk = _block_walkers(seeds, b0, n_walk, walk, state, scratch, m, widx)
-        i0, p0 = 0, b0 % n_pose
-        while i0 < m:  # runs of consecutive poses (particle k has pose k mod S; one run without the poses)
-            i1 = min(m, i0 + n_pose - p0) if ego else m
-            if i0 > 0:  # the run's velocities to the scratch's first columns, where _move_segment reads them
-                scratch[0:2, : i1 - i0] = scratch[0:2, i0:i1].copy()
-            _move_segment(b0 + i0, b0 + i1, (x, y, w), poses, p0, dt, ego, grid, scratch, out, cells)
-            nd, n_in = _sum_block(b0 + i0, w[b0 + i0 : b0 + i1], scratch, grid, out, cells, sums, drops, nd)
-            n_inside += n_in
-            i0, p0 = i1, 0
+        nd, n_in = _move_block(b0, m, (x, y, w), (poses, ego, dt), grid, scratch, (out, cells), sums, drops, nd)
+        n_inside += n_in
     return _fill_drops(n, drops, nd, out, cells), n_inside
+
+
+@jit
+def _move_block(
+    b0: int,
+    m: int,
+    src: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    motion: tuple[NDArray[np.float64], bool, float],
+    grid: tuple[float, float, float, int, int],
+    scratch: NDArray[np.float64],
+    into: tuple[Rows5, NDArray[np.intp]],
+    sums: _Sums4,
+    drops: NDArray[np.intp],
+    nd: int,
+) -> tuple[int, int]:
+    """The people motion (velocities in ``scratch[0:2, :m]``), the sensor motion (``motion = (poses, ego, dt)``),
+    the cells and the sums of the block of particles ``b0, ..., b0 + m - 1`` (``src = (x, y, w)``), in runs of
+    consecutive poses (particle k has pose k mod S; one run without the poses). Returns the dropped count so far
+    and the block's count inside after the people motion."""
+    poses, ego, dt = motion
+    out, cells = into
+    n_pose, n_inside = poses.shape[1], 0
+    i0, p0 = 0, b0 % n_pose
+    while i0 < m:
+        i1 = min(m, i0 + n_pose - p0) if ego else m
+        if i0 > 0:  # the run's velocities to the scratch's first columns, where _move_segment reads them
+            scratch[0:2, : i1 - i0] = scratch[0:2, i0:i1].copy()
+        _move_segment(b0 + i0, b0 + i1, src, poses, p0, dt, ego, grid, scratch, out, cells)
+        nd, n_in = _sum_block(b0 + i0, src[2][b0 + i0 : b0 + i1], scratch, grid, out, cells, sums, drops, nd)
+        n_inside += n_in
+        i0, p0 = i1, 0
+    return nd, n_inside
 
 
 @jit
@@ -916,7 +941,7 @@ def persistent_move_ego_compact(
     used) and the sequential state, from the filter's ``Generator``; ``persist`` as :func:`_block_persistent`'s (its
     ``dt`` the step's, s); the rest and the returns as :func:`paper_move_ego_compact`'s.
     """
-    n, n_pose, dt = src[0].size, poses.shape[1], persist[4]
+    n, dt = src[0].size, persist[4]
     scratch = np.empty((8, _BLOCK))
     drops = np.empty(n, dtype=np.intp)
     state = seeds[3]
@@ -924,15 +949,9 @@ def persistent_move_ego_compact(
     for b0 in range(0, n, _BLOCK):
         m = min(_BLOCK, n - b0)
         state = _block_persistent(seeds, b0, (src[2], src[3]), walk, persist, state, scratch, m)
-        i0, p0 = 0, b0 % n_pose
-        while i0 < m:  # runs of consecutive poses, as in paper_move_ego_compact
-            i1 = min(m, i0 + n_pose - p0) if ego else m
-            if i0 > 0:
-                scratch[0:2, : i1 - i0] = scratch[0:2, i0:i1].copy()
-            _move_segment(b0 + i0, b0 + i1, (src[0], src[1], src[4]), poses, p0, dt, ego, grid, scratch, out, cells)
-            nd, n_in = _sum_block(b0 + i0, src[4][b0 + i0 : b0 + i1], scratch, grid, out, cells, sums, drops, nd)
-            n_inside += n_in
-            i0, p0 = i1, 0
+        xyw = (src[0], src[1], src[4])
+        nd, n_in = _move_block(b0, m, xyw, (poses, ego, dt), grid, scratch, (out, cells), sums, drops, nd)
+        n_inside += n_in
     return _fill_drops(n, drops, nd, out, cells), n_inside
 
 

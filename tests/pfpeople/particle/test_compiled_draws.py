@@ -351,6 +351,18 @@ def test_compiled_update_resamples_from_the_predicted_sums_as_from_the_scaled_we
         np.testing.assert_allclose(a.particles.w, b.particles.w, rtol=1e-12, atol=0)
 
 
+def _assert_within_monte_carlo_noise(comp: list, ref: list, other: list) -> None:
+    """Compiled beliefs ``comp`` against numpy's ``ref`` (the same seeds) as numpy's ``other`` (other seeds) against
+    ``ref``: MAD of single runs below 1.2 times, of the seed averages below 1.3 times, mean belief within 0.002."""
+    mad = lambda a, b: float(np.mean(np.abs(a - b)))  # noqa: E731
+    cross = np.mean([mad(c, r) for c, r in zip(comp, ref, strict=True)])
+    within = np.mean([mad(r, o) for r, o in zip(ref, other, strict=True)])
+    assert cross < 1.2 * within, (cross, within)
+    avg = mad(np.mean(comp, axis=0), np.mean(ref, axis=0))
+    assert avg < 1.3 * mad(np.mean(ref, axis=0), np.mean(other, axis=0)), avg
+    assert abs(np.mean(comp) - np.mean(ref)) < 0.002
+
+
 def test_compiled_belief_agrees_with_numpy_within_monte_carlo_noise() -> None:
     """6 steps (moving, standing, detections or none), 20 000 particles; the posterior of the last step, seeds 0-3
     on the compiled path, seeds 0-7 on the numpy path; MAD = mean absolute difference over the 900 cells.
@@ -367,14 +379,8 @@ def test_compiled_belief_agrees_with_numpy_within_monte_carlo_noise() -> None:
             for seed in range(4 if on else 8):
                 pf = ParticleFilter(n_particles=20_000, rng=np.random.default_rng(seed))
                 beliefs[on].append(_steps(pf, 6)[-1].posterior)
-    mad = lambda a, b: float(np.mean(np.abs(a - b)))  # noqa: E731
     comp, ref, other = beliefs[True], beliefs[False][:4], beliefs[False][4:]
-    cross = np.mean([mad(c, r) for c, r in zip(comp, ref, strict=True)])
-    within = np.mean([mad(r, o) for r, o in zip(ref, other, strict=True)])
-    assert cross < 1.2 * within, (cross, within)
-    avg = mad(np.mean(comp, axis=0), np.mean(ref, axis=0))
-    assert avg < 1.3 * mad(np.mean(ref, axis=0), np.mean(other, axis=0)), avg
-    assert abs(np.mean(comp) - np.mean(ref)) < 0.002
+    _assert_within_monte_carlo_noise(comp, ref, other)
 
 
 def test_compiled_persistent_filter_unaffected_by_the_paper_draws() -> None:
@@ -481,13 +487,7 @@ def test_compiled_persistent_filter_same_seed_same_bits_and_numpy_belief_within_
     comp = [run(seed, True) for seed in range(4)]
     np.testing.assert_array_equal(run(0, True), comp[0])
     ref, other = [run(seed, False) for seed in range(4)], [run(seed, False) for seed in range(4, 8)]
-    mad = lambda a, b: float(np.mean(np.abs(a - b)))  # noqa: E731
-    cross = np.mean([mad(c, r) for c, r in zip(comp, ref, strict=True)])
-    within = np.mean([mad(r, o) for r, o in zip(ref, other, strict=True)])
-    assert cross < 1.2 * within, (cross, within)
-    avg = mad(np.mean(comp, axis=0), np.mean(ref, axis=0))
-    assert avg < 1.3 * mad(np.mean(ref, axis=0), np.mean(other, axis=0)), avg
-    assert abs(np.mean(comp) - np.mean(ref)) < 0.002
+    _assert_within_monte_carlo_noise(comp, ref, other)
 
 
 def test_compiled_draws_must_be_a_bool() -> None:
