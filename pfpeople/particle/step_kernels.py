@@ -204,48 +204,37 @@ def persistent_walk(
     rates: tuple[float, float],
     walk: tuple[float, float, float, float, float, float],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_], NDArray[np.float64]]:
-    """:func:`pfpeople.particle.propagation.move_persistent`'s walk and its draws from ``g``, bit for bit.
-
-    numba's ``Generator`` methods are numpy's algorithms on the same bit generator: ``g`` gives the numpy path's
-    draws in its order (N uniforms, N heading normals, N speed normals, then the new walkers' K speed uniforms and K
-    heading uniforms) and is left where the numpy path leaves it.
+    """:func:`pfpeople.particle.propagation.move_persistent`'s walk and its draws from ``g``, bit for bit: numba's
+    ``Generator`` runs numpy's algorithms, so ``g`` gives the numpy path's draws in its order (N uniforms, N heading
+    and N speed normals, the K starters' speed and heading uniforms) and ends where numpy leaves it.
 
     Parameters
     ----------
     g : numpy.random.Generator
-        The filter's generator (advanced by the draws).
-    vx, vy : ndarray, shape (N,)
-        Velocities (m/s) before the step.
-    heading : ndarray, shape (N,)
-        ``np.arctan2(vy, vx)`` (numpy's, which the C library's ``atan2`` does not always equal).
-    rates : tuple of float
-        The per-step probabilities ``(p_stop, p_start)``.
-    walk : tuple of float
-        ``(heading_noise * sqrt(dt), speed_reversion, mu, dt, speed_noise * sqrt(dt), v_max)``.
+        The filter's generator (advanced).
+    vx, vy, heading : ndarray, shape (N,)
+        Velocities (m/s) before the step and ``np.arctan2(vy, vx)`` (numpy's, not always the C library's).
+    rates, walk : tuple of float
+        ``(p_stop, p_start)`` per step; ``(heading_noise sqrt(dt), speed_reversion, mu, dt, speed_noise sqrt(dt),
+        v_max)``.
 
     Returns
     -------
     speed, heading : ndarray, shape (N,)
-        The walked speed (m/s) and heading (rad) of every particle; the new walkers' headings are drawn (uniform in
-        [0, 2 pi)), their speeds are the caller's (from ``u_speed``).
+        Walked speed (m/s) and heading (rad); the starters' headings drawn, their speeds the caller's.
     starts : ndarray of intp, shape (K,)
         Indices (ascending) of the standing particles that start walking.
     zero : ndarray of bool, shape (N,)
-        The particles that stand after the step (walkers that stop, standing ones that do not start).
+        The particles that stand after the step.
     u_speed : ndarray, shape (K,)
-        The new walkers' speed uniforms in [0, 1) (:func:`pfpeople.particle.propagation.speeds_from_uniform`).
+        The starters' speed uniforms (:func:`pfpeople.particle.propagation.speeds_from_uniform`).
     """
-    p_stop, p_start = rates
-    hn, sr, mu, dt, sn, vmax = walk
-    two_vmax = 2.0 * vmax
-    n = vx.size
+    (p_stop, p_start), (hn, sr, mu, dt, sn, vmax), n = rates, walk, vx.size
     u = g.random(n)
     head, speed = np.empty(n), np.empty(n)
     for k in range(n):  # the heading normals (row 0 of the numpy path's (2, N) draw) ...
         head[k] = heading[k] + hn * g.standard_normal()
-    zero = np.zeros(n, dtype=np.bool_)
-    starts = np.empty(n, dtype=np.intp)
-    n_start = 0
+    zero, starts, n_start = np.zeros(n, dtype=np.bool_), np.empty(n, dtype=np.intp), 0
     for k in range(n):  # ... then the speed normals (row 1)
         s = math.hypot(vx[k], vy[k])
         if s > 0.0:
@@ -257,7 +246,7 @@ def persistent_walk(
             zero[k] = True
         s = abs(s + sr * (mu - s) * dt + sn * g.standard_normal())
         if s > vmax:
-            s = two_vmax - s
+            s = 2.0 * vmax - s
         s = s if s > 0.0 else 0.0  # np.clip(s, 0, v_max)
         speed[k] = s if s < vmax else vmax
     u_speed = g.random(n_start)
