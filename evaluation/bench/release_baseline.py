@@ -21,8 +21,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-#: The last release that landed (round three, stop 10); ``--baseline REV`` on a benchmark overrides it.
-PREVIOUS_RELEASE = "64d4302"
+#: The last release that landed (round three, stop 11); ``--baseline REV`` on a benchmark overrides it.
+PREVIOUS_RELEASE = "0a8dd9a"
 
 REPO = Path(__file__).resolve().parents[2]
 
