@@ -6,6 +6,7 @@ Examples::
     pfpeople-eval benchmark                                  # everything (several minutes on 2 cores)
     pfpeople-eval benchmark --scenes eth scan:wheelchair --frames 200 --json bench.json
     pfpeople-eval benchmark --scenes scan:wheelchair scan:corridor scan:crowd --seed 1   # other people, same rooms
+    pfpeople-eval benchmark --scenes eth hotel --particle seed=3          # another draw of the particle rows
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from evaluation.harness.benchmark import SCENES, format_rows, run_benchmark
+from evaluation.harness.benchmark import SCENES, format_rows, particle_overrides, run_benchmark
 from evaluation.harness.mot_eval import MotRow
 from evaluation.harness.mot_eval import format_rows as format_mot_rows
 from evaluation.scenarios.eth_ucy import default_data_root
@@ -54,6 +55,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="simulation seed of the scan-level scenes (default: each scene's own, 0)",
     )
+    p.add_argument(
+        "--particle",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help="[filter] settings of every particle filter run: seed=3 (another Monte Carlo draw), compiled_draws=true",
+    )
     p.add_argument("--no-mot", action="store_true", help="no multi-person tracking table (CLEAR-MOT: MOTA, IDSW, ...)")
     p.set_defaults(func=run)
 
@@ -61,6 +69,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.frames is not None and args.frames < 1:
         raise ValueError(f"--frames must be a positive integer, got {args.frames}")
+    particle = particle_overrides(args.particle)  # before anything runs
     data = args.data if args.data is not None else default_data_root()
     scenes = list(args.scenes)
 
@@ -72,10 +81,19 @@ def run(args: argparse.Namespace) -> int:
         args.work.mkdir(parents=True, exist_ok=True)
     mot: list[MotRow] | None = None if args.no_mot else []
     rows = run_benchmark(
-        scenes, data=data, frames=args.frames, work=args.work, progress=progress, mot=mot, scan_seed=args.seed
+        scenes,
+        data=data,
+        frames=args.frames,
+        work=args.work,
+        progress=progress,
+        mot=mot,
+        scan_seed=args.seed,
+        particle=particle,
     )
     if args.seed is not None:
         print(f"scan-level scenes simulated with seed {args.seed}")
+    if particle:
+        print("particle filter runs with " + " ".join(f"{k}={v!r}" for k, v in particle.items()))
     print(format_rows(rows))
     if mot:
         print(

@@ -38,7 +38,7 @@ import csv
 import math
 import tempfile
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -61,6 +61,7 @@ __all__ = [
     "BenchRow",
     "Mode",
     "format_rows",
+    "particle_overrides",
     "pooled_rows",
     "run_benchmark",
     "write_labelled_people_csv",
@@ -465,7 +466,15 @@ def scene_logs(
     raise ValueError(f"unknown scene {scene!r}; scenes: {', '.join(SCENES)}")
 
 
-def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, gate: float = 0.75) -> list[Any]:
+def mot_rows(
+    scene: str,
+    *,
+    data: Path,
+    work: Path,
+    frames: int | None = None,
+    gate: float = 0.75,
+    particle: Mapping[str, Any] | None = None,
+) -> list[Any]:
     """The multi-person tracking (CLEAR-MOT) rows of one scene, after :func:`scene_logs` ran it in ``work``.
 
     Replay scenes: the recommended filters (grid, particles) + tracker replayed as ``pfpeople run`` runs them, and
@@ -476,7 +485,8 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     (:func:`evaluation.harness.mot_eval.evaluate_run`); the scan-level scenes again scoring only people hit by >= 3
     laser beams (``[hit_beams>=3]``: fully occluded people out). ``person_following_outdoor_1`` annotates the followed
     person only: its figure is the followed-person line (MOTA / precision there count passers-by as false).
-    ``negative_2`` (nobody there) has no MOT rows. Gate ``gate`` m (leg_tracker's 0.75).
+    ``negative_2`` (nobody there) has no MOT rows. Gate ``gate`` m (leg_tracker's 0.75). ``particle``: other
+    :class:`~pfpeople.config.FilterConfig` fields for the particle filter's rows (e.g. ``{"seed": 3}``).
     """
     from evaluation.harness.mot_eval import evaluate_log, evaluate_run
     from pfpeople.config import builtin_config_path, load_config
@@ -487,7 +497,7 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     if scene in REPLAY_SCENES:
         from evaluation.scenarios.scenario import Scenario
 
-        return evaluate_log(log_from_scenario(Scenario.from_name(scene, n_frames=frames)), gate=gate)
+        return evaluate_log(log_from_scenario(Scenario.from_name(scene, n_frames=frames)), gate=gate, particle=particle)
     srcs = ["tracks", "laser-legs", "laser-boosted", "all detectors merged"]
     if scene.startswith("scan:"):
         name = scene.split(":", 1)[1]
@@ -504,7 +514,7 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
         return []
     gt = read_gt_csv(gt_csv)
     particle_out = work / f"{name}_prun"
-    _particle_run(bag, cfg, particle_out, max_frames=max_frames)
+    _particle_run(bag, cfg, particle_out, max_frames=max_frames, particle=particle)
     grid_run, particle_run = load_run(out), load_run(particle_out)
     rows: list[Any] = []
     for beams in visible:
@@ -515,13 +525,57 @@ def mot_rows(scene: str, *, data: Path, work: Path, frames: int | None = None, g
     return rows
 
 
-def _particle_run(bag: Path, config: BagConfig, out: Path, *, max_frames: int | None = None) -> None:
-    """Run the pipeline on ``bag`` with ``config``'s filter made the (recommended) particle filter, into ``out``."""
+def _particle_run(
+    bag: Path,
+    config: BagConfig,
+    out: Path,
+    *,
+    max_frames: int | None = None,
+    particle: Mapping[str, Any] | None = None,
+) -> None:
+    """Run the pipeline on ``bag`` with ``config``'s filter made the (recommended) particle filter, ``particle``
+    its other :class:`~pfpeople.config.FilterConfig` fields, into ``out``."""
     from pfpeople.io.bag.reader import BagSource
     from pfpeople.pipeline.runner import Pipeline
 
+    filt = replace(config.filter, kind="particle", **dict(particle or {}))
     with BagSource(bag) as src:
-        Pipeline(replace(config, filter=replace(config.filter, kind="particle"))).run(src, out, max_frames=max_frames)
+        Pipeline(replace(config, filter=filt)).run(src, out, max_frames=max_frames)
+
+
+def particle_overrides(items: Iterable[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` strings (``pfpeople-eval benchmark --particle``) as :class:`~pfpeople.config.FilterConfig` fields
+    of the particle filter runs: each KEY a ``[filter]`` key other than ``kind``, each VALUE a TOML value
+    (``seed=3``, ``compiled_draws=true``, ``motion_model="paper"``; a bare word is taken as a string).
+
+    Raises
+    ------
+    ValueError
+        An item without ``=``, a key that is no ``[filter]`` key, or a combination FilterConfig refuses (its
+        message, naming the field).
+    """
+    import tomllib
+    from dataclasses import fields
+
+    items = list(items)
+    keys = sorted(f.name for f in fields(FilterConfig) if f.name != "kind")
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise ValueError(f"--particle {item!r}: expected KEY=VALUE (e.g. seed=3)")
+        if key not in keys:
+            raise ValueError(f"--particle {item!r}: {key!r} is not a [filter] key; keys: {', '.join(keys)}")
+        try:
+            out[key] = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key] = text.strip()  # a bare word: a string
+    try:
+        replace(FilterConfig(kind="particle"), **out)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"--particle {' '.join(items)}: {exc}") from None
+    return out
 
 
 def run_benchmark(
@@ -534,13 +588,19 @@ def run_benchmark(
     progress: Callable[[str], None] | None = None,
     mot: list[Any] | None = None,
     scan_seed: int | None = None,
+    particle: Mapping[str, Any] | None = None,
 ) -> list[BenchRow]:
     """Every scene x (each detector, each mode, the pipeline's own run). See the module docstring.
 
     ``mot``: when a list, the multi-person tracking rows of every scene (:func:`mot_rows`,
     :class:`evaluation.harness.mot_eval.MotRow`) are appended to it. ``scan_seed``: simulation seed of the scan-level
     scenes (default each scene's own): other seeds give other people, paths and noise in the same room, a check
-    that figures tuned on the default seed carry over."""
+    that figures tuned on the default seed carry over. ``particle``: :class:`~pfpeople.config.FilterConfig` fields
+    that replace the defaults of every particle filter run (the modes of kind ``"particle"``, the tracking rows,
+    the bags' particle runs), e.g. ``{"seed": 3}``: a particle row is one Monte Carlo draw, other seeds give its
+    spread (:func:`particle_overrides` checks them)."""
+    if particle:
+        modes = [replace(m, filter=replace(m.filter, **particle)) if m.filter.kind == "particle" else m for m in modes]
     rows: list[BenchRow] = []
     with tempfile.TemporaryDirectory(prefix="pfpeople-bench-") as tmp:
         base = Path(work) if work is not None else Path(tmp)
@@ -562,7 +622,7 @@ def run_benchmark(
             if scene == "positive_bags" and len(logs) > 1:
                 rows.extend(pooled_rows(rows[first:], "positive_bags (all)"))
             if mot is not None:
-                mot.extend(mot_rows(scene, data=data, work=base, frames=frames))
+                mot.extend(mot_rows(scene, data=data, work=base, frames=frames, particle=particle))
     return rows
 
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -250,6 +250,7 @@ def evaluate_log(
     gate: float = 0.75,
     config: TrackerConfig | None = None,
     fused: Sequence[str] = tuple(FUSED_SOURCES),
+    particle: Mapping[str, Any] | None = None,
 ) -> list[MotRow]:
     """CLEAR-MOT of a replay log with person ids (:func:`evaluation.harness.replay.log_from_scenario`): the recommended
     filters and tracker as ``pfpeople run`` runs them, and tracking-by-detection on each detector and all merged.
@@ -261,7 +262,8 @@ def evaluate_log(
     particles (tracker)"``: the same with the recommended particle filter (``FilterConfig(kind="particle")``, its
     seed 0). ``fused``: which of these rows (:data:`FUSED_SOURCES`). Ego-motion: the log's odometry controls.
     Detector rows as :func:`evaluate_scenario`. Truth and hypotheses inside the grid only. ``config``: tracker
-    parameters (default ``TrackerConfig()``, the pipeline's).
+    parameters (default ``TrackerConfig()``, the pipeline's). ``particle``: :class:`~pfpeople.config.FilterConfig`
+    fields that replace the particle row's defaults (e.g. ``{"seed": 3}``).
     """
     if log.truth_ids is None:
         raise ValueError(f"log {log.name!r} has no person ids (truth_ids): CLEAR-MOT needs them")
@@ -283,7 +285,8 @@ def evaluate_log(
         rows.append(MotRow(log.name, source, clear_mot(gt, hyp, gate=gate), hota_extra(gt, hyp, gate=gate)))
 
     for source in fused:
-        score(source, _fused_tracks(log, FUSED_SOURCES[source], config, dts, egos))
+        kind = FUSED_SOURCES[source]
+        score(source, _fused_tracks(log, kind, config, dts, egos, particle if kind == "particle" else None))
     for i, m in enumerate(log.models):
         det: list[Positions] = []
         for k in range(n):
@@ -296,14 +299,20 @@ def evaluate_log(
 
 
 def _fused_tracks(
-    log: ReplayLog, kind: str, config: TrackerConfig, dts: Sequence[float], egos: Sequence[Pose2D | None]
+    log: ReplayLog,
+    kind: str,
+    config: TrackerConfig,
+    dts: Sequence[float],
+    egos: Sequence[Pose2D | None],
+    overrides: Mapping[str, Any] | None = None,
 ) -> HypFrames:
-    """The confirmed tracks per frame of the recommended ``kind`` filter + classifier + tracker over ``log``."""
+    """The confirmed tracks per frame of the recommended ``kind`` filter (``overrides``: other
+    :class:`~pfpeople.config.FilterConfig` fields) + classifier + tracker over ``log``."""
     from pfpeople.config import ClassifierConfig, FilterConfig, TrackingConfig
     from pfpeople.pipeline.assembly import build_classifier, build_filter
 
     spec = log.spec
-    filt = build_filter(FilterConfig(kind=kind), spec, log.models)
+    filt = build_filter(FilterConfig(kind=kind, **dict(overrides or {})), spec, log.models)
     classifier = build_classifier(ClassifierConfig())
     tracking = TrackingConfig()
     tcfg = config

@@ -53,3 +53,67 @@ def test_mot_rows_score_both_filters_tracks(tmp_path: Path) -> None:
     meta = json.loads((work / "corridor_prun" / "run.json").read_text())
     assert meta["config"]["filter"]["kind"] == "particle" and meta["frames"] == 24
     assert all(r.scores.num_frames == 24 and r.scores.num_gt > 0 for r in rows)
+
+
+def test_particle_overrides_parse_filter_keys() -> None:
+    from evaluation.harness.benchmark import particle_overrides
+
+    got = particle_overrides(["seed=3", "compiled_draws=true", "max_overflow=0.2", "motion_model=paper"])
+    assert got == {"seed": 3, "compiled_draws": True, "max_overflow": 0.2, "motion_model": "paper"}
+    assert particle_overrides([]) == {}
+    assert particle_overrides(['motion_model="persistent"']) == {"motion_model": "persistent"}
+
+
+@pytest.mark.parametrize(
+    ("item", "match"),
+    [
+        ("seed", r"--particle 'seed': expected KEY=VALUE"),
+        ("=3", r"expected KEY=VALUE"),
+        ("kind=grid", r"'kind' is not a \[filter\] key; keys: .*compiled_draws.*seed"),
+        ("particles=5", r"'particles' is not a \[filter\] key"),
+        ("compiled_draws=yes", r"FilterConfig\.compiled_draws must be true or false, got 'yes'"),
+        ("motion_model=fast", r"motion_model"),
+    ],
+)
+def test_particle_overrides_refuse_bad_items(item: str, match: str) -> None:
+    from evaluation.harness.benchmark import particle_overrides
+
+    with pytest.raises(ValueError, match=match):
+        particle_overrides([item])
+
+
+def test_benchmark_cli_refuses_a_bad_particle_setting_before_running(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    work = tmp_path / "work"
+    argv = ["benchmark", "--scenes", "scan:corridor", "--frames", "24", "--work", str(work), "--no-progress"]
+    assert eval_main([*argv, "--particle", "sead=3"]) == 2
+    assert "--particle 'sead=3': 'sead' is not a [filter] key" in capsys.readouterr().err
+    assert not (work / "corridor").exists()  # nothing was simulated
+
+
+def test_particle_overrides_reach_every_particle_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``particle`` replaces the particle filter's settings in the particle mode's rows, the tracking rows' particle
+    pipeline run (``<name>_prun``), and nowhere else (the grid modes keep theirs)."""
+    from evaluation.harness import benchmark
+
+    seen: list[tuple[str, str, int, bool]] = []
+    real = benchmark.mode_row
+
+    def spy(log, mode, **kw):  # type: ignore[no-untyped-def]
+        seen.append((mode.name, mode.filter.kind, mode.filter.seed, mode.filter.compiled_draws))
+        return real(log, mode, **kw)
+
+    monkeypatch.setattr(benchmark, "mode_row", spy)
+    work = tmp_path / "work"
+    mot: list = []
+    particle = {"seed": 5, "compiled_draws": True}
+    benchmark.run_benchmark(["scan:corridor"], data=tmp_path, frames=12, work=work, mot=mot, particle=particle)
+    assert ("recommended particles", "particle", 5, True) in seen
+    assert all(seed == 0 and not drawn for _, kind, seed, drawn in seen if kind == "grid")
+    assert len(seen) == len(benchmark.MODES)
+    meta = json.loads((work / "corridor_prun" / "run.json").read_text())
+    assert meta["config"]["filter"]["seed"] == 5 and meta["config"]["filter"]["compiled_draws"] is True
+    grid_meta = json.loads((work / "corridor_run" / "run.json").read_text())
+    assert grid_meta["config"]["filter"]["seed"] == 0 and grid_meta["config"]["filter"]["kind"] == "grid"
+    assert mot and all(r.scores.num_frames == 12 for r in mot)

@@ -180,3 +180,16 @@ def test_track_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     assert '"mota"' in out_json.read_text()
     assert main(["track"]) == 2
     assert "give --scenario" in capsys.readouterr().err
+
+
+def test_evaluate_log_particle_overrides_change_only_the_particle_row() -> None:
+    """``particle={"seed": s}``: another Monte Carlo draw of the particle row (other tracks on this scene), the
+    same grid row; the default seed's row again with ``seed=0``."""
+    log = log_from_scenario(Scenario.from_name("complementary", n_frames=40))
+    base = {r.source: r.scores for r in evaluate_log(log)}
+    zero = {r.source: r.scores for r in evaluate_log(log, particle={"seed": 0})}
+    other = {r.source: r.scores for r in evaluate_log(log, particle={"seed": 7})}
+    key = "recommended particles (tracker)"
+    assert zero == base
+    assert other["recommended (tracker)"] == base["recommended (tracker)"]
+    assert other[key] != base[key]
