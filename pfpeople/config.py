@@ -203,9 +203,9 @@ class FilterConfig:
         mode (walkers keep their heading and speed: compact person blobs, README "Recommended particles"),
         ``"paper"`` (the paper's memoryless model, what the grid filter predicts) in the paper mode.
     compiled_draws : bool
-        Particle filter with the persistent people motion: draw it inside the compiled step
-        (:class:`pfpeople.particle.components.PersistentSampling`'s ``compiled_draws``), faster, the same
-        distributions, other draws than the default's (the paper's people motion always draws there).
+        Particle filter with the persistent people motion: draw it inside the compiled step (default;
+        :class:`pfpeople.particle.components.PersistentSampling`'s ``compiled_draws``), faster, the same
+        distributions as numpy's draws (false), other draws; the paper's people motion always draws there.
     max_overflow : float or None
         Particle filter: births may push the count this fraction above ``n_particles`` before they trigger a
         resampling (:class:`pfpeople.ParticleFilter`); None: 0.1 in the recommended mode (29 % of the steps
@@ -228,7 +228,7 @@ class FilterConfig:
     n_particles: int | None = None
     seed: int = 0
     motion_model: str | None = None
-    compiled_draws: bool = False
+    compiled_draws: bool = True
     max_overflow: float | None = None
     base_rate: float = 0.02
     appearance_rate: float = 0.05

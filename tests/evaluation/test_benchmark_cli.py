@@ -107,13 +107,13 @@ def test_particle_overrides_reach_every_particle_run(tmp_path: Path, monkeypatch
     monkeypatch.setattr(benchmark, "mode_row", spy)
     work = tmp_path / "work"
     mot: list = []
-    particle = {"seed": 5, "compiled_draws": True}
+    particle = {"seed": 5, "compiled_draws": False}  # not the defaults (0, true)
     benchmark.run_benchmark(["scan:corridor"], data=tmp_path, frames=12, work=work, mot=mot, particle=particle)
-    assert ("recommended particles", "particle", 5, True) in seen
-    assert all(seed == 0 and not drawn for _, kind, seed, drawn in seen if kind == "grid")
+    assert ("recommended particles", "particle", 5, False) in seen
+    assert all(seed == 0 and drawn for _, kind, seed, drawn in seen if kind == "grid")
     assert len(seen) == len(benchmark.MODES)
     meta = json.loads((work / "corridor_prun" / "run.json").read_text())
-    assert meta["config"]["filter"]["seed"] == 5 and meta["config"]["filter"]["compiled_draws"] is True
+    assert meta["config"]["filter"]["seed"] == 5 and meta["config"]["filter"]["compiled_draws"] is False
     grid_meta = json.loads((work / "corridor_run" / "run.json").read_text())
     assert grid_meta["config"]["filter"]["seed"] == 0 and grid_meta["config"]["filter"]["kind"] == "grid"
     assert mot and all(r.scores.num_frames == 12 for r in mot)

@@ -67,8 +67,10 @@ def test_particle_components_from_the_config_are_the_previous_defaults(
     default noise and a pool of 4096 draws, systematic resampling below half the count and the mode's slack."""
     pf = build_filter(FilterConfig(kind="particle", mode=mode), GridSpec(), PAPER_DETECTORS)  # type: ignore[arg-type]
     assert isinstance(pf, ParticleFilter)
-    if motion_model == "persistent":
-        assert pf.people_motion == PersistentSampling(motion=PeopleMotion(), persistent=PersistentMotion())
+    if motion_model == "persistent":  # drawn inside the compiled step (the product's default)
+        assert pf.people_motion == PersistentSampling(
+            motion=PeopleMotion(), persistent=PersistentMotion(), compiled_draws=True
+        )
     else:
         assert pf.people_motion == PaperSampling(motion=PeopleMotion(), redraw_in_cell=False)
     assert pf.people_motion.name == motion_model == DEFAULT_MOTION_MODEL[mode]  # type: ignore[attr-defined]
@@ -103,9 +105,9 @@ def test_build_filter_composes_the_modes() -> None:
     assert isinstance(paper_pf.people_motion, PaperSampling)  # the grid's prediction, sampled
     explicit = FilterConfig(kind="particle", motion_model="paper")
     assert build_filter(explicit, spec, CALIBRATED_LASER_DETECTORS).people_motion == PaperSampling()  # type: ignore[union-attr]
-    drawn = build_filter(FilterConfig(kind="particle", compiled_draws=True), spec, CALIBRATED_LASER_DETECTORS)
-    assert drawn.people_motion == PersistentSampling(compiled_draws=True)  # type: ignore[union-attr]
-    assert pf.people_motion == PersistentSampling()  # the default: numpy's draws
+    numpy_draws = build_filter(FilterConfig(kind="particle", compiled_draws=False), spec, CALIBRATED_LASER_DETECTORS)
+    assert numpy_draws.people_motion == PersistentSampling()  # type: ignore[union-attr]
+    assert pf.people_motion == PersistentSampling(compiled_draws=True)  # the default: drawn in the compiled step
     overflow = build_filter(FilterConfig(kind="particle", max_overflow=0.3), spec, PAPER_DETECTORS)
     assert overflow.resampling == Resampling(max_overflow=0.3)  # type: ignore[union-attr]
     with pytest.raises(ValueError, match="form must be 'linear'"):
@@ -142,7 +144,8 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
     ):
         FilterConfig(motion_model="cv")
     assert config_from_mapping({**doc, "filter": {"motion_model": "paper"}}).filter.motion_model == "paper"
-    assert config_from_mapping({**doc, "filter": {"compiled_draws": True}}).filter.compiled_draws is True
+    assert config_from_mapping({**doc, "filter": {"compiled_draws": False}}).filter.compiled_draws is False
+    assert config_from_mapping(doc).filter.compiled_draws is True  # the default
     with pytest.raises(TypeError, match=r"FilterConfig\.compiled_draws must be true or false, got 'yes'"):
         config_from_mapping({**doc, "filter": {"compiled_draws": "yes"}})
     with pytest.raises(ValueError, match=r"ClassifierConfig\.kind"):
