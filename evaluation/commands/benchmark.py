@@ -60,7 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         default=[],
         metavar="KEY=VALUE",
-        help="[filter] settings of every particle filter run: seed=3 (another Monte Carlo draw), compiled_draws=true",
+        help="[filter] settings of every particle filter run: seed=3 (another Monte Carlo draw), compiled_draws=false",
     )
     p.add_argument("--no-mot", action="store_true", help="no multi-person tracking table (CLEAR-MOT: MOTA, IDSW, ...)")
     p.set_defaults(func=run)
