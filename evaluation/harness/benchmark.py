@@ -572,7 +572,7 @@ def particle_overrides(items: Iterable[str]) -> dict[str, Any]:
         except tomllib.TOMLDecodeError:
             out[key] = text.strip()  # a bare word: a string
     try:
-        replace(FilterConfig(kind="particle"), **out)
+        FilterConfig(kind="particle", **out)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"--particle {' '.join(items)}: {exc}") from None
     return out

@@ -935,10 +935,10 @@ def persistent_move_ego_compact(
     drops = np.empty(n, dtype=np.intp)
     state = seeds[3]
     nd = n_inside = 0
+    v, xyw = (src[2], src[3]), (src[0], src[1], src[4])
     for b0 in range(0, n, _BLOCK):
         m = min(_BLOCK, n - b0)
-        state = _block_persistent(seeds, b0, (src[2], src[3]), walk, persist, state, scratch, m)
-        xyw = (src[0], src[1], src[4])
+        state = _block_persistent(seeds, b0, v, walk, persist, state, scratch, m)
         nd, n_in = _move_block(b0, m, xyw, (poses, ego, dt), grid, scratch, (out, cells), sums, drops, nd)
         n_inside += n_in
     return _fill_drops(n, drops, nd, out, cells), n_inside

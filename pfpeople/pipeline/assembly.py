@@ -168,13 +168,15 @@ def build_filter(
         }
     if config.kind == "grid":
         return GridFilter(spec, detectors=models, prediction=pred, ego_motion=ego, **kwargs)
-    from pfpeople.particle.components import PEOPLE_SAMPLERS, PersistentSampling, Resampling
+    from pfpeople.particle.components import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling, Resampling
     from pfpeople.particle.filter import ParticleFilter
 
     sampler = PEOPLE_SAMPLERS[config.motion_model or DEFAULT_MOTION_MODEL[config.mode]]
-    people = sampler(motion=PeopleMotion())
-    if config.compiled_draws and isinstance(people, PersistentSampling):
-        people = replace(people, compiled_draws=True)
+    people: PaperSampling | PersistentSampling
+    if sampler is PersistentSampling:
+        people = PersistentSampling(motion=PeopleMotion(), compiled_draws=config.compiled_draws)
+    else:
+        people = sampler(motion=PeopleMotion())
     overflow = config.max_overflow if config.max_overflow is not None else DEFAULT_OVERFLOW[config.mode]
     return ParticleFilter(
         spec,
