@@ -106,7 +106,7 @@ __all__ = [
 ]
 
 #: Detector kinds: the built-in detectors and detections read from a topic.
-DETECTOR_KINDS = ("leg", "boosted", "single-legs", "hog", "topic")
+DETECTOR_KINDS = ("leg", "boosted", "single-legs", "learned", "motion", "hog", "topic")
 _MODEL_FIELDS = {f.name for f in fields(DetectorModel)}
 
 

@@ -10,6 +10,8 @@ kind      adapter                          input
 ========  ===============================  ===================================================================
 leg       :class:`LegAdapter`              ``sensor_msgs/LaserScan`` -> :class:`pfpeople.detect.LegDetector`
 boosted   :class:`BoostedAdapter`          ``sensor_msgs/LaserScan`` -> ``BoostedSegmentDetector``
+learned   :class:`LearnedAdapter`          ``sensor_msgs/LaserScan`` -> ``LearnedPeopleDetector`` (needs the ego-motion)
+motion    :class:`MotionAdapter`           ``sensor_msgs/LaserScan`` -> ``MotionDetector`` (needs the ego-motion)
 hog       :class:`HogAdapter`              ``sensor_msgs/(Compressed)Image`` -> ``HogCameraDetector`` (which
                                            places its positions in the grid frame itself, given ``mounting``)
 topic     :class:`TopicAdapter`            positions read from detection messages (PoseArray, ...)
@@ -63,11 +65,14 @@ __all__ = [
     "DetectorAdapter",
     "EmptyInputError",
     "HogAdapter",
+    "LearnedAdapter",
     "LegAdapter",
+    "MotionAdapter",
     "TopicAdapter",
     "build_detector",
     "make_adapter",
     "model_for",
+    "observe_ego",
 ]
 
 
@@ -325,6 +330,18 @@ class SingleLegAdapter(LaserAdapter):
     detector_class = "SingleLegDetector"
 
 
+class LearnedAdapter(LaserAdapter):
+    """``kind = "learned"``: :class:`pfpeople.detect.LearnedPeopleDetector` (a learned whole-scan detector)."""
+
+    detector_class = "LearnedPeopleDetector"
+
+
+class MotionAdapter(LaserAdapter):
+    """``kind = "motion"``: :class:`pfpeople.detect.MotionDetector` (returns in space seen free before)."""
+
+    detector_class = "MotionDetector"
+
+
 class HogAdapter(BuiltinAdapter):
     """``kind = "hog"``: :class:`pfpeople.detect.HogCameraDetector` on a (compressed) image.
 
@@ -394,9 +411,23 @@ ADAPTERS: dict[str, AdapterFactory] = {
     "leg": LegAdapter,
     "boosted": BoostedAdapter,
     "single-legs": SingleLegAdapter,
+    "learned": LearnedAdapter,
+    "motion": MotionAdapter,
     "hog": HogAdapter,
     "topic": TopicAdapter,
 }
+
+
+def observe_ego(adapters: Sequence[DetectorAdapter], ego_grid: Pose2D | None) -> None:
+    """Give every detector that looks at past scans (``observe_motion``: the learned and the motion detector) its
+    laser's motion into this frame, ``T^-1 ego T`` (``T``: the laser's mount in the grid frame; ``ego_grid``: the
+    grid frame's motion since the previous frame, None when unknown, which empties their memory). Call once per
+    frame before the detectors run."""
+    for a in adapters:
+        observe = getattr(a.detector, "observe_motion", None)
+        if observe is None:
+            continue
+        observe(None if ego_grid is None else a.mount.inverse().compose(ego_grid).compose(a.mount))
 
 
 def adapter_factory(kind: str, registry: Mapping[str, AdapterFactory] | None = None) -> AdapterFactory:

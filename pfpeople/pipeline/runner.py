@@ -83,6 +83,7 @@ from pfpeople.detect.adapters import (
     adapter_attr,
     adapter_factory,
     build_detector,
+    observe_ego,
 )
 from pfpeople.io.bag.reader import BadScanError, BagMessage, BagSource, MessageDataError
 from pfpeople.io.bag.sync import Frame, FrameAssembler
@@ -414,6 +415,7 @@ class Pipeline:
             self._mounts.advance(frame.stamp_ns)
         if motion.restarted:
             self.clutter.reset()
+        observe_ego(self.adapters, None if motion.restarted else motion.ego)
         found = [self._detect(a, frame) for a in self.adapters]
         dets: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
