@@ -28,6 +28,7 @@ sinks that are open.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +38,7 @@ from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from pfpeople.config import BagConfig
 from pfpeople.io.bag.reader import BagSource
+from pfpeople.io.bag.tf import TfLink
 from pfpeople.run_state import FrameResult, RunSummary
 from pfpeople.sensors import Pose2D
 from pfpeople.track import track_rows
@@ -76,6 +78,9 @@ class RunInfo:
         The frame limit of the run.
     metadata : mapping
         Extra provenance (e.g. the command).
+    mount_links : tuple of TfLink
+        The transforms the run took from the configuration's ``[mounts]`` because TF had none (parent: the base
+        frame): :meth:`pfpeople.io.bag.tf.TfBuffer.fallback_links` of the frames placed.
     """
 
     config: BagConfig
@@ -87,6 +92,7 @@ class RunInfo:
     frame_mounts: dict[str, Pose2D]
     max_frames: int | None = None
     metadata: Mapping[str, Any] = field(default_factory=dict)
+    mount_links: tuple[TfLink, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -223,8 +229,11 @@ class ResultBagSink:
     Header stamps of the results are the source scan's header stamp (the driver message's, also with
     ``time_source = "bag"``, where the frame stamps are record times); record times are the driver's. With
     ``with_input`` the input topics (:func:`input_topics`) are copied from a second reader of the input bag,
-    each message up to the record time of the frame being written (so a run stopped early holds the input of
-    the frames it wrote).
+    each message up to the record time of the frame being written; when the run ends, a run that read the whole
+    bag copies the rest of the input (e.g. another laser's scans recorded after the driver's last one), a run
+    stopped early (``max_frames``, an interruption, a failure) the input of the frames it wrote (up to the
+    latest record time of the messages its last frame used). The ``[mounts]`` the run used for frames without
+    TF (:attr:`RunInfo.mount_links`) go on ``/tf_static``, so every laser is placed in the bag.
 
     Parameters
     ----------
@@ -253,6 +262,9 @@ class ResultBagSink:
         self._source: Any = None
         self._inputs: Any = None
         self._next: Any = None
+        self._frames = 0
+        self._max_frames: int | None = None
+        self._used_until = -1  # latest record time (ns) of an input message of a frame written
 
     def describe(self, run: RunInfo) -> dict[str, Any]:
         """What the bag will hold (for ``run.json`` ``result_bag``): path, format, topics and types, renames."""
@@ -283,13 +295,15 @@ class ResultBagSink:
             bag_format=self.bag_format,
             overwrite=self.overwrite,
             input_topics=inputs,
+            static_transforms=run.mount_links,
         )
+        self._max_frames = run.max_frames
         if inputs:
             self._source = BagSource(run.bag.paths)
             self._inputs = self._source.messages(inputs)
             self._next = next(self._inputs, None)
 
-    def _copy_input(self, until_ns: int) -> None:
+    def _copy_input(self, until_ns: float) -> None:
         """Copy the input messages recorded at or before ``until_ns``."""
         while self._next is not None and self._next.bag_time_ns <= until_ns:
             m = self._next
@@ -313,10 +327,15 @@ class ResultBagSink:
             if len(result.people_probability) == len(result.people)
             else None,
         )
+        self._frames += 1
+        used = [m.bag_time_ns for msgs in f.inputs.values() for m in msgs]
+        self._used_until = max([self._used_until, f.bag_time_ns, *used])
 
     def close(self, outcome: RunOutcome) -> None:
         try:
             if self.writer is not None:
+                whole = outcome.status == "complete" and (self._max_frames is None or self._frames < self._max_frames)
+                self._copy_input(math.inf if whole else self._used_until)
                 self.writer.close()
         finally:
             if self._source is not None:

@@ -732,6 +732,7 @@ class Pipeline:
             frame_mounts=dict(self.frame_mounts),
             max_frames=max_frames,
             metadata=dict(metadata or {}),
+            mount_links=() if self.setup is None else tuple(self.setup.tf.fallback_links(self.frame_mounts)),
         )
 
     def _run_sinks(

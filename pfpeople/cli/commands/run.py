@@ -148,8 +148,9 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--bag-out",
         help="also write the results as a bag: a ROS 1 .bag file, or a rosbag2 folder (any other name): "
-        "OccupancyGrid, people_msgs/People (people, tracks with ids and velocities), MarkerArrays, PoseArrays, "
-        "/tf_static, the input scans and TF; and a Foxglove layout OUT.foxglove-layout.json beside it",
+        "OccupancyGrid, people_msgs/People (people, tracks with ids and velocities), "
+        "spencer_tracking_msgs/TrackedPersons (tracks with covariance), MarkerArrays, PoseArrays, /tf_static (with "
+        "the [mounts] of lasers without TF), the input scans and TF; and a Foxglove layout OUT.foxglove-layout.json",
     )
     p.add_argument(
         "--bag-format",

@@ -198,6 +198,21 @@ class TfBuffer:
             if f not in self._fallback
         ]
 
+    def fallback_links(self, frames: Iterable[str]) -> list[TfLink]:
+        """The ``[mounts]`` fallbacks that place ``frames``: the fallback edges on the way from each frame to the
+        root of its tree (parent: the fallback parent, the base frame), each once, in the order met.
+
+        These are the transforms a run took from its configuration because TF had none: a result bag writes them
+        on ``/tf_static`` so that every frame the run placed is placed in the bag too.
+        """
+        out: dict[str, TfLink] = {}
+        for frame in frames:
+            for f in self._chain(frame.lstrip("/"))[:-1]:
+                if f in self._fallback and f not in out:
+                    parent, pose, _ = self._parent[f]
+                    out[f] = TfLink(parent, f, pose, "")
+        return list(out.values())
+
     def _chain(self, frame: str) -> list[str]:
         """``frame`` and its ancestors up to the root (the tree has no cycle: :meth:`_to_root`)."""
         self._to_root(frame)

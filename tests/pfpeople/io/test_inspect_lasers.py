@@ -1,11 +1,11 @@
 """``pfpeople inspect --write-config`` on a robot with several lasers, and the run that config makes.
 
-The synthetic bag (ROS 1, no odometry: the robot stands): three LaserScan topics at 10 Hz, 361 beams of 0.5 deg
-over 180 deg, each in its own frame mounted on base_link through /tf_static: /front_scan (frame front_laser at
-0.3 m, 0, yaw 0), /rear_scan (rear_laser at -0.3 m, 0, yaw 180 deg; stamps 10 ms after the front's) and
-/side_scan (side_laser at 0, 0.2 m, yaw 90 deg; 30 ms after). Three people stand around the robot, in front
-(2.5 m, 0.3 m in base_link), behind (-2.5 m, -0.4 m: only the rear laser sees them) and on its left (0.8 m,
-2.5 m: the side laser sees them ahead).
+The synthetic bag (``bag_fixtures.write_lasers_bag``; ROS 1, no odometry: the robot stands): three LaserScan
+topics at 10 Hz, 361 beams of 0.5 deg over 180 deg, each in its own frame mounted on base_link through
+/tf_static: /front_scan (frame front_laser at 0.3 m, 0, yaw 0), /rear_scan (rear_laser at -0.3 m, 0, yaw 180
+deg; stamps 10 ms after the front's) and /side_scan (side_laser at 0, 0.2 m, yaw 90 deg; 30 ms after). Three
+people stand around the robot, in front (2.5 m, 0.3 m in base_link), behind (-2.5 m, -0.4 m: only the rear laser
+sees them) and on its left (0.8 m, 2.5 m: the side laser sees them ahead).
 """
 
 from __future__ import annotations
@@ -15,17 +15,12 @@ import math
 from collections import Counter
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
-import numpy as np
 import pytest
-from bag_fixtures import T0_NS, Msgs, typestore
-from rosbags.rosbag1 import Writer as Writer1
+from bag_fixtures import LASERS, PEOPLE_BASE, write_lasers_bag
 
-from gridbridge.geometry import Pose2D
 from pfpeople.cli import main
 from pfpeople.config import BagConfig, load_config
-from pfpeople.detect.synthetic import render_scan
 from pfpeople.io.bag.inspect import (
     LASER_DETECTORS,
     SYNC_TOLERANCE_S,
@@ -36,46 +31,7 @@ from pfpeople.io.bag.inspect import (
     starter_config,
 )
 
-#: topic -> (frame, mount in base_link, stamp offset from the front laser's in ns)
-LASERS: dict[str, tuple[str, Pose2D, int]] = {
-    "/front_scan": ("front_laser", Pose2D(x=0.3, y=0.0, yaw=0.0), 0),
-    "/rear_scan": ("rear_laser", Pose2D(x=-0.3, y=0.0, yaw=math.pi), 10_000_000),
-    "/side_scan": ("side_laser", Pose2D(x=0.0, y=0.2, yaw=math.pi / 2), 30_000_000),
-}
-PEOPLE_BASE = np.array([[2.5, 0.3], [-2.5, -0.4], [0.8, 2.5]])
 DETECTOR_NAMES = [name for name, _, _ in LASER_DETECTORS]
-
-
-def write_lasers_bag(path: Path, *, n_scans: int = 8, tf_for: tuple[str, ...] = tuple(LASERS)) -> None:
-    """The three-laser scene (module docstring); /tf_static gives the mounts of the lasers in ``tf_for`` only."""
-    ts = typestore(False)
-    m = Msgs(ts, False)
-    items: list[tuple[int, str, str, Any]] = []
-    for topic in tf_for:
-        frame, mount, _ = LASERS[topic]
-        items.append(
-            (T0_NS - 200_000_000, "/tf_static", "tf2_msgs/msg/TFMessage", m.tf(T0_NS, "base_link", frame, mount))
-        )
-    inc = math.radians(0.5)
-    for topic, (frame, mount, offset) in LASERS.items():
-        circles = []
-        for x, y in mount.inverse().apply(PEOPLE_BASE):
-            b = math.atan2(y, x)
-            px, py = -math.sin(b) * 0.15, math.cos(b) * 0.15
-            circles += [(x + px, y + py, 0.06), (x - px, y - py, 0.06)]
-        ranges = render_scan(circles=circles, angle_increment=inc).ranges
-        for k in range(n_scans):
-            stamp = T0_NS + k * 100_000_000 + offset
-            msg = m.scan(stamp, ranges, -math.pi / 2, inc)
-            msg = replace(msg, header=m.header(stamp, frame))
-            items.append((stamp + 3_000_000, topic, "sensor_msgs/msg/LaserScan", msg))
-    items.sort(key=lambda it: it[0])
-    with Writer1(path) as w:
-        conns: dict[str, Any] = {}
-        for t_ns, topic, msgtype, msg in items:
-            if topic not in conns:
-                conns[topic] = w.add_connection(topic, msgtype, typestore=ts)
-            w.write(conns[topic], t_ns, ts.serialize_ros1(msg, msgtype))
 
 
 def _config(tmp_path: Path, text: str) -> BagConfig:

@@ -32,6 +32,7 @@ from pfpeople.io.bag.writer import (
     TOPIC_PEOPLE,
     TOPIC_PEOPLE_MARKERS,
     TOPIC_TRACK_MARKERS,
+    TOPIC_TRACKED_PERSONS,
     TOPIC_TRACKS,
     ResultBagWriter,
     bag_format_for,
@@ -123,6 +124,7 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
         detection_topic("laser-legs"),
         "/pfpeople/detections/hog_cam",
         TOPIC_TRACKS,
+        TOPIC_TRACKED_PERSONS,
         TOPIC_TRACK_MARKERS,
     }
     # Static TF: once, grid frame -> grid origin at the grid's lower corner; latched / transient_local.
