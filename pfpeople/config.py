@@ -62,7 +62,7 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     [clutter.params]            # pfpeople.perception.clutter_map.ClutterConfig fields
 
     [[detectors]]
-    name = "laser-legs"
+    name = "laser_legs"
     kind = "leg"                # "leg" | "boosted" | "single-legs" | "hog" (built-in) | "topic" (in the bag)
     topic = "/scan"             # its input: LaserScan for leg/boosted/single-legs, Image/CompressedImage for hog,
                                 #   PoseArray or any message with a pose / poses field for "topic"
@@ -79,6 +79,7 @@ Angles are radians, lengths metres, times seconds (REP-103 frames).
 
 from __future__ import annotations
 
+import logging
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
@@ -87,7 +88,7 @@ from typing import Any
 
 from gridbridge.grid import GridSpec
 from gridbridge.limits import check_grid_size, check_memory, check_particles
-from gridbridge.params import DetectorModel, PeopleMotion
+from gridbridge.params import DetectorModel, PeopleMotion, current_detector_name
 from gridbridge.validation import check_int, check_number, check_probability, check_real
 
 __all__ = [
@@ -104,6 +105,8 @@ __all__ = [
     "load_config",
     "run_topics",
 ]
+
+log = logging.getLogger(__name__)
 
 #: Detector kinds: the built-in detectors and detections read from a topic.
 DETECTOR_KINDS = ("leg", "boosted", "single-legs", "hog", "topic")
@@ -611,8 +614,9 @@ def _mount(key: str, value: object) -> tuple[float, float, float]:
     return x, y, yaw
 
 
-def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
-    """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
+def config_from_mapping(data: Mapping[str, Any], *, source: str = "config") -> BagConfig:
+    """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring); ``source`` names it in
+    the warning about detector names of earlier versions (:func:`gridbridge.params.current_detector_name`)."""
     _only(
         data,
         {"frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter", "detectors"},
@@ -647,11 +651,21 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")
     detectors = []
+    renamed: dict[str, str] = {}
     for k, d in enumerate(dets):
         if not isinstance(d, Mapping):
             raise ValueError(f"config: detectors[{k}] must be a table")
         _only(d, {f.name for f in fields(DetectorConfig)}, f"detectors[{k}]")
-        detectors.append(DetectorConfig(**d))
+        detectors.append(DetectorConfig(**_current_name(d, renamed)))
+    if renamed:
+        pairs = [f"{old!r} as {new!r}" for old, new in renamed.items()]
+        log.warning(
+            "%s: %d detector name(s) are pfpeople's former default names, which are not valid ROS names: read with "
+            "today's (%s); rename them in the config to silence this",
+            source,
+            len(pairs),
+            ", ".join(pairs[:3] + (["..."] if len(pairs) > 3 else [])),
+        )
     mounts = {str(k): _mount(k, v) for k, v in _table(data, "mounts").items()}
     return BagConfig(
         **frames,
@@ -667,6 +681,23 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     )
 
 
+def _current_name(table: Mapping[str, Any], renamed: dict[str, str]) -> dict[str, Any]:
+    """A ``[[detectors]]`` table with an old default name (``laser-legs``, ``laser-boosted:rear_scan``) as today's
+    (:func:`gridbridge.params.current_detector_name`), its ``[detectors.model] name`` too; ``renamed`` gets
+    ``old -> new``."""
+    out = dict(table)
+    name = out.get("name")
+    new = current_detector_name(name) if isinstance(name, str) else name
+    if new == name:
+        return out
+    renamed[str(name)] = str(new)
+    out["name"] = new
+    model = out.get("model")
+    if isinstance(model, Mapping) and model.get("name") == name:
+        out["model"] = {**model, "name": new}
+    return out
+
+
 def load_config(path: str | Path) -> BagConfig:
     """Read a TOML run configuration; errors name the file."""
     path = Path(path)
@@ -678,7 +709,7 @@ def load_config(path: str | Path) -> BagConfig:
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"config file {str(path)!r} is not valid TOML: {exc}") from None
     try:
-        return config_from_mapping(data)
+        return config_from_mapping(data, source=f"config file {str(path)!r}")
     except (ValueError, TypeError) as exc:
         raise ValueError(f"config file {str(path)!r}: {exc}") from None
 

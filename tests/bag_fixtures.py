@@ -350,7 +350,7 @@ def config(*, ros2: bool = False, odometry: bool = True, **changes: Any) -> BagC
     cfg = BagConfig(
         driver="/scan",
         odometry="/odom" if odometry else "",
-        detectors=(DetectorConfig(name="laser-legs", kind="leg", topic="/scan"), people),
+        detectors=(DetectorConfig(name="laser_legs", kind="leg", topic="/scan"), people),
     )
     return replace(cfg, **changes)
 

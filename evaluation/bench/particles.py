@@ -6,7 +6,7 @@ as the targets of issue 26 are stated: 1e5 particles <= 3 ms/step, 1e6 <= 25 ms/
 Stone Soup's bootstrap particle step, on the paper's 30 x 30 grid).
 
 Scenario (fixed): the paper's grid and detectors; the robot drives at 0.5 m/s turning at 0.2 rad/s with the
-default odometry noise; every frame the three detectors fire (laser-legs twice, laser-boosted twice, camera
+default odometry noise; every frame the three detectors fire (laser_legs twice, laser_boosted twice, camera
 once) at fixed positions; dt = 0.1 s. Each configuration runs ``--warmup`` steps, then ``--repeats`` timed
 steps; the table gives the median ms per step.
 

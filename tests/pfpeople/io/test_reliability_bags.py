@@ -140,7 +140,7 @@ def test_all_nan_scan_is_warned_and_counted_as_no_data(
     write_bag(bag, n_scans=6, scan_hook=hook, odometry=False)
     with caplog.at_level(logging.WARNING), BagSource(bag) as src:
         summary, results = Pipeline(config(odometry=False), front_process=front_process).run(src, None, keep=True)
-    assert summary.bad_messages == {"laser-legs": 1} and summary.no_data == {"laser-legs": 1}
+    assert summary.bad_messages == {"laser_legs": 1} and summary.no_data == {"laser_legs": 1}
     assert results[4].detections[0] is None  # no data (covers no cell), not "saw nobody"
     assert caplog.text.count("all 361 ranges are NaN") == 1 and "'/scan'" in caplog.text
 

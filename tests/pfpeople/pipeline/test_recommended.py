@@ -117,7 +117,7 @@ def test_build_filter_composes_the_modes() -> None:
 def test_paper_mode_warns_about_detectors_with_fnr_above_half(caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.WARNING, logger="pfpeople.pipeline.assembly"):
         build_filter(FilterConfig(mode="paper"), GridSpec(), CALIBRATED_LASER_DETECTORS)
-    assert "FNR >= 0.5" in caplog.text and "laser-legs" in caplog.text
+    assert "FNR >= 0.5" in caplog.text and "laser_legs" in caplog.text
 
 
 def test_config_tables_round_trip_and_name_wrong_keys() -> None:
