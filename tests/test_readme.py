@@ -112,3 +112,9 @@ def test_the_three_commands_run_as_written_on_a_simulated_bag(tmp_path: Path, mo
     run = tmp_path / "runs" / "my"
     assert json.loads((run / "run.json").read_text())["frames"] == 8
     assert (run / "view.mp4").stat().st_size > 0 and (run / "summary.png").stat().st_size > 0
+
+
+def test_readme_names_every_notebook() -> None:
+    notebooks = sorted(p.name for p in (Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
+    assert notebooks and all(f"notebooks/{name}" in README or f"`{name}`" in README for name in notebooks)
+    assert "## Notebooks" in README

@@ -457,7 +457,10 @@ class RunWriter:
         """
         if (self.path / "run.json").exists():
             if not overwrite:
-                raise FileExistsError(f"output directory {str(self.path)!r} already holds a run (use overwrite)")
+                raise FileExistsError(
+                    f"output directory {str(self.path)!r} already holds a run (replace it with --overwrite, or "
+                    "overwrite=True from Python)"
+                )
             for name in RUN_FILES:
                 (self.path / name).unlink(missing_ok=True)
             return
@@ -477,8 +480,9 @@ class RunWriter:
         return locks.acquire(self.path / LOCK_NAME, f"output directory {str(self.path)!r}", RunLockedError)
 
     def _unlock(self) -> None:
+        """Release the directory's lock and remove its file (a finished run directory holds no ``.lock``)."""
         if self._lock_fh is not None:
-            locks.release(self._lock_fh)
+            locks.release(self._lock_fh, remove=self.path / LOCK_NAME)
             self._lock_fh = None
 
     def _csv(self, name: str, columns: Sequence[str]) -> Any:

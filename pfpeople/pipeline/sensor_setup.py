@@ -337,6 +337,11 @@ def _detector_mounts(
         detectors.append(d)
         mounts.append(mount)
         frame_mounts[src] = mount
+        how = "[mounts]" if any(link.child == src for link in tf.fallback_links([src])) else "TF"
+        log.debug(
+            "detector %s (%s on %s, frame %r): at x=%.3f y=%.3f m yaw=%.1f deg in the grid frame %r (%s)",
+            d.name, d.kind, d.topic, src, mount.x, mount.y, math.degrees(mount.yaw), grid_frame, how,
+        )  # fmt: skip
     return detectors, mounts, frame_mounts
 
 

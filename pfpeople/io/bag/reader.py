@@ -314,6 +314,25 @@ def _check_bag_path(p: Path) -> None:
                 f"cannot open bag {str(p)!r}: not a ROS1 bag (it does not start with {ROS1_MAGIC.decode()!r}; "
                 f"{'the file is empty' if not head else 'first bytes ' + repr(head[:12])})"
             )
+    elif p.suffix not in BAG_FILE_SUFFIXES:
+        _refuse_other_file(p)
+
+
+#: File names a bag argument may have (ROS 1 bag; a ROS 2 bag's storage file, read without its folder).
+BAG_FILE_SUFFIXES = (".bag", ".db3", ".mcap")
+
+
+def _refuse_other_file(p: Path) -> None:
+    """A file whose name is no bag's: refused, saying what a bag argument is (and when its first bytes are a ROS 1
+    bag's, that it needs the .bag name)."""
+    with p.open("rb") as fh:
+        head = fh.read(len(ROS1_MAGIC))
+    if head == ROS1_MAGIC:
+        raise BagReadError(f"cannot open bag {str(p)!r}: a ROS1 bag by its first bytes, but not named *.bag: rename it")
+    raise BagReadError(
+        f"cannot open bag {str(p)!r}: the file is not a bag (its name does not end in .bag, .db3, .mcap or .zip); "
+        "give a ROS1 .bag file, a ROS2 bag folder (holding metadata.yaml) or a .zip of either"
+    )
 
 
 def open_bag_paths(path: str | Path | Sequence[str | Path], *, cache_dir: Path | None = None) -> list[Path]:
