@@ -1,9 +1,9 @@
 """What the parts of a bag run share: one processed frame, the run's counts, and warn-once logging.
 
 :class:`FrameResult` is what :class:`pfpeople.pipeline.runner.Pipeline` yields per frame and what every sink
-(:mod:`pfpeople.io.sinks`) writes; :class:`RunSummary` collects the counts that the detector adapters
+(:mod:`pfpeople.pipeline.sinks`) writes; :class:`RunSummary` collects the counts that the detector adapters
 (:mod:`pfpeople.detect.adapters`), the odometry integrator (:mod:`pfpeople.perception.odometry`) and the clutter stage
-(:mod:`pfpeople.perception.clutter_stage`) add to during a run (written to ``run.json`` as ``stats``); :class:`WarnOnce`
+(:mod:`pfpeople.pipeline.clutter_stage`) add to during a run (written to ``run.json`` as ``stats``); :class:`WarnOnce`
 logs a condition the first time it happens in a run (the count says how often).
 """
 
