@@ -781,6 +781,9 @@ class RunData:
     scans: NDArray[Any] | None = None
     #: ``particles.npy`` (:data:`PARTICLE_DTYPE` records of the frames on disk); None when the run wrote none.
     particles: NDArray[Any] | None = None
+    #: ``tracks.csv`` (columns :data:`pfpeople.track.TRACK_COLUMNS`: ``id`` an int, positions and velocities in the
+    #: grid frame); None when the run tracked nobody (tracking off).
+    tracks: dict[str, NDArray[Any]] | None = None
 
     @property
     def scan_topics(self) -> list[str]:
@@ -808,6 +811,7 @@ _INT_COLS = {
     "n_people",
     "size_cells",
     "static",
+    "id",
 }
 _STR_COLS = {"detector", "no_data"}
 
@@ -913,6 +917,12 @@ def load_run(path: str | Path) -> RunData:
     if (path / "support.csv").is_file():
         sup = _read_csv(path / "support.csv", DETECTION_COLUMNS)
         support = {k: v[sup["frame"] < n] for k, v in sup.items()}
+    tracks = None
+    if (path / "tracks.csv").is_file():
+        from pfpeople.track import TRACK_COLUMNS
+
+        trk = _read_csv(path / "tracks.csv", TRACK_COLUMNS)
+        tracks = {k: v[trk["frame"] < n] for k, v in trk.items()}
     return RunData(
         path=path,
         meta=meta,
@@ -923,6 +933,7 @@ def load_run(path: str | Path) -> RunData:
         support=support,
         scans=_read_records(path / "scans.npy", SCAN_DTYPE, n),
         particles=_read_records(path / "particles.npy", PARTICLE_DTYPE, n),
+        tracks=tracks,
     )
 
 

@@ -264,7 +264,7 @@ class Pipeline:
 
     def run(
         self,
-        bag: BagSource | str | Path,
+        bag: BagSource | str | Path | Sequence[str | Path],
         out_dir: str | Path | None = None,
         *,
         max_frames: int | None = None,
@@ -276,8 +276,8 @@ class Pipeline:
         bag_format: str | None = None,
         bag_input: bool = True,
     ) -> tuple[RunSummary, list[FrameResult]]:
-        """Run over ``bag`` (an open :class:`BagSource` or a path), writing ``out_dir`` (and ``bag_out``, and every
-        extra sink) incrementally.
+        """Run over ``bag`` (an open :class:`BagSource`, or the path(s) of one), writing ``out_dir`` (and
+        ``bag_out``, and every extra sink) incrementally.
 
         A run that stops part-way (a truncated or corrupt bag, :class:`~pfpeople.io.bag.reader.BagReadError`;
         any other error) ends with ``status = "failed"`` and the error in ``run.json``; one stopped by SIGINT
@@ -295,8 +295,9 @@ class Pipeline:
         goes to every output or to none; a signal that arrives while a frame is computed is raised once it is
         written (raised inside a compiled kernel, it would surface as a ``SystemError``).
         """
-        options = {"max_frames": max_frames, "metadata": metadata, "keep": keep}
-        outputs = {"out_dir": out_dir, "bag_out": bag_out, "bag_format": bag_format, "overwrite": overwrite}
+        options: dict[str, Any] = {"max_frames": max_frames, "metadata": metadata, "keep": keep}
+        outputs: dict[str, Any] = {"out_dir": out_dir, "bag_out": bag_out, "bag_format": bag_format}
+        outputs.update(overwrite=overwrite)
         outputs.update(progress=progress, bag_input=bag_input)
         with interrupt_signals():
             if isinstance(bag, BagSource):
