@@ -11,6 +11,8 @@ frame's messages as they arrive and returns its people, tracks and grid (:mod:`p
 :mod:`pfpeople.track.blob_tracker`.
 """
 
+from typing import TYPE_CHECKING
+
 from pfpeople.particle.components import PaperSampling, PersistentSampling, Resampling, VelocityEgoSampling
 from pfpeople.particle.filter import ParticleFilter, ParticleStep
 from pfpeople.particle.propagation import PersistentMotion
@@ -19,6 +21,11 @@ from pfpeople.particle.state import ParticleState
 from pfpeople.preset import PeopleFrame, Recommended, recommended
 from pfpeople.track.blob_tracker import BlobTracker, TrackerParams, track_sequence
 from pfpeople.track.multi_person import MultiPersonTracker, Track, TrackerConfig
+
+if TYPE_CHECKING:
+    from pfpeople.io.run_dir import load_run
+    from pfpeople.pipeline.bag_run import Run, run_bag
+    from pfpeople.pipeline.stream import PeopleStream
 
 __all__ = [
     "RESAMPLERS",

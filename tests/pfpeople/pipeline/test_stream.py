@@ -96,7 +96,8 @@ class _EgoLegs(LegAdapter):
     uses_ego_motion = True
     seen: ClassVar[list[SensorMotion]] = []
 
-    def detect(self, msgs: Any, *, motion: SensorMotion) -> Any:  # type: ignore[override]
+    def detect(self, msgs: Any, *, motion: SensorMotion | None = None) -> Any:
+        assert motion is not None
         type(self).seen.append(motion)
         return super().detect(msgs)
 
