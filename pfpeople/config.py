@@ -61,6 +61,11 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     laser_odometry = true       # no odometry topic: move the grid by scan matching the driving laser
     [clutter.params]            # pfpeople.perception.clutter_map.ClutterConfig fields
 
+    [output]
+    frame = ""                  # frame of the people, tracks and markers written (people.csv / tracks.csv extra
+                                #   columns, result bag, pfpeople node): "" = the grid frame; e.g. "odom" (the
+                                #   odometry's frame or any TF frame); the grid stays in the grid frame
+
     [[detectors]]
     name = "laser-legs"
     kind = "leg"                # "leg" | "boosted" | "single-legs" | "hog" (built-in) | "topic" (in the bag)
@@ -98,6 +103,7 @@ __all__ = [
     "ClutterSuppression",
     "DetectorConfig",
     "FilterConfig",
+    "OutputConfig",
     "TrackingConfig",
     "check_run_limits",
     "config_from_mapping",
@@ -425,6 +431,27 @@ class TrackingConfig:
 
 
 @dataclass(frozen=True, kw_only=True)
+class OutputConfig:
+    """Where a run's results are given (``[output]``).
+
+    Parameters
+    ----------
+    frame : str
+        The frame of the people, tracks and markers a run writes besides the grid frame's (``people.csv`` and
+        ``tracks.csv`` ``out_*`` columns, the result bag's people, tracks and markers, the node's topics): the
+        odometry's frame (its messages' ``header.frame_id``) or any frame TF connects to the grid frame, e.g.
+        ``"odom"``; ``""``: the grid frame (nothing more is written). The grid stays in the grid frame.
+    """
+
+    frame: str = ""
+
+    def __post_init__(self) -> None:
+        _check_str(self.frame, "OutputConfig.frame", allow_empty=True)
+        if self.frame.startswith("/"):
+            raise ValueError(f"OutputConfig.frame: a TF frame id has no leading '/', got {self.frame!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
 class BagConfig:
     """Everything a bag run needs besides the bag (see the module docstring for the TOML form).
 
@@ -462,6 +489,8 @@ class BagConfig:
         People -> tracks.
     clutter : ClutterSuppression
         Static-clutter suppression of laser detections, laser odometry.
+    output : OutputConfig
+        The frame of the results besides the grid frame.
     """
 
     driver: str
@@ -479,6 +508,7 @@ class BagConfig:
     classifier: ClassifierConfig = field(default_factory=ClassifierConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)
     clutter: ClutterSuppression = field(default_factory=ClutterSuppression)
+    output: OutputConfig = field(default_factory=OutputConfig)
 
     def __post_init__(self) -> None:
         _check_str(self.driver, "BagConfig.driver")
@@ -510,6 +540,8 @@ class BagConfig:
             raise ValueError("BagConfig.tracking must be a TrackingConfig")
         if not isinstance(self.clutter, ClutterSuppression):
             raise ValueError("BagConfig.clutter must be a ClutterSuppression")
+        if not isinstance(self.output, OutputConfig):
+            raise ValueError("BagConfig.output must be an OutputConfig")
         if self.grid is not None:
             check_run_limits(self.grid, self.filter, len(self.detectors))
 
@@ -569,6 +601,8 @@ class BagConfig:
         }
         if self.grid is not None:
             out["grid"] = {f.name: getattr(self.grid, f.name) for f in fields(GridSpec)}
+        if self.output.frame:
+            out["output"] = {"frame": self.output.frame}
         # TOML has no null: unset options are left out (they mean "the mode's default")
         out["filter"] = {k: v for k, v in out["filter"].items() if v is not None}
         out["classifier"] = {k: v for k, v in out["classifier"].items() if v is not None}
@@ -615,7 +649,19 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
     _only(
         data,
-        {"frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter", "detectors"},
+        {
+            "frames",
+            "odometry",
+            "tf",
+            "mounts",
+            "grid",
+            "filter",
+            "classifier",
+            "tracking",
+            "clutter",
+            "output",
+            "detectors",
+        },
         "top level",
     )
     frames = _table(data, "frames")
@@ -643,6 +689,8 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     _only(tracking, {f.name for f in fields(TrackingConfig)}, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "params"}, "clutter")
+    output = _table(data, "output")
+    _only(output, {"frame"}, "output")
     dets = data.get("detectors", [])
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")
@@ -664,6 +712,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
         classifier=ClassifierConfig(**classifier),
         tracking=TrackingConfig(**tracking),
         clutter=ClutterSuppression(**clutter),
+        output=OutputConfig(**output),
     )
 
 

@@ -116,6 +116,7 @@ class BackEnd:
             support=support,
             support_static=None if support is None else front.support_static,
             scans=self._scans(front),
+            output_pose=front.output_pose,
         )
 
     def _track(

@@ -9,7 +9,8 @@ another process (:mod:`pfpeople.pipeline.front_end`) and a live node can run it 
 3. the detectors (:mod:`pfpeople.pipeline.detection`), those that declare ``uses_ego_motion`` with the motion of
    step 2;
 4. the static-clutter maps of the laser topics (:mod:`pfpeople.pipeline.clutter_stage`), each moved by the
-   ego-motion of step 2, suppress the detections on static clutter.
+   ego-motion of step 2, suppress the detections on static clutter;
+5. with ``[output] frame``, the grid frame's pose in the output frame (:mod:`pfpeople.pipeline.output_frame`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from pfpeople.pipeline.clutter_stage import ClutterStage
 from pfpeople.pipeline.detection import DetectionStage
 from pfpeople.pipeline.ego_stage import EgoMotionStage
 from pfpeople.pipeline.mounts import MountTracker
+from pfpeople.pipeline.output_frame import OutputFrame
 
 __all__ = ["FrontEnd", "FrontResult"]
 
@@ -52,6 +54,8 @@ class FrontResult:
         (:attr:`pfpeople.pipeline.clutter_stage.ClutterStage.scan_static`).
     mounts : tuple of Pose2D
         Per detector, the mount it was placed with in this frame (:mod:`pfpeople.pipeline.mounts`; empty: unchanged).
+    output_pose : Pose2D or None
+        The grid frame's pose in the output frame (None: no ``[output] frame``, or unknown in this frame).
     """
 
     motion: EgoMotion
@@ -61,6 +65,7 @@ class FrontResult:
     support_static: list[NDArray[np.bool_] | None]
     scan_static: dict[str, NDArray[np.bool_]] = field(default_factory=dict)
     mounts: tuple[Pose2D, ...] = ()
+    output_pose: Pose2D | None = None
 
 
 class FrontEnd:
@@ -76,15 +81,23 @@ class FrontEnd:
         The static-clutter maps.
     mounts : MountTracker or None
         The mounts followed over TF (None: the mounts read before the run hold).
+    output : OutputFrame, optional
+        The output frame (None: the results stay in the grid frame).
     """
 
     def __init__(
-        self, ego: EgoMotionStage, detection: DetectionStage, clutter: ClutterStage, mounts: MountTracker | None
+        self,
+        ego: EgoMotionStage,
+        detection: DetectionStage,
+        clutter: ClutterStage,
+        mounts: MountTracker | None,
+        output: OutputFrame | None = None,
     ) -> None:
         self.ego = ego
         self.detection = detection
         self.clutter = clutter
         self.mounts = mounts
+        self.output = output
 
     def __call__(self, frame: Frame) -> FrontResult:
         """The front end's result for ``frame``."""
@@ -110,4 +123,5 @@ class FrontEnd:
             support_static=sup_static,
             scan_static=scan_static,
             mounts=tuple(a.mount for a in self.detection.adapters),
+            output_pose=None if self.output is None else self.output.pose(frame, motion),
         )

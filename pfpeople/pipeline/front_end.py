@@ -69,6 +69,7 @@ FRONT_COUNTERS = (
     "laser_odometry_frames",
     "ego_motion",
     "front_blas_threads",
+    "output_unplaced",
 )
 
 

@@ -3,7 +3,8 @@
 Every message of a run goes through :meth:`FrameIntake.push`, as a bag reader or a live subscriber delivers it:
 
 - a TF message (a ``[tf] topics`` topic) goes to the mounts followed over TF time
-  (:class:`pfpeople.pipeline.mounts.MountTracker`) and, when ``watch`` is on, its transforms of the mounts' edges are
+  (:class:`pfpeople.pipeline.mounts.MountTracker`), to the output frame's TF (:mod:`pfpeople.pipeline.output_frame`)
+  and, when ``watch`` is on, its transforms of the mounts' edges are
   checked against the values read before the run (a mount that moves is warned once per edge and counted in
   ``stats.mount_changes``);
 - any other message goes to the frame assembler (:class:`pfpeople.io.bag.sync.FrameAssembler`): the driver's
@@ -25,6 +26,7 @@ from pfpeople.io.bag.reader import BagMessage
 from pfpeople.io.bag.sync import Frame, FrameAssembler
 from pfpeople.io.bag.tf import MountWatch
 from pfpeople.pipeline.mounts import MountTracker
+from pfpeople.pipeline.output_frame import OutputFrame
 from pfpeople.run_state import RunSummary, WarnOnce, count
 
 __all__ = ["FrameIntake", "sync_policies"]
@@ -65,6 +67,8 @@ class FrameIntake:
         Where the TF messages go (None: TF is not followed).
     watch : MountWatch or None
         The mounts' TF edges to check (None: not checked, e.g. in the front-end process, whose parent checks).
+    output : OutputFrame, optional
+        The output frame's TF (None: no ``[output] frame``).
     summary : RunSummary
         Where ``mount_changes`` is counted.
     warn : WarnOnce
@@ -87,8 +91,10 @@ class FrameIntake:
         summary: RunSummary,
         warn: WarnOnce,
         start_time_ns: int | None = None,
+        output: OutputFrame | None = None,
     ) -> None:
         c = config
+        self.output = output
         self.tf_topics = frozenset(c.tf_topics)
         self.mounts = mounts
         self.watch = watch
@@ -112,6 +118,8 @@ class FrameIntake:
         if m.topic in self.tf_topics:
             if self.mounts is not None:
                 self.mounts.add(m.msg, m.topic)
+            if self.output is not None:
+                self.output.add(m.msg, m.topic)
             if self.watch is not None and m.topic in self.watch.topics:
                 self._check_mounts(m)
             return []

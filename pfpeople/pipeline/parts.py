@@ -31,6 +31,7 @@ from pfpeople.pipeline.detection import DetectionStage
 from pfpeople.pipeline.ego_stage import EgoMotionStage
 from pfpeople.pipeline.front import FrontEnd
 from pfpeople.pipeline.mounts import MountTracker
+from pfpeople.pipeline.output_frame import OutputFrame
 from pfpeople.pipeline.sensor_setup import SensorSetup, check_grid_seen, warn_coarse_lasers
 from pfpeople.pipeline.warm_up import warm_up_back_end
 from pfpeople.run_state import RunSummary, WarnOnce
@@ -124,6 +125,8 @@ class RunParts:
     scan_matched : bool
         Whether the run's ego-motion comes from scan matching the driving laser (no odometry topic, ``[clutter]
         laser_odometry``, a static-clutter map on the driving laser).
+    output : OutputFrame or None
+        The output frame (``[output] frame`` other than the grid frame; None: the results stay in the grid frame).
     """
 
     setup: SensorSetup
@@ -134,6 +137,7 @@ class RunParts:
     mounts: MountTracker
     mount_watch: MountWatch
     scan_matched: bool
+    output: OutputFrame | None = None
 
 
 def build_adapters(config: BagConfig, setup: SensorSetup, parts: PartFactories) -> list[DetectorAdapter]:
@@ -185,7 +189,7 @@ def build_parts(
     )
     watch = MountWatch([e for f in setup.frame_mounts for e in setup.tf.edges(setup.grid_frame, f)])
     matched = not c.odometry and c.clutter.laser_odometry and front.ego.matcher is not None
-    return RunParts(setup, adapters, models, front, back, mounts, watch, matched)
+    return RunParts(setup, adapters, models, front, back, mounts, watch, matched, front.output)
 
 
 def _front(
@@ -204,4 +208,14 @@ def _front(
     integrator = (parts.odometry or default_odometry)(c, setup.base_to_grid, summary, warn)
     matcher = LaserEgoMotion() if c.driver in clutter.suppressors else None
     ego = EgoMotionStage(integrator, matcher=matcher, driver_mount=detection.driver_mount)
-    return FrontEnd(ego, detection, clutter, mounts)
+    output = None
+    if c.output.frame and c.output.frame != setup.grid_frame:
+        output = OutputFrame(
+            c.output.frame,
+            tf=setup.tf,
+            grid_frame=setup.grid_frame,
+            odometry_topic=c.odometry,
+            summary=summary,
+            warn=warn,
+        )
+    return FrontEnd(ego, detection, clutter, mounts, output)

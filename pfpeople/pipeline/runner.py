@@ -318,6 +318,7 @@ class Pipeline:
             frame_mounts=dict(self.setup.frame_mounts),
             max_frames=max_frames,
             metadata=dict(metadata or {}),
+            output_frame="" if self.stream is None or self.stream.parts.output is None else self.stream.output_frame,
         )
 
     def _run_sinks(self, outputs: Mapping[str, Any]) -> list[Sink]:

@@ -126,6 +126,7 @@ class PeopleStream:
             summary=self.summary,
             warn=self.warn,
             start_time_ns=start_time_ns,
+            output=p.output,
         )
 
     def topics(self, source: Any = None) -> list[str]:
@@ -143,6 +144,11 @@ class PeopleStream:
     def grid_frame(self) -> str:
         """The frame of the grid and of every position."""
         return self.parts.setup.grid_frame
+
+    @property
+    def output_frame(self) -> str:
+        """The frame of the results besides the grid frame (``[output] frame``; the grid frame when none)."""
+        return self.grid_frame if self.parts.output is None else self.parts.output.frame
 
     @property
     def models(self) -> list[DetectorModel]:
