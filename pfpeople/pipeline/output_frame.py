@@ -34,7 +34,7 @@ from pfpeople.io.bag.tf import MountFollower, TfBuffer, TfLookupError
 from pfpeople.perception.odometry import EgoMotion
 from pfpeople.run_state import RunSummary, WarnOnce
 
-__all__ = ["OutputFrame", "positions_in", "tracks_in"]
+__all__ = ["OutputFrame", "positions_in", "results_in", "tracks_in"]
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +59,19 @@ def tracks_in(pose: Pose2D, tracks: Sequence[Any]) -> list[Any]:
         rc = block[: len(cov), : len(cov)]
         out.append(replace(t, x=float(x), y=float(y), vx=float(vx), vy=float(vy), covariance=rc @ cov @ rc.T))
     return out
+
+
+def results_in(result: Any, *, output: bool) -> tuple[NDArray[np.float64] | None, list[Any] | None]:
+    """The people ``(P, 2)`` and tracks of a :class:`~pfpeople.run_state.FrameResult` to publish: as they are (grid
+    frame) without an ``output`` frame, else in the output frame (:attr:`FrameResult.output_pose`), or
+    ``(None, None)`` where the pose there is unknown (tracks None also when the run has none)."""
+    people, tracks = result.people, result.tracks
+    if not output:
+        return people, tracks
+    pose = result.output_pose
+    if pose is None:
+        return None, None
+    return positions_in(pose, people), None if tracks is None else tracks_in(pose, tracks)
 
 
 class OutputFrame:

@@ -38,7 +38,7 @@ from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from pfpeople.config import BagConfig
 from pfpeople.io.bag.reader import BagSource
-from pfpeople.pipeline.output_frame import positions_in, tracks_in
+from pfpeople.pipeline.output_frame import positions_in, results_in, tracks_in
 from pfpeople.run_state import FrameResult, RunSummary
 from pfpeople.sensors import Pose2D
 from pfpeople.track import track_rows
@@ -343,12 +343,7 @@ class ResultBagSink:
         f = result.frame
         self._copy_input(f.bag_time_ns)
         stamp = header_stamp_ns(f.driver.msg) or f.stamp_ns
-        people: Any = result.people
-        tracks = result.tracks
-        if self._output:  # in the output frame; none where the grid frame's pose there is unknown
-            pose = result.output_pose
-            people = None if pose is None else positions_in(pose, people)
-            tracks = None if pose is None or tracks is None else tracks_in(pose, tracks)
+        people, tracks = results_in(result, output=self._output)  # none where the output frame's pose is unknown
         self.writer.write(
             f.bag_time_ns,
             stamp,
