@@ -10,10 +10,11 @@ A :class:`LiveSession` goes through two phases:
    published yet) is tried again as messages arrive, for up to :data:`SETUP_TIMEOUT_S`; any other bad setting
    fails at once, naming it. Then the buffered messages go through the run in their order.
 2. **Running.** Each message goes to the streaming API (:class:`pfpeople.pipeline.stream.PeopleStream`); each frame
-   it completes gives its output messages (:class:`pfpeople.live.outputs.ResultMessages`). A driving scan that arrived
-   after the set-up and for which the transport says a newer one is already waiting is dropped (counted in
-   :attr:`LiveSession.latency`): the node never falls behind by more than a frame. The messages that arrived while
-   the run was being set up are all processed (the warm-up: their frames' latency is left out of the figures).
+   it completes gives its output messages (:class:`pfpeople.live.outputs.ResultMessages`). A driving scan a newer one
+   waits behind (in the buffer, or in the transport's queue as the transport says) is dropped (counted in
+   :attr:`LiveSession.latency`): the node never falls behind by more than a frame. The frames of scans that arrived
+   before the run was set up are the warm-up: their latency is left out of the figures. With ``drop=False`` every
+   scan is processed, however late (a bag replayed into the node gives the offline run's frames).
 
 The same configuration (TOML) as ``pfpeople run``; people, tracks and markers in its ``[output] frame``.
 """
@@ -136,12 +137,17 @@ class LiveSession:
             For a setting the first messages contradict (naming it).
         """
         if self.stream is None:
-            return self._buffered(message)
-        late = self.drop and self.ready_ns is not None and message.bag_time_ns > self.ready_ns
-        if message.topic == self.config.driver and newer_driver_waiting and late:
-            self.latency.dropped += 1
+            return self._buffered(message, newer_driver_waiting)
+        if self._dropped(message, newer_driver_waiting):
             return []
         return [self._output(r) for r in self.stream.push(message)]
+
+    def _dropped(self, message: BagMessage, newer_driver_waiting: bool) -> bool:
+        """Whether ``message`` is a driving scan to drop (a newer one waits); counted."""
+        if self.drop and newer_driver_waiting and message.topic == self.config.driver:
+            self.latency.dropped += 1
+            return True
+        return False
 
     def finish(self) -> list[FrameOutput]:
         """The outputs of the frames still pending (the input ended)."""
@@ -154,8 +160,9 @@ class LiveSession:
         received = result.frame.driver.bag_time_ns
         return FrameOutput(result, self.outputs.frame(result), received, received <= self.ready_ns)
 
-    def _buffered(self, message: BagMessage) -> list[FrameOutput]:
-        """Buffer ``message``; set the run up when the buffer allows it, and run the buffered messages."""
+    def _buffered(self, message: BagMessage, newer_driver_waiting: bool) -> list[FrameOutput]:
+        """Buffer ``message``; set the run up when the buffer allows it, and run the buffered messages (a driving
+        scan a newer one waits behind dropped)."""
         self._buffer.append(message)
         if self._first_ns is None:
             self._first_ns = message.bag_time_ns
@@ -171,7 +178,13 @@ class LiveSession:
             return []
         assert self.stream is not None
         buffered, self._buffer = self._buffer, []
-        return [self._output(r) for m in buffered for r in self.stream.push(m)]
+        driver = [k for k, m in enumerate(buffered) if m.topic == self.config.driver]
+        last = driver[-1] if driver else -1
+        out = []
+        for k, m in enumerate(buffered):
+            if not self._dropped(m, k < last or newer_driver_waiting):
+                out += [self._output(r) for r in self.stream.push(m)]
+        return out
 
     def _can_set_up(self, now_ns: int) -> bool:
         """Whether every sensor (and odometry) topic has a message and the messages span :data:`SETTLE_S`."""
