@@ -22,14 +22,15 @@ class LatencyStats:
     Attributes
     ----------
     latencies_ms : list of float
-        Per published frame, its scan's latency (ms); frames of the messages buffered before the run was set up
-        are left out (their wait is the set-up's, not the node's).
+        Per published frame, its scan's latency (ms); the warm-up frames are left out (their wait is the
+        set-up's, or at the end the input's, not the node's).
     frames : int
         Frames published.
     dropped : int
         Driving scans dropped because a newer one was waiting.
     warm_up_frames : int
-        Frames of the messages buffered while the run was being set up.
+        Frames of the scans that arrived before the run was set up, and those still waiting for later messages
+        when the node stopped.
     """
 
     latencies_ms: list[float] = field(default_factory=list)
@@ -50,7 +51,7 @@ class LatencyStats:
         return float(np.percentile(self.latencies_ms, q)) if self.latencies_ms else float("nan")
 
     def as_dict(self) -> dict[str, Any]:
-        """Counts and p50 / p90 / p99 / max latency (ms)."""
+        """Counts, p50 / p90 / p99 / max latency (ms) and every frame's (``per_frame``, ms, in order)."""
         lat = self.latencies_ms
         return {
             "frames": self.frames,
@@ -62,6 +63,7 @@ class LatencyStats:
                 "p90": self.percentile(90),
                 "p99": self.percentile(99),
                 "max": max(lat) if lat else float("nan"),
+                "per_frame": [round(v, 3) for v in lat],
             },
         }
 
