@@ -645,25 +645,14 @@ def _mount(key: str, value: object) -> tuple[float, float, float]:
     return x, y, yaw
 
 
+#: The tables of a run configuration.
+_TABLES = frozenset(("frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter"))
+_TABLES |= {"output", "detectors"}
+
+
 def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
-    _only(
-        data,
-        {
-            "frames",
-            "odometry",
-            "tf",
-            "mounts",
-            "grid",
-            "filter",
-            "classifier",
-            "tracking",
-            "clutter",
-            "output",
-            "detectors",
-        },
-        "top level",
-    )
+    _only(data, set(_TABLES), "top level")
     frames = _table(data, "frames")
     _only(
         frames,

@@ -557,28 +557,21 @@ class RunWriter:
     ) -> None:
         """Append one frame to every file and flush (see the module docstring for the columns).
 
-        With an ``output_frame``: ``output_pose`` is the grid frame's ``(x, y, yaw)`` in it and ``people_out`` the
-        people there ``(P, 2)`` (None: unknown, NaN written); ``tracks`` rows then end with the
-        :data:`OUT_TRACK_COLUMNS`.
-
         ``odometry``: the frame's ego-motion, an :class:`gridbridge.Odometry` or ``(v, omega[, vy])`` (m/s, rad/s,
-        m/s; grid frame); None: the robot was taken as standing.
-
-        ``static``: per detector, which of its detections the static-clutter map suppressed (column ``static``).
-        ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.track.TRACK_COLUMNS`), written when given (the file is
-        created at the first frame that has them, with its header). ``support`` and ``support_static``: per
-        detector, its support positions and which of them the static-clutter map called static (``support.csv``,
-        created like ``tracks.csv``). ``scans``: per laser topic, its returns (m, grid frame) and which of them the
-        static-clutter map calls static (``scans.npy``, created at the first frame that has them; a new topic is
-        added to ``run.json`` ``scans.topics``). ``particles``: the filter's particles ``(x, y)`` (m, grid frame),
-        subsampled into ``particles.npy`` (:func:`particle_records`).
+        m/s; grid frame); None: the robot was taken as standing. ``static``: per detector, which of its detections
+        the static-clutter map suppressed (column ``static``). ``tracks``: rows of ``tracks.csv``
+        (:data:`pfpeople.track.TRACK_COLUMNS`; the file made at the first frame with them). ``support``,
+        ``support_static``: per detector, its support positions and which of them the map called static
+        (``support.csv``, made like ``tracks.csv``). ``scans``: per laser topic, its returns (m, grid frame) and
+        which of them the map calls static (``scans.npy``; each topic in ``run.json`` ``scans.topics``).
+        ``particles``: the filter's particles ``(x, y)`` (m, grid frame), subsampled into ``particles.npy``
+        (:func:`particle_records`). With an ``output_frame``: ``output_pose`` (the grid frame's ``x, y, yaw``
+        there) and ``people_out`` ``(P, 2)`` (None: unknown, NaN); ``tracks`` rows end with :data:`OUT_TRACK_COLUMNS`.
         """
         belief, people, sizes, probs = self._check_frame(belief, detections, people, people_size, people_probability)
         key = (frame, driver_index, stamp_ns, bag_time_ns)
         row = self._frames_row(key, dt_s, odometry, forced, len(people), detections)
-        if self.output_frame:
-            row = (*row, *(f"{v:.9g}" for v in (output_pose or (math.nan,) * 3)))
-            people_out = np.full_like(people, math.nan) if people_out is None else np.reshape(people_out, (-1, 2))
+        row, people_out = self._out_values(row, people, output_pose, people_out) if self.output_frame else (row, None)
         with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
             self._run_steps(
                 [
@@ -598,6 +591,17 @@ class RunWriter:
                 ]
             )
             self.n_frames += 1
+
+    @staticmethod
+    def _out_values(
+        row: tuple[Any, ...],
+        people: NDArray[np.float64],
+        output_pose: tuple[float, float, float] | None,
+        people_out: NDArray[np.float64] | None,
+    ) -> tuple[tuple[Any, ...], NDArray[np.float64]]:
+        """The frame's row with the output pose (NaN: unknown), and the people in the output frame (NaN: unknown)."""
+        row = (*row, *(f"{v:.9g}" for v in (output_pose or (math.nan,) * 3)))
+        return row, np.full_like(people, math.nan) if people_out is None else np.reshape(people_out, (-1, 2))
 
     def _flush_steps(self) -> list[tuple[str, Callable[[], object]]]:
         """The ``(file name, flush)`` steps of the tables, made anew only when a table was added."""

@@ -888,31 +888,26 @@ class ClutterSuppressor:
             The person detections of this scan in the same laser frame (m), one array per detector, always in the
             same order (array i feeds the i-th "people seen moving" set).
         ego : Pose2D, optional
-            The laser frame now in the laser frame of the previous scan (from wheel odometry / TF, or a scan
-            matcher run elsewhere: the pipeline's ego-motion stage matches the driving laser); when omitted it
-            comes from this map's scan matcher (:attr:`laser_ego`).
+            The laser frame now in the laser frame of the previous scan (odometry, TF, or a match made elsewhere);
+            when omitted it comes from this map's scan matcher (:attr:`laser_ego`).
         ego_ok : bool
-            False when the given ``ego`` is not known (a failed or skipped match of a matcher run elsewhere): the
-            map is forgotten before the update, as after a failed match of its own.
+            False: ``ego`` is a failed match made elsewhere (the map forgets, as after a failure of its own).
         exclude : array_like, shape (K, 2), optional
             More people to keep out of the map, in this scan's laser frame (e.g. the confirmed people of a
             tracker or of the filter's output, moved into this frame), besides the moving tracks.
         stamp_ns, dt : optional
             The scan's time, see :meth:`StaticClutterMap.update`.
         free : array_like, shape (F, 2), optional
-            End points of the beams without a return (:meth:`pfpeople.sensors.LaserScan.free_rays`), traced as
-            free space (see :meth:`StaticClutterMap.update`).
+            Ends of the beams without a return (:meth:`pfpeople.sensors.LaserScan.free_rays`): free space.
 
         Returns
         -------
         SuppressionStep
         """
-        if ego is not None and not isinstance(ego, Pose2D):
-            raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
         dets = [_positions(d, f"detections[{i}]") for i, d in enumerate(detections)]
         extra = _positions(exclude if exclude is not None else np.zeros((0, 2)), "exclude")
         t0 = time.perf_counter()
-        ego, ok = (ego, bool(ego_ok)) if ego is not None else self.laser_ego.match(points, first=self.scans == 0)
+        ego, ok = self._ego(points, ego, ego_ok)
         t1 = time.perf_counter()
         if not ok:
             self.map.forget()
@@ -931,6 +926,14 @@ class ClutterSuppressor:
         self.odometry_s += t1 - t0
         self.map_s += t2 - t1
         return SuppressionStep(keep=keep, ego=ego, ego_ok=ok, excluded=excluded)
+
+    def _ego(self, points: ArrayLike, ego: Pose2D | None, ego_ok: bool) -> tuple[Pose2D, bool]:
+        """The scan's ego-motion and whether it is known: the given one, else this map's scan match."""
+        if ego is None:
+            return self.laser_ego.match(points, first=self.scans == 0)
+        if not isinstance(ego, Pose2D):
+            raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
+        return ego, bool(ego_ok)
 
     @property
     def odometry(self) -> ScanOdometry:

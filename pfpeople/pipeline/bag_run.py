@@ -135,6 +135,21 @@ class _Collect:
     def close(self, outcome: RunOutcome) -> None:
         """Nothing to close."""
 
+    def run(self, config: BagConfig, summary: RunSummary, spec: GridSpec, grid_frame: str, out: Path | None) -> Run:
+        """The :class:`Run` of what was kept."""
+        grids = np.stack(self.grids) if self.grids else np.zeros((0, *spec.shape), dtype=np.float32)
+        return Run(
+            config=config,
+            summary=summary,
+            spec=spec,
+            grid_frame=grid_frame,
+            detector_names=tuple(d.name for d in config.detectors),
+            frames=self.frames,
+            grids=grids,
+            out_dir=out,
+            results=self.results,
+        )
+
 
 def resolve_config(config: BagConfig | str | Path | None, bag: str | Path | Sequence[str | Path]) -> BagConfig:
     """The run configuration: ``config`` itself, a TOML file, a built-in config's name (:mod:`pfpeople.configs`),
@@ -198,8 +213,8 @@ def run_bag(
     Raises
     ------
     FileNotFoundError, ValueError, BagReadError
-        For a missing bag or config, a bad setting, a bag that cannot be read (naming it). A run that fails
-        part-way raises after writing what it finished to ``out_dir``.
+        For a missing bag or config, a bad setting, a bag that cannot be read (naming it); a run that fails
+        part-way keeps what it finished in ``out_dir``.
     """
     from pfpeople.pipeline.runner import Pipeline
 
@@ -208,16 +223,4 @@ def run_bag(
     sinks = [*pipeline_options.pop("sinks", ()), collect]
     pipe = Pipeline(cfg, front_process=front_process, sinks=sinks, **pipeline_options)
     summary, _ = pipe.run(bag, out_dir, max_frames=max_frames, overwrite=overwrite, bag_out=bag_out)
-    spec = pipe.spec
-    grids = np.stack(collect.grids) if collect.grids else np.zeros((0, *spec.shape), dtype=np.float32)
-    return Run(
-        config=cfg,
-        summary=summary,
-        spec=spec,
-        grid_frame=pipe.grid_frame,
-        detector_names=tuple(d.name for d in cfg.detectors),
-        frames=collect.frames,
-        grids=grids,
-        out_dir=None if out_dir is None else Path(out_dir),
-        results=collect.results,
-    )
+    return collect.run(cfg, summary, pipe.spec, pipe.grid_frame, None if out_dir is None else Path(out_dir))
