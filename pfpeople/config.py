@@ -91,9 +91,10 @@ from pathlib import Path
 from typing import Any
 
 from gridbridge.grid import GridSpec
-from gridbridge.limits import check_grid_size, check_memory, check_particles
+from gridbridge.limits import check_grid_size, check_memory
 from gridbridge.params import DetectorModel, PeopleMotion
 from gridbridge.validation import check_int, check_number, check_probability, check_real
+from pfpeople.limits import check_particles
 
 __all__ = [
     "DETECTOR_KINDS",
