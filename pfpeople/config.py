@@ -61,6 +61,11 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     laser_odometry = true       # no odometry topic: move the grid by scan matching the driving laser
     [clutter.params]            # pfpeople.perception.clutter_map.ClutterConfig fields
 
+    [output]
+    frame = ""                  # frame of the people, tracks and markers written (people.csv / tracks.csv extra
+                                #   columns, result bag, pfpeople node): "" = the grid frame; e.g. "odom" (the
+                                #   odometry's frame or any TF frame); the grid stays in the grid frame
+
     [[detectors]]
     name = "laser_legs"
     kind = "leg"                # "leg" | "boosted" | "single-legs" | "hog" (built-in) | "topic" (in the bag)
@@ -87,9 +92,10 @@ from pathlib import Path
 from typing import Any
 
 from gridbridge.grid import GridSpec
-from gridbridge.limits import check_grid_size, check_memory, check_particles
+from gridbridge.limits import check_grid_size, check_memory
 from gridbridge.params import DetectorModel, PeopleMotion, current_detector_name
 from gridbridge.validation import check_int, check_number, check_probability, check_real
+from pfpeople.limits import check_particles
 
 __all__ = [
     "DETECTOR_KINDS",
@@ -99,6 +105,7 @@ __all__ = [
     "ClutterSuppression",
     "DetectorConfig",
     "FilterConfig",
+    "OutputConfig",
     "TrackingConfig",
     "check_run_limits",
     "config_from_mapping",
@@ -428,6 +435,27 @@ class TrackingConfig:
 
 
 @dataclass(frozen=True, kw_only=True)
+class OutputConfig:
+    """Where a run's results are given (``[output]``).
+
+    Parameters
+    ----------
+    frame : str
+        The frame of the people, tracks and markers a run writes besides the grid frame's (``people.csv`` and
+        ``tracks.csv`` ``out_*`` columns, the result bag's people, tracks and markers, the node's topics): the
+        odometry's frame (its messages' ``header.frame_id``) or any frame TF connects to the grid frame, e.g.
+        ``"odom"``; ``""``: the grid frame (nothing more is written). The grid stays in the grid frame.
+    """
+
+    frame: str = ""
+
+    def __post_init__(self) -> None:
+        _check_str(self.frame, "OutputConfig.frame", allow_empty=True)
+        if self.frame.startswith("/"):
+            raise ValueError(f"OutputConfig.frame: a TF frame id has no leading '/', got {self.frame!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
 class BagConfig:
     """Everything a bag run needs besides the bag (see the module docstring for the TOML form).
 
@@ -465,6 +493,8 @@ class BagConfig:
         People -> tracks.
     clutter : ClutterSuppression
         Static-clutter suppression of laser detections, laser odometry.
+    output : OutputConfig
+        The frame of the results besides the grid frame.
     """
 
     driver: str
@@ -482,6 +512,7 @@ class BagConfig:
     classifier: ClassifierConfig = field(default_factory=ClassifierConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)
     clutter: ClutterSuppression = field(default_factory=ClutterSuppression)
+    output: OutputConfig = field(default_factory=OutputConfig)
 
     def __post_init__(self) -> None:
         _check_str(self.driver, "BagConfig.driver")
@@ -513,6 +544,8 @@ class BagConfig:
             raise ValueError("BagConfig.tracking must be a TrackingConfig")
         if not isinstance(self.clutter, ClutterSuppression):
             raise ValueError("BagConfig.clutter must be a ClutterSuppression")
+        if not isinstance(self.output, OutputConfig):
+            raise ValueError("BagConfig.output must be an OutputConfig")
         if self.grid is not None:
             check_run_limits(self.grid, self.filter, len(self.detectors))
 
@@ -572,6 +605,8 @@ class BagConfig:
         }
         if self.grid is not None:
             out["grid"] = {f.name: getattr(self.grid, f.name) for f in fields(GridSpec)}
+        if self.output.frame:
+            out["output"] = {"frame": self.output.frame}
         # TOML has no null: unset options are left out (they mean "the mode's default")
         out["filter"] = {k: v for k, v in out["filter"].items() if v is not None}
         out["classifier"] = {k: v for k, v in out["classifier"].items() if v is not None}
@@ -614,14 +649,15 @@ def _mount(key: str, value: object) -> tuple[float, float, float]:
     return x, y, yaw
 
 
+#: The tables of a run configuration.
+_TABLES = frozenset(("frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter"))
+_TABLES |= {"output", "detectors"}
+
+
 def config_from_mapping(data: Mapping[str, Any], *, source: str = "config") -> BagConfig:
     """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring); ``source`` names it in
     the warning about detector names of earlier versions (:func:`gridbridge.params.current_detector_name`)."""
-    _only(
-        data,
-        {"frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter", "detectors"},
-        "top level",
-    )
+    _only(data, set(_TABLES), "top level")
     frames = _table(data, "frames")
     _only(
         frames,
@@ -647,6 +683,8 @@ def config_from_mapping(data: Mapping[str, Any], *, source: str = "config") -> B
     _only(tracking, {f.name for f in fields(TrackingConfig)}, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "params"}, "clutter")
+    output = _table(data, "output")
+    _only(output, {"frame"}, "output")
     dets = data.get("detectors", [])
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")
@@ -678,6 +716,7 @@ def config_from_mapping(data: Mapping[str, Any], *, source: str = "config") -> B
         classifier=ClassifierConfig(**classifier),
         tracking=TrackingConfig(**tracking),
         clutter=ClutterSuppression(**clutter),
+        output=OutputConfig(**output),
     )
 
 

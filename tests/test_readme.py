@@ -6,6 +6,7 @@ import contextlib
 import io
 import json
 import re
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +41,8 @@ def test_readme_has_the_library_examples() -> None:
 
 
 @pytest.mark.parametrize("index", range(len(BLOCKS)))
-def test_every_python_block_runs_and_prints(index: int) -> None:
+def test_every_python_block_runs_and_prints(index: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # a block's temporary files go under tmp_path
     _, printed = _run(BLOCKS[index])
     assert printed.strip(), f"README python block {index + 1} prints nothing"
 

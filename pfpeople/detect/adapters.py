@@ -23,6 +23,11 @@ The pipeline reads ``input_types`` and ``laser`` from the factory itself before 
 check the topics and fill in a laser's field of view), so a factory that is not a class carries them as
 attributes (default: any type, not a laser).
 
+Ego-motion: an adapter whose class sets ``uses_ego_motion = True`` (a detector with a memory of earlier scans,
+aligned by the robot's motion) is called as ``detect(msgs, motion=SensorMotion(...))``: the motion of its sensor
+frame since the previous frame (:class:`SensorMotion`), known before any detector runs (the pipeline's ego-motion
+stage, :mod:`pfpeople.pipeline.ego_stage`). Other adapters are called as ``detect(msgs)``.
+
 Bad data versus bugs: a message that cannot be used raises
 :class:`~pfpeople.io.bag.reader.MessageDataError` (raised by the message converters of
 :mod:`pfpeople.io.bag.reader`; :class:`EmptyInputError` for a LaserScan without beams). The pipeline counts
@@ -64,10 +69,12 @@ __all__ = [
     "EmptyInputError",
     "HogAdapter",
     "LegAdapter",
+    "SensorMotion",
     "TopicAdapter",
     "build_detector",
     "make_adapter",
     "model_for",
+    "read_scan",
 ]
 
 
@@ -122,6 +129,32 @@ class Detections:
     support: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
 
 
+@dataclass(frozen=True, kw_only=True)
+class SensorMotion:
+    """The motion of a detector's sensor frame into one frame, for the adapters with ``uses_ego_motion = True``.
+
+    Attributes
+    ----------
+    ego : Pose2D or None
+        The sensor frame at this frame's stamp expressed in the sensor frame at the previous frame's stamp (m, rad:
+        ``p_prev = ego.apply(p_now)``), from odometry or the driving laser's scan matching (the grid frame's motion
+        ``E`` moved to the sensor by its mount ``T``: ``T^-1 E T``); None when unknown (no odometry, a failed scan
+        match, the first frame).
+    dt : float
+        Time since the previous frame (s; 0.1 on the first frame and after a restart).
+    stamp_ns : int
+        The frame's stamp (ns).
+    restarted : bool
+        True on the first frame of a run and where the run restarted (a gap, an odometry jump): nothing before
+        this frame is to be remembered.
+    """
+
+    ego: Pose2D | None
+    dt: float
+    stamp_ns: int
+    restarted: bool = False
+
+
 class DetectorAdapter(Protocol):
     """One configured detector of a run, as the pipeline uses it.
 
@@ -143,6 +176,8 @@ class DetectorAdapter(Protocol):
     nobody_when_missing : bool
         True when a frame without an input message means the detector saw nobody (empty positions) rather
         than having no data.
+    uses_ego_motion : bool, optional
+        True: :meth:`detect` is called with the keyword ``motion`` (:class:`SensorMotion`); default False.
     """
 
     config: DetectorConfig
@@ -158,7 +193,8 @@ class DetectorAdapter(Protocol):
         ...
 
     def detect(self, msgs: Sequence[BagMessage]) -> Detections:
-        """Positions from the messages assigned to one frame (at least one).
+        """Positions from the messages assigned to one frame (at least one); an adapter with ``uses_ego_motion``
+        takes ``motion: SensorMotion`` as a keyword too.
 
         Raises
         ------
@@ -219,6 +255,7 @@ class BuiltinAdapter:
     input_types: tuple[str, ...] | None = None
     laser = False
     nobody_when_missing = False
+    uses_ego_motion = False
     #: True when the detector maps its positions into the grid frame itself (it is given ``mounting``).
     self_mounted = False
 
@@ -275,9 +312,30 @@ class BuiltinAdapter:
         return pts, pts if self.self_mounted else self.mount.apply(pts)
 
 
-#: The latest (message, LaserScan) read: the detectors of one laser get the same scan object, so they share its
-#: segmentation (:func:`pfpeople.detect.segments.scan_segments`).
+#: The latest (message, LaserScan) read: the detectors of one laser (and the ego-motion stage's scan matcher) get
+#: the same scan object, so they share its segmentation (:func:`pfpeople.detect.segments.scan_segments`).
 _LATEST_SCAN: tuple[BagMessage, LaserScan] | None = None
+
+
+def read_scan(msg: BagMessage) -> LaserScan:
+    """The :class:`LaserScan` of ``msg``, converted once for every reader of the same message object.
+
+    Raises
+    ------
+    EmptyInputError
+        If the scan has no beams.
+    MessageDataError
+        If the message is not a usable LaserScan (:func:`pfpeople.io.bag.reader.laser_from_msg`).
+    """
+    global _LATEST_SCAN
+    latest = _LATEST_SCAN
+    if latest is not None and latest[0] is msg:  # another reader of the same laser read this message
+        return latest[1]
+    scan = laser_from_msg(msg.msg, stamp_ns=msg.stamp_ns, frame_id=msg.frame_id, topic=msg.topic)
+    if scan.ranges.size == 0:
+        raise EmptyInputError(msg.topic, msg.stamp_ns)
+    _LATEST_SCAN = (msg, scan)
+    return scan
 
 
 class LaserAdapter(BuiltinAdapter):
@@ -296,15 +354,7 @@ class LaserAdapter(BuiltinAdapter):
         MessageDataError
             If the message is not a usable LaserScan (:func:`pfpeople.io.bag.reader.laser_from_msg`).
         """
-        global _LATEST_SCAN
-        latest = _LATEST_SCAN
-        if latest is not None and latest[0] is msg:  # another detector of the same laser read this message
-            return latest[1]
-        scan = laser_from_msg(msg.msg, stamp_ns=msg.stamp_ns, frame_id=msg.frame_id, topic=msg.topic)
-        if scan.ranges.size == 0:
-            raise EmptyInputError(msg.topic, msg.stamp_ns)
-        _LATEST_SCAN = (msg, scan)
-        return scan
+        return read_scan(msg)
 
 
 class LegAdapter(LaserAdapter):
@@ -368,6 +418,7 @@ class TopicAdapter:
 
     input_types: tuple[str, ...] | None = None
     laser = False
+    uses_ego_motion = False
 
     def __init__(self, config: DetectorConfig, mount: Pose2D, detector: Detector | None = None) -> None:
         self.config = config

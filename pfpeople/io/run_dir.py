@@ -269,6 +269,12 @@ FRAME_COLUMNS = (
 #: The columns of run directories written before the ``vy_mps`` column (read with ``vy_mps = 0``).
 _FRAME_COLUMNS_V1 = tuple(c for c in FRAME_COLUMNS if c != "vy_mps")
 PEOPLE_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "x_m", "y_m", "size_cells", "mean_probability")
+#: With an output frame (``[output] frame``, ``run.json`` ``output_frame``): the columns appended to ``frames.csv``
+#: (the grid frame's pose in the output frame), ``people.csv`` and ``tracks.csv`` (positions, velocities and the
+#: position covariance in the output frame); NaN where the pose was unknown.
+OUT_FRAME_COLUMNS = ("out_x_m", "out_y_m", "out_yaw_rad")
+OUT_PEOPLE_COLUMNS = ("out_x_m", "out_y_m")
+OUT_TRACK_COLUMNS = ("out_x", "out_y", "out_vx", "out_vy", "out_cov_xx", "out_cov_xy", "out_cov_yy")
 DETECTION_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "detector", "x_m", "y_m", "static")
 #: The columns of run directories written before the ``static`` column (read with ``static = 0``).
 _DETECTION_COLUMNS_V1 = DETECTION_COLUMNS[:-1]
@@ -391,6 +397,10 @@ class RunWriter:
         Extra keys of ``run.json`` (configuration, provenance, grid frame, detector models ...).
     overwrite : bool
         Replace an existing run in ``out_dir``.
+    output_frame : str
+        The output frame (``[output] frame``): ``frames.csv`` and ``people.csv`` get the :data:`OUT_FRAME_COLUMNS`
+        and :data:`OUT_PEOPLE_COLUMNS`, ``tracks.csv`` rows carry the :data:`OUT_TRACK_COLUMNS`, ``run.json``
+        names it (``output_frame``); ``""``: none.
     """
 
     def __init__(
@@ -401,6 +411,7 @@ class RunWriter:
         detector_names: Sequence[str],
         metadata: Mapping[str, Any] | None = None,
         overwrite: bool = False,
+        output_frame: str = "",
     ) -> None:
         self.path = Path(out_dir)
         if self.path.exists() and not self.path.is_dir():
@@ -414,6 +425,7 @@ class RunWriter:
             raise
         self.spec = spec
         self.detector_names = list(detector_names)
+        self.output_frame = output_frame
         self.n_frames = 0
         self._t0 = time.perf_counter()
         self._meta: dict[str, Any] = {
@@ -425,6 +437,7 @@ class RunWriter:
             "grid": {"nx": spec.nx, "ny": spec.ny, "resolution": spec.resolution, "x0": spec.x0, "y0": spec.y0},
             "detectors": self.detector_names,
             **dict(metadata or {}),
+            **({"output_frame": output_frame} if output_frame else {}),
             "frames": 0,
         }
         self._files: list[TextIO] = []
@@ -434,8 +447,9 @@ class RunWriter:
             self._write_json()
             self._grids: BinaryIO = (self.path / "grids.npy").open("wb")
             self._grids.write(_npy_header(0, spec.nx, spec.ny))
-            self._frames = self._csv("frames.csv", FRAME_COLUMNS)
-            self._people = self._csv("people.csv", PEOPLE_COLUMNS)
+            out = bool(output_frame)
+            self._frames = self._csv("frames.csv", FRAME_COLUMNS + OUT_FRAME_COLUMNS * out)
+            self._people = self._csv("people.csv", PEOPLE_COLUMNS + OUT_PEOPLE_COLUMNS * out)
             self._dets = self._csv("detections.csv", DETECTION_COLUMNS)
             self._tracks: Any = None
             self._support: Any = None
@@ -542,29 +556,31 @@ class RunWriter:
         support_static: Sequence[NDArray[np.bool_] | None] | None = None,
         scans: Mapping[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]] | None = None,
         particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+        output_pose: tuple[float, float, float] | None = None,
+        people_out: NDArray[np.float64] | None = None,
     ) -> None:
         """Append one frame to every file and flush (see the module docstring for the columns).
 
         ``odometry``: the frame's ego-motion, an :class:`gridbridge.Odometry` or ``(v, omega[, vy])`` (m/s, rad/s,
-        m/s; grid frame); None: the robot was taken as standing.
-
-        ``static``: per detector, which of its detections the static-clutter map suppressed (column ``static``).
-        ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.track.TRACK_COLUMNS`), written when given (the file is
-        created at the first frame that has them, with its header). ``support`` and ``support_static``: per
-        detector, its support positions and which of them the static-clutter map called static (``support.csv``,
-        created like ``tracks.csv``). ``scans``: per laser topic, its returns (m, grid frame) and which of them the
-        static-clutter map calls static (``scans.npy``, created at the first frame that has them; a new topic is
-        added to ``run.json`` ``scans.topics``). ``particles``: the filter's particles ``(x, y)`` (m, grid frame),
-        subsampled into ``particles.npy`` (:func:`particle_records`).
+        m/s; grid frame); None: the robot was taken as standing. ``static``: per detector, which of its detections
+        the static-clutter map suppressed (column ``static``). ``tracks``: rows of ``tracks.csv``
+        (:data:`pfpeople.track.TRACK_COLUMNS`; the file made at the first frame with them). ``support``,
+        ``support_static``: per detector, its support positions and which of them the map called static
+        (``support.csv``, made like ``tracks.csv``). ``scans``: per laser topic, its returns (m, grid frame) and
+        which of them the map calls static (``scans.npy``; each topic in ``run.json`` ``scans.topics``).
+        ``particles``: the filter's particles ``(x, y)`` (m, grid frame), subsampled into ``particles.npy``
+        (:func:`particle_records`). With an ``output_frame``: ``output_pose`` (the grid frame's ``x, y, yaw``
+        there) and ``people_out`` ``(P, 2)`` (None: unknown, NaN); ``tracks`` rows end with :data:`OUT_TRACK_COLUMNS`.
         """
         belief, people, sizes, probs = self._check_frame(belief, detections, people, people_size, people_probability)
         key = (frame, driver_index, stamp_ns, bag_time_ns)
         row = self._frames_row(key, dt_s, odometry, forced, len(people), detections)
+        row, people_out = self._out_values(row, people, output_pose, people_out) if self.output_frame else (row, None)
         with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
             self._run_steps(
                 [
                     ("frames.csv", lambda: self._frames.writerow(row)),
-                    ("people.csv", lambda: self._write_people(key, people, sizes, probs)),
+                    ("people.csv", lambda: self._write_people(key, people, sizes, probs, people_out)),
                     ("detections.csv", lambda: self._positions(self._dets, key, detections, static)),
                     ("support.csv", lambda: self._write_support(key, support, support_static)),
                     ("tracks.csv", lambda: self._write_tracks(tracks)),
@@ -579,6 +595,17 @@ class RunWriter:
                 ]
             )
             self.n_frames += 1
+
+    @staticmethod
+    def _out_values(
+        row: tuple[Any, ...],
+        people: NDArray[np.float64],
+        output_pose: tuple[float, float, float] | None,
+        people_out: NDArray[np.float64] | None,
+    ) -> tuple[tuple[Any, ...], NDArray[np.float64]]:
+        """The frame's row with the output pose (NaN: unknown), and the people in the output frame (NaN: unknown)."""
+        row = (*row, *(f"{v:.9g}" for v in (output_pose or (math.nan,) * 3)))
+        return row, np.full_like(people, math.nan) if people_out is None else np.reshape(people_out, (-1, 2))
 
     def _flush_steps(self) -> list[tuple[str, Callable[[], object]]]:
         """The ``(file name, flush)`` steps of the tables, made anew only when a table was added."""
@@ -647,14 +674,20 @@ class RunWriter:
                 raise _named_os_error(exc, self.path / name) from exc
 
     def _write_people(
-        self, key: tuple[int, int, int, int], people: NDArray[np.float64], sizes: list[int], probs: list[float]
+        self,
+        key: tuple[int, int, int, int],
+        people: NDArray[np.float64],
+        sizes: list[int],
+        probs: list[float],
+        people_out: NDArray[np.float64] | None = None,
     ) -> None:
-        self._people.writerows(
-            [
-                (*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}")
-                for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True)
-            ]
-        )
+        rows: list[tuple[Any, ...]] = [
+            (*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}")
+            for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True)
+        ]
+        if people_out is not None:
+            rows = [(*r, f"{x:.6f}", f"{y:.6f}") for r, (x, y) in zip(rows, people_out.tolist(), strict=True)]
+        self._people.writerows(rows)
 
     def _write_support(
         self,
@@ -674,7 +707,7 @@ class RunWriter:
         if self._tracks is None:
             from pfpeople.track import TRACK_COLUMNS
 
-            self._tracks = self._csv("tracks.csv", TRACK_COLUMNS)
+            self._tracks = self._csv("tracks.csv", TRACK_COLUMNS + OUT_TRACK_COLUMNS * bool(self.output_frame))
         self._tracks.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in row] for row in tracks])
 
     def _write_particles(self, frame: int, particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
@@ -785,6 +818,9 @@ class RunData:
     scans: NDArray[Any] | None = None
     #: ``particles.npy`` (:data:`PARTICLE_DTYPE` records of the frames on disk); None when the run wrote none.
     particles: NDArray[Any] | None = None
+    #: ``tracks.csv`` (columns :data:`pfpeople.track.TRACK_COLUMNS`: ``id`` an int, positions and velocities in the
+    #: grid frame; with an output frame also :data:`OUT_TRACK_COLUMNS`); None when the run wrote none (tracking off).
+    tracks: dict[str, NDArray[Any]] | None = None
 
     @property
     def scan_topics(self) -> list[str]:
@@ -812,6 +848,7 @@ _INT_COLS = {
     "n_people",
     "size_cells",
     "static",
+    "id",
 }
 _STR_COLS = {"detector", "no_data"}
 
@@ -866,10 +903,22 @@ def _read_meta(meta_path: Path) -> dict[str, Any]:
     return meta
 
 
+def _read_table(path: Path, columns: Sequence[str], out: Sequence[str]) -> dict[str, NDArray[Any]]:
+    """A table of ``columns``, or of ``columns`` and the output-frame columns ``out`` (a run with an output
+    frame)."""
+    try:
+        return _read_csv(path, columns)
+    except ValueError as exc:
+        try:
+            return _read_csv(path, (*columns, *out))
+        except ValueError:
+            raise exc from None
+
+
 def _read_frames(path: Path) -> dict[str, NDArray[Any]]:
     """``frames.csv``; one written before the ``vy_mps`` column reads with ``vy_mps = 0``."""
     try:
-        return _read_csv(path, FRAME_COLUMNS)
+        return _read_table(path, FRAME_COLUMNS, OUT_FRAME_COLUMNS)
     except ValueError as exc:  # a run written before vy_mps, or a bad table: then its own error
         try:
             frames = _read_csv(path, _FRAME_COLUMNS_V1)
@@ -902,7 +951,7 @@ def load_run(path: str | Path) -> RunData:
     frames = _read_frames(path / "frames.csv")
     n = min(len(grids), len(frames["frame"]))
     frames = {k: v[:n] for k, v in frames.items()}
-    people = _read_csv(path / "people.csv", PEOPLE_COLUMNS)
+    people = _read_table(path / "people.csv", PEOPLE_COLUMNS, OUT_PEOPLE_COLUMNS)
     try:
         dets = _read_csv(path / "detections.csv", DETECTION_COLUMNS)
     except ValueError as exc:  # a run written before the static column, or a bad table: then its own error
@@ -917,6 +966,12 @@ def load_run(path: str | Path) -> RunData:
     if (path / "support.csv").is_file():
         sup = _read_csv(path / "support.csv", DETECTION_COLUMNS)
         support = {k: v[sup["frame"] < n] for k, v in sup.items()}
+    tracks = None
+    if (path / "tracks.csv").is_file():
+        from pfpeople.track import TRACK_COLUMNS
+
+        trk = _read_table(path / "tracks.csv", TRACK_COLUMNS, OUT_TRACK_COLUMNS)
+        tracks = {k: v[trk["frame"] < n] for k, v in trk.items()}
     return RunData(
         path=path,
         meta=meta,
@@ -927,6 +982,7 @@ def load_run(path: str | Path) -> RunData:
         support=support,
         scans=_read_records(path / "scans.npy", SCAN_DTYPE, n),
         particles=_read_records(path / "particles.npy", PARTICLE_DTYPE, n),
+        tracks=tracks,
     )
 
 

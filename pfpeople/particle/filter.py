@@ -104,9 +104,10 @@ from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.ego_motion import border_inflow
 from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
-from gridbridge.limits import check_dt, check_grid_size, check_particles
+from gridbridge.limits import check_dt, check_grid_size
 from gridbridge.people_motion import quantise_dt
 from gridbridge.validation import check_int, check_probability
+from pfpeople.limits import check_particles
 from pfpeople.particle import rng_kernels
 from pfpeople.particle import step_kernels as kernels
 from pfpeople.particle.buffers import BufferPool
@@ -256,7 +257,7 @@ class ParticleFilter:
 
     def _checked_count(self, n_particles: int) -> int:
         """``n_particles`` checked: a count of at least the grid's cells whose largest count between resamplings
-        fits the memory limits (:func:`gridbridge.limits.check_particles`)."""
+        fits the memory limits (:func:`pfpeople.limits.check_particles`)."""
         n = _check_count(n_particles, "n_particles")
         check_grid_size(self.spec.nx, self.spec.ny, self.spec.resolution, v_max=self.motion.v_max, dt=self.motion.dt)
         where = "n_particles" if self.resampling.max_overflow == 0 else "n_particles x (1 + max_overflow)"

@@ -83,6 +83,19 @@ class MountTracker:
         """Apply the transforms stamped at or before a frame's stamp (call before the frame's detectors)."""
         self.follower.advance(stamp_ns)
 
+    def peek(self, k: int, adapter: DetectorAdapter, msg: BagMessage) -> Pose2D | None:
+        """The mount :meth:`place` gives detector ``k`` for ``msg`` (None: its frame has no mount), without placing
+        it or counting (the ego-motion stage asks before the detectors run)."""
+        frame = adapter.config.frame or msg.frame_id or self.grid_frame
+        if frame == self.frames[k] and self.fixed[k]:
+            return adapter.mount
+        try:
+            return self.follower.mount(frame)
+        except TfLookupError:
+            if frame != self.frames[k]:
+                return None
+            raise
+
     def place(self, k: int, adapter: DetectorAdapter, msg: BagMessage) -> bool:
         """Set detector ``k``'s mount (and model mount) for a frame whose input is ``msg``; False when its frame
         has no mount (the detector has no data in the frame: counted, warned once)."""

@@ -28,8 +28,8 @@ from pfpeople.config import BagConfig, DetectorConfig, builtin_config_path, load
 from pfpeople.io.bag.reader import BagReadError, BagSource
 from pfpeople.io.bag.writer import BAG_FORMATS, check_bag_out
 from pfpeople.io.run_dir import RunInterrupted, check_output_paths, interrupt_signals
-from pfpeople.io.sinks import standard_sinks
 from pfpeople.pipeline.runner import Pipeline
+from pfpeople.pipeline.sinks import standard_sinks
 
 log = logging.getLogger(__name__)
 

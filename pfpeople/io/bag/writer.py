@@ -20,8 +20,9 @@ while it is written (``OUT.bag.lock`` beside it, :mod:`pfpeople.io.locks`): a se
 is, holds or lies inside an input. A Foxglove layout (:mod:`pfpeople.io.bag.foxglove`) is written beside the bag
 when it is closed: ``OUT.foxglove-layout.json``.
 
-Topics (header frame: the grid frame; header stamps: the stamps given to :meth:`ResultBagWriter.write`, the
-source scan's header stamp in a run; record time: the driver's bag time):
+Topics (header frame: the grid frame, or for people, tracks and their markers the results frame given as
+``results_frame_id``, e.g. ``odom`` (``[output] frame``); header stamps: the stamps given to
+:meth:`ResultBagWriter.write`, the source scan's header stamp in a run; record time: the driver's bag time):
 
 - ``/pfpeople/belief`` ``nav_msgs/OccupancyGrid``: belief * 100 rounded to int8 (0..100). OccupancyGrid data
   are row-major with ``width`` along x: ``data[j * nx + i] = belief[i, j]``; the origin is the grid's
@@ -376,7 +377,10 @@ class ResultBagWriter:
         Write the Foxglove layout ``OUT.foxglove-layout.json`` beside the bag when it is closed.
     static_transforms : sequence of TfLink
         Transforms written on ``/tf_static`` with the grid origin's (``parent -> child``, the planar ``pose``):
-        in a run, the ``[mounts]`` used for frames without TF (:attr:`pfpeople.io.sinks.RunInfo.mount_links`).
+        in a run, the ``[mounts]`` used for frames without TF (:attr:`pfpeople.pipeline.sinks.RunInfo.mount_links`).
+    results_frame_id : str, optional
+        The frame of the people, the tracks and their markers (positions given in it to :meth:`write`); default
+        ``frame_id``. The grid and the detections stay in ``frame_id``.
     """
 
     def __init__(
@@ -392,6 +396,7 @@ class ResultBagWriter:
         input_topics: Mapping[str, str] | None = None,
         layout: bool = True,
         static_transforms: Sequence[TfLink] = (),
+        results_frame_id: str | None = None,
     ) -> None:
         if not isinstance(frame_id, str) or not frame_id:
             raise ValueError(f"frame_id must be a non-empty string, got {frame_id!r}")
@@ -419,6 +424,7 @@ class ResultBagWriter:
             )
         self.spec = spec
         self.frame_id = frame_id
+        self.results_frame_id = results_frame_id or frame_id
         self.arrow_time_s = float(arrow_time_s)
         self.layout = layout
         self.static_transforms = tuple(static_transforms)
@@ -596,10 +602,10 @@ class ResultBagWriter:
             self._m(PERSON_TYPE, position=self._point(x, y), velocity=self._point(0.0, 0.0), reliability=r)
             for (x, y), r in zip(xy, rel, strict=True)
         ]
-        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns), people=persons)
+        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns, self.results_frame_id), people=persons)
 
     def _people_markers(self, stamp_ns: int, people: NDArray[np.float64]) -> Any:
-        header = self._header(stamp_ns)
+        header = self._header(stamp_ns, self.results_frame_id)
         markers = [self._m("visualization_msgs/msg/Marker", header=header, action=MARKER_DELETEALL)]
         xy = np.asarray(people, dtype=float).reshape(-1, 2)
         markers += [self._sphere(header, "pfpeople/people", k, x, y, (1.0, 0.6, 0.0)) for k, (x, y) in enumerate(xy)]
@@ -620,7 +626,7 @@ class ResultBagWriter:
                     tags=[v for _, v in cov],
                 )
             )
-        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns), people=persons)
+        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns, self.results_frame_id), people=persons)
 
     def _tracked_persons(self, stamp_ns: int, table: TrackTable) -> Any:
         """SPENCER's ``TrackedPersons`` of the tracks (:mod:`pfpeople.io.bag.track_messages`)."""
@@ -646,11 +652,11 @@ class ResultBagWriter:
                     ),
                 )
             )
-        return self._m(TRACKED_PERSONS_TYPE, header=self._header(stamp_ns), tracks=tracks)
+        return self._m(TRACKED_PERSONS_TYPE, header=self._header(stamp_ns, self.results_frame_id), tracks=tracks)
 
     def _markers(self, stamp_ns: int, table: TrackTable) -> Any:
         """``DELETEALL``, then per track its sphere and arrow in its colour and its id (white)."""
-        header = self._header(stamp_ns)
+        header = self._header(stamp_ns, self.results_frame_id)
         markers = [self._m("visualization_msgs/msg/Marker", header=header, action=MARKER_DELETEALL)]
         t = self.arrow_time_s
         for tid, x, y, vx, vy in table.rows[:, :5]:
@@ -692,7 +698,7 @@ class ResultBagWriter:
         bag_time_ns: int,
         stamp_ns: int,
         belief: NDArray[np.float64],
-        people: NDArray[np.float64],
+        people: NDArray[np.float64] | None,
         detections: Sequence[NDArray[np.float64] | None],
         tracks: NDArray[np.float64] | Sequence[Any] | None = None,
         *,
@@ -706,8 +712,9 @@ class ResultBagWriter:
             Record time and header stamp (ns); in a run the header stamp is the source scan's header stamp.
         belief : ndarray (nx, ny)
             Belief grid (probability of a person per cell, grid frame).
-        people : ndarray (P, 2)
-            Classified people (m, grid frame).
+        people : ndarray (P, 2) or None
+            Classified people (m, results frame); None: no people topics in this frame (their results-frame
+            positions are unknown).
         detections : sequence of ndarray (D_i, 2) or None
             Each detector's detections (m, grid frame); None: no data (nothing written on its topic).
         tracks : ndarray (K, 5) or (K, 9), or sequence of track objects, optional
@@ -724,12 +731,13 @@ class ResultBagWriter:
         if len(detections) != len(self._det_topics):
             raise ValueError(f"detections: expected {len(self._det_topics)} entries, got {len(detections)}")
         trk = None if tracks is None else track_table(tracks)
-        people_msg = self._people(stamp_ns, people, people_reliability)
+        people_msg = None if people is None else self._people(stamp_ns, people, people_reliability)
         if self._seq == 0:
             self._put(TOPIC_TF_STATIC, bag_time_ns, self._tf_static(stamp_ns))
         self._put(TOPIC_BELIEF, bag_time_ns, self._grid(stamp_ns, belief))
-        self._put(TOPIC_PEOPLE, bag_time_ns, people_msg)
-        self._put(TOPIC_PEOPLE_MARKERS, bag_time_ns, self._people_markers(stamp_ns, people))
+        if people is not None:
+            self._put(TOPIC_PEOPLE, bag_time_ns, people_msg)
+            self._put(TOPIC_PEOPLE_MARKERS, bag_time_ns, self._people_markers(stamp_ns, people))
         for topic, det in zip(self._det_topics, detections, strict=True):
             if det is not None:
                 self._put(topic, bag_time_ns, self._pose_array(stamp_ns, det))

@@ -23,9 +23,9 @@ from pfpeople.cli import main
 from pfpeople.config import FilterConfig
 from pfpeople.io.bag.reader import BagSource
 from pfpeople.io.run_dir import MAX_PARTICLES_SAVED, RunWriter, load_run, scan_records
-from pfpeople.io.sinks import standard_sinks
 from pfpeople.perception.clutter_map import StaticClutterMap
 from pfpeople.pipeline.runner import Pipeline
+from pfpeople.pipeline.sinks import standard_sinks
 from pfpeople.viz.run_view import (
     RunFrameRenderer,
     ViewOptions,

@@ -39,6 +39,7 @@ from gridbridge.params import DetectorModel
 from pfpeople.config import BagConfig
 from pfpeople.io.bag.reader import BagSource
 from pfpeople.io.bag.tf import TfLink
+from pfpeople.pipeline.output_frame import positions_in, results_in, tracks_in
 from pfpeople.run_state import FrameResult, RunSummary
 from pfpeople.sensors import Pose2D
 from pfpeople.track import track_rows
@@ -81,6 +82,9 @@ class RunInfo:
     mount_links : tuple of TfLink
         The transforms the run took from the configuration's ``[mounts]`` because TF had none (parent: the base
         frame): :meth:`pfpeople.io.bag.tf.TfBuffer.fallback_links` of the frames placed.
+    output_frame : str
+        The frame of the results besides the grid frame (``[output] frame``; ``""``: none). Each frame's
+        :attr:`FrameResult.output_pose` places them there.
     """
 
     config: BagConfig
@@ -93,6 +97,7 @@ class RunInfo:
     max_frames: int | None = None
     metadata: Mapping[str, Any] = field(default_factory=dict)
     mount_links: tuple[TfLink, ...] = ()
+    output_frame: str = ""
 
 
 @dataclass(frozen=True)
@@ -151,6 +156,7 @@ class RunDirSink:
         self.scans = scans
         self.writer: Any = None
         self._driver = ""
+        self._output = False
 
     def open(self, run: RunInfo) -> None:
         from pfpeople.io.run_dir import RunWriter
@@ -166,12 +172,22 @@ class RunDirSink:
             meta["result_bag"] = self.result_bag.describe(run)
         self._driver = run.config.driver
         self.writer = RunWriter(
-            self.out_dir, spec=run.spec, detector_names=run.detector_names, metadata=meta, overwrite=self.overwrite
+            self.out_dir,
+            spec=run.spec,
+            detector_names=run.detector_names,
+            metadata=meta,
+            overwrite=self.overwrite,
+            output_frame=run.output_frame,
         )
+        self._output = bool(run.output_frame)
 
     def write(self, result: FrameResult) -> None:
         r, f = result, result.frame
         parts = getattr(r.step, "particles", None) if self.scans else None
+        tracks = None if r.tracks is None else track_rows(f.index, f.stamp_ns, r.tracks)
+        out: dict[str, Any] = {}
+        if self._output:
+            out, tracks = _output_columns(r, tracks)
         self.writer.write_frame(
             frame=f.index,
             driver_index=f.driver.index,
@@ -185,12 +201,13 @@ class RunDirSink:
             people_size=r.people_size,
             people_probability=r.people_probability,
             detections=r.detections,
-            tracks=None if r.tracks is None else track_rows(f.index, f.stamp_ns, r.tracks),
+            tracks=tracks,
             static=r.static,
             support=r.support,
             support_static=r.support_static,
             scans=r.scans if self.scans else None,
             particles=None if parts is None else (parts.x, parts.y),
+            **out,
         )
 
     def close(self, outcome: RunOutcome) -> None:
@@ -204,6 +221,26 @@ class RunDirSink:
             if (n := s.sync.get(reason, {}).get(self._driver, 0))
         }
         self.writer.close(status=outcome.status, error=outcome.error, stats=s.as_dict(), skipped_frames=skipped)
+
+
+def _output_columns(
+    r: FrameResult, tracks: list[tuple[Any, ...]] | None
+) -> tuple[dict[str, Any], list[tuple[Any, ...]] | None]:
+    """The output-frame values of a frame (:mod:`pfpeople.pipeline.output_frame`): the run writer's ``output_pose``
+    and ``people_out`` arguments, and the ``tracks.csv`` rows with their output-frame columns (NaN: no pose)."""
+    pose = r.output_pose
+    if pose is None:
+        nan = (math.nan,) * 7
+        return {}, None if tracks is None else [(*row, *nan) for row in tracks]
+    out = {"output_pose": (pose.x, pose.y, pose.yaw), "people_out": positions_in(pose, r.people)}
+    if tracks is None or r.tracks is None:
+        return out, tracks
+    moved = tracks_in(pose, r.tracks)
+    rows = [
+        (*row, t.x, t.y, t.vx, t.vy, float(t.covariance[0, 0]), float(t.covariance[0, 1]), float(t.covariance[1, 1]))
+        for row, t in zip(tracks, moved, strict=True)
+    ]
+    return out, rows
 
 
 def input_topics(run: RunInfo) -> dict[str, str]:
@@ -259,6 +296,7 @@ class ResultBagSink:
         self.overwrite = overwrite
         self.with_input = with_input
         self.writer: Any = None
+        self._output = False
         self._source: Any = None
         self._inputs: Any = None
         self._next: Any = None
@@ -287,10 +325,12 @@ class ResultBagSink:
         from pfpeople.io.bag.writer import ResultBagWriter
 
         inputs = input_topics(run) if self.with_input else {}
+        self._output = bool(run.output_frame)
         self.writer = ResultBagWriter(
             self.path,
             spec=run.spec,
             frame_id=run.grid_frame,
+            results_frame_id=run.output_frame or None,
             detector_names=run.detector_names,
             bag_format=self.bag_format,
             overwrite=self.overwrite,
@@ -316,13 +356,14 @@ class ResultBagSink:
         f = result.frame
         self._copy_input(f.bag_time_ns)
         stamp = header_stamp_ns(f.driver.msg) or f.stamp_ns
+        people, tracks = results_in(result, output=self._output)  # none where the output frame's pose is unknown
         self.writer.write(
             f.bag_time_ns,
             stamp,
             result.belief,
-            result.people,
+            people,
             result.detections,
-            result.tracks,
+            tracks,
             people_reliability=result.people_probability
             if len(result.people_probability) == len(result.people)
             else None,
