@@ -24,6 +24,7 @@ import numpy as np
 
 from gridbridge.grid import GridSpec
 from pfpeople.io.bag.reader import header_stamp_ns
+from pfpeople.io.bag.track_messages import TRACKED_PERSONS_TYPE, track_table
 from pfpeople.io.bag.writer import (
     TOPIC_BELIEF,
     TOPIC_PEOPLE,
@@ -34,7 +35,6 @@ from pfpeople.io.bag.writer import (
     ResultBagWriter,
     detector_topics,
 )
-from pfpeople.io.bag.track_messages import TRACKED_PERSONS_TYPE, track_table
 from pfpeople.pipeline.output_frame import results_in
 from pfpeople.run_state import FrameResult
 
