@@ -18,6 +18,10 @@ with a raw ``_ArrayMemoryError``. The checks here are estimates with generous ma
   particle) must fit in :func:`memory_budget_bytes`: half the physical memory, or
   ``$PFPEOPLE_MAX_MEMORY_BYTES``.
 
+Limits given in the environment (``PFPEOPLE_MAX_MEMORY_BYTES``, the zip limits of :mod:`pfpeople.io.bag.archive`) are
+read by :func:`env_limit`: a positive number of at most :data:`MAX_ENV_LIMIT` (``8e9`` and ``8000000000`` alike);
+text, NaN, an infinity, zero, a negative number or a larger one is a ``ValueError`` naming the variable.
+
 Every check raises :class:`ResourceLimitError` (a ``ValueError``) naming the setting, the estimate and the limit
 (:func:`check_dt`: ``TypeError`` for a value that is not a real number).
 """
@@ -41,6 +45,7 @@ __all__ = [
     "check_dt",
     "check_grid_size",
     "check_particles",
+    "env_limit",
     "estimate_run_bytes",
     "kernel_reach_cells",
     "memory_budget_bytes",
@@ -59,6 +64,8 @@ MAX_DT_S = 10.0
 BYTES_PER_CELL = 256
 #: Bytes per particle (five float64 arrays, and copies during prediction and resampling).
 BYTES_PER_PARTICLE = 200
+#: Largest value an environment limit may take (:func:`env_limit`): 2**62, far beyond any machine's memory or disk.
+MAX_ENV_LIMIT = 2**62
 
 
 class ResourceLimitError(ValueError):
@@ -73,15 +80,35 @@ def _human(nbytes: float) -> str:
     return f"{nbytes:.3g} PiB"  # pragma: no cover
 
 
+def env_limit(name: str, default: int) -> int:
+    """The limit the environment variable ``name`` gives (a number of bytes or of items), else ``default``.
+
+    Raises
+    ------
+    ValueError
+        Naming the variable, when its value is not a finite number in ``[1, MAX_ENV_LIMIT]`` (text, NaN, ``inf``,
+        ``1e400``, zero, a negative number).
+    """
+    text = os.environ.get(name, "").strip()
+    if not text:
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 1 <= value <= MAX_ENV_LIMIT):
+        raise ValueError(
+            f"environment variable {name}={text!r} must be a finite number from 1 to {MAX_ENV_LIMIT:.3g} "
+            "(e.g. 8e9); unset it for the default"
+        )
+    return int(value)
+
+
 def memory_budget_bytes() -> int:
-    """Memory a run may use (bytes): ``$PFPEOPLE_MAX_MEMORY_BYTES`` or half the physical memory (8 GiB if
-    unknown)."""
-    env = os.environ.get("PFPEOPLE_MAX_MEMORY_BYTES")
-    if env:
-        try:
-            return int(float(env))
-        except ValueError:
-            raise ValueError(f"PFPEOPLE_MAX_MEMORY_BYTES={env!r} is not a number of bytes") from None
+    """Memory a run may use (bytes): ``$PFPEOPLE_MAX_MEMORY_BYTES`` (:func:`env_limit`) or half the physical memory
+    (8 GiB if unknown)."""
+    if os.environ.get("PFPEOPLE_MAX_MEMORY_BYTES", "").strip():
+        return env_limit("PFPEOPLE_MAX_MEMORY_BYTES", 0)
     try:
         total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError, AttributeError):
