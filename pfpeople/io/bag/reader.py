@@ -12,7 +12,8 @@ Conversions (all errors name the topic and the message type):
 - ``sensor_msgs/LaserScan`` -> :class:`pfpeople.sensors.LaserScan`. NaN, inf and out-of-interval ranges are
   kept and marked invalid by ``LaserScan.valid`` (they are "no return", not points).
 - ``sensor_msgs/Image`` (mono8, bgr8, rgb8, bgra8, rgba8, 8UC1, 8UC3) and ``sensor_msgs/CompressedImage``
-  (decoded with ``cv2.imdecode``) -> :class:`pfpeople.sensors.CameraImage` (BGR or mono).
+  (PNG or JPEG, its size read from its header and checked before ``cv2.imdecode`` decodes it:
+  :mod:`pfpeople.io.bag.image_size`) -> :class:`pfpeople.sensors.CameraImage` (BGR or mono).
 - ``nav_msgs/Odometry`` -> :class:`pfpeople.sensors.Pose2D` of its child frame in its parent (odom) frame.
 - ``geometry_msgs/PoseArray``, ``Pose``, ``PoseStamped``, ``Point``, and any message with a ``pose``,
   ``poses``, ``position``, ``people`` or ``points`` field (e.g. ``leg_tracker/Person``) -> ``(M, 2)``
@@ -64,6 +65,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from gridbridge.geometry import Pose2D, yaw_from_orientation
 from pfpeople.io.bag.archive import BagReadError, extract_zip
+from pfpeople.io.bag.image_size import check_encoded_size
 from pfpeople.io.bag.ros1_decoders import Decoder, ros1_decoder
 from pfpeople.io.bag.rosbag2_meta import parse_metadata
 from pfpeople.sensors import CameraImage, LaserScan
@@ -323,7 +325,7 @@ class BagSource:
                 log.warning("topic %s in bag %s has no messages", topic, self.name)
 
     def messages(self, topics: Iterable[str]) -> Iterator[BagMessage]:
-        """Deserialised messages of ``topics`` in bag-time order, one at a time.
+        """Deserialised messages of ``topics`` in bag-time order, one at a time (none for no topics).
 
         Raises
         ------
@@ -334,6 +336,8 @@ class BagSource:
         wanted = set(topics)
         self.require(wanted)
         conns = [c for c in self._reader.connections if c.topic in wanted]
+        if not conns:  # rosbags reads every connection when given none
+            return
         decoders = {c.id: self._decoder(c) for c in conns}
         counters: dict[str, int] = {}
         last: tuple[int, str, int] | None = None  # (index, topic, bag time) of the latest message; text on error
@@ -467,7 +471,13 @@ _ENCODINGS = {
 def image_from_msg(msg: Any, msgtype: str, *, stamp_ns: int, frame_id: str, topic: str = "") -> CameraImage:
     """``sensor_msgs/Image`` or ``CompressedImage`` -> :class:`CameraImage` (BGR uint8 or mono8)."""
     if msgtype.endswith("CompressedImage"):
-        data = np.frombuffer(bytes(msg.data), dtype=np.uint8)
+        raw = bytes(msg.data)
+        if raw:
+            try:
+                check_encoded_size(raw, f"topic {topic!r}: CompressedImage at stamp {stamp_ns} ns")
+            except ValueError as exc:
+                raise MessageDataError(str(exc)) from None
+        data = np.frombuffer(raw, dtype=np.uint8)
         pixels = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
         if pixels is None:
             raise MessageDataError(
