@@ -34,17 +34,21 @@ import os
 
 import numpy as np
 
+from gridbridge.validation import InputTypeError
+
 __all__ = [
     "BYTES_PER_CELL",
     "BYTES_PER_PARTICLE",
     "MAX_DT_S",
     "MAX_GRID_CELLS",
     "MAX_PARTICLES",
+    "MAX_SMOOTH_CELLS",
     "MAX_STEP_OPERATIONS",
     "ResourceLimitError",
     "check_dt",
     "check_grid_size",
     "check_particles",
+    "check_smooth",
     "env_limit",
     "estimate_run_bytes",
     "kernel_reach_cells",
@@ -57,6 +61,9 @@ MAX_GRID_CELLS = 4_000_000
 MAX_STEP_OPERATIONS = 1.0e9
 #: Largest number of particles.
 MAX_PARTICLES = 200_000_000
+#: Largest standard deviation (cells) of the Gaussian the peak classifier smooths the belief with: wider spreads one
+#: person over hundreds of cells, and ``smooth = 1e9`` asked scipy for a 60 GiB kernel.
+MAX_SMOOTH_CELLS = 10.0
 #: Largest filter time step (s): well above any real frame gap (the pipeline restarts the filter after 2 s).
 MAX_DT_S = 10.0
 #: Bytes per grid cell and per detector (float64 belief, priors, likelihood maps, warps, outputs; measured
@@ -125,6 +132,29 @@ def kernel_reach_cells(resolution: float, *, v_max: float, dt: float) -> float:
 def estimate_run_bytes(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0) -> int:
     """Estimated peak memory (bytes) of a filter over ``n_cells`` cells with ``n_detectors`` and particles."""
     return int(BYTES_PER_CELL * n_cells * (2 + max(n_detectors, 1)) + BYTES_PER_PARTICLE * n_particles)
+
+
+def check_smooth(value: object, where: str = "smooth") -> float:
+    """Check the peak classifier's smoothing (cells): a real number in ``[0, MAX_SMOOTH_CELLS]``; returns it.
+
+    Raises
+    ------
+    InputTypeError
+        Not a real number (a string, a bool): a ``TypeError`` and a ``ValueError``.
+    ValueError
+        Negative or not finite; :class:`ResourceLimitError` above :data:`MAX_SMOOTH_CELLS`.
+    """
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise InputTypeError(f"{where} must be a number of cells, got {type(value).__name__} {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0:
+        raise ValueError(f"{where} must be a finite number of cells >= 0, got {value!r}")
+    if v > MAX_SMOOTH_CELLS:
+        raise ResourceLimitError(
+            f"{where} = {v:g} cells is more than the limit of {MAX_SMOOTH_CELLS:g} cells (the standard deviation of "
+            "the Gaussian the belief is smoothed with; 1 is typical)"
+        )
+    return v
 
 
 def check_dt(dt: object, where: str = "dt") -> float:
