@@ -34,8 +34,7 @@ def load_toml(path: str | Path, what: str = "TOML file") -> dict[str, Any]:
     except UnicodeDecodeError as exc:
         line = data.count(b"\n", 0, exc.start) + 1
         raise ValueError(
-            f"{what} {str(path)!r} is not UTF-8 text (byte {data[exc.start]:#04x} at line {line}); TOML files are "
-            "UTF-8"
+            f"{what} {str(path)!r} is not UTF-8 text (byte {data[exc.start]:#04x} at line {line}); TOML files are UTF-8"
         ) from None
     try:
         return tomllib.loads(text)
