@@ -33,7 +33,7 @@ from gridbridge.components import (
 from gridbridge.ego_motion import Odometry, ego_motion_sigma_points
 from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood, update_components
-from gridbridge.limits import check_dt
+from gridbridge.limits import check_dt, check_grid_size, check_memory
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
 from gridbridge.people_motion import _check_paper_kernel, quantise_dt
@@ -169,6 +169,15 @@ def filter_models(
     return spec_, dets, motion_, noise_
 
 
+def check_filter_size(spec: GridSpec, motion: PeopleMotion, n_detectors: int, *, where: str) -> None:
+    """The limits a run's configuration is held to (:func:`pfpeople.config.check_run_limits`), for a filter built in
+    the library: the prediction's work at the motion's own step (``motion.dt``) and the memory of the grid's arrays
+    (:mod:`gridbridge.limits`); a step of another ``dt`` is checked when its kernel is made
+    (:func:`gridbridge.people_motion.people_motion_kernel`)."""
+    check_grid_size(spec.nx, spec.ny, spec.resolution, v_max=motion.v_max, dt=motion.dt, where=where)
+    check_memory(spec.n_cells, n_detectors=n_detectors, where=where)
+
+
 class GridFilter:
     """The paper's recursive Bayes filter on a local semantic grid, composed of components.
 
@@ -237,6 +246,7 @@ class GridFilter:
         self.likelihood, self.appearance, self.bounds = update_components(likelihood, appearance, bounds)
         self.prediction = prediction
         self.motion = prediction.motion
+        check_filter_size(self.spec, self.motion, len(self.detectors), where="GridFilter")
         self.form = str(getattr(prediction, "form", "custom"))
         self.ego_motion = ego_motion
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)

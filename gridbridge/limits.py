@@ -4,10 +4,14 @@ A grid or particle count far beyond what a robot needs (a stamp typed as a cell 
 ``n_particles = 1e9``) must fail at once with a message naming the setting, not after minutes of swapping or
 with a raw ``_ArrayMemoryError``. The checks here are estimates with generous margins:
 
-- grid cells: ``nx * ny <= MAX_GRID_CELLS`` (4 million, e.g. 2000 x 2000);
-- prediction work: the people-motion kernel reaches ``v_max dt / resolution`` cells, and the grid filter's
-  prediction costs ``n_cells * (2 R + 1)^2`` operations per frame (eqs. 8-9 sum over the neighbourhood); more
-  than ``MAX_STEP_OPERATIONS`` (1e9, about a second per frame) is refused;
+- grid cells: ``nx * ny <= MAX_GRID_CELLS`` (4 million, e.g. 2000 x 2000), checked by :class:`gridbridge.GridSpec`
+  itself, so a library user and a run get the same message;
+- prediction work: the people-motion kernel reaches ``R = ceil(v_max dt / resolution) + 1`` cells, and the grid
+  filter's prediction costs ``n_cells * (2 R + 1)^2`` operations per frame (eqs. 8-9 sum over the neighbourhood);
+  more than ``MAX_STEP_OPERATIONS`` (1e9, about a second per frame) or a radius beyond ``MAX_KERNEL_RADIUS_CELLS``
+  (1000) is refused (:func:`check_motion_step`): by a run's configuration (at 0.1 s), by both filters' constructors
+  (at their motion's ``dt``) and whenever a kernel of another step is made (:func:`gridbridge.people_motion_kernel`,
+  before anything of the step is allocated);
 - particles: ``n_particles <= MAX_PARTICLES``;
 - time step: ``0 < dt <= MAX_DT_S`` (10 s) in both filters' ``predict`` / ``step`` (:func:`check_dt`), a number
   (not a string, a bool or a complex): a step in milliseconds passed as seconds (``dt = 100``) would ask for a
@@ -17,6 +21,15 @@ with a raw ``_ArrayMemoryError``. The checks here are estimates with generous ma
 - memory: :func:`estimate_run_bytes` (``BYTES_PER_CELL`` per cell and detector, ``BYTES_PER_PARTICLE`` per
   particle) must fit in :func:`memory_budget_bytes`: half the physical memory, or
   ``$PFPEOPLE_MAX_MEMORY_BYTES``.
+
+Within these limits one step's memory is bounded by its inputs: about ``BYTES_PER_CELL * n_cells * (2 + detectors)``
+(the grids of the step) ``+ BYTES_PER_PARTICLE * particles`` (a particle filter's state and its copies) ``+ 8 B * (2 R
++ 1)^2`` per kernel array ``+ 0.3 MB * R`` while an integrated (linear) kernel is computed (its quadrature, about 3000
+points per cell of radius), above the process's own (interpreter, numpy, numba: 150-200 MB). None of these arrays grows
+otherwise with ``dt``: the paper kernel's prediction keeps a table of ``q / (1 - q)`` per distinct tap value only while
+it is small, the integrated kernel's tents are summed from the two offsets each covers, and the particle filter's inflow
+across the border comes from the kernel's summed-area table once the kernel is larger than the grid
+(``python -m evaluation.bench.step_limits`` measures every filter at the limits on the paper's grid).
 
 Limits given in the environment (``PFPEOPLE_MAX_MEMORY_BYTES``, the zip limits of :mod:`pfpeople.io.bag.archive`) are
 read by :func:`env_limit`: a positive number of at most :data:`MAX_ENV_LIMIT` (``8e9`` and ``8000000000`` alike);
@@ -41,12 +54,14 @@ __all__ = [
     "BYTES_PER_PARTICLE",
     "MAX_DT_S",
     "MAX_GRID_CELLS",
+    "MAX_KERNEL_RADIUS_CELLS",
     "MAX_PARTICLES",
     "MAX_SMOOTH_CELLS",
     "MAX_STEP_OPERATIONS",
     "ResourceLimitError",
     "check_dt",
     "check_grid_size",
+    "check_motion_step",
     "check_particles",
     "check_smooth",
     "env_limit",
@@ -59,6 +74,9 @@ __all__ = [
 MAX_GRID_CELLS = 4_000_000
 #: Largest estimated number of operations of one prediction step (cells x kernel cells).
 MAX_STEP_OPERATIONS = 1.0e9
+#: Largest radius (cells) of the people-motion neighbourhood of one step: its kernel has at most 2001 x 2001 cells
+#: (32 MB), the integrated one's quadrature about 3000 points a cell of radius (250 MB at the limit).
+MAX_KERNEL_RADIUS_CELLS = 1000
 #: Largest number of particles.
 MAX_PARTICLES = 200_000_000
 #: Largest standard deviation (cells) of the Gaussian the peak classifier smooths the belief with: wider spreads one
@@ -183,7 +201,8 @@ def check_dt(dt: object, where: str = "dt") -> float:
 def check_grid_size(
     nx: int, ny: int, resolution: float, *, v_max: float | None = None, dt: float = 0.1, where: str = "grid"
 ) -> None:
-    """Refuse a grid with too many cells or (given ``v_max``) a prediction step too expensive."""
+    """Refuse a grid with too many cells or (given ``v_max``) a prediction step too expensive
+    (:func:`check_motion_step`)."""
     n_cells = int(nx) * int(ny)
     if n_cells > MAX_GRID_CELLS:
         raise ResourceLimitError(
@@ -191,15 +210,29 @@ def check_grid_size(
             "use fewer, larger cells"
         )
     if v_max is not None:
-        reach = kernel_reach_cells(resolution, v_max=v_max, dt=dt)
-        ops = n_cells * (2.0 * reach + 1.0) ** 2
-        if ops > MAX_STEP_OPERATIONS:
-            raise ResourceLimitError(
-                f"{where}: resolution {resolution!r} m with people walking up to {v_max:.3g} m/s in {dt:g} s "
-                f"gives a motion neighbourhood of {reach:.3g} cells radius: about {ops:.3g} operations per frame "
-                f"over {n_cells} cells (limit {MAX_STEP_OPERATIONS:.0e}); use a coarser resolution "
-                "(the paper uses 0.3 m)"
-            )
+        check_motion_step(n_cells, resolution, v_max=v_max, dt=dt, where=where)
+
+
+def check_motion_step(n_cells: int, resolution: float, *, v_max: float, dt: float, where: str = "grid") -> None:
+    """Refuse a people-motion step whose neighbourhood (``R = ceil(v_max dt / resolution) + 1`` cells) is wider than
+    :data:`MAX_KERNEL_RADIUS_CELLS` or costs more than :data:`MAX_STEP_OPERATIONS` over ``n_cells`` cells
+    (``n_cells (2 R + 1)^2``): checked before a kernel is computed, by both filters
+    (:func:`gridbridge.people_motion.people_motion_kernel`) and for a run's grid.
+
+    Raises
+    ------
+    ResourceLimitError
+        Naming ``where``, the resolution, the speed, the step, the radius and the cost.
+    """
+    reach = kernel_reach_cells(resolution, v_max=v_max, dt=dt)
+    ops = n_cells * (2.0 * reach + 1.0) ** 2
+    if reach > MAX_KERNEL_RADIUS_CELLS or ops > MAX_STEP_OPERATIONS:
+        raise ResourceLimitError(
+            f"{where}: resolution {resolution!r} m with people walking up to {v_max:.3g} m/s in {dt:g} s "
+            f"gives a motion neighbourhood of {reach:.3g} cells radius (limit {MAX_KERNEL_RADIUS_CELLS}): about "
+            f"{ops:.3g} operations per frame over {n_cells} cells (limit {MAX_STEP_OPERATIONS:.0e}); use a coarser "
+            "resolution (the paper uses 0.3 m) or a shorter step"
+        )
 
 
 def check_particles(n_particles: int, *, n_cells: int, n_detectors: int = 1, where: str = "n_particles") -> None:

@@ -81,7 +81,6 @@ from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 
 from gridbridge import (
     PAPER_DETECTORS,
@@ -105,7 +104,7 @@ from gridbridge.ego_motion import border_inflow
 from gridbridge.filter import Prediction, filter_models, remounted
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
-from gridbridge.people_motion import quantise_dt
+from gridbridge.people_motion import outside_inflow, quantise_dt
 from gridbridge.validation import check_int, check_probability
 from pfpeople.particle import rng_kernels
 from pfpeople.particle import step_kernels as kernels
@@ -386,7 +385,7 @@ class ParticleFilter:
         cached = self._inflow_cache.get(key)
         if cached is None:
             kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
-            cached = ndimage.convolve(np.zeros(self.spec.shape), kernel, mode="constant", cval=self.outside)
+            cached = outside_inflow(self.spec.shape, kernel, self.outside)
             cached.setflags(write=False)
             self._inflow_cache[key] = cached
         return cached
