@@ -65,8 +65,9 @@ def write_scan_bag(
     tf_mount: Any = None,
     frame_of: Any = None,
     static_mounts: dict[str, Pose2D] | None = None,
+    angle_increment: float = INC,
 ) -> None:
-    """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``.
+    """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``, ``angle_increment`` apart.
 
     ``reverse``: the same beams listed clockwise (negative ``angle_increment``): the same points. Topics
     after the first get a connection and no message. ``tf_mount(k) -> Pose2D``: the pose of ``laser`` in
@@ -75,7 +76,7 @@ def write_scan_bag(
     """
     ts = typestore(False)
     m = Msgs(ts, False)
-    scan = render_scan(circles=legs(PEOPLE), angle_increment=INC)
+    scan = render_scan(circles=legs(PEOPLE), angle_increment=angle_increment)
     ranges = np.asarray(scan.ranges, dtype=np.float32)
     a0, inc = scan.angle_min, scan.angle_increment
     if reverse:

@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 from gridbridge.params import DetectorModel
 from pfpeople.config import DetectorConfig
 from pfpeople.detect.settings import kwargs_from_table
+from pfpeople.detect.spacing import detector_scan
 from pfpeople.io.bag.reader import (
     IMAGE_TYPES,
     LASER_TYPES,
@@ -254,11 +255,16 @@ class BuiltinAdapter:
         data = self.read(msgs[0])
         assert self.detector is not None
         scan = data if isinstance(data, LaserScan) else None
+        given = self.detector_input(data)
         with_singles = getattr(self.detector, "detect_with_singles", None)
         if with_singles is None:
-            return self.located(self.detector.detect(data), scan=scan)
-        people, singles = with_singles(data)
+            return self.located(self.detector.detect(given), scan=scan)
+        people, singles = with_singles(given)
         return self.located(people, scan=scan, support=singles)
+
+    def detector_input(self, data: Any) -> Any:
+        """What the detector gets of the message's data (by default the data itself)."""
+        return data
 
     def located(self, positions: Any, *, scan: LaserScan | None = None, support: Any = None) -> Detections:
         """``positions`` ``(M, 2)`` and ``support`` ``(S, 2)`` (m) as the detector gave them, with their
@@ -281,10 +287,18 @@ _LATEST_SCAN: tuple[BagMessage, LaserScan] | None = None
 
 
 class LaserAdapter(BuiltinAdapter):
-    """A detector on a ``sensor_msgs/LaserScan`` (positions in the laser's frame)."""
+    """A detector on a ``sensor_msgs/LaserScan`` (positions in the laser's frame).
+
+    The detector gets a scan denser than the spacing the laser detectors are built for thinned to it
+    (:func:`pfpeople.detect.spacing.detector_scan`); the static-clutter map and the rest of the run get every beam.
+    """
 
     input_types: tuple[str, ...] | None = LASER_TYPES
     laser = True
+
+    def detector_input(self, data: Any) -> Any:
+        """The scan thinned for the detector (:func:`pfpeople.detect.spacing.detector_scan`)."""
+        return detector_scan(data)
 
     def read(self, msg: BagMessage) -> LaserScan:
         """The :class:`LaserScan` of ``msg``.

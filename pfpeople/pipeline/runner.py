@@ -103,6 +103,7 @@ from pfpeople.pipeline.sensor_setup import (
     check_grid_seen,
     setup_sensors,
     warn_coarse_lasers,
+    warn_dense_lasers,
 )
 from pfpeople.pipeline.warm_up import warm_up_back_end
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
@@ -293,6 +294,7 @@ class Pipeline:
         self.mounts = [a.mount for a in self.adapters]
         check_grid_seen(self.spec, self.models, configured=c.grid is not None)
         warn_coarse_lasers(self.adapters, setup.first)
+        warn_dense_lasers(self.adapters, setup.first)
         factory = self._filter_factory or (lambda spec, models: make_filter(c.filter, spec, models))
         self.filter = factory(self.spec, self.models)
         self.classifier = build_classifier(c.classifier, c.filter.mode)
