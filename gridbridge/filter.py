@@ -141,6 +141,20 @@ def remounted(
     return tuple(out)
 
 
+def with_fields_of_view(
+    detectors: Sequence[DetectorModel], views: Sequence[tuple[float, float]]
+) -> tuple[DetectorModel, ...]:
+    """``detectors`` with the fields of view ``(fov_min, fov_max)`` (rad; one per detector, ValueError otherwise; a
+    detector whose view is unchanged is kept as it is)."""
+    if len(views) != len(detectors):
+        raise ValueError(f"views must give one (fov_min, fov_max) per detector ({len(detectors)}), got {len(views)}")
+    out = []
+    for d, (lo, hi) in zip(detectors, views, strict=True):
+        same = (d.fov_min, d.fov_max) == (lo, hi)
+        out.append(d if same else replace(d, fov_min=lo, fov_max=hi))
+    return tuple(out)
+
+
 def filter_models(
     spec: GridSpec | None,
     detectors: Sequence[DetectorModel],
@@ -262,6 +276,12 @@ class GridFilter:
         """Move the detectors: ``(mount_x, mount_y, mount_yaw)`` per detector (m, rad; a panning laser's mount
         at this frame). Their fields of view follow from the next update."""
         self.detectors = remounted(self.detectors, mounts)
+        self._observed = None
+
+    def set_detector_fields_of_view(self, views: Sequence[tuple[float, float]]) -> None:
+        """Narrow or restore the detectors' fields of view: ``(fov_min, fov_max)`` per detector (rad; what a laser's
+        scan covered in this frame, :mod:`pfpeople.detect.coverage`). Cells outside get no update from the next one."""
+        self.detectors = with_fields_of_view(self.detectors, views)
         self._observed = None
 
     @property

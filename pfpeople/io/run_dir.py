@@ -406,8 +406,9 @@ class RunWriter:
     ) -> None:
         self.path = Path(out_dir)
         _check_out_dir(self.path)
-        if self.path.is_dir():
-            self._previous_files(overwrite)  # refused before anything (a lock file) is created
+        if self.path.is_dir():  # refused before anything (a lock file) is created
+            locks.check_free(self.path / LOCK_NAME, f"output directory {str(self.path)!r}", RunLockedError)
+            self._previous_files(overwrite)
         self.path.mkdir(parents=True, exist_ok=True)
         self._lock_fh: IO[str] | None = self._lock()
         try:

@@ -101,7 +101,7 @@ from gridbridge import (
 from gridbridge import kernels as grid_kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.ego_motion import border_inflow
-from gridbridge.filter import Prediction, filter_models, remounted
+from gridbridge.filter import Prediction, filter_models, remounted, with_fields_of_view
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
 from gridbridge.people_motion import outside_inflow, quantise_dt
@@ -271,6 +271,12 @@ class ParticleFilter:
         """Move the detectors: ``(mount_x, mount_y, mount_yaw)`` per detector (m, rad; a panning laser's mount
         at this frame). Their fields of view follow from the next update."""
         self.detectors = remounted(self.detectors, mounts)
+        self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
+
+    def set_detector_fields_of_view(self, views: Sequence[tuple[float, float]]) -> None:
+        """Narrow or restore the detectors' fields of view: ``(fov_min, fov_max)`` per detector (rad), as
+        :meth:`gridbridge.GridFilter.set_detector_fields_of_view`."""
+        self.detectors = with_fields_of_view(self.detectors, views)
         self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
 
     def reset(self, belief: ArrayLike | None = None) -> None:

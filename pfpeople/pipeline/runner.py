@@ -95,7 +95,7 @@ from pfpeople.perception.odometry import FIRST_DT_S, MAX_GAP_S, OdometryIntegrat
 from pfpeople.pipeline.assembly import build_classifier, build_people_tracker
 from pfpeople.pipeline.blas import blas_threads_in_use, limit_blas, resolve_blas_threads
 from pfpeople.pipeline.front_end import FrontProcess, FrontResult, front_process_available
-from pfpeople.pipeline.mounts import MountTracker, remount
+from pfpeople.pipeline.mounts import MountTracker
 from pfpeople.pipeline.sensor_setup import (
     TF_PRELOAD_S,
     SensorSetup,
@@ -105,6 +105,7 @@ from pfpeople.pipeline.sensor_setup import (
     warn_coarse_lasers,
     warn_dense_lasers,
 )
+from pfpeople.pipeline.views import follow_views
 from pfpeople.pipeline.warm_up import warm_up_back_end
 from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
 from pfpeople.sensors import LaserScan, Pose2D
@@ -441,8 +442,7 @@ class Pipeline:
         """The filter, the classifier and the tracker on a frame's :meth:`_front` result."""
         assert self.filter is not None and self.clutter is not None
         motion, found = front.motion, front.found
-        if front.mounts:
-            remount(self.adapters, front.mounts, self.filter)
+        follow_views(self.adapters, front.mounts, front.found, self.filter, self.summary, self._warn)
         if motion.restarted:
             self.filter.reset()
         raw: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
