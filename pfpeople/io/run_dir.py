@@ -859,13 +859,25 @@ def _read_csv(path: Path, columns: Sequence[str]) -> dict[str, NDArray[Any]]:
     return out
 
 
+#: The values of ``run.json`` ``status``.
+STATUSES = ("running", "complete", "failed", "interrupted")
+
+
+def _no_constant(name: str) -> Any:
+    """``json.loads``' ``parse_constant``: ``NaN`` and ``Infinity`` are not JSON (the project writes null and
+    ``"inf"``, :mod:`pfpeople.io.jsonio`)."""
+    raise ValueError(f'{name} is not a JSON value (a non-finite number; the project writes null or "inf")')
+
+
 def _read_meta(meta_path: Path) -> dict[str, Any]:
     try:
-        meta = json.loads(meta_path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"), parse_constant=_no_constant)
+    except (UnicodeDecodeError, ValueError) as exc:  # json.JSONDecodeError is a ValueError
         raise ValueError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
     if not isinstance(meta, dict):
         raise ValueError(f"{str(meta_path)!r} must hold a JSON object, got {type(meta).__name__}")
+    if "status" in meta and meta["status"] not in STATUSES:
+        raise ValueError(f"{str(meta_path)!r}: key 'status' must be one of {list(STATUSES)}, got {meta['status']!r}")
     if meta.get("format") != FORMAT:
         raise ValueError(f"{str(meta_path)!r} is not a {FORMAT} file (format={meta.get('format')!r})")
     if meta.get("version") != FORMAT_VERSION:
