@@ -163,10 +163,12 @@ def _score(args: argparse.Namespace) -> int:
         f"{result['gt_rows_unassigned']} on no run frame; GT frame {result['gt_frame']!r})"
     )
     if result["gt_rows_unassigned"]:
+        window = result["gt_match_window_s"]
         print(
             f"GT rows on no run frame: {result['gt_rows_before_run']} before its first frame, "
-            f"{result['gt_rows_between_frames']} between frames (further than {result['gt_match_window_s']:.3f} s), "
-            f"{result['gt_rows_beyond_run']} after its last frame"
+            f"{result['gt_rows_between_frames']} between frames"
+            + (f" (further than {window:.3f} s)" if window else "")
+            + f", {result['gt_rows_beyond_run']} after its last frame"
         )
     print(
         f"GT frames: {result['gt_frames']}, of which {result['gt_frames_without_run_frame']} had no run frame"
