@@ -36,7 +36,7 @@ from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood, upda
 from gridbridge.limits import check_dt, check_grid_size, check_memory
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
-from gridbridge.people_motion import _check_paper_kernel, quantise_dt
+from gridbridge.people_motion import _check_paper_kernel, check_people_step, quantise_dt
 from gridbridge.validation import check_choice, check_number, check_probability
 
 __all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models", "remounted"]
@@ -315,6 +315,7 @@ class GridFilter:
             ``(people_prior, sensor_prior)``, ``(nx, ny)`` each; ``sensor_prior`` is the new ``belief``.
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
+        check_people_step(self.spec, self.motion, dt)
         odo = as_odometry(odometry)
         if self._builtin() and jit.enabled():
             people, sensor = self._predict_compiled(odo, dt)

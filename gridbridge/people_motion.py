@@ -54,6 +54,7 @@ from gridbridge.validation import check_choice, check_grid_array, check_positive
 
 __all__ = [
     "DT_QUANTUM_S",
+    "check_people_step",
     "outside_inflow",
     "people_motion_kernel",
     "predict_people",
@@ -125,11 +126,18 @@ def people_motion_kernel(
         raise ValueError(f"spec must be a GridSpec, got {type(spec).__name__}")
     dt_ = motion.dt if dt is None else check_positive(dt, "dt")
     check_choice(form, "form", ("paper", "integrated"))
-    check_motion_step(spec.n_cells, spec.resolution, v_max=motion.v_max, dt=dt_, where=f"people motion over {dt_:g} s")
+    check_people_step(spec, motion, dt_)
     # Kernels are cached per (resolution, motion, dt, form). Real sensor clocks jitter (0.0998 s, 0.1003 s, ...),
     # so dt is quantised to DT_QUANTUM_S: the kernel of a 0.1003 s step is the 0.100 s kernel (a 0.3 % change of
     # the reachable distance, far below the speed model's spread) and is computed once, not every frame.
     return _kernel_cached(spec.resolution, motion, quantise_dt(dt_), form)
+
+
+def check_people_step(spec: GridSpec, motion: PeopleMotion, dt: float) -> None:
+    """Refuse a people-motion step of ``dt`` (s) on ``spec`` whose neighbourhood is too wide or too costly
+    (:func:`gridbridge.limits.check_motion_step`, naming the step): both filters call it before a step changes
+    anything, and :func:`people_motion_kernel` before a kernel is computed."""
+    check_motion_step(spec.n_cells, spec.resolution, v_max=motion.v_max, dt=dt, where=f"people motion over {dt:g} s")
 
 
 def quantise_dt(dt: float) -> float:

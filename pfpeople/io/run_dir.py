@@ -413,7 +413,7 @@ class RunWriter:
         self._lock_fh: IO[str] | None = self._lock()
         try:
             for old in self._previous_files(overwrite):  # again under the lock
-                old.unlink()
+                old.unlink(missing_ok=True)
         except BaseException:
             self._unlock(remove_created=True)
             raise

@@ -104,7 +104,7 @@ from gridbridge.ego_motion import border_inflow
 from gridbridge.filter import Prediction, filter_models, remounted, with_fields_of_view
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size, check_particles
-from gridbridge.people_motion import outside_inflow, quantise_dt
+from gridbridge.people_motion import check_people_step, outside_inflow, quantise_dt
 from gridbridge.validation import check_int, check_probability
 from pfpeople.particle import rng_kernels
 from pfpeople.particle import step_kernels as kernels
@@ -443,6 +443,7 @@ class ParticleFilter:
             (``sensor_prior`` with the empty cells filled, before the clip and the appearances).
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
+        check_people_step(self.spec, self.motion, dt)
         odo = as_odometry(odometry)
         if jit.enabled("pfpeople"):
             st, cells, counts, people_prior, sensor_prior, poses, pose_w, sq = self._predict_compiled(odo, dt)

@@ -62,10 +62,14 @@ def test_a_step_whose_motion_is_too_costly_is_refused_before_anything_changes(ki
         GridFilter(spec) if kind == "grid" else ParticleFilter(spec, n_particles=40_000, rng=np.random.default_rng(0))
     )
     before = filt.belief.copy()
+    state = getattr(filt, "state", None)
+    draws = filt.rng.bit_generator.state if kind == "particle" else None
     dets = [np.zeros((0, 2))] * len(filt.detectors)
     with pytest.raises(ResourceLimitError, match=r"people motion over 10 s: .* neighbourhood of 349 cells radius"):
         filt.step(dets, None, 10.0)
     np.testing.assert_array_equal(filt.belief, before)
+    if kind == "particle":  # not a particle moved, not a number drawn
+        assert filt.state is state and filt.rng.bit_generator.state == draws
 
 
 def test_the_integrated_kernel_of_a_long_step_takes_memory_linear_in_its_quadrature() -> None:
