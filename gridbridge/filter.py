@@ -33,10 +33,10 @@ from gridbridge.components import (
 from gridbridge.ego_motion import Odometry, ego_motion_sigma_points
 from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood, update_components
-from gridbridge.limits import check_dt
+from gridbridge.limits import check_dt, check_grid_size, check_memory
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
-from gridbridge.people_motion import _check_paper_kernel, quantise_dt
+from gridbridge.people_motion import _check_paper_kernel, check_people_step, quantise_dt
 from gridbridge.validation import check_choice, check_number, check_probability
 
 __all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models", "remounted"]
@@ -141,6 +141,20 @@ def remounted(
     return tuple(out)
 
 
+def with_fields_of_view(
+    detectors: Sequence[DetectorModel], views: Sequence[tuple[float, float]]
+) -> tuple[DetectorModel, ...]:
+    """``detectors`` with the fields of view ``(fov_min, fov_max)`` (rad; one per detector, ValueError otherwise; a
+    detector whose view is unchanged is kept as it is)."""
+    if len(views) != len(detectors):
+        raise ValueError(f"views must give one (fov_min, fov_max) per detector ({len(detectors)}), got {len(views)}")
+    out = []
+    for d, (lo, hi) in zip(detectors, views, strict=True):
+        same = (d.fov_min, d.fov_max) == (lo, hi)
+        out.append(d if same else replace(d, fov_min=lo, fov_max=hi))
+    return tuple(out)
+
+
 def filter_models(
     spec: GridSpec | None,
     detectors: Sequence[DetectorModel],
@@ -167,6 +181,15 @@ def filter_models(
     if not isinstance(noise_, SensorMotionNoise):
         raise TypeError(f"noise must be a SensorMotionNoise, got {type(noise).__name__}")
     return spec_, dets, motion_, noise_
+
+
+def check_filter_size(spec: GridSpec, motion: PeopleMotion, n_detectors: int, *, where: str) -> None:
+    """The limits a run's configuration is held to (:func:`pfpeople.config.check_run_limits`), for a filter built in
+    the library: the prediction's work at the motion's own step (``motion.dt``) and the memory of the grid's arrays
+    (:mod:`gridbridge.limits`); a step of another ``dt`` is checked when its kernel is made
+    (:func:`gridbridge.people_motion.people_motion_kernel`)."""
+    check_grid_size(spec.nx, spec.ny, spec.resolution, v_max=motion.v_max, dt=motion.dt, where=where)
+    check_memory(spec.n_cells, n_detectors=n_detectors, where=where)
 
 
 class GridFilter:
@@ -237,6 +260,7 @@ class GridFilter:
         self.likelihood, self.appearance, self.bounds = update_components(likelihood, appearance, bounds)
         self.prediction = prediction
         self.motion = prediction.motion
+        check_filter_size(self.spec, self.motion, len(self.detectors), where="GridFilter")
         self.form = str(getattr(prediction, "form", "custom"))
         self.ego_motion = ego_motion
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
@@ -252,6 +276,12 @@ class GridFilter:
         """Move the detectors: ``(mount_x, mount_y, mount_yaw)`` per detector (m, rad; a panning laser's mount
         at this frame). Their fields of view follow from the next update."""
         self.detectors = remounted(self.detectors, mounts)
+        self._observed = None
+
+    def set_detector_fields_of_view(self, views: Sequence[tuple[float, float]]) -> None:
+        """Narrow or restore the detectors' fields of view: ``(fov_min, fov_max)`` per detector (rad; what a laser's
+        scan covered in this frame, :mod:`pfpeople.detect.coverage`). Cells outside get no update from the next one."""
+        self.detectors = with_fields_of_view(self.detectors, views)
         self._observed = None
 
     @property
@@ -285,6 +315,7 @@ class GridFilter:
             ``(people_prior, sensor_prior)``, ``(nx, ny)`` each; ``sensor_prior`` is the new ``belief``.
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
+        check_people_step(self.spec, self.motion, dt)
         odo = as_odometry(odometry)
         if self._builtin() and jit.enabled():
             people, sensor = self._predict_compiled(odo, dt)

@@ -117,13 +117,37 @@ def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside
     -----
     ``q / (1 - q)`` depends only on the tap's value and the source cell's belief, and the kernel is radially
     symmetric, so it is computed once per distinct tap value over the padded grid (8 values for the paper's
-    37 taps) and each tap adds its shifted copy: the same numbers added in the same order, without a division
-    per tap and cell.
+    37 taps) and each tap adds its shifted copy (:func:`_odds_sum_by_value`): the same numbers added in the same
+    order, without a division per tap and cell. A kernel whose distinct values would need more than
+    ``max(2**22, 16 nx ny)`` such numbers (at most ``(R + 1)(R + 2) / 2`` values: a step of several seconds) has its
+    division made per tap and cell instead (:func:`_odds_sum_by_tap`): the same numbers, in memory of the grid's
+    size, where the table of values would take gigabytes (1.4 GB for a 3 s step on the paper's grid).
     """
     nx, ny = bel.shape
     side = kernel.shape[0]
     rad = side // 2
     padded = _padded(bel, rad, outside)
+    px, py = padded.shape
+    if (rad + 1) * (rad + 2) // 2 * px * py <= max(2**22, 16 * nx * ny):
+        s = _odds_sum_by_value(padded, kernel, nx, ny)
+    else:
+        s = _odds_sum_by_tap(padded, kernel, nx, ny)
+    p_stay = kernel[rad, rad]
+    out = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            p_col = s[i, j] / (1.0 + s[i, j])
+            out[i, j] = p_stay * bel[i, j] + p_col * (1.0 - bel[i, j])
+    return out
+
+
+@jit
+def _odds_sum_by_value(
+    padded: NDArray[np.float64], kernel: NDArray[np.float64], nx: int, ny: int
+) -> NDArray[np.float64]:
+    """``S`` of :func:`predict_paper` from ``q / (1 - q)`` computed once per distinct tap value and padded cell."""
+    side = kernel.shape[0]
+    rad = side // 2
     px, py = padded.shape
     values, slot = _tap_values(kernel)
     n_values = values.size
@@ -144,13 +168,27 @@ def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside
                 row, srow = s[i], src[2 * rad - a + i]
                 for j in range(ny):
                     row[j] += srow[2 * rad - b + j]
-    p_stay = kernel[rad, rad]
-    out = np.empty((nx, ny))
-    for i in range(nx):
-        for j in range(ny):
-            p_col = s[i, j] / (1.0 + s[i, j])
-            out[i, j] = p_stay * bel[i, j] + p_col * (1.0 - bel[i, j])
-    return out
+    return s
+
+
+@jit
+def _odds_sum_by_tap(padded: NDArray[np.float64], kernel: NDArray[np.float64], nx: int, ny: int) -> NDArray[np.float64]:
+    """``S`` of :func:`predict_paper` with ``q / (1 - q)`` computed per tap and cell (the same numbers, the same
+    order as :func:`_odds_sum_by_value`)."""
+    side = kernel.shape[0]
+    rad = side // 2
+    s = np.zeros((nx, ny))
+    for a in range(side):
+        for b in range(side):
+            k = kernel[a, b]
+            if k == 0.0 or (a == rad and b == rad):
+                continue
+            for i in range(nx):
+                row, srow = s[i], padded[2 * rad - a + i]
+                for j in range(ny):
+                    q = k * srow[2 * rad - b + j]
+                    row[j] += q / (1.0 - q)
+    return s
 
 
 @jit

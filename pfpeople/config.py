@@ -85,14 +85,13 @@ Angles are radians, lengths metres, times seconds (REP-103 frames).
 from __future__ import annotations
 
 import logging
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from gridbridge.grid import GridSpec
-from gridbridge.limits import check_grid_size, check_memory
+from gridbridge.limits import check_grid_size, check_memory, check_smooth
 from gridbridge.params import DetectorModel, PeopleMotion, current_detector_name
 from gridbridge.validation import check_int, check_number, check_probability, check_real
 from pfpeople.limits import check_particles
@@ -207,7 +206,7 @@ class FilterConfig:
     n_particles : int or None
         Particle count (particle filter only); None: 5 per cell, at least 5000.
     seed : int
-        Seed of the particle filter's ``numpy.random.Generator``.
+        Seed (>= 0) of the particle filter's ``numpy.random.Generator``.
     motion_model : {"paper", "persistent"} or None
         Particle people-motion sampler (:mod:`pfpeople.particle.propagation`); None: ``"persistent"`` in the recommended
         mode (walkers keep their heading and speed: compact person blobs, README "Recommended particles"),
@@ -256,7 +255,7 @@ class FilterConfig:
             check_probability(check_real(self.initial, "FilterConfig.initial"), "FilterConfig.initial")
         if self.n_particles is not None:
             check_int(self.n_particles, "FilterConfig.n_particles", minimum=1)
-        check_int(self.seed, "FilterConfig.seed")
+        check_int(self.seed, "FilterConfig.seed", minimum=0)  # numpy's generators take non-negative seeds
         if self.motion_model not in (None, "paper", "persistent"):
             raise ValueError(
                 f"FilterConfig.motion_model must be 'paper', 'persistent' or unset, got {self.motion_model!r}"
@@ -297,7 +296,8 @@ class ClassifierConfig:
         (see ``pfpeople.pipeline.assembly.PEAK_KEEP``); equal to ``threshold``: no hysteresis.
     smooth : float
         Peaks: standard deviation (cells) of a Gaussian the belief is smoothed with before its maxima are found
-        (:func:`gridbridge.classifiers.classify_peaks`); 0 (default): none. For the particle filter, whose
+        (:func:`gridbridge.classifiers.classify_peaks`); 0 (default): none; at most
+        :data:`gridbridge.limits.MAX_SMOOTH_CELLS` (10). For the particle filter, whose
         rasterised mass gives a person several separate cells at the bound: with 1.0 its pipeline's precision on
         the scan-level scenes goes from 0.79-0.82 to 0.89-0.96 and the MOTA of its tracks from 0.32-0.35 to
         0.45-0.55, for 0.06-0.07 less recall there and 0.13-0.15 less on the ETH/UCY replays (README,
@@ -320,7 +320,7 @@ class ClassifierConfig:
         if keep is not None and thr is not None and keep > thr:
             raise ValueError(f"ClassifierConfig.keep must be <= threshold, got keep={keep!r} > threshold={thr!r}")
         check_real(self.min_separation, "ClassifierConfig.min_separation", low=0.0, low_open=True)
-        check_real(self.smooth, "ClassifierConfig.smooth", low=0.0)
+        check_smooth(self.smooth, "ClassifierConfig.smooth")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -738,15 +738,12 @@ def _current_name(table: Mapping[str, Any], renamed: dict[str, str]) -> dict[str
 
 
 def load_config(path: str | Path) -> BagConfig:
-    """Read a TOML run configuration; errors name the file."""
+    """Read a TOML run configuration; errors name the file (:func:`pfpeople.io.tomlio.load_toml`: not UTF-8, not
+    TOML, nested too deeply; then the setting at fault)."""
+    from pfpeople.io.tomlio import load_toml
+
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"config file {str(path)!r} does not exist")
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"config file {str(path)!r} is not valid TOML: {exc}") from None
+    data = load_toml(path, "config file")
     try:
         return config_from_mapping(data, source=f"config file {str(path)!r}")
     except (ValueError, TypeError) as exc:

@@ -117,7 +117,10 @@ class RunSummary:
     :class:`pfpeople.io.bag.tf.MountWatch`). The run follows them (:mod:`pfpeople.pipeline.mounts`): ``mounts_followed``
     counts, per detector, the frames placed with a mount other than the one read before the run;
     ``frame_id_changes`` the messages in a frame other than the detector's first one (each placed by its own
-    frame's mount), ``frame_id_unplaced`` those of them TF does not place (no data).
+    frame's mount), ``frame_id_unplaced`` those of them TF does not place (no data). ``bad_transforms`` counts, per
+    TF edge, the transforms read during the run that were broken (NaN, a zero quaternion) and left out.
+    ``fov_narrowed`` counts, per detector, the frames whose scan covered less than its field of view (the cells
+    outside what it covered got no update: :mod:`pfpeople.pipeline.views`).
 
     ``suppressed`` counts, per detector, the detections the static-clutter map called static; ``readmitted`` those
     of them the filter saw all the same, at the place a tracked person stopped
@@ -148,6 +151,8 @@ class RunSummary:
     mounts_followed: dict[str, int] = field(default_factory=dict)
     frame_id_changes: dict[str, int] = field(default_factory=dict)
     frame_id_unplaced: dict[str, int] = field(default_factory=dict)
+    bad_transforms: dict[str, int] = field(default_factory=dict)
+    fov_narrowed: dict[str, int] = field(default_factory=dict)
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     readmitted: dict[str, int] = field(default_factory=dict)

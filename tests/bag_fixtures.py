@@ -66,17 +66,20 @@ def write_scan_bag(
     tf_mount: Any = None,
     frame_of: Any = None,
     static_mounts: dict[str, Pose2D] | None = None,
+    angle_increment: float = INC,
+    beams_of: Any = None,
 ) -> None:
-    """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``.
+    """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``, ``angle_increment`` apart.
 
     ``reverse``: the same beams listed clockwise (negative ``angle_increment``): the same points. Topics
     after the first get a connection and no message. ``tf_mount(k) -> Pose2D``: the pose of ``laser`` in
     ``base_link`` published on ``/tf`` with each scan ``k``. ``frame_of(k)``: scan ``k``'s frame_id (default
-    ``laser``); ``static_mounts``: frame -> its pose in ``base_link`` on ``/tf_static``.
+    ``laser``); ``static_mounts``: frame -> its pose in ``base_link`` on ``/tf_static``. ``beams_of(k)``: the slice of
+    the beams scan ``k`` keeps (a narrower scan with consistent angles; default all).
     """
     ts = typestore(False)
     m = Msgs(ts, False)
-    scan = render_scan(circles=legs(PEOPLE), angle_increment=INC)
+    scan = render_scan(circles=legs(PEOPLE), angle_increment=angle_increment)
     ranges = np.asarray(scan.ranges, dtype=np.float32)
     a0, inc = scan.angle_min, scan.angle_increment
     if reverse:
@@ -97,16 +100,17 @@ def write_scan_bag(
         if tf_conn is not None:
             tf = m.tf(stamp, "base_link", "laser", tf_mount(k))
             w.write(tf_conn, stamp + 1_000_000, ts.serialize_ros1(tf, "tf2_msgs/msg/TFMessage"))
+        keep = np.arange(ranges.size)[beams_of(k) if beams_of is not None else slice(None)]
         msg = T["sensor_msgs/msg/LaserScan"](
             header=m.header(stamp, "laser" if frame_of is None else frame_of(k)),
-            angle_min=a0,
-            angle_max=a0 + inc * (ranges.size - 1),
+            angle_min=a0 + inc * keep[0],
+            angle_max=a0 + inc * keep[-1],
             angle_increment=inc,
             time_increment=0.0,
             scan_time=0.1,
             range_min=range_min,
             range_max=range_max,
-            ranges=ranges,
+            ranges=np.ascontiguousarray(ranges[keep]),
             intensities=np.zeros(0, dtype=np.float32),
         )
         w.write(conn, stamp + 3_000_000, ts.serialize_ros1(msg, "sensor_msgs/msg/LaserScan"))

@@ -38,6 +38,7 @@ from inside a detector included, is a bug and ends the run.
 from __future__ import annotations
 
 import importlib
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
@@ -47,10 +48,13 @@ from numpy.typing import NDArray
 
 from gridbridge.params import DetectorModel
 from pfpeople.config import DetectorConfig
+from pfpeople.detect.coverage import frame_view, scan_sector
 from pfpeople.detect.settings import kwargs_from_table
+from pfpeople.detect.spacing import detector_scan
 from pfpeople.io.bag.reader import (
     IMAGE_TYPES,
     LASER_TYPES,
+    BadScanError,
     BagMessage,
     MessageDataError,
     image_from_msg,
@@ -120,6 +124,10 @@ class Detections:
         Weaker evidence than a detection (m; detector frame, grid frame): positions that may keep a person the
         tracker already follows but never start one. The laser detectors give their unpaired single legs
         (:func:`pfpeople.detect.legs.people_and_single_legs`); empty for other detectors.
+    field_of_view : tuple of float or None
+        ``(fov_min, fov_max)`` (rad, detector frame) the detector covered in this frame: a laser detector's configured
+        field of view, or the part of it its scan covered (:func:`pfpeople.detect.coverage.frame_view`); None for
+        detectors whose view does not follow their input.
     """
 
     sensor: NDArray[np.float64]
@@ -127,6 +135,7 @@ class Detections:
     scan: LaserScan | None = None
     support_sensor: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     support: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    field_of_view: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -291,11 +300,16 @@ class BuiltinAdapter:
         data = self.read(msgs[0])
         assert self.detector is not None
         scan = data if isinstance(data, LaserScan) else None
+        given = self.detector_input(data)
         with_singles = getattr(self.detector, "detect_with_singles", None)
         if with_singles is None:
-            return self.located(self.detector.detect(data), scan=scan)
-        people, singles = with_singles(data)
+            return self.located(self.detector.detect(given), scan=scan)
+        people, singles = with_singles(given)
         return self.located(people, scan=scan, support=singles)
+
+    def detector_input(self, data: Any) -> Any:
+        """What the detector gets of the message's data (by default the data itself)."""
+        return data
 
     def located(self, positions: Any, *, scan: LaserScan | None = None, support: Any = None) -> Detections:
         """``positions`` ``(M, 2)`` and ``support`` ``(S, 2)`` (m) as the detector gave them, with their
@@ -339,10 +353,46 @@ def read_scan(msg: BagMessage) -> LaserScan:
 
 
 class LaserAdapter(BuiltinAdapter):
-    """A detector on a ``sensor_msgs/LaserScan`` (positions in the laser's frame)."""
+    """A detector on a ``sensor_msgs/LaserScan`` (positions in the laser's frame).
+
+    The detector gets a scan denser than the spacing the laser detectors are built for thinned to it
+    (:func:`pfpeople.detect.spacing.detector_scan`); the static-clutter map and the rest of the run get every beam.
+    """
 
     input_types: tuple[str, ...] | None = LASER_TYPES
     laser = True
+
+    def __init__(self, config: DetectorConfig, mount: Pose2D, detector: Detector | None = None) -> None:
+        super().__init__(config, mount, detector)
+        #: The configured field of view ``(fov_min, fov_max)`` (rad); a frame's scan may cover less of it.
+        self.view = (self.model.fov_min, self.model.fov_max)
+
+    def detect(self, msgs: Sequence[BagMessage]) -> Detections:
+        """:meth:`BuiltinAdapter.detect`, with the model's field of view set to the part of the configured one the
+        frame's scan covers (:func:`pfpeople.detect.coverage.frame_view`; also in the result's ``field_of_view``).
+
+        Raises
+        ------
+        BadScanError
+            Reason ``"sector"``: the scan covers nothing of the field of view (no data in the frame).
+        """
+        scan = self.read(msgs[0])
+        view = frame_view(self.view, scan) or self.view
+        if view[1] <= view[0]:
+            lo, hi = scan_sector(scan)
+            raise BadScanError(
+                f"topic {msgs[0].topic!r}: LaserScan at stamp {scan.stamp_ns} ns covers {math.degrees(lo):.1f} .. "
+                f"{math.degrees(hi):.1f} deg ({scan.ranges.size} beam(s)), nothing of the field of view "
+                f"{math.degrees(self.view[0]):.1f} .. {math.degrees(self.view[1]):.1f} deg",
+                "sector",
+            )
+        if view != (self.model.fov_min, self.model.fov_max):
+            self.model = replace(self.model, fov_min=view[0], fov_max=view[1])
+        return replace(super().detect(msgs), field_of_view=view)
+
+    def detector_input(self, data: Any) -> Any:
+        """The scan thinned for the detector (:func:`pfpeople.detect.spacing.detector_scan`)."""
+        return detector_scan(data)
 
     def read(self, msg: BagMessage) -> LaserScan:
         """The :class:`LaserScan` of ``msg``.

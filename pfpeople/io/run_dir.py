@@ -51,7 +51,14 @@ Safety against a second process and damage:
   holding it is dead: :mod:`pfpeople.io.locks`): a second writer, also with ``overwrite``, is refused
   (:class:`RunLockedError`). ``run.json`` is replaced atomically (a temporary file, fsync, ``os.replace``), with
   the permissions of the umask like every other file (0644 under umask 022).
-- A directory that holds files but no ``run.json`` is never written into (they are the user's files).
+- A directory that holds files but no ``run.json`` is never written into (they are the user's files), and gets no
+  lock file: it is refused before anything is created. ``overwrite`` replaces exactly a run's own files
+  (:data:`REPLACED_ON_OVERWRITE`: the run's tables and arrays, ``tracks.csv``, ``support.csv``, and the pictures
+  ``pfpeople view`` made of it, ``view.mp4``, ``view.gif``, ``summary.png``) and keeps every other file.
+- Nothing is written through a symbolic link: every file of the run is created anew (``O_EXCL | O_NOFOLLOW``), the
+  lock file is opened without following a link (:mod:`pfpeople.io.locks`), and an output directory holding a link
+  in place of one of the run's files is refused, naming it, before anything is changed. A dangling symbolic link
+  given as the directory is refused naming where it points.
 - Writing errors (a full disk, ``ENOSPC``) are re-raised naming the file; the frames before stay readable:
   :func:`load_run` reads the frames that every file holds completely (a half-written last row is dropped).
 - :func:`interrupt_signals` turns SIGTERM into :class:`RunInterrupted` (as SIGINT is turned into
@@ -63,7 +70,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import errno
 import json
 import math
 import os
@@ -85,6 +91,7 @@ from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
 from gridbridge.validation import finite_rows
 from pfpeople.io import locks
+from pfpeople.io.files import create_new, current_umask, named_os_error
 from pfpeople.io.jsonio import dumps
 
 __all__ = [
@@ -92,6 +99,7 @@ __all__ = [
     "FORMAT_VERSION",
     "MAX_PARTICLES_SAVED",
     "PARTICLE_DTYPE",
+    "REPLACED_ON_OVERWRITE",
     "RUN_FILES",
     "SCAN_DTYPE",
     "RunData",
@@ -181,29 +189,23 @@ def deferred_signals() -> Iterator[None]:
             raise RunInterrupted(signum)
 
 
-def _current_umask() -> int:
-    """The process's umask: from ``/proc/self/status`` (Linux), else set and restored at once."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    except (OSError, ValueError, IndexError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def _named_os_error(exc: OSError, path: Path) -> OSError:
-    """``exc`` re-raised naming ``path`` (e.g. "[Errno 28] No space left on device: 'run/grids.npy'")."""
-    if exc.filename:
-        return exc
-    code = exc.errno if exc.errno is not None else errno.EIO
-    return OSError(code, exc.strerror or os.strerror(code), str(path))
-
-
 #: The names a run directory's writer creates, replaces or locks in it.
 RUN_OWNED = (*RUN_FILES, "tracks.csv", "support.csv", LOCK_NAME)
+#: The pictures ``pfpeople view`` writes into a run directory by default (they show the run they were made of).
+VIEW_FILES = ("view.mp4", "view.gif", "summary.png")
+#: The files ``overwrite`` replaces: the previous run's own and its pictures (every other file is kept).
+REPLACED_ON_OVERWRITE = (*RUN_FILES, "tracks.csv", "support.csv", *VIEW_FILES)
+
+
+def _check_out_dir(path: Path) -> None:
+    """Refuse an output directory path that is a file or a dangling symbolic link (``[Errno 17]`` from mkdir)."""
+    if path.is_symlink() and not path.exists():
+        raise FileExistsError(
+            f"output directory {str(path)!r} is a symbolic link to {os.readlink(path)!r}, which does not exist; "
+            "remove the link or create the directory it names"
+        )
+    if path.exists() and not path.is_dir():
+        raise FileExistsError(f"output path {str(path)!r} exists and is not a directory")
 
 
 def _overlaps(a: Path, b: Path) -> bool:
@@ -321,7 +323,7 @@ class _RecordFile:
     def __init__(self, path: Path, dtype: np.dtype[Any]) -> None:
         self.path, self.dtype, self.rows = path, dtype, 0
         self._descr = np.lib.format.dtype_to_descr(dtype)  # once: numpy builds it anew each call
-        self.fh: BinaryIO = path.open("wb")
+        self.fh: BinaryIO = create_new(path, "wb")
         self.fh.write(self._header())
 
     def _header(self) -> bytes:
@@ -414,14 +416,17 @@ class RunWriter:
         output_frame: str = "",
     ) -> None:
         self.path = Path(out_dir)
-        if self.path.exists() and not self.path.is_dir():
-            raise FileExistsError(f"output path {str(self.path)!r} exists and is not a directory")
+        _check_out_dir(self.path)
+        if self.path.is_dir():  # refused before anything (a lock file) is created
+            locks.check_free(self.path / LOCK_NAME, f"output directory {str(self.path)!r}", RunLockedError)
+            self._previous_files(overwrite)
         self.path.mkdir(parents=True, exist_ok=True)
         self._lock_fh: IO[str] | None = self._lock()
         try:
-            self._clear_or_refuse(overwrite)
+            for old in self._previous_files(overwrite):  # again under the lock
+                old.unlink(missing_ok=True)
         except BaseException:
-            self._unlock()
+            self._unlock(remove_created=True)
             raise
         self.spec = spec
         self.detector_names = list(detector_names)
@@ -445,7 +450,7 @@ class RunWriter:
         self._closed = False
         try:
             self._write_json()
-            self._grids: BinaryIO = (self.path / "grids.npy").open("wb")
+            self._grids: BinaryIO = create_new(self.path / "grids.npy", "wb")
             self._grids.write(_npy_header(0, spec.nx, spec.ny))
             out = bool(output_frame)
             self._frames = self._csv("frames.csv", FRAME_COLUMNS + OUT_FRAME_COLUMNS * out)
@@ -458,26 +463,36 @@ class RunWriter:
             self._scan_topics: list[str] = []
         except OSError as exc:
             self._unlock()
-            raise _named_os_error(exc, self.path) from exc
+            raise named_os_error(exc, self.path) from exc
 
-    def _clear_or_refuse(self, overwrite: bool) -> None:
-        """Make the locked directory ready for a new run: remove a previous run's files (with ``overwrite``).
+    def _previous_files(self, overwrite: bool) -> list[Path]:
+        """The files of a previous run in the directory that ``overwrite`` replaces (see the module docstring).
 
         Raises
         ------
         FileExistsError
-            The directory holds a run and ``overwrite`` is false, or it holds other files and no ``run.json``
-            (naming up to 5 of them).
+            The directory holds a run and ``overwrite`` is false; one of :data:`REPLACED_ON_OVERWRITE` is a symbolic
+            link or not a file (naming it); or it holds other files and no ``run.json`` (naming up to 5 of them).
         """
-        if (self.path / "run.json").exists():
+        if (self.path / "run.json").exists() or (self.path / "run.json").is_symlink():
             if not overwrite:
                 raise FileExistsError(
                     f"output directory {str(self.path)!r} already holds a run (replace it with --overwrite, or "
                     "overwrite=True from Python)"
                 )
-            for name in RUN_FILES:
-                (self.path / name).unlink(missing_ok=True)
-            return
+            old = []
+            for name in REPLACED_ON_OVERWRITE:
+                p = self.path / name
+                if p.is_symlink():
+                    raise FileExistsError(
+                        f"output directory {str(self.path)!r}: {name!r} is a symbolic link (to {os.readlink(p)!r}): "
+                        "not writing through it or removing it; remove it yourself or choose another directory"
+                    )
+                if p.exists() and not p.is_file():
+                    raise FileExistsError(f"output directory {str(self.path)!r}: {name!r} is not a file: not replaced")
+                if p.exists():
+                    old.append(p)
+            return old
         others = sorted(
             p.name for p in self.path.iterdir() if p.name != LOCK_NAME and not p.name.startswith(".run.json.")
         )
@@ -487,20 +502,24 @@ class RunWriter:
                 f"output directory {str(self.path)!r} is not empty and holds no run.json ({listing}): "
                 "not writing into it; choose a new or empty directory"
             )
+        return []
 
     def _lock(self) -> IO[str]:
         """Take the directory's lock (non-blocking, :func:`pfpeople.io.locks.acquire`); refuse when a live process
         holds it, take it over (with a warning) when the pid holding it is dead."""
         return locks.acquire(self.path / LOCK_NAME, f"output directory {str(self.path)!r}", RunLockedError)
 
-    def _unlock(self) -> None:
-        """Release the directory's lock and remove its file (a finished run directory holds no ``.lock``)."""
+    def _unlock(self, *, remove_created: bool = False) -> None:
+        """Release the directory's lock and remove its file: a finished run directory holds no ``.lock``;
+        ``remove_created`` (a refused run): only when this writer created it (a refused directory keeps nothing
+        of the writer, and a lock file it found stays)."""
         if self._lock_fh is not None:
-            locks.release(self._lock_fh, remove=self.path / LOCK_NAME)
+            remove = not remove_created or locks.created(self._lock_fh)
+            locks.release(self._lock_fh, remove=self.path / LOCK_NAME if remove else None)
             self._lock_fh = None
 
     def _csv(self, name: str, columns: Sequence[str]) -> Any:
-        fh = (self.path / name).open("w", newline="")
+        fh = create_new(self.path / name, "w")
         self._files.append(fh)
         w = csv.writer(fh)
         w.writerow(columns)
@@ -511,7 +530,7 @@ class RunWriter:
         text = dumps(self._meta) + "\n"
         fd, tmp = tempfile.mkstemp(prefix=".run.json.", suffix=".tmp", dir=self.path)
         try:
-            os.fchmod(fd, 0o666 & ~_current_umask())  # mkstemp makes it 0600: give it the mode open() would
+            os.fchmod(fd, 0o666 & ~current_umask())  # mkstemp makes it 0600: give it the mode open() would
             with os.fdopen(fd, "w") as fh:
                 fh.write(text)
                 fh.flush()
@@ -520,7 +539,7 @@ class RunWriter:
         except OSError as exc:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
-            raise _named_os_error(exc, self.path / "run.json") from exc
+            raise named_os_error(exc, self.path / "run.json") from exc
 
     def __enter__(self) -> RunWriter:
         return self
@@ -671,7 +690,7 @@ class RunWriter:
             try:
                 step()
             except OSError as exc:
-                raise _named_os_error(exc, self.path / name) from exc
+                raise named_os_error(exc, self.path / name) from exc
 
     def _write_people(
         self,
@@ -786,7 +805,7 @@ class RunWriter:
                 try:
                     fh.close()
                 except OSError as exc:
-                    first = first or _named_os_error(exc, Path(str(fh.name)))
+                    first = first or named_os_error(exc, Path(str(fh.name)))
             elapsed = time.perf_counter() - self._t0
             self._meta.update(items)
             self._meta.update(status=status, frames=self.n_frames, elapsed_s=round(elapsed, 3))
@@ -881,13 +900,25 @@ def _read_csv(path: Path, columns: Sequence[str]) -> dict[str, NDArray[Any]]:
     return out
 
 
+#: The values of ``run.json`` ``status``.
+STATUSES = ("running", "complete", "failed", "interrupted")
+
+
+def _no_constant(name: str) -> Any:
+    """``json.loads``' ``parse_constant``: ``NaN`` and ``Infinity`` are not JSON (the project writes null and
+    ``"inf"``, :mod:`pfpeople.io.jsonio`)."""
+    raise ValueError(f'{name} is not a JSON value (a non-finite number; the project writes null or "inf")')
+
+
 def _read_meta(meta_path: Path) -> dict[str, Any]:
     try:
-        meta = json.loads(meta_path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"), parse_constant=_no_constant)
+    except (UnicodeDecodeError, ValueError) as exc:  # json.JSONDecodeError is a ValueError
         raise ValueError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
     if not isinstance(meta, dict):
         raise ValueError(f"{str(meta_path)!r} must hold a JSON object, got {type(meta).__name__}")
+    if "status" in meta and meta["status"] not in STATUSES:
+        raise ValueError(f"{str(meta_path)!r}: key 'status' must be one of {list(STATUSES)}, got {meta['status']!r}")
     if meta.get("format") != FORMAT:
         raise ValueError(f"{str(meta_path)!r} is not a {FORMAT} file (format={meta.get('format')!r})")
     if meta.get("version") != FORMAT_VERSION:

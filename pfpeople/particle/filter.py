@@ -81,7 +81,6 @@ from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 
 from gridbridge import (
     PAPER_DETECTORS,
@@ -102,10 +101,10 @@ from gridbridge import (
 from gridbridge import kernels as grid_kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.ego_motion import border_inflow
-from gridbridge.filter import Prediction, filter_models, remounted
+from gridbridge.filter import Prediction, filter_models, remounted, with_fields_of_view
 from gridbridge.likelihoods import DetectionLikelihood, update_components
 from gridbridge.limits import check_dt, check_grid_size
-from gridbridge.people_motion import quantise_dt
+from gridbridge.people_motion import check_people_step, outside_inflow, quantise_dt
 from gridbridge.validation import check_int, check_probability
 from pfpeople.limits import check_particles
 from pfpeople.particle import rng_kernels
@@ -275,6 +274,12 @@ class ParticleFilter:
         self.detectors = remounted(self.detectors, mounts)
         self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
 
+    def set_detector_fields_of_view(self, views: Sequence[tuple[float, float]]) -> None:
+        """Narrow or restore the detectors' fields of view: ``(fov_min, fov_max)`` per detector (rad), as
+        :meth:`gridbridge.GridFilter.set_detector_fields_of_view`."""
+        self.detectors = with_fields_of_view(self.detectors, views)
+        self.observed = np.logical_or.reduce([fov_mask(self.spec, m) for m in self.detectors]).ravel()
+
     def reset(self, belief: ArrayLike | None = None) -> None:
         """Restart: ``n_particles`` spread evenly over the cells, uniform within each, carrying ``belief``.
 
@@ -387,7 +392,7 @@ class ParticleFilter:
         cached = self._inflow_cache.get(key)
         if cached is None:
             kernel = people_motion_kernel(self.spec, self.motion, dt=dt, form="integrated")
-            cached = ndimage.convolve(np.zeros(self.spec.shape), kernel, mode="constant", cval=self.outside)
+            cached = outside_inflow(self.spec.shape, kernel, self.outside)
             cached.setflags(write=False)
             self._inflow_cache[key] = cached
         return cached
@@ -439,6 +444,7 @@ class ParticleFilter:
             (``sensor_prior`` with the empty cells filled, before the clip and the appearances).
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
+        check_people_step(self.spec, self.motion, dt)
         odo = as_odometry(odometry)
         if jit.enabled("pfpeople"):
             st, cells, counts, people_prior, sensor_prior, poses, pose_w, sq = self._predict_compiled(odo, dt)

@@ -2,8 +2,9 @@
 
 On a frame's front-end result (:class:`pfpeople.pipeline.front.FrontResult`):
 
-1. the detectors are given the mounts the front end placed them with, and the filter's detector models too
-   (:func:`pfpeople.pipeline.mounts.remount`); a restart resets the filter, the classifier and the tracker;
+1. the detectors are given the mounts the front end placed them with and the fields of view their scans covered,
+   and the filter's detector models too (:func:`pfpeople.pipeline.views.follow_views`); a restart resets the
+   filter, the classifier and the tracker;
 2. the static detections at the place a tracked person stopped are readmitted
    (:mod:`pfpeople.track.stopped_people`, counted in ``readmitted``);
 3. the filter step (``GridFilter`` or ``ParticleFilter``, one ``step`` signature), the classification of the belief
@@ -27,8 +28,8 @@ from gridbridge.validation import finite_rows
 from pfpeople.detect.adapters import Detections, DetectorAdapter
 from pfpeople.io.bag.sync import Frame
 from pfpeople.pipeline.front import FrontResult
-from pfpeople.pipeline.mounts import remount
-from pfpeople.run_state import FrameResult, RunSummary, count
+from pfpeople.pipeline.views import follow_views
+from pfpeople.run_state import FrameResult, RunSummary, WarnOnce, count
 from pfpeople.sensors import LaserScan, Pose2D
 from pfpeople.track.reported_people import point_like, support_positions
 from pfpeople.track.stopped_people import StoppedPeople
@@ -56,7 +57,9 @@ class BackEnd:
     stopped : StoppedPeople or None
         The anchors of the tracks that walked and stopped (None: no tracker or no static-clutter map).
     summary : RunSummary
-        The run's counts (``frames``, ``readmitted``).
+        The run's counts (``frames``, ``readmitted``, ``fov_narrowed``).
+    warn : WarnOnce
+        The run's warn-once logger.
     """
 
     def __init__(
@@ -69,6 +72,7 @@ class BackEnd:
         tracker: Any,
         stopped: StoppedPeople | None,
         summary: RunSummary,
+        warn: WarnOnce,
     ) -> None:
         self.adapters = list(adapters)
         self.spec = spec
@@ -77,6 +81,7 @@ class BackEnd:
         self.tracker = tracker
         self.stopped = stopped
         self.summary = summary
+        self.warn = warn
 
     @property
     def models(self) -> list[Any]:
@@ -86,8 +91,7 @@ class BackEnd:
     def __call__(self, frame: Frame, front: FrontResult) -> FrameResult:
         """The filter, the classifier and the tracker on ``front``, the front end's result for ``frame``."""
         motion, found = front.motion, front.found
-        if front.mounts:
-            remount(self.adapters, front.mounts, self.filter)
+        follow_views(self.adapters, front.mounts, front.found, self.filter, self.summary, self.warn)
         if motion.restarted:
             self.filter.reset()
         dets, static = self._readmit(front)

@@ -49,8 +49,8 @@ from pfpeople.run_state import RunSummary
 __all__ = ["FRONT_COUNTERS", "FrontProcess", "FrontResult", "front_process_available"]
 
 #: The :class:`~pfpeople.run_state.RunSummary` fields the front end updates (the back end: ``frames``, ``sync``,
-#: ``elapsed_s``, ``error``, ``blas_threads``, ``readmitted``, and ``mount_changes``, from the TF it reads along the
-#: frames).
+#: ``elapsed_s``, ``error``, ``blas_threads``, ``readmitted``, ``fov_narrowed``, and ``mount_changes`` and
+#: ``bad_transforms``, from the TF it reads along the frames).
 FRONT_COUNTERS = (
     "no_data",
     "empty_scans",

@@ -32,7 +32,7 @@ from pfpeople.pipeline.ego_stage import EgoMotionStage
 from pfpeople.pipeline.front import FrontEnd
 from pfpeople.pipeline.mounts import MountTracker
 from pfpeople.pipeline.output_frame import OutputFrame
-from pfpeople.pipeline.sensor_setup import SensorSetup, check_grid_seen, warn_coarse_lasers
+from pfpeople.pipeline.sensor_setup import SensorSetup, check_grid_seen, warn_coarse_lasers, warn_dense_lasers
 from pfpeople.pipeline.warm_up import warm_up_back_end
 from pfpeople.run_state import RunSummary, WarnOnce
 from pfpeople.sensors import Pose2D
@@ -170,6 +170,7 @@ def build_parts(
     models = [a.model for a in adapters]
     check_grid_seen(setup.spec, models, configured=c.grid is not None)
     warn_coarse_lasers(adapters, setup.first)
+    warn_dense_lasers(adapters, setup.first)
     filt = (parts.filter or (lambda spec, m: make_filter(c.filter, spec, m)))(setup.spec, models)
     classifier = build_classifier(c.classifier, c.filter.mode)
     if parts.filter is None:  # a caller's filter may share state with its copies: not warmed up
@@ -186,6 +187,7 @@ def build_parts(
         tracker=tracker,
         stopped=StoppedPeople() if tracker is not None and clutter.active else None,
         summary=summary,
+        warn=warn,
     )
     watch = MountWatch([e for f in setup.frame_mounts for e in setup.tf.edges(setup.grid_frame, f)])
     matched = not c.odometry and c.clutter.laser_odometry and front.ego.matcher is not None

@@ -65,13 +65,16 @@ Topics (header frame: the grid frame, or for people, tracks and their markers th
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import logging
 import math
 import os
 import re
 import shutil
+import sqlite3
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal
@@ -88,6 +91,7 @@ from gridbridge.geometry import quaternion_from_yaw
 from gridbridge.grid import GridSpec
 from pfpeople.io import locks
 from pfpeople.io.bag.foxglove import write_layout
+from pfpeople.io.bag.replace import check_replaceable, move_in
 from pfpeople.io.bag.rosbag2_meta import ROSBAG2_METADATA_VERSION, humble_metadata
 from pfpeople.io.bag.tf import TfLink
 from pfpeople.io.bag.track_messages import (
@@ -102,6 +106,7 @@ from pfpeople.io.bag.track_messages import (
     track_table,
     twist_covariance,
 )
+from pfpeople.io.files import named_os_error
 
 __all__ = [
     "BAG_FORMATS",
@@ -173,6 +178,19 @@ TRACK_TAGS = ("cov_xx", "cov_xy", "cov_yy")
 _ROSBAG2_WRITE_VERSION: Literal[8] = 8  # what rosbags writes; metadata.yaml is then rewritten as version 5
 _TF_MSG = "geometry_msgs/TransformStamped[] transforms\n"
 _TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+@contextlib.contextmanager
+def naming_errors(path: Path) -> Iterator[None]:
+    """Within the block, an ``OSError`` without a file name (``ENOSPC`` from rosbags' writer) or an sqlite3 error
+    ("database or disk is full") is raised as an ``OSError`` naming the bag output ``path``."""
+    try:
+        yield
+    except OSError as exc:
+        raise named_os_error(exc, path) from exc
+    except sqlite3.Error as exc:
+        code = errno.ENOSPC if "full" in str(exc) else errno.EIO
+        raise OSError(code, f"{os.strerror(code)} ({exc})", str(path)) from exc
 
 
 class BagLockedError(locks.PathLockedError):
@@ -255,7 +273,9 @@ def check_bag_out(
     ------
     ValueError
         Bad format (see :func:`bag_format_for`), or ``overwrite`` asked for a path that is not a bag of the
-        format (a folder without ``metadata.yaml`` is never deleted, nor a directory in place of a ``.bag``).
+        format (a folder without ``metadata.yaml`` is never deleted, nor a directory in place of a ``.bag``), or
+        a rosbag2 folder where the new bag would write a file the old one does not list
+        (:func:`pfpeople.io.bag.replace.check_replaceable`).
     FileNotFoundError
         The parent folder does not exist.
     FileExistsError
@@ -279,6 +299,8 @@ def check_bag_out(
             raise ValueError(f"bag output {str(p)!r} exists and is not a file: not replaced")
         if fmt != "ros1" and not (p.is_dir() and ((p / "metadata.yaml").is_file() or not any(p.iterdir()))):
             raise ValueError(f"bag output {str(p)!r} exists and is not a rosbag2 folder (metadata.yaml): not replaced")
+        if fmt != "ros1" and not p.is_symlink():
+            check_replaceable(p, fmt, f"bag output {str(p)!r}")
     return p, fmt
 
 
@@ -468,14 +490,19 @@ class ResultBagWriter:
         return writer
 
     def _publish(self) -> None:
-        """Rename the finished bag into place (replacing an old one, checked at the start), then unlock."""
+        """Rename the finished bag into place (replacing an old one, checked at the start), then unlock.
+
+        An old rosbag2 folder keeps every file but the old bag's own (:func:`pfpeople.io.bag.replace.move_in`);
+        a symbolic link at the path is replaced, not what it points to."""
         assert self._tmp_dir is not None
         try:
-            if self.path.is_symlink():  # the link is replaced, not what it points to
+            new = self._tmp_dir / self.path.name
+            if self.path.is_symlink():
                 self.path.unlink()
-            elif self.path.is_dir():  # an old rosbag2: moved aside, then removed with the temporary folder
-                os.rename(self.path, self._tmp_dir / ".replaced")
-            os.replace(self._tmp_dir / self.path.name, self.path)
+            elif self.path.is_dir():
+                move_in(new, self.path, self._tmp_dir / ".replaced", f"bag output {str(self.path)!r}")
+                return
+            os.replace(new, self.path)
         finally:
             self._discard()
 
@@ -510,7 +537,8 @@ class ResultBagWriter:
     def _put(self, topic: str, bag_time_ns: int, msg: Any) -> None:
         conn, msgtype = self._conns[topic]
         data = self.ts.serialize_cdr(msg, msgtype) if self.ros2 else self.ts.serialize_ros1(msg, msgtype)
-        self._writer.write(conn, bag_time_ns, data)
+        with naming_errors(self.path):
+            self._writer.write(conn, bag_time_ns, data)
 
     def _m(self, typename: str, **given: Any) -> Any:
         return _message(self.ts, typename, **given)
@@ -760,19 +788,23 @@ class ResultBagWriter:
         self._put(topic, bag_time_ns, _convert(self.ts, self._conns[topic][1], msg))
 
     def close(self) -> None:
-        """Finish the bag (index / metadata.yaml as version 5), rename it into place, write the layout; idempotent."""
+        """Finish the bag (index / metadata.yaml as version 5), rename it into place, write the layout; idempotent.
+
+        Errors (a full disk) name the bag output; the temporary folder is removed and an old bag stays."""
         if not self._closed:
             self._closed = True
             try:
-                self._writer.close()
-                if self.ros2:
-                    humble_metadata(self._tmp_dir_path() / self.path.name / "metadata.yaml")
-                if self.layout:  # beside the bag, written while the lock is held
-                    write_layout(self.path, self.topics, self.frame_id)
+                with naming_errors(self.path):
+                    self._writer.close()
+                    if self.ros2:
+                        humble_metadata(self._tmp_dir_path() / self.path.name / "metadata.yaml")
+                    if self.layout:  # beside the bag, written while the lock is held
+                        write_layout(self.path, self.topics, self.frame_id)
             except BaseException:
                 self._discard()
                 raise
-            self._publish()
+            with naming_errors(self.path):
+                self._publish()
 
     def _tmp_dir_path(self) -> Path:
         assert self._tmp_dir is not None
