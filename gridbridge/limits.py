@@ -23,11 +23,12 @@ grids adds its bytes to the memory check):
 
 Within these limits one step's memory is bounded by its inputs: about ``BYTES_PER_CELL * n_cells * (2 + detectors)``
 (the grids of the step) ``+ 200 B * particles`` (a particle filter's state and its copies: :mod:`pfpeople.limits`)
-``+ 8 B * (2 R + 1)^2`` per kernel array ``+ 0.3 MB * R`` while an integrated (linear) kernel is computed (its quadrature, about 3000
-points per cell of radius), above the process's own (interpreter, numpy, numba: 150-200 MB). None of these arrays grows
-otherwise with ``dt``: the paper kernel's prediction keeps a table of ``q / (1 - q)`` per distinct tap value only while
-it is small, the integrated kernel's tents are summed from the two offsets each covers, and the particle filter's inflow
-across the border comes from the kernel's summed-area table once the kernel is larger than the grid
+``+ 8 B * (2 R + 1)^2`` per kernel array ``+ 0.3 MB * R`` while an integrated (linear) kernel is computed (its
+quadrature, about 3000 points per cell of radius), above the process's own (interpreter, numpy, numba: 150-200 MB).
+None of these arrays grows otherwise with ``dt``: the paper kernel's prediction keeps a table of ``q / (1 - q)`` per
+distinct tap value only while it is small, the integrated kernel's tents are summed from the two offsets each
+covers, and the particle filter's inflow across the border comes from the kernel's summed-area table once the kernel
+is larger than the grid
 (``python -m evaluation.bench.step_limits`` measures every filter at the limits on the paper's grid).
 
 Limits given in the environment (``PFPEOPLE_MAX_MEMORY_BYTES``, the zip limits of :mod:`pfpeople.io.bag.archive`) are
