@@ -18,6 +18,11 @@ component                 what it does
                           mapping's clamping; not in the paper)
 ========================  =========================================================================
 
+Each component owns both of its forms: the numpy reference (the public functions of :mod:`gridbridge.people_motion`
+and :mod:`gridbridge.ego_motion`) and the compiled one (:mod:`gridbridge.kernels`; the motion kernel of a step computed
+once per component, resolution and step), chosen by :func:`gridbridge.jit.enabled`: the same results (bit for bit,
+``tests/gridbridge/test_components.py``). A component of your own needs only the protocol's methods.
+
 Because a kernel belongs to its prediction, the paper-kernel/linear-sum pair (whose kernel sums to 0.87 and
 leaks 13 % of the belief every step) cannot be built.
 
@@ -39,10 +44,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge import jit, kernels
-from gridbridge.ego_motion import Odometry, predict_sensor
+from gridbridge.ego_motion import Odometry, ego_motion_sigma_points, predict_sensor
 from gridbridge.grid import GridSpec
 from gridbridge.params import PeopleMotion, SensorMotionNoise
-from gridbridge.people_motion import people_motion_kernel, predict_people
+from gridbridge.people_motion import _check_paper_kernel, people_motion_kernel, predict_people, quantise_dt
 from gridbridge.validation import check_grid_array, check_positive, check_probability
 
 __all__ = [
@@ -85,6 +90,39 @@ def _check_motion(motion: object) -> None:
         raise TypeError(f"motion must be a PeopleMotion, got {type(motion).__name__}")
 
 
+def _compiled_belief(belief: ArrayLike, shape: tuple[int, int] | None = None) -> NDArray[np.float64]:
+    """``belief`` as the compiled kernels take it: a C-contiguous float64 2-D array of probabilities (of ``shape``
+    if given), checked in one compiled pass; anything else converted, or refused by name
+    (:func:`~gridbridge.validation.check_grid_array`)."""
+    if (
+        isinstance(belief, np.ndarray)
+        and belief.dtype == np.float64
+        and belief.ndim == 2
+        and (shape is None or belief.shape == shape)
+        and belief.flags.c_contiguous
+        and kernels.all_probabilities(belief)
+    ):
+        return belief
+    return np.ascontiguousarray(check_grid_array(belief, "belief", shape=shape))
+
+
+def _compiled_kernel(prediction: PaperPrediction | LinearPrediction, spec: GridSpec, dt: float) -> NDArray[np.float64]:
+    """The prediction's motion kernel of a step of ``dt`` s as the compiled kernels take it (C-contiguous, checked):
+    computed once per resolution and quantised step and kept on the component (its ``__dict__``: not a field, so
+    neither compared nor hashed)."""
+    key = (spec.resolution, quantise_dt(check_positive(dt, "dt")))
+    memo: dict[tuple[float, float], NDArray[np.float64]] = prediction.__dict__.setdefault("_compiled_kernels", {})
+    kernel = memo.get(key)
+    if kernel is None:
+        kernel = np.ascontiguousarray(prediction.kernel(spec, dt), dtype=np.float64)
+        if prediction.form == "paper":
+            _check_paper_kernel(kernel)
+        if len(memo) >= 64:
+            memo.clear()
+        memo[key] = kernel
+    return kernel
+
+
 @dataclass(frozen=True, kw_only=True)
 class PaperPrediction:
     """The paper's people-motion prediction: speed-density kernel p_k and eq. 6 with eq. 8 (colonisation).
@@ -110,8 +148,12 @@ class PaperPrediction:
         return people_motion_kernel(spec, self.motion, dt=dt, form="paper")
 
     def predict(self, belief: NDArray[np.float64], spec: GridSpec, dt: float) -> NDArray[np.float64]:
-        """bel'(x_t) from bel(x_{t-1}), ``(nx, ny)`` -> ``(nx, ny)``."""
-        return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="paper")
+        """bel'(x_t) from bel(x_{t-1}), ``(nx, ny)`` -> ``(nx, ny)``: :func:`~gridbridge.people_motion.predict_people`
+        (numpy), or compiled :func:`gridbridge.kernels.predict_paper` on the kernel of this step (the same bits)."""
+        if not jit.enabled():
+            return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="paper")
+        kernel = _compiled_kernel(self, spec, dt)
+        return kernels.predict_paper(_compiled_belief(belief), kernel, float(self.outside))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -139,8 +181,13 @@ class LinearPrediction:
         return people_motion_kernel(spec, self.motion, dt=dt, form="integrated")
 
     def predict(self, belief: NDArray[np.float64], spec: GridSpec, dt: float) -> NDArray[np.float64]:
-        """bel'(x_t) = sum_k T(c <- k) bel(x_{t-1} = k), ``(nx, ny)`` -> ``(nx, ny)``."""
-        return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="linear")
+        """bel'(x_t) = sum_k T(c <- k) bel(x_{t-1} = k), ``(nx, ny)`` -> ``(nx, ny)``:
+        :func:`~gridbridge.people_motion.predict_people` (numpy), or compiled :func:`gridbridge.kernels.convolve_const`
+        on the kernel of this step (the same bits)."""
+        if not jit.enabled():
+            return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="linear")
+        kernel = _compiled_kernel(self, spec, dt)
+        return kernels.convolve_const(_compiled_belief(belief), kernel, float(self.outside))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -166,8 +213,17 @@ class VelocityEgoMotion:
     def predict(
         self, belief: NDArray[np.float64], spec: GridSpec, odometry: Odometry | None, dt: float
     ) -> NDArray[np.float64]:
-        """The belief warped into the new sensor frame, ``(nx, ny)`` -> ``(nx, ny)``."""
-        return predict_sensor(belief, spec, odometry, dt, noise=self.noise, outside=self.outside)
+        """The belief warped into the new sensor frame, ``(nx, ny)`` -> ``(nx, ny)``:
+        :func:`~gridbridge.ego_motion.predict_sensor` (numpy), or compiled :func:`gridbridge.kernels.warp_bilinear`
+        over the same sigma points (the same bits)."""
+        if not jit.enabled():
+            return predict_sensor(belief, spec, odometry, dt, noise=self.noise, outside=self.outside)
+        bel = _compiled_belief(belief, spec.shape)
+        poses, w = ego_motion_sigma_points(odometry, dt, self.noise)
+        if len(poses) == 1 and np.all(poses[0] == 0.0):  # a standing robot: the identity (a copy)
+            return bel.copy()
+        grid = (float(spec.x0), float(spec.y0), float(spec.resolution))
+        return kernels.warp_bilinear(bel, grid, np.ascontiguousarray(poses), w / w.sum(), float(self.outside))
 
 
 @dataclass(frozen=True, kw_only=True)

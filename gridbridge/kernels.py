@@ -15,6 +15,8 @@ kernel                 numpy twin                                   agreement
 :func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`bayes_update`   :func:`gridbridge.measurement.bayes_update_unchecked`  bit for bit (the same operations)
+:func:`all_probabilities`  :func:`gridbridge.validation.check_grid_array`'s  the same answer (``0 <= v <= 1``)
+                       value check
 :func:`appear`         :meth:`gridbridge.components.Appearance.apply`  bit for bit (the same operations)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
@@ -43,6 +45,7 @@ from gridbridge.jit import jit
 
 __all__ = [
     "add_where",
+    "all_probabilities",
     "appear",
     "bayes_update",
     "convolve_at",
@@ -650,22 +653,32 @@ def bayes_update(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np
 
     Parameters
     ----------
-    p, lik : ndarray, shape (nx, ny)
+    p, lik : ndarray, any one shape, C-contiguous
         The prior and the fused likelihood P(D | p), probabilities.
 
     Returns
     -------
-    ndarray, shape (nx, ny)
+    ndarray, the shape of ``p``
         ``lik p / (lik p + (1 - lik)(1 - p))`` where the denominator is above 0, else the prior.
     """
-    nx, ny = p.shape
-    out = np.empty((nx, ny))
-    for i in range(nx):
-        for j in range(ny):
-            num = lik[i, j] * p[i, j]
-            den = num + (1.0 - lik[i, j]) * (1.0 - p[i, j])
-            out[i, j] = num / den if den > 0.0 else p[i, j]
+    out = np.empty_like(p)
+    pf, lf, of = p.reshape(p.size), lik.reshape(lik.size), out.reshape(out.size)
+    for k in range(pf.size):
+        num = lf[k] * pf[k]
+        den = num + (1.0 - lf[k]) * (1.0 - pf[k])
+        of[k] = num / den if den > 0.0 else pf[k]
     return out
+
+
+@jit
+def all_probabilities(a: NDArray[np.float64]) -> bool:
+    """Whether every value of ``a`` (any shape, C-contiguous) lies in [0, 1] (False for NaN): the value check of
+    :func:`gridbridge.validation.check_grid_array` in one pass."""
+    flat = a.reshape(a.size)
+    for k in range(flat.size):
+        if not (flat[k] >= 0.0 and flat[k] <= 1.0):
+            return False
+    return True
 
 
 @jit

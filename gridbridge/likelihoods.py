@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from gridbridge import jit, kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
-from gridbridge.measurement import Likelihood, _likelihood, detection_map, fov_mask, likelihood_from_detections
+from gridbridge.measurement import Likelihood, _likelihood, detection_map, fov_mask
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_probability
 
@@ -53,24 +53,28 @@ class DetectionLikelihood(Protocol):
     ) -> Likelihood: ...
 
 
+def _fields_of_view(
+    component: DeMorganLikelihood | IndependentLikelihood, spec: GridSpec, detectors: Sequence[DetectorModel]
+) -> list[NDArray[np.bool_]]:
+    """``fov_mask`` of each detector, kept on the component for the last grid and detectors it was called with (a
+    filter's, the same objects every frame; its ``__dict__``: not a field, so neither compared nor hashed)."""
+    last = component.__dict__.get("_fovs")
+    if last is not None and last[0] is spec and last[1] is detectors:
+        fovs: list[NDArray[np.bool_]] = last[2]
+        return fovs
+    fovs = [fov_mask(spec, m) for m in detectors]
+    component.__dict__["_fovs"] = (spec, detectors, fovs)
+    return fovs
+
+
 @dataclass(frozen=True, kw_only=True)
 class DeMorganLikelihood:
-    """The paper's fusion, eqs. 13-14 (see :mod:`gridbridge.measurement`)."""
+    """The paper's fusion, eqs. 13-14 (see :mod:`gridbridge.measurement`; compiled and numpy forms there)."""
 
     def __call__(
         self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
     ) -> Likelihood:
-        return likelihood_from_detections(spec, detectors, detections)
-
-    def with_fields_of_view(
-        self,
-        spec: GridSpec,
-        detectors: tuple[DetectorModel, ...],
-        detections: list[ArrayLike | None],
-        fovs: Sequence[NDArray[np.bool_]],
-    ) -> Likelihood:
-        """:meth:`__call__` with the detectors' fields of view (``fov_mask`` of each) given: the same result."""
-        return _likelihood(spec, detectors, detections, fovs)
+        return _likelihood(spec, detectors, detections, _fields_of_view(self, spec, detectors))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -107,7 +111,7 @@ class IndependentLikelihood:
         per_det = np.full((d, *spec.shape), 0.5)
         log_lr = np.zeros(spec.shape)
         prior_odds = self.base_rate / (1.0 - self.base_rate)
-        compiled = jit.enabled()
+        compiled, fovs = jit.enabled(), _fields_of_view(self, spec, detectors)
         for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
             if det is None:
                 continue
@@ -117,10 +121,10 @@ class IndependentLikelihood:
             fired[i] = q
             odds = (model.ppv / (1.0 - model.ppv) / prior_odds, model.fnr**self.miss_weight)
             if compiled:
-                lr = kernels.independent_terms(q, fov_mask(spec, model), odds, covered[i], per_det[i])
+                lr = kernels.independent_terms(q, fovs[i], odds, covered[i], per_det[i])
                 kernels.add_where(log_lr, np.log(lr), covered[i])
             else:
-                self._terms_numpy(q, fov_mask(spec, model), odds, covered[i], per_det[i], log_lr)
+                self._terms_numpy(q, fovs[i], odds, covered[i], per_det[i], log_lr)
         fused = 1.0 / (1.0 + np.exp(-log_lr))
         return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
 

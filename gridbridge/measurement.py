@@ -240,11 +240,27 @@ def bayes_update(prior: ArrayLike, likelihood: ArrayLike) -> NDArray[np.float64]
     ndarray, shape (nx, ny)
         The posterior; where eq. 12 is 0/0 (L = 1 with prior 0, or L = 0 with prior 1) the prior is kept.
     """
+    if jit.enabled() and _probability_arrays(prior, likelihood):
+        return kernels.bayes_update(prior, likelihood)  # type: ignore[arg-type]
     p = check_grid_array(prior, "prior", ndim=None)
     lik = check_grid_array(likelihood, "likelihood", ndim=None)
     if p.shape != lik.shape:
         raise ValueError(f"prior and likelihood shapes differ: {p.shape} vs {lik.shape}")
     return bayes_update_unchecked(p, lik)
+
+
+def _probability_arrays(*arrays: ArrayLike) -> bool:
+    """Whether ``arrays`` are C-contiguous float64 arrays of one shape holding probabilities (the compiled update
+    takes them as they are; anything else is checked, converted or refused by name first)."""
+    first = arrays[0]
+    return all(
+        isinstance(a, np.ndarray)
+        and a.dtype == np.float64
+        and a.shape == getattr(first, "shape", None)
+        and a.flags.c_contiguous
+        and kernels.all_probabilities(a)
+        for a in arrays
+    )
 
 
 def bayes_update_unchecked(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np.float64]:
