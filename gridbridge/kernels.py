@@ -15,8 +15,8 @@ kernel                 numpy twin                                   agreement
 :func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`bayes_update`   :func:`gridbridge.measurement.bayes_update_unchecked`  bit for bit (the same operations)
-:func:`all_probabilities`  :func:`gridbridge.validation.check_grid_array`'s  the same answer (``0 <= v <= 1``)
-                       value check
+:func:`all_probabilities`  :func:`gridbridge.validation.check_grid_array`'s  the same answer (``0 <= v <= 1``);
+                       value check                                  the ``*_checked`` kernels run it first
 :func:`appear`         :meth:`gridbridge.components.Appearance.apply`  bit for bit (the same operations)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
@@ -48,8 +48,10 @@ __all__ = [
     "all_probabilities",
     "appear",
     "bayes_update",
+    "bayes_update_checked",
     "convolve_at",
     "convolve_const",
+    "convolve_const_checked",
     "fuse_update",
     "gaussian_args",
     "independent_terms",
@@ -58,9 +60,11 @@ __all__ = [
     "peak_centroids",
     "point_map",
     "predict_paper",
+    "predict_paper_checked",
     "scatter_max",
     "warp_at",
     "warp_bilinear",
+    "warp_bilinear_checked",
     "warp_outside",
     "warp_taps",
 ]
@@ -673,12 +677,59 @@ def bayes_update(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np
 @jit
 def all_probabilities(a: NDArray[np.float64]) -> bool:
     """Whether every value of ``a`` (any shape, C-contiguous) lies in [0, 1] (False for NaN): the value check of
-    :func:`gridbridge.validation.check_grid_array` in one pass."""
+    :func:`gridbridge.validation.check_grid_array` in one branch-free pass."""
     flat = a.reshape(a.size)
+    bad = 0
     for k in range(flat.size):
-        if not (flat[k] >= 0.0 and flat[k] <= 1.0):
-            return False
-    return True
+        v = flat[k]
+        bad += (v < 0.0) | (v > 1.0) | (v != v)
+    return bad == 0
+
+
+# The kernels of a filter step on input they check first: ``(result, True)``, or ``(input, False)`` when the input
+# holds a value outside [0, 1] (or NaN); the caller then names it (:func:`gridbridge.validation.check_grid_array`).
+
+
+@jit
+def predict_paper_checked(
+    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float
+) -> tuple[NDArray[np.float64], bool]:
+    """:func:`predict_paper` of a belief checked by :func:`all_probabilities`."""
+    if not all_probabilities(bel):
+        return bel, False
+    return predict_paper(bel, kernel, outside), True
+
+
+@jit
+def convolve_const_checked(
+    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float
+) -> tuple[NDArray[np.float64], bool]:
+    """:func:`convolve_const` of a belief checked by :func:`all_probabilities`."""
+    if not all_probabilities(bel):
+        return bel, False
+    return convolve_const(bel, kernel, outside), True
+
+
+@jit
+def warp_bilinear_checked(
+    bel: NDArray[np.float64],
+    grid: tuple[float, float, float],
+    poses: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    outside: float,
+) -> tuple[NDArray[np.float64], bool]:
+    """:func:`warp_bilinear` of a belief checked by :func:`all_probabilities`."""
+    if not all_probabilities(bel):
+        return bel, False
+    return warp_bilinear(bel, grid, poses, weights, outside), True
+
+
+@jit
+def bayes_update_checked(p: NDArray[np.float64], lik: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+    """:func:`bayes_update` of a prior and a likelihood checked by :func:`all_probabilities`."""
+    if not (all_probabilities(p) and all_probabilities(lik)):
+        return p, False
+    return bayes_update(p, lik), True
 
 
 @jit

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,18 +53,29 @@ class DetectionLikelihood(Protocol):
     ) -> Likelihood: ...
 
 
-def _fields_of_view(
+class _DetectorArrays(NamedTuple):
+    """What a likelihood needs of its detectors every frame: each one's field of view (nx, ny) and the ``ppv`` and
+    ``fnr`` arrays (D,)."""
+
+    fovs: list[NDArray[np.bool_]]
+    ppv: NDArray[np.float64]
+    fnr: NDArray[np.float64]
+
+
+def _detector_arrays(
     component: DeMorganLikelihood | IndependentLikelihood, spec: GridSpec, detectors: Sequence[DetectorModel]
-) -> list[NDArray[np.bool_]]:
-    """``fov_mask`` of each detector, kept on the component for the last grid and detectors it was called with (a
-    filter's, the same objects every frame; its ``__dict__``: not a field, so neither compared nor hashed)."""
-    last = component.__dict__.get("_fovs")
+) -> _DetectorArrays:
+    """:class:`_DetectorArrays` of ``detectors``, kept on the component for the last grid and detectors it was called
+    with (a filter's: the same objects every frame; in its ``__dict__``, not a field, so neither compared nor
+    hashed)."""
+    last = component.__dict__.get("_detector_arrays")
     if last is not None and last[0] is spec and last[1] is detectors:
-        fovs: list[NDArray[np.bool_]] = last[2]
-        return fovs
+        arrays: _DetectorArrays = last[2]
+        return arrays
     fovs = [fov_mask(spec, m) for m in detectors]
-    component.__dict__["_fovs"] = (spec, detectors, fovs)
-    return fovs
+    arrays = _DetectorArrays(fovs, np.array([m.ppv for m in detectors]), np.array([m.fnr for m in detectors]))
+    component.__dict__["_detector_arrays"] = (spec, detectors, arrays)
+    return arrays
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -74,7 +85,8 @@ class DeMorganLikelihood:
     def __call__(
         self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
     ) -> Likelihood:
-        return _likelihood(spec, detectors, detections, _fields_of_view(self, spec, detectors))
+        arrays = _detector_arrays(self, spec, detectors)
+        return _likelihood(spec, detectors, detections, arrays.fovs, (arrays.ppv, arrays.fnr))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -111,7 +123,7 @@ class IndependentLikelihood:
         per_det = np.full((d, *spec.shape), 0.5)
         log_lr = np.zeros(spec.shape)
         prior_odds = self.base_rate / (1.0 - self.base_rate)
-        compiled, fovs = jit.enabled(), _fields_of_view(self, spec, detectors)
+        compiled, fovs = jit.enabled(), _detector_arrays(self, spec, detectors).fovs
         for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
             if det is None:
                 continue

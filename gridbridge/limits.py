@@ -110,7 +110,7 @@ def check_dt(dt: object, where: str = "dt") -> float:
     ValueError
         ``dt`` is not finite or not positive; :class:`ResourceLimitError` when above :data:`MAX_DT_S`.
     """
-    if isinstance(dt, bool | np.bool_) or not isinstance(dt, numbers.Real):
+    if type(dt) is not float and (isinstance(dt, bool | np.bool_) or not isinstance(dt, numbers.Real)):
         raise TypeError(f"{where} must be a real number of seconds, got {type(dt).__name__} {dt!r}")
     v = float(dt)
     if not math.isfinite(v) or v <= 0.0:
