@@ -1,22 +1,21 @@
-"""Resource limits of a run, checked before anything large is allocated.
+"""Resource limits of a run's grid, checked before anything large is allocated (the particle filter adds its own,
+:mod:`pfpeople.particle.limits`).
 
-A grid or particle count far beyond what a robot needs (a stamp typed as a cell count, ``resolution = 1e-300``,
-``n_particles = 1e9``) must fail at once with a message naming the setting, not after minutes of swapping or
-with a raw ``_ArrayMemoryError``. The checks here are estimates with generous margins:
+A grid far beyond what a robot needs (a stamp typed as a cell count, ``resolution = 1e-300``) must fail at once with a
+message naming the setting, not after minutes of swapping or with a raw ``_ArrayMemoryError``. The checks here are
+estimates with generous margins:
 
 - grid cells: ``nx * ny <= MAX_GRID_CELLS`` (4 million, e.g. 2000 x 2000);
 - prediction work: the people-motion kernel reaches ``v_max dt / resolution`` cells, and the grid filter's
   prediction costs ``n_cells * (2 R + 1)^2`` operations per frame (eqs. 8-9 sum over the neighbourhood); more
   than ``MAX_STEP_OPERATIONS`` (1e9, about a second per frame) is refused;
-- particles: ``n_particles <= MAX_PARTICLES``;
 - time step: ``0 < dt <= MAX_DT_S`` (10 s) in both filters' ``predict`` / ``step`` (:func:`check_dt`), a number
   (not a string, a bool or a complex): a step in milliseconds passed as seconds (``dt = 100``) would ask for a
   people-motion kernel of hundreds of cells radius (minutes and gigabytes per frame for the grid filter, hundreds
-  of GiB for the particle filter). Real frame gaps are a fraction of a second, and the pipeline restarts the
+  of GiB for a particle filter). Real frame gaps are a fraction of a second, and the pipeline restarts the
   filter over gaps longer than 2 s (:data:`pfpeople.perception.odometry.MAX_GAP_S`) instead of predicting across them;
-- memory: :func:`estimate_run_bytes` (``BYTES_PER_CELL`` per cell and detector, ``BYTES_PER_PARTICLE`` per
-  particle) must fit in :func:`memory_budget_bytes`: half the physical memory, or
-  ``$PFPEOPLE_MAX_MEMORY_BYTES``.
+- memory: :func:`estimate_run_bytes` (``BYTES_PER_CELL`` per cell and detector, plus what the filter adds, e.g. its
+  particles) must fit in :func:`memory_budget_bytes`: half the physical memory, or ``$PFPEOPLE_MAX_MEMORY_BYTES``.
 
 Every check raises :class:`ResourceLimitError` (a ``ValueError``) naming the setting, the estimate and the limit
 (:func:`check_dt`: ``TypeError`` for a value that is not a real number).
@@ -32,15 +31,13 @@ import numpy as np
 
 __all__ = [
     "BYTES_PER_CELL",
-    "BYTES_PER_PARTICLE",
     "MAX_DT_S",
     "MAX_GRID_CELLS",
-    "MAX_PARTICLES",
     "MAX_STEP_OPERATIONS",
     "ResourceLimitError",
     "check_dt",
     "check_grid_size",
-    "check_particles",
+    "check_memory",
     "estimate_run_bytes",
     "kernel_reach_cells",
     "memory_budget_bytes",
@@ -50,15 +47,11 @@ __all__ = [
 MAX_GRID_CELLS = 4_000_000
 #: Largest estimated number of operations of one prediction step (cells x kernel cells).
 MAX_STEP_OPERATIONS = 1.0e9
-#: Largest number of particles.
-MAX_PARTICLES = 200_000_000
 #: Largest filter time step (s): well above any real frame gap (the pipeline restarts the filter after 2 s).
 MAX_DT_S = 10.0
 #: Bytes per grid cell and per detector (float64 belief, priors, likelihood maps, warps, outputs; measured
 #: peaks of a GridFilter step are below half of this).
 BYTES_PER_CELL = 256
-#: Bytes per particle (five float64 arrays, and copies during prediction and resampling).
-BYTES_PER_PARTICLE = 200
 
 
 class ResourceLimitError(ValueError):
@@ -95,9 +88,10 @@ def kernel_reach_cells(resolution: float, *, v_max: float, dt: float) -> float:
     return float(math.ceil(reach) + 1) if reach < 1e15 else reach
 
 
-def estimate_run_bytes(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0) -> int:
-    """Estimated peak memory (bytes) of a filter over ``n_cells`` cells with ``n_detectors`` and particles."""
-    return int(BYTES_PER_CELL * n_cells * (2 + max(n_detectors, 1)) + BYTES_PER_PARTICLE * n_particles)
+def estimate_run_bytes(n_cells: int, *, n_detectors: int = 1, extra_bytes: int = 0) -> int:
+    """Estimated peak memory (bytes) of a filter over ``n_cells`` cells with ``n_detectors``, plus ``extra_bytes``
+    (what the filter holds besides its grids, e.g. particles)."""
+    return int(BYTES_PER_CELL * n_cells * (2 + max(n_detectors, 1)) + extra_bytes)
 
 
 def check_dt(dt: object, where: str = "dt") -> float:
@@ -145,23 +139,16 @@ def check_grid_size(
             )
 
 
-def check_particles(n_particles: int, *, n_cells: int, n_detectors: int = 1, where: str = "n_particles") -> None:
-    """Refuse a particle count beyond :data:`MAX_PARTICLES` or the memory budget."""
-    if n_particles > MAX_PARTICLES:
-        raise ResourceLimitError(
-            f"{where} = {n_particles} is more than the limit of {MAX_PARTICLES} particles "
-            f"(about 5 per cell, {5 * n_cells} here, is usually enough)"
-        )
-    check_memory(n_cells, n_detectors=n_detectors, n_particles=n_particles, where=where)
-
-
-def check_memory(n_cells: int, *, n_detectors: int = 1, n_particles: int = 0, where: str = "run") -> None:
-    """Refuse a run whose estimated memory (:func:`estimate_run_bytes`) exceeds :func:`memory_budget_bytes`."""
-    need = estimate_run_bytes(n_cells, n_detectors=n_detectors, n_particles=n_particles)
+def check_memory(
+    n_cells: int, *, n_detectors: int = 1, extra_bytes: int = 0, extra: str = "", where: str = "run"
+) -> None:
+    """Refuse a run whose estimated memory (:func:`estimate_run_bytes`) exceeds :func:`memory_budget_bytes`;
+    ``extra`` says what ``extra_bytes`` are (e.g. ``", 1000000 particles"``) in the message."""
+    need = estimate_run_bytes(n_cells, n_detectors=n_detectors, extra_bytes=extra_bytes)
     budget = memory_budget_bytes()
     if need > budget:
         raise ResourceLimitError(
-            f"{where}: the requested run needs about {_human(need)} ({n_cells} cells, {n_detectors} detector(s), "
-            f"{n_particles} particles), more than the budget of {_human(budget)} (half the physical memory, or "
+            f"{where}: the requested run needs about {_human(need)} ({n_cells} cells, {n_detectors} detector(s)"
+            f"{extra}), more than the budget of {_human(budget)} (half the physical memory, or "
             "PFPEOPLE_MAX_MEMORY_BYTES)"
         )

@@ -86,7 +86,7 @@ from pathlib import Path
 from typing import Any
 
 from gridbridge.grid import GridSpec
-from gridbridge.limits import check_grid_size, check_memory, check_particles
+from gridbridge.limits import check_grid_size, check_memory
 from gridbridge.params import DetectorModel, PeopleMotion
 from gridbridge.validation import check_int, check_number, check_probability, check_real
 
@@ -576,7 +576,10 @@ class BagConfig:
 
 
 def check_run_limits(g: GridSpec, filt: FilterConfig, n_detectors: int) -> None:
-    """Resource limits before anything is allocated (:mod:`gridbridge.limits`): cells, prediction work, memory."""
+    """Resource limits before anything is allocated (:mod:`gridbridge.limits`, :mod:`pfpeople.particle.limits`): cells,
+    prediction work, particles, memory."""
+    from pfpeople.particle.limits import check_particles
+
     check_grid_size(g.nx, g.ny, g.resolution, v_max=PeopleMotion().v_max, dt=0.1, where="BagConfig.grid")
     if filt.kind == "particle":
         check_particles(
