@@ -183,7 +183,7 @@ class PaperPrediction:
         if not jit.enabled():
             return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="paper")
         kernel = _compiled_kernel(self, spec, dt)
-        return _compiled(kernels.predict_paper_checked, belief, None, kernel, float(self.outside))
+        return _compiled(kernels.predict_people_checked, belief, None, kernel, float(self.outside), True)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -217,7 +217,7 @@ class LinearPrediction:
         if not jit.enabled():
             return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="linear")
         kernel = _compiled_kernel(self, spec, dt)
-        return _compiled(kernels.convolve_const_checked, belief, None, kernel, float(self.outside))
+        return _compiled(kernels.predict_people_checked, belief, None, kernel, float(self.outside), False)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -51,7 +51,6 @@ __all__ = [
     "bayes_update_checked",
     "convolve_at",
     "convolve_const",
-    "convolve_const_checked",
     "fuse_update",
     "gaussian_args",
     "independent_terms",
@@ -60,7 +59,7 @@ __all__ = [
     "peak_centroids",
     "point_map",
     "predict_paper",
-    "predict_paper_checked",
+    "predict_people_checked",
     "scatter_max",
     "warp_at",
     "warp_bilinear",
@@ -691,23 +690,14 @@ def all_probabilities(a: NDArray[np.float64]) -> bool:
 
 
 @jit
-def predict_paper_checked(
-    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float
+def predict_people_checked(
+    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float, paper: bool
 ) -> tuple[NDArray[np.float64], bool]:
-    """:func:`predict_paper` of a belief checked by :func:`all_probabilities`."""
+    """:func:`predict_paper` (``paper``) or :func:`convolve_const` (the linear sum) of a belief checked by
+    :func:`all_probabilities`."""
     if not all_probabilities(bel):
         return bel, False
-    return predict_paper(bel, kernel, outside), True
-
-
-@jit
-def convolve_const_checked(
-    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float
-) -> tuple[NDArray[np.float64], bool]:
-    """:func:`convolve_const` of a belief checked by :func:`all_probabilities`."""
-    if not all_probabilities(bel):
-        return bel, False
-    return convolve_const(bel, kernel, outside), True
+    return (predict_paper(bel, kernel, outside) if paper else convolve_const(bel, kernel, outside)), True
 
 
 @jit

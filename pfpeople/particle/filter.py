@@ -5,17 +5,13 @@ Particles carry occupancy mass (:mod:`pfpeople.particle.state`): the sum of weig
 probability of holding a person, i.e. the grid filter's belief. One step (same input as
 :meth:`gridbridge.GridFilter.step`) is :meth:`ParticleFilter.predict` then :meth:`ParticleFilter.update`:
 
-==================================  ============================================================================
-phase                               where
-==================================  ============================================================================
-1-2. people motion, sensor motion   :mod:`pfpeople.particle.predictor` (eqs. 5-11; the models in
-     (eqs. 5-11), border births,    ``predictor/paper.py``, ``persistent.py``, ``ego.py``; births at the border in
-     the empty cells' prior         ``births.py``; the empty cells' prior in ``empty_cells.py``)
-prior of the update                 here: the rasterised mass clipped to [0, 1], appearances added
-3-4. Bayes update per cell,         :mod:`pfpeople.particle.updater` (eqs. 12-14 with the filter's likelihood,
-     births in empty cells          the code the grid filter uses)
-5. resampling by cell               :mod:`pfpeople.particle.resampler` (when ESS or the count says so)
-==================================  ============================================================================
+1-2. people motion, sensor motion (eqs. 5-11), the births at the border, the empty cells' prior:
+     :mod:`pfpeople.particle.predictor` (the models in ``predictor/paper.py``, ``persistent.py``, ``ego.py``; the
+     births in ``births.py``; the empty cells in ``empty_cells.py``);
+     here: the prior of the update, the rasterised mass clipped to [0, 1], appearances added;
+3-4. Bayes update per cell (eqs. 12-14, with the filter's likelihood: the grid filter's code), births in empty
+     cells: :mod:`pfpeople.particle.updater`;
+5.   resampling by cell when the effective sample size or the count says so: :mod:`pfpeople.particle.resampler`.
 
 Each model is one object with a reference form (numpy) and, optionally, a compiled form (numba); which forms a filter
 runs is decided once, when it is built (:mod:`pfpeople.particle.forms`): the loop below does not change with them.

@@ -2,7 +2,17 @@
 
 A step resamples when the effective sample size ESS = (sum w)^2 / sum w^2 falls below a threshold or births pushed
 the count above a slack; resampling restores exactly N particles by cell, keeping every cell's mass
-(:func:`~pfpeople.particle.resampler.by_cell.resample_by_cell`). A resampler is one class with both forms:
+(:func:`~pfpeople.particle.resampler.by_cell.resample_by_cell`).
+
+Births at the border fill the free slots (particles that left; :mod:`pfpeople.particle.predictor.births`), so the
+count stays at or below N unless there are more inflow cells than free slots. On the paper's grid 224 cells receive
+inflow in a 0.1 s step, more than a step usually frees, so with ``max_overflow = 0`` most steps resample whatever the
+ESS. With a slack (``max_overflow = 0.1``, the recommended mode's; about 3 % births per step on the
+person-following bag) the births of a few steps accumulate: on the person-following bag 29 % of the steps resample
+(22 % for the count, 8 % for the ESS), with a median ESS of 0.93 N between resamplings, and the filter step costs
+about a fifth less.
+
+A resampler is one class with both forms:
 
 * its reference form :meth:`Resampler.resample` (numpy): ancestors and new weights;
 * its compiled form ``resample_compiled(cells, weights, n, rows, *, n_cells, rng, pool=None, sums=None)``
