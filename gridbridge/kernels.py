@@ -716,10 +716,18 @@ def warp_bilinear_checked(
 
 @jit
 def bayes_update_checked(p: NDArray[np.float64], lik: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
-    """:func:`bayes_update` of a prior and a likelihood checked by :func:`all_probabilities`."""
-    if not (all_probabilities(p) and all_probabilities(lik)):
-        return p, False
-    return bayes_update(p, lik), True
+    """:func:`bayes_update` (the same operations) of a prior and a likelihood checked, in the same pass, as
+    :func:`all_probabilities` checks."""
+    out = np.empty_like(p)
+    pf, lf, of = p.reshape(p.size), lik.reshape(lik.size), out.reshape(out.size)
+    bad = 0
+    for k in range(pf.size):
+        a, b = pf[k], lf[k]
+        bad += (a < 0.0) | (a > 1.0) | (a != a) | (b < 0.0) | (b > 1.0) | (b != b)
+        num = b * a
+        den = num + (1.0 - b) * (1.0 - a)
+        of[k] = num / den if den > 0.0 else a
+    return out, bad == 0
 
 
 @jit
