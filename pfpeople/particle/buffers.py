@@ -76,17 +76,17 @@ class BufferPool:
         """As :meth:`take`, of dtype intp (cell and ancestor indices)."""
         return self._take(size, np.dtype(np.intp))
 
-    def _take(self, size: int, dt: np.dtype[Any]) -> NDArray[Any]:
+    def _take(self, size: int, dtype: np.dtype[Any]) -> NDArray[Any]:
         for i in range(len(self._free)):
             if _refs(self._free, i) != _ALONE:  # someone else holds it (checked before this frame refers to it)
                 continue
             cand = self._free[i]
-            if cand.dtype == dt and size <= cand.size <= size + size // 4 + 1024:
+            if cand.dtype == dtype and size <= cand.size <= size + size // 4 + 1024:
                 del self._free[i]
                 return cand[:size]
         # A little room above the size asked for, so that the filter's arrays of slightly different lengths
         # (a prediction's capacity, the particle count, the count with births) can stand in for one another.
-        return np.empty(size + size // 64 + 1024, dtype=dt)[:size]
+        return np.empty(size + size // 64 + 1024, dtype=dtype)[:size]
 
 
 def owner(a: NDArray[np.generic]) -> object:
