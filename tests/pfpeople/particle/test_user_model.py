@@ -145,3 +145,50 @@ def test_a_user_model_without_a_compiled_form_runs_in_the_compiled_filter_and_sa
     assert len(notices) == 1 and "people motion Walker" in notices[0] and "move_compiled" in notices[0], notices
     assert again == fast[:1]
     assert fast == _run(Walker(), compiled=False)
+
+
+def test_a_user_ego_model_and_resampler_without_compiled_forms_run_in_the_compiled_filter(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """An ego model with only ``noise`` and ``poses`` and a resampler with only the protocol's methods (their
+    reference forms) run inside the compiled step: the reference filter's particles bit for bit, one log line each."""
+    from gridbridge import SensorMotionNoise
+    from pfpeople import EgoSampler, Resampler, Resampling
+    from pfpeople.particle.predictor.ego import sample_ego_poses
+
+    class Ego:
+        noise = SensorMotionNoise()
+
+        def poses(self, odometry: Odometry | None, dt: float, n: int, *, rng: np.random.Generator) -> np.ndarray:
+            return sample_ego_poses(odometry, dt, self.noise, min(n, 500), rng=rng)
+
+    class Stratified:  # stratified resampling every step, by cell
+        inner = Resampling(scheme="stratified", ess_threshold=2.0)
+
+        def capacity(self, n: int) -> int:
+            return n
+
+        def due_ess(self, size: int, ess: float, n: int) -> bool:
+            return self.inner.due_ess(size, ess, n)
+
+        def resample(
+            self, cells: np.ndarray, weights: np.ndarray, n: int, *, n_cells: int, rng: np.random.Generator
+        ) -> tuple[np.ndarray, np.ndarray]:
+            return self.inner.resample(cells, weights, n, n_cells=n_cells, rng=rng)
+
+    assert isinstance(Ego(), EgoSampler) and isinstance(Stratified(), Resampler)
+
+    def run(compiled: bool) -> list[bytes]:
+        with jit.override(False, "gridbridge"), jit.override(compiled, "pfpeople"):
+            kw = {"people_motion": CompiledWalker(), "ego_motion": Ego(), "resampling": Stratified()}
+            pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(5), **kw)  # type: ignore[arg-type]
+            steps = [pf.step(DETECTIONS, Odometry(v=0.4, omega=0.2), 0.1) for _ in range(4)]
+        assert all(s.resampled for s in steps)
+        return [s.posterior.tobytes() + s.particles.x.tobytes() + s.particles.w.tobytes() for s in steps]
+
+    with caplog.at_level(logging.WARNING, logger="pfpeople.particle.forms"):
+        fast = run(True)
+    notices = [r.getMessage() for r in caplog.records if "no compiled form" in r.getMessage()]
+    assert any("ego motion Ego" in m and "rows" in m for m in notices), notices
+    assert any("resampler Stratified" in m and "resample_compiled" in m for m in notices), notices
+    assert fast == run(False)
