@@ -1,4 +1,5 @@
-"""Resource limits of a run, checked before anything large is allocated.
+"""Resource limits of a run's grid, checked before anything large is allocated (the particle filter adds its own,
+:mod:`pfpeople.particle.limits`).
 
 A grid far beyond what a robot needs (a stamp typed as a cell count, ``resolution = 1e-300``) must fail at once
 with a message naming the setting, not after minutes of swapping or with a raw ``_ArrayMemoryError``. The checks
@@ -22,7 +23,7 @@ grids adds its bytes to the memory check):
   must fit in :func:`memory_budget_bytes`: half the physical memory, or ``$PFPEOPLE_MAX_MEMORY_BYTES``.
 
 Within these limits one step's memory is bounded by its inputs: about ``BYTES_PER_CELL * n_cells * (2 + detectors)``
-(the grids of the step) ``+ 200 B * particles`` (a particle filter's state and its copies: :mod:`pfpeople.limits`)
+(the grids of the step) ``+ 200 B * particles`` (a particle filter's state and its copies: :mod:`pfpeople.particle.limits`)
 ``+ 8 B * (2 R + 1)^2`` per kernel array ``+ 0.3 MB * R`` while an integrated (linear) kernel is computed (its
 quadrature, about 3000 points per cell of radius), above the process's own (interpreter, numpy, numba: 150-200 MB).
 None of these arrays grows otherwise with ``dt``: the paper kernel's prediction keeps a table of ``q / (1 - q)`` per
@@ -180,7 +181,7 @@ def check_dt(dt: object, where: str = "dt") -> float:
     ValueError
         ``dt`` is not finite or not positive; :class:`ResourceLimitError` when above :data:`MAX_DT_S`.
     """
-    if isinstance(dt, bool | np.bool_) or not isinstance(dt, numbers.Real):
+    if type(dt) is not float and (isinstance(dt, bool | np.bool_) or not isinstance(dt, numbers.Real)):
         raise TypeError(f"{where} must be a real number of seconds, got {type(dt).__name__} {dt!r}")
     v = float(dt)
     if not math.isfinite(v) or v <= 0.0:

@@ -80,7 +80,7 @@ def truncated_speed_pdf(speed: ArrayLike, motion: PeopleMotion) -> NDArray[np.fl
     """Density (s/m) of walking speed: N(mu, sigma) truncated to [0, v_max] and renormalised.
 
     This is the speed distribution of a *moving* person, shared by the integrated kernel and the particle
-    sampler (:mod:`pfpeople.particle.propagation`).
+    sampler (:mod:`pfpeople.particle.predictor.paper`).
     """
     s = np.asarray(speed, dtype=float)
     a = (0.0 - motion.mu) / motion.sigma

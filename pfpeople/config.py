@@ -94,7 +94,6 @@ from gridbridge.grid import GridSpec
 from gridbridge.limits import check_grid_size, check_memory, check_smooth
 from gridbridge.params import DetectorModel, PeopleMotion, current_detector_name
 from gridbridge.validation import check_int, check_number, check_probability, check_real
-from pfpeople.limits import check_particles
 
 __all__ = [
     "DETECTOR_KINDS",
@@ -614,7 +613,10 @@ class BagConfig:
 
 
 def check_run_limits(g: GridSpec, filt: FilterConfig, n_detectors: int) -> None:
-    """Resource limits before anything is allocated (:mod:`gridbridge.limits`): cells, prediction work, memory."""
+    """Resource limits before anything is allocated (:mod:`gridbridge.limits`, :mod:`pfpeople.particle.limits`): cells,
+    prediction work, particles, memory."""
+    from pfpeople.particle.limits import check_particles
+
     check_grid_size(g.nx, g.ny, g.resolution, v_max=PeopleMotion().v_max, dt=0.1, where="BagConfig.grid")
     if filt.kind == "particle":
         check_particles(

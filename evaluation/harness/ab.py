@@ -110,8 +110,8 @@ class FilterSpec:
             return build_filter(cfg, spec, detectors)
         if self.kind == "grid":
             return GridFilter(spec, detectors=detectors, form=self.form)
-        from pfpeople.particle.components import PEOPLE_SAMPLERS
         from pfpeople.particle.filter import ParticleFilter
+        from pfpeople.particle.predictor import PEOPLE_SAMPLERS
 
         return ParticleFilter(
             spec,

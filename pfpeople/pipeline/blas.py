@@ -1,8 +1,8 @@
 """One BLAS thread per process during a run (threadpoolctl), and how to opt out.
 
 numpy's and scipy's OpenBLAS start one thread per core and hand a large enough dot product to all of them
-(``np.dot`` of the particle weights in :func:`pfpeople.particle.resampling.effective_sample_size`, 19 720 weights in the
-768-beam scenes). On a 2-core machine whose other core is busy (another process, or the
+(``np.dot`` of the particle weights in :func:`pfpeople.particle.resampler.schemes.effective_sample_size`, 19 720
+weights in the 768-beam scenes). On a 2-core machine whose other core is busy (another process, or the
 pipeline's own front-end process) the second BLAS thread waits for that core and the particle pipeline ran 2.5x
 slower than with one BLAS thread, for the same outputs. :class:`pfpeople.pipeline.runner.Pipeline` therefore limits
 every loaded BLAS library to :func:`resolve_blas_threads` threads while its frames run (the front-end process, forked

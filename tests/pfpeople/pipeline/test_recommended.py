@@ -21,13 +21,8 @@ from pfpeople import ParticleFilter, PersistentMotion
 from pfpeople.config import ClassifierConfig, FilterConfig, config_from_mapping
 from pfpeople.io.bag.reader import BagSource
 from pfpeople.io.run_dir import load_run
-from pfpeople.particle.components import (
-    PEOPLE_SAMPLERS,
-    PaperSampling,
-    PersistentSampling,
-    Resampling,
-    VelocityEgoSampling,
-)
+from pfpeople.particle.predictor import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling, VelocityEgoSampling
+from pfpeople.particle.resampler import Resampling
 from pfpeople.pipeline.assembly import (
     BELIEF_MIN,
     DEFAULT_MOTION_MODEL,
