@@ -31,7 +31,8 @@ from gridbridge import jit, kernels
 from gridbridge.blobs import BlobParams, ClassificationResult, classify_blobs, classify_threshold
 from gridbridge.geometry import Pose2D
 from gridbridge.grid import GridSpec
-from gridbridge.validation import check_number, check_positive, check_probability
+from gridbridge.limits import check_smooth
+from gridbridge.validation import check_positive, check_probability
 
 __all__ = [
     "BlobClassifier",
@@ -235,7 +236,7 @@ def classify_peaks(
     check_probability(threshold, "threshold")
     check_positive(min_separation, "min_separation")
     check_positive(centroid_radius, "centroid_radius", allow_zero=True)
-    smooth = check_positive(check_number(smooth, "smooth"), "smooth", allow_zero=True)
+    smooth = check_smooth(smooth, "smooth")
     return _classify_checked(grid, spec, threshold, min_separation, centroid_radius, smooth)
 
 
@@ -412,7 +413,7 @@ class PeakClassifier:
         check_probability(self.threshold, "PeakClassifier.threshold")
         check_positive(self.min_separation, "PeakClassifier.min_separation")
         check_positive(self.centroid_radius, "PeakClassifier.centroid_radius", allow_zero=True)
-        check_positive(check_number(self.smooth, "PeakClassifier.smooth"), "PeakClassifier.smooth", allow_zero=True)
+        check_smooth(self.smooth, "PeakClassifier.smooth")
 
     def classify(self, belief: ArrayLike, spec: GridSpec, *, observed: ArrayLike | None = None) -> People:
         """People at the peaks of ``belief``; with ``only_observed``, cells outside ``observed`` (bool

@@ -18,6 +18,11 @@ component                 what it does
                           mapping's clamping; not in the paper)
 ========================  =========================================================================
 
+Each component owns both of its forms: the numpy reference (the public functions of :mod:`gridbridge.people_motion`
+and :mod:`gridbridge.ego_motion`) and the compiled one (:mod:`gridbridge.kernels`; the motion kernel of a step computed
+once per component, resolution and step), chosen by :func:`gridbridge.jit.enabled`: the same results (bit for bit,
+``tests/gridbridge/test_components.py``). A component of your own needs only the protocol's methods.
+
 Because a kernel belongs to its prediction, the paper-kernel/linear-sum pair (whose kernel sums to 0.87 and
 leaks 13 % of the belief every step) cannot be built.
 
@@ -32,6 +37,7 @@ bound keeps a cell that a person left from needing as many misses to fall as it 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal, Protocol, runtime_checkable
 
@@ -39,10 +45,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gridbridge import jit, kernels
-from gridbridge.ego_motion import Odometry, predict_sensor
+from gridbridge.ego_motion import Odometry, ego_motion_sigma_points, predict_sensor
 from gridbridge.grid import GridSpec
 from gridbridge.params import PeopleMotion, SensorMotionNoise
-from gridbridge.people_motion import people_motion_kernel, predict_people
+from gridbridge.people_motion import _check_paper_kernel, people_motion_kernel, predict_people
 from gridbridge.validation import check_grid_array, check_positive, check_probability
 
 __all__ = [
@@ -85,6 +91,68 @@ def _check_motion(motion: object) -> None:
         raise TypeError(f"motion must be a PeopleMotion, got {type(motion).__name__}")
 
 
+_F64 = np.dtype(np.float64)
+
+
+def _compiled(
+    kernel: Callable[..., tuple[NDArray[np.float64], bool]],
+    belief: ArrayLike,
+    shape: tuple[int, int] | None,
+    *args: object,
+) -> NDArray[np.float64]:
+    """``kernel(belief, *args)``, one of the ``*_checked`` kernels of :mod:`gridbridge.kernels`, on a belief that
+    must be a 2-D array of probabilities (of ``shape`` if given): a C-contiguous float64 array goes as it is (the
+    kernel checks its values in a compiled pass), another is converted first; a bad one is refused by name
+    (:func:`~gridbridge.validation.check_grid_array`)."""
+    good = type(belief) is np.ndarray and belief.dtype == _F64 and belief.ndim == 2 and belief.flags.c_contiguous
+    if not (good and (shape is None or belief.shape == shape)):  # type: ignore[union-attr]
+        belief = np.ascontiguousarray(check_grid_array(belief, "belief", shape=shape))
+    out, ok = kernel(belief, *args)
+    if not ok:
+        check_grid_array(belief, "belief", shape=shape)  # raises, naming what is wrong
+    return out
+
+
+def _memo(component: object) -> dict[object, object]:
+    """The component's cache of what its compiled form computes once (motion kernels, warp arguments): kept in its
+    ``__dict__``, not a field, so neither compared nor hashed; copied and pickled with it."""
+    memo: dict[object, object] = component.__dict__.setdefault("_compiled_memo", {})
+    if len(memo) >= 64:
+        memo.clear()
+    return memo
+
+
+def _compiled_kernel(prediction: PaperPrediction | LinearPrediction, spec: GridSpec, dt: float) -> NDArray[np.float64]:
+    """The prediction's motion kernel of a step of ``dt`` s (and the border belief) as the compiled kernels take
+    them: C-contiguous and checked, computed once per resolution and step."""
+    memo, key = _memo(prediction), (dt, spec.resolution)
+    kernel = memo.get(key)
+    if kernel is None:
+        if not 0.0 < dt < math.inf:
+            check_positive(dt, "dt")  # raises
+        kernel = np.ascontiguousarray(prediction.kernel(spec, dt), dtype=np.float64)
+        if prediction.form == "paper":
+            _check_paper_kernel(kernel)
+        memo[key] = kernel
+    return kernel  # type: ignore[return-value]
+
+
+def _warp_args(
+    ego: VelocityEgoMotion, spec: GridSpec, poses: NDArray[np.float64], w: NDArray[np.float64]
+) -> tuple[tuple[float, float, float], NDArray[np.float64], NDArray[np.float64], float]:
+    """:func:`gridbridge.kernels.warp_bilinear`'s arguments after the belief for these sigma points: the grid's
+    origin and resolution, the poses, the normalised weights and the border belief (kept per sigma points: a
+    robot's odometry, and so its cached sigma points, repeat)."""
+    memo = _memo(ego)
+    last = memo.get("warp")
+    if last is not None and last[0] is poses and last[1] is w and last[2] is spec:  # type: ignore[index]
+        return last[3]  # type: ignore[index]
+    args = ((float(spec.x0), float(spec.y0), float(spec.resolution)), np.ascontiguousarray(poses), w / w.sum(),
+            float(ego.outside))  # fmt: skip
+    memo["warp"] = (poses, w, spec, args)
+    return args
+
+
 @dataclass(frozen=True, kw_only=True)
 class PaperPrediction:
     """The paper's people-motion prediction: speed-density kernel p_k and eq. 6 with eq. 8 (colonisation).
@@ -110,8 +178,12 @@ class PaperPrediction:
         return people_motion_kernel(spec, self.motion, dt=dt, form="paper")
 
     def predict(self, belief: NDArray[np.float64], spec: GridSpec, dt: float) -> NDArray[np.float64]:
-        """bel'(x_t) from bel(x_{t-1}), ``(nx, ny)`` -> ``(nx, ny)``."""
-        return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="paper")
+        """bel'(x_t) from bel(x_{t-1}), ``(nx, ny)`` -> ``(nx, ny)``: :func:`~gridbridge.people_motion.predict_people`
+        (numpy), or compiled :func:`gridbridge.kernels.predict_paper` on the kernel of this step (the same bits)."""
+        if not jit.enabled():
+            return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="paper")
+        kernel = _compiled_kernel(self, spec, dt)
+        return _compiled(kernels.predict_people_checked, belief, None, kernel, float(self.outside), True)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -139,8 +211,13 @@ class LinearPrediction:
         return people_motion_kernel(spec, self.motion, dt=dt, form="integrated")
 
     def predict(self, belief: NDArray[np.float64], spec: GridSpec, dt: float) -> NDArray[np.float64]:
-        """bel'(x_t) = sum_k T(c <- k) bel(x_{t-1} = k), ``(nx, ny)`` -> ``(nx, ny)``."""
-        return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="linear")
+        """bel'(x_t) = sum_k T(c <- k) bel(x_{t-1} = k), ``(nx, ny)`` -> ``(nx, ny)``:
+        :func:`~gridbridge.people_motion.predict_people` (numpy), or compiled :func:`gridbridge.kernels.convolve_const`
+        on the kernel of this step (the same bits)."""
+        if not jit.enabled():
+            return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="linear")
+        kernel = _compiled_kernel(self, spec, dt)
+        return _compiled(kernels.predict_people_checked, belief, None, kernel, float(self.outside), False)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -166,8 +243,15 @@ class VelocityEgoMotion:
     def predict(
         self, belief: NDArray[np.float64], spec: GridSpec, odometry: Odometry | None, dt: float
     ) -> NDArray[np.float64]:
-        """The belief warped into the new sensor frame, ``(nx, ny)`` -> ``(nx, ny)``."""
-        return predict_sensor(belief, spec, odometry, dt, noise=self.noise, outside=self.outside)
+        """The belief warped into the new sensor frame, ``(nx, ny)`` -> ``(nx, ny)``:
+        :func:`~gridbridge.ego_motion.predict_sensor` (numpy), or compiled :func:`gridbridge.kernels.warp_bilinear`
+        over the same sigma points (the same bits)."""
+        if not jit.enabled():
+            return predict_sensor(belief, spec, odometry, dt, noise=self.noise, outside=self.outside)
+        poses, w = ego_motion_sigma_points(odometry, dt, self.noise)
+        if len(poses) == 1 and np.all(poses[0] == 0.0):  # a standing robot: the identity (a copy)
+            return spec.check_grid(belief, "belief").copy()
+        return _compiled(kernels.warp_bilinear_checked, belief, spec.shape, *_warp_args(self, spec, poses, w))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -20,7 +20,6 @@ from typing import Literal, NamedTuple, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gridbridge import jit, kernels
 from gridbridge.components import (
     Appearance,
     BeliefBounds,
@@ -30,13 +29,13 @@ from gridbridge.components import (
     PeoplePrediction,
     VelocityEgoMotion,
 )
-from gridbridge.ego_motion import Odometry, ego_motion_sigma_points
+from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
-from gridbridge.likelihoods import DeMorganLikelihood, DetectionLikelihood, update_components
-from gridbridge.limits import check_dt
+from gridbridge.likelihoods import DetectionLikelihood, update_components
+from gridbridge.limits import check_dt, check_grid_size, check_memory
 from gridbridge.measurement import Likelihood, bayes_update, fov_mask
 from gridbridge.params import PAPER_DETECTORS, DetectorModel, PeopleMotion, SensorMotionNoise
-from gridbridge.people_motion import _check_paper_kernel, quantise_dt
+from gridbridge.people_motion import check_people_step
 from gridbridge.validation import check_choice, check_number, check_probability
 
 __all__ = ["BeliefFilter", "FilterStep", "GridFilter", "Prediction", "as_odometry", "filter_models", "remounted"]
@@ -141,6 +140,20 @@ def remounted(
     return tuple(out)
 
 
+def with_fields_of_view(
+    detectors: Sequence[DetectorModel], views: Sequence[tuple[float, float]]
+) -> tuple[DetectorModel, ...]:
+    """``detectors`` with the fields of view ``(fov_min, fov_max)`` (rad; one per detector, ValueError otherwise; a
+    detector whose view is unchanged is kept as it is)."""
+    if len(views) != len(detectors):
+        raise ValueError(f"views must give one (fov_min, fov_max) per detector ({len(detectors)}), got {len(views)}")
+    out = []
+    for d, (lo, hi) in zip(detectors, views, strict=True):
+        same = (d.fov_min, d.fov_max) == (lo, hi)
+        out.append(d if same else replace(d, fov_min=lo, fov_max=hi))
+    return tuple(out)
+
+
 def filter_models(
     spec: GridSpec | None,
     detectors: Sequence[DetectorModel],
@@ -167,6 +180,15 @@ def filter_models(
     if not isinstance(noise_, SensorMotionNoise):
         raise TypeError(f"noise must be a SensorMotionNoise, got {type(noise).__name__}")
     return spec_, dets, motion_, noise_
+
+
+def check_filter_size(spec: GridSpec, motion: PeopleMotion, n_detectors: int, *, where: str) -> None:
+    """The limits a run's configuration is held to (:func:`pfpeople.config.check_run_limits`), for a filter built in
+    the library: the prediction's work at the motion's own step (``motion.dt``) and the memory of the grid's arrays
+    (:mod:`gridbridge.limits`); a step of another ``dt`` is checked when its kernel is made
+    (:func:`gridbridge.people_motion.people_motion_kernel`)."""
+    check_grid_size(spec.nx, spec.ny, spec.resolution, v_max=motion.v_max, dt=motion.dt, where=where)
+    check_memory(spec.n_cells, n_detectors=n_detectors, where=where)
 
 
 class GridFilter:
@@ -237,14 +259,11 @@ class GridFilter:
         self.likelihood, self.appearance, self.bounds = update_components(likelihood, appearance, bounds)
         self.prediction = prediction
         self.motion = prediction.motion
+        check_filter_size(self.spec, self.motion, len(self.detectors), where="GridFilter")
         self.form = str(getattr(prediction, "form", "custom"))
         self.ego_motion = ego_motion
         self.belief: NDArray[np.float64] = np.full(self.spec.shape, self.initial)
         self._observed: NDArray[np.bool_] | None = None
-        #: Kernels of the built-in predictions per (prediction, quantised dt), and the detectors' fields of view,
-        #: for the compiled path (:meth:`_predict_compiled`, :meth:`_likelihood`).
-        self._kernels: dict[tuple[PeoplePrediction, float], NDArray[np.float64]] = {}
-        self._fovs: tuple[tuple[DetectorModel, ...], list[NDArray[np.bool_]]] | None = None
         #: The people prior of a :meth:`predict` not yet followed by :meth:`update`.
         self._people_prior: NDArray[np.float64] | None = None
 
@@ -252,6 +271,12 @@ class GridFilter:
         """Move the detectors: ``(mount_x, mount_y, mount_yaw)`` per detector (m, rad; a panning laser's mount
         at this frame). Their fields of view follow from the next update."""
         self.detectors = remounted(self.detectors, mounts)
+        self._observed = None
+
+    def set_detector_fields_of_view(self, views: Sequence[tuple[float, float]]) -> None:
+        """Narrow or restore the detectors' fields of view: ``(fov_min, fov_max)`` per detector (rad; what a laser's
+        scan covered in this frame, :mod:`pfpeople.detect.coverage`). Cells outside get no update from the next one."""
+        self.detectors = with_fields_of_view(self.detectors, views)
         self._observed = None
 
     @property
@@ -285,61 +310,15 @@ class GridFilter:
             ``(people_prior, sensor_prior)``, ``(nx, ny)`` each; ``sensor_prior`` is the new ``belief``.
         """
         dt = check_dt(dt)  # a number in (0, MAX_DT_S], before anything is allocated
+        check_people_step(self.spec, self.motion, dt)
         odo = as_odometry(odometry)
-        if self._builtin() and jit.enabled():
-            people, sensor = self._predict_compiled(odo, dt)
-        else:
-            people = self.prediction.predict(self.belief, self.spec, dt)
-            sensor = self.ego_motion.predict(people, self.spec, odo, dt)
+        people = self.prediction.predict(self.belief, self.spec, dt)
+        sensor = self.ego_motion.predict(people, self.spec, odo, dt)
         if self.appearance is not None:
             sensor = self.appearance.apply(sensor, dt, where=self.observed)
         self.belief = sensor
         self._people_prior = people
         return Prediction(people, sensor)
-
-    def _builtin(self) -> bool:
-        """Whether the filter's predictions are the built-in components, which the compiled path runs directly
-        (the same kernels their functions call, without re-checking the filter's own arrays)."""
-        return (
-            type(self.prediction) in (PaperPrediction, LinearPrediction) and type(self.ego_motion) is VelocityEgoMotion
-        )
-
-    def _predict_compiled(self, odo: Odometry | None, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Both predictions of the built-in components: :func:`~gridbridge.people_motion.predict_people` and
-        :func:`~gridbridge.ego_motion.predict_sensor` on their compiled path, the same kernels and results."""
-        key = (self.prediction, quantise_dt(dt))
-        paper = isinstance(self.prediction, PaperPrediction)
-        kernel = self._kernels.get(key)
-        if kernel is None:
-            kernel = np.ascontiguousarray(self.prediction.kernel(self.spec, dt), dtype=np.float64)
-            if paper:
-                _check_paper_kernel(kernel)
-            if len(self._kernels) >= 64:
-                self._kernels.clear()
-            self._kernels[key] = kernel
-        bel = np.ascontiguousarray(self.belief, dtype=np.float64)
-        outside = float(self.prediction.outside)
-        if paper:
-            people = kernels.predict_paper(bel, kernel, outside)
-        else:
-            people = kernels.convolve_const(bel, kernel, outside)
-        ego = self.ego_motion
-        assert isinstance(ego, VelocityEgoMotion)
-        poses, w = ego_motion_sigma_points(odo, dt, ego.noise)
-        if len(poses) == 1 and np.all(poses[0] == 0.0):
-            return people, people.copy()
-        grid = (float(self.spec.x0), float(self.spec.y0), float(self.spec.resolution))
-        return people, kernels.warp_bilinear(people, grid, np.ascontiguousarray(poses), w / w.sum(), ego.outside)
-
-    def _likelihood(self, detections: Sequence[ArrayLike | None]) -> Likelihood:
-        """The likelihood component on ``detections``; the built-in De Morgan fusion with the detectors' fields
-        of view computed once (the same result)."""
-        dets = list(detections)
-        if type(self.likelihood) is not DeMorganLikelihood:
-            return self.likelihood(self.spec, self.detectors, dets)
-        if self._fovs is None or self._fovs[0] is not self.detectors:
-            self._fovs = (self.detectors, [fov_mask(self.spec, m) for m in self.detectors])
-        return self.likelihood.with_fields_of_view(self.spec, self.detectors, dets, self._fovs[1])
 
     def update(self, detections: Sequence[ArrayLike | None]) -> FilterStep:
         """Measurement update (eqs. 12-14) of the belief (the prior), then the bounds; sets the posterior.
@@ -352,16 +331,12 @@ class GridFilter:
         FilterStep
             The stages of the step (the priors of the last :meth:`predict`).
         """
-        return self._update(self._likelihood(detections))
+        return self._update(self.likelihood(self.spec, self.detectors, list(detections)))
 
     def _update(self, lik: Likelihood) -> FilterStep:
         prior = self.belief
         people = prior if self._people_prior is None else self._people_prior
-        if self._builtin() and jit.enabled() and prior.dtype == np.float64 and prior.shape == lik.likelihood.shape:
-            # both the filter's own probabilities: bayes_update_unchecked's operations, compiled
-            posterior = kernels.bayes_update(np.ascontiguousarray(prior), np.ascontiguousarray(lik.likelihood))
-        else:
-            posterior = bayes_update(prior, lik.likelihood)
+        posterior = bayes_update(prior, lik.likelihood)
         if self.bounds is not None:
             posterior = self.bounds.apply(posterior)
         self.belief = posterior
@@ -401,6 +376,6 @@ class GridFilter:
             checked before the prediction).
         """
         check_dt(dt)  # before the likelihoods are computed
-        lik = self._likelihood(detections)
+        lik = self.likelihood(self.spec, self.detectors, list(detections))
         self.predict(odometry, dt)
         return self._update(lik)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gridbridge.limits import check_grid_size
 from gridbridge.validation import check_grid_array, check_int, check_real
 
 __all__ = ["GridSpec"]
@@ -44,6 +45,7 @@ class GridSpec:
     def __post_init__(self) -> None:
         for name in ("nx", "ny"):
             check_int(getattr(self, name), f"GridSpec.{name}", minimum=1)
+        check_grid_size(self.nx, self.ny, 1.0, where="GridSpec")  # before any array of the grid is allocated
         check_real(self.resolution, "GridSpec.resolution", low=0.0, low_open=True)
         for name in ("x0", "y0"):
             check_real(getattr(self, name), f"GridSpec.{name}")

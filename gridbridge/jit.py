@@ -1,11 +1,11 @@
 """The switch between compiled (numba) kernels and their pure-numpy twins, shared by every package.
 
-Hot loops live in ``kernels`` modules (:mod:`gridbridge.kernels`, :mod:`pfpeople.particle.step_kernels`) as plain Python
-functions compiled with :func:`jit` (``numba.njit(cache=True)``); each has a numpy twin that gives the same
-result (bit for bit where the kernels say so, else within a tolerance the tests check). The compiled kernels
-run when numba is importable and the environment variable ``PFPEOPLE_NUMBA`` is not ``0``; otherwise the
-callers take the numpy path. :func:`enabled` is read at every call, so :func:`override` can switch within a
-process, for every package or one (the tests compare the two paths with it).
+Hot loops live in ``kernels`` modules (:mod:`gridbridge.kernels`, :mod:`pfpeople.particle.predictor.passes`) as plain
+Python functions compiled with :func:`jit` (``numba.njit(cache=True)``); each has a numpy twin that gives the same
+result (bit for bit where the kernels say so, else within a tolerance the tests check). The compiled kernels run when
+numba is importable and the environment variable ``PFPEOPLE_NUMBA`` is not ``0``; otherwise the callers take the numpy
+path. :func:`enabled` is read at every call, so :func:`override` can switch within a process, for every package or one
+(the tests compare the two paths with it).
 """
 
 from __future__ import annotations

@@ -15,6 +15,8 @@ kernel                 numpy twin                                   agreement
 :func:`peak_centroids` :func:`gridbridge.classifiers._peak_people`   bit for bit (numpy's pairwise sums)
 :func:`fuse_update`    :func:`gridbridge.measurement.fuse_detectors`  bit for bit (products in detector order)
 :func:`bayes_update`   :func:`gridbridge.measurement.bayes_update_unchecked`  bit for bit (the same operations)
+:func:`all_probabilities`  :func:`gridbridge.validation.check_grid_array`'s  the same answer (``0 <= v <= 1``);
+                       value check                                  the ``*_checked`` kernels run it first
 :func:`appear`         :meth:`gridbridge.components.Appearance.apply`  bit for bit (the same operations)
 :func:`point_map`      :func:`gridbridge.measurement.detection_map`  bit for bit
 :func:`gaussian_args`  :func:`gridbridge.measurement.detection_map`  bit for bit (with numpy's ``exp`` between
@@ -43,8 +45,10 @@ from gridbridge.jit import jit
 
 __all__ = [
     "add_where",
+    "all_probabilities",
     "appear",
     "bayes_update",
+    "bayes_update_checked",
     "convolve_at",
     "convolve_const",
     "fuse_update",
@@ -55,9 +59,11 @@ __all__ = [
     "peak_centroids",
     "point_map",
     "predict_paper",
+    "predict_people_checked",
     "scatter_max",
     "warp_at",
     "warp_bilinear",
+    "warp_bilinear_checked",
     "warp_outside",
     "warp_taps",
 ]
@@ -117,13 +123,37 @@ def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside
     -----
     ``q / (1 - q)`` depends only on the tap's value and the source cell's belief, and the kernel is radially
     symmetric, so it is computed once per distinct tap value over the padded grid (8 values for the paper's
-    37 taps) and each tap adds its shifted copy: the same numbers added in the same order, without a division
-    per tap and cell.
+    37 taps) and each tap adds its shifted copy (:func:`_odds_sum_by_value`): the same numbers added in the same
+    order, without a division per tap and cell. A kernel whose distinct values would need more than
+    ``max(2**22, 16 nx ny)`` such numbers (at most ``(R + 1)(R + 2) / 2`` values: a step of several seconds) has its
+    division made per tap and cell instead (:func:`_odds_sum_by_tap`): the same numbers, in memory of the grid's
+    size, where the table of values would take gigabytes (1.4 GB for a 3 s step on the paper's grid).
     """
     nx, ny = bel.shape
     side = kernel.shape[0]
     rad = side // 2
     padded = _padded(bel, rad, outside)
+    px, py = padded.shape
+    if (rad + 1) * (rad + 2) // 2 * px * py <= max(2**22, 16 * nx * ny):
+        s = _odds_sum_by_value(padded, kernel, nx, ny)
+    else:
+        s = _odds_sum_by_tap(padded, kernel, nx, ny)
+    p_stay = kernel[rad, rad]
+    out = np.empty((nx, ny))
+    for i in range(nx):
+        for j in range(ny):
+            p_col = s[i, j] / (1.0 + s[i, j])
+            out[i, j] = p_stay * bel[i, j] + p_col * (1.0 - bel[i, j])
+    return out
+
+
+@jit
+def _odds_sum_by_value(
+    padded: NDArray[np.float64], kernel: NDArray[np.float64], nx: int, ny: int
+) -> NDArray[np.float64]:
+    """``S`` of :func:`predict_paper` from ``q / (1 - q)`` computed once per distinct tap value and padded cell."""
+    side = kernel.shape[0]
+    rad = side // 2
     px, py = padded.shape
     values, slot = _tap_values(kernel)
     n_values = values.size
@@ -144,13 +174,27 @@ def predict_paper(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside
                 row, srow = s[i], src[2 * rad - a + i]
                 for j in range(ny):
                     row[j] += srow[2 * rad - b + j]
-    p_stay = kernel[rad, rad]
-    out = np.empty((nx, ny))
-    for i in range(nx):
-        for j in range(ny):
-            p_col = s[i, j] / (1.0 + s[i, j])
-            out[i, j] = p_stay * bel[i, j] + p_col * (1.0 - bel[i, j])
-    return out
+    return s
+
+
+@jit
+def _odds_sum_by_tap(padded: NDArray[np.float64], kernel: NDArray[np.float64], nx: int, ny: int) -> NDArray[np.float64]:
+    """``S`` of :func:`predict_paper` with ``q / (1 - q)`` computed per tap and cell (the same numbers, the same
+    order as :func:`_odds_sum_by_value`)."""
+    side = kernel.shape[0]
+    rad = side // 2
+    s = np.zeros((nx, ny))
+    for a in range(side):
+        for b in range(side):
+            k = kernel[a, b]
+            if k == 0.0 or (a == rad and b == rad):
+                continue
+            for i in range(nx):
+                row, srow = s[i], padded[2 * rad - a + i]
+                for j in range(ny):
+                    q = k * srow[2 * rad - b + j]
+                    row[j] += q / (1.0 - q)
+    return s
 
 
 @jit
@@ -650,22 +694,78 @@ def bayes_update(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np
 
     Parameters
     ----------
-    p, lik : ndarray, shape (nx, ny)
+    p, lik : ndarray, any one shape, C-contiguous
         The prior and the fused likelihood P(D | p), probabilities.
 
     Returns
     -------
-    ndarray, shape (nx, ny)
+    ndarray, the shape of ``p``
         ``lik p / (lik p + (1 - lik)(1 - p))`` where the denominator is above 0, else the prior.
     """
-    nx, ny = p.shape
-    out = np.empty((nx, ny))
-    for i in range(nx):
-        for j in range(ny):
-            num = lik[i, j] * p[i, j]
-            den = num + (1.0 - lik[i, j]) * (1.0 - p[i, j])
-            out[i, j] = num / den if den > 0.0 else p[i, j]
+    out = np.empty_like(p)
+    pf, lf, of = p.reshape(p.size), lik.reshape(lik.size), out.reshape(out.size)
+    for k in range(pf.size):
+        num = lf[k] * pf[k]
+        den = num + (1.0 - lf[k]) * (1.0 - pf[k])
+        of[k] = num / den if den > 0.0 else pf[k]
     return out
+
+
+@jit
+def all_probabilities(a: NDArray[np.float64]) -> bool:
+    """Whether every value of ``a`` (any shape, C-contiguous) lies in [0, 1] (False for NaN): the value check of
+    :func:`gridbridge.validation.check_grid_array` in one branch-free pass."""
+    flat = a.reshape(a.size)
+    bad = 0
+    for k in range(flat.size):
+        v = flat[k]
+        bad += (v < 0.0) | (v > 1.0) | (v != v)
+    return bad == 0
+
+
+# The kernels of a filter step on input they check first: ``(result, True)``, or ``(input, False)`` when the input
+# holds a value outside [0, 1] (or NaN); the caller then names it (:func:`gridbridge.validation.check_grid_array`).
+
+
+@jit
+def predict_people_checked(
+    bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float, paper: bool
+) -> tuple[NDArray[np.float64], bool]:
+    """:func:`predict_paper` (``paper``) or :func:`convolve_const` (the linear sum) of a belief checked by
+    :func:`all_probabilities`."""
+    if not all_probabilities(bel):
+        return bel, False
+    return (predict_paper(bel, kernel, outside) if paper else convolve_const(bel, kernel, outside)), True
+
+
+@jit
+def warp_bilinear_checked(
+    bel: NDArray[np.float64],
+    grid: tuple[float, float, float],
+    poses: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    outside: float,
+) -> tuple[NDArray[np.float64], bool]:
+    """:func:`warp_bilinear` of a belief checked by :func:`all_probabilities`."""
+    if not all_probabilities(bel):
+        return bel, False
+    return warp_bilinear(bel, grid, poses, weights, outside), True
+
+
+@jit
+def bayes_update_checked(p: NDArray[np.float64], lik: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+    """:func:`bayes_update` (the same operations) of a prior and a likelihood checked, in the same pass, as
+    :func:`all_probabilities` checks."""
+    out = np.empty_like(p)
+    pf, lf, of = p.reshape(p.size), lik.reshape(lik.size), out.reshape(out.size)
+    bad = 0
+    for k in range(pf.size):
+        a, b = pf[k], lf[k]
+        bad += (a < 0.0) | (a > 1.0) | (a != a) | (b < 0.0) | (b > 1.0) | (b != b)
+        num = b * a
+        den = num + (1.0 - b) * (1.0 - a)
+        of[k] = num / den if den > 0.0 else a
+    return out, bad == 0
 
 
 @jit

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from gridbridge import jit, kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
-from gridbridge.measurement import Likelihood, _likelihood, detection_map, fov_mask, likelihood_from_detections
+from gridbridge.measurement import Likelihood, _likelihood, detection_map, fov_mask
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_probability
 
@@ -53,24 +53,40 @@ class DetectionLikelihood(Protocol):
     ) -> Likelihood: ...
 
 
+class _DetectorArrays(NamedTuple):
+    """What a likelihood needs of its detectors every frame: each one's field of view (nx, ny) and the ``ppv`` and
+    ``fnr`` arrays (D,)."""
+
+    fovs: list[NDArray[np.bool_]]
+    ppv: NDArray[np.float64]
+    fnr: NDArray[np.float64]
+
+
+def _detector_arrays(
+    component: DeMorganLikelihood | IndependentLikelihood, spec: GridSpec, detectors: Sequence[DetectorModel]
+) -> _DetectorArrays:
+    """:class:`_DetectorArrays` of ``detectors``, kept on the component for the last grid and detectors it was called
+    with (a filter's: the same objects every frame; in its ``__dict__``, not a field, so neither compared nor
+    hashed)."""
+    last = component.__dict__.get("_detector_arrays")
+    if last is not None and last[0] is spec and last[1] is detectors:
+        arrays: _DetectorArrays = last[2]
+        return arrays
+    fovs = [fov_mask(spec, m) for m in detectors]
+    arrays = _DetectorArrays(fovs, np.array([m.ppv for m in detectors]), np.array([m.fnr for m in detectors]))
+    component.__dict__["_detector_arrays"] = (spec, detectors, arrays)
+    return arrays
+
+
 @dataclass(frozen=True, kw_only=True)
 class DeMorganLikelihood:
-    """The paper's fusion, eqs. 13-14 (see :mod:`gridbridge.measurement`)."""
+    """The paper's fusion, eqs. 13-14 (see :mod:`gridbridge.measurement`; compiled and numpy forms there)."""
 
     def __call__(
         self, spec: GridSpec, detectors: tuple[DetectorModel, ...], detections: list[ArrayLike | None]
     ) -> Likelihood:
-        return likelihood_from_detections(spec, detectors, detections)
-
-    def with_fields_of_view(
-        self,
-        spec: GridSpec,
-        detectors: tuple[DetectorModel, ...],
-        detections: list[ArrayLike | None],
-        fovs: Sequence[NDArray[np.bool_]],
-    ) -> Likelihood:
-        """:meth:`__call__` with the detectors' fields of view (``fov_mask`` of each) given: the same result."""
-        return _likelihood(spec, detectors, detections, fovs)
+        arrays = _detector_arrays(self, spec, detectors)
+        return _likelihood(spec, detectors, detections, arrays.fovs, (arrays.ppv, arrays.fnr))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -107,7 +123,7 @@ class IndependentLikelihood:
         per_det = np.full((d, *spec.shape), 0.5)
         log_lr = np.zeros(spec.shape)
         prior_odds = self.base_rate / (1.0 - self.base_rate)
-        compiled = jit.enabled()
+        compiled, fovs = jit.enabled(), _detector_arrays(self, spec, detectors).fovs
         for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
             if det is None:
                 continue
@@ -117,10 +133,10 @@ class IndependentLikelihood:
             fired[i] = q
             odds = (model.ppv / (1.0 - model.ppv) / prior_odds, model.fnr**self.miss_weight)
             if compiled:
-                lr = kernels.independent_terms(q, fov_mask(spec, model), odds, covered[i], per_det[i])
+                lr = kernels.independent_terms(q, fovs[i], odds, covered[i], per_det[i])
                 kernels.add_where(log_lr, np.log(lr), covered[i])
             else:
-                self._terms_numpy(q, fov_mask(spec, model), odds, covered[i], per_det[i], log_lr)
+                self._terms_numpy(q, fovs[i], odds, covered[i], per_det[i], log_lr)
         fused = 1.0 / (1.0 + np.exp(-log_lr))
         return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
 

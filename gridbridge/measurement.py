@@ -240,11 +240,32 @@ def bayes_update(prior: ArrayLike, likelihood: ArrayLike) -> NDArray[np.float64]
     ndarray, shape (nx, ny)
         The posterior; where eq. 12 is 0/0 (L = 1 with prior 0, or L = 0 with prior 1) the prior is kept.
     """
+    if jit.enabled() and _float_arrays(prior, likelihood):
+        out, ok = kernels.bayes_update_checked(prior, likelihood)  # type: ignore[arg-type]
+        if ok:
+            return out
     p = check_grid_array(prior, "prior", ndim=None)
     lik = check_grid_array(likelihood, "likelihood", ndim=None)
     if p.shape != lik.shape:
         raise ValueError(f"prior and likelihood shapes differ: {p.shape} vs {lik.shape}")
     return bayes_update_unchecked(p, lik)
+
+
+_F64 = np.dtype(np.float64)
+
+
+def _float_arrays(a: ArrayLike, b: ArrayLike) -> bool:
+    """Whether ``a`` and ``b`` are C-contiguous float64 arrays of one shape, which the compiled update takes as they
+    are (checking their values itself); anything else is checked, converted or refused by name first."""
+    return (
+        type(a) is np.ndarray
+        and type(b) is np.ndarray
+        and a.dtype == _F64
+        and b.dtype == _F64
+        and a.shape == b.shape
+        and a.flags.c_contiguous
+        and b.flags.c_contiguous
+    )
 
 
 def bayes_update_unchecked(p: NDArray[np.float64], lik: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -300,9 +321,10 @@ def _likelihood(
     detectors: Sequence[DetectorModel],
     detections: Sequence[ArrayLike | None],
     fovs: Sequence[NDArray[np.bool_]] | None,
+    rates: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> Likelihood:
-    """:func:`likelihood_from_detections`, with the detectors' fields of view given (a filter's, computed once)
-    or looked up."""
+    """:func:`likelihood_from_detections`, with the detectors' fields of view and their ``(ppv, fnr)`` arrays given
+    (a filter's, computed once) or looked up."""
     if len(detections) != len(detectors):
         raise ValueError(f"detections must have one entry per detector ({len(detectors)}), got {len(detections)}")
     d = len(detectors)
@@ -315,8 +337,7 @@ def _likelihood(
         covered[i] = fov_mask(spec, model) if fovs is None else fovs[i]
         if model.uncertainty == "point":
             covered[i] |= fired[i] > 0.0
-    ppv = np.array([m.ppv for m in detectors])
-    fnr = np.array([m.fnr for m in detectors])
+    ppv, fnr = (np.array([m.ppv for m in detectors]), np.array([m.fnr for m in detectors])) if rates is None else rates
     if jit.enabled():
         per_det, fused = kernels.fuse_update(fired, covered, ppv, fnr)
         return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)

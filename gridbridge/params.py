@@ -20,6 +20,7 @@ both filters' shared likelihood code (:mod:`gridbridge.measurement`).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -27,10 +28,12 @@ from gridbridge.validation import check_finite, check_positive, check_probabilit
 
 __all__ = [
     "CALIBRATED_LASER_DETECTORS",
+    "LEGACY_DETECTOR_NAMES",
     "PAPER_DETECTORS",
     "DetectorModel",
     "PeopleMotion",
     "SensorMotionNoise",
+    "current_detector_name",
 ]
 
 #: Usain Bolt's average speed over his 100 m world record (100 m / 9.58 s), the paper's bound on human speed.
@@ -157,10 +160,10 @@ class DetectorModel:
 
 #: The paper's three detectors (Table 1): two lasers with a 180 deg field of view, one camera with 62 deg.
 PAPER_DETECTORS: tuple[DetectorModel, ...] = (
-    DetectorModel(name="laser-legs", ppv=0.95, fnr=0.30),
-    DetectorModel(name="laser-boosted", ppv=0.50, fnr=0.40),
+    DetectorModel(name="laser_legs", ppv=0.95, fnr=0.30),
+    DetectorModel(name="laser_boosted", ppv=0.50, fnr=0.40),
     DetectorModel(
-        name="camera-hog",
+        name="camera_hog",
         ppv=0.95,
         fnr=0.50,
         fov_min=-math.radians(31.0),
@@ -184,10 +187,34 @@ PAPER_DETECTORS: tuple[DetectorModel, ...] = (
 #: Table 1's values (0.95 / 0.30 and 0.50 / 0.40) are the paper's detectors, not these. Field of view and range
 #: come from the LaserScan in a run (see :mod:`pfpeople.pipeline.runner`).
 CALIBRATED_LASER_DETECTORS: tuple[DetectorModel, ...] = (
-    DetectorModel(name="laser-legs", ppv=0.54, fnr=0.69),
-    DetectorModel(name="laser-boosted", ppv=0.92, fnr=0.42),
-    DetectorModel(name="laser-single-legs", ppv=0.61, fnr=0.87),
+    DetectorModel(name="laser_legs", ppv=0.54, fnr=0.69),
+    DetectorModel(name="laser_boosted", ppv=0.92, fnr=0.42),
+    DetectorModel(name="laser_single_legs", ppv=0.61, fnr=0.87),
 )
+
+
+#: The default detector names of earlier versions (not valid ROS names, so result bags renamed their topics)
+#: -> today's (:func:`current_detector_name`).
+LEGACY_DETECTOR_NAMES: dict[str, str] = {
+    "laser-legs": "laser_legs",
+    "laser-boosted": "laser_boosted",
+    "laser-single-legs": "laser_single_legs",
+    "camera-hog": "camera_hog",
+}
+
+
+def current_detector_name(name: str) -> str:
+    """Today's name of a default detector name of earlier versions, else ``name`` unchanged.
+
+    The old defaults (:data:`LEGACY_DETECTOR_NAMES`) and their forms on other lasers, ``NAME:TOPIC``
+    (``laser-legs:rear_scan``), become valid ROS names: ``laser_legs`` and ``laser_legs_rear_scan`` (every
+    character of the topic but ``[A-Za-z0-9_]`` as ``_``), the names result bags gave their detection topics.
+    """
+    base, sep, topic = name.partition(":")
+    if base not in LEGACY_DETECTOR_NAMES or (sep and not topic):
+        return name
+    new = LEGACY_DETECTOR_NAMES[base]
+    return f"{new}_{re.sub(r'[^A-Za-z0-9_]', '_', topic.lstrip('/'))}" if sep else new
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -48,11 +48,14 @@ from scipy import ndimage, special
 
 from gridbridge import jit, kernels
 from gridbridge.grid import GridSpec
+from gridbridge.limits import check_motion_step
 from gridbridge.params import PeopleMotion
 from gridbridge.validation import check_choice, check_grid_array, check_positive, check_probability
 
 __all__ = [
     "DT_QUANTUM_S",
+    "check_people_step",
+    "outside_inflow",
     "people_motion_kernel",
     "predict_people",
     "quantise_dt",
@@ -68,13 +71,16 @@ DT_QUANTUM_S = 1e-3
 #: Quadrature sizes of the integrated kernel: Gauss-Legendre nodes per speed interval, headings (multiple of 8).
 _N_SPEED = 96
 _N_HEADING = 256
+#: The integrated kernel's tents are computed for every quadrature point and offset (one matrix product) up to this
+#: many entries (32 MiB an array: steps up to about 0.7 s at 0.3 m cells), from the two offsets a tent covers beyond.
+_DENSE_TENT_ENTRIES = 2**22
 
 
 def truncated_speed_pdf(speed: ArrayLike, motion: PeopleMotion) -> NDArray[np.float64]:
     """Density (s/m) of walking speed: N(mu, sigma) truncated to [0, v_max] and renormalised.
 
     This is the speed distribution of a *moving* person, shared by the integrated kernel and the particle
-    sampler (:mod:`pfpeople.particle.propagation`).
+    sampler (:mod:`pfpeople.particle.predictor.paper`).
     """
     s = np.asarray(speed, dtype=float)
     a = (0.0 - motion.mu) / motion.sigma
@@ -108,16 +114,30 @@ def people_motion_kernel(
     -------
     ndarray, shape (2R + 1, 2R + 1)
         ``kernel[R + di, R + dj]`` is the weight of a displacement of ``(di, dj)`` cells (x, y). Read-only.
+
+    Raises
+    ------
+    ResourceLimitError
+        A neighbourhood wider than :data:`gridbridge.limits.MAX_KERNEL_RADIUS_CELLS` or a prediction over the grid
+        costing more than :data:`gridbridge.limits.MAX_STEP_OPERATIONS` (:func:`gridbridge.limits.check_motion_step`).
     """
     motion = PeopleMotion() if motion is None else motion
     if not isinstance(spec, GridSpec):
         raise ValueError(f"spec must be a GridSpec, got {type(spec).__name__}")
     dt_ = motion.dt if dt is None else check_positive(dt, "dt")
     check_choice(form, "form", ("paper", "integrated"))
+    check_people_step(spec, motion, dt_)
     # Kernels are cached per (resolution, motion, dt, form). Real sensor clocks jitter (0.0998 s, 0.1003 s, ...),
     # so dt is quantised to DT_QUANTUM_S: the kernel of a 0.1003 s step is the 0.100 s kernel (a 0.3 % change of
     # the reachable distance, far below the speed model's spread) and is computed once, not every frame.
     return _kernel_cached(spec.resolution, motion, quantise_dt(dt_), form)
+
+
+def check_people_step(spec: GridSpec, motion: PeopleMotion, dt: float) -> None:
+    """Refuse a people-motion step of ``dt`` (s) on ``spec`` whose neighbourhood is too wide or too costly
+    (:func:`gridbridge.limits.check_motion_step`, naming the step): both filters call it before a step changes
+    anything, and :func:`people_motion_kernel` before a kernel is computed."""
+    check_motion_step(spec.n_cells, spec.resolution, v_max=motion.v_max, dt=dt, where=f"people motion over {dt:g} s")
 
 
 def quantise_dt(dt: float) -> float:
@@ -164,18 +184,85 @@ def _integrated_kernel(resolution: float, motion: PeopleMotion, dt: float) -> ND
     # Headings (k + 0.5) 2 pi / N are symmetric under x <-> y and both sign flips (N a multiple of 8): the sum
     # runs over the first octant (0, pi/4) only and the other seven are its mirror images (8x fewer terms).
     headings = (np.arange(_N_HEADING // 8) + 0.5) * (2 * math.pi / _N_HEADING)
-    ux = (speeds[:, None] * dt / resolution) * np.cos(headings)[None, :]
-    uy = (speeds[:, None] * dt / resolution) * np.sin(headings)[None, :]
-    w = np.broadcast_to(s_weights[:, None] / _N_HEADING, ux.shape)
-    offsets = np.arange(-radius, radius + 1, dtype=float)
-    tx = np.clip(1.0 - np.abs(ux.ravel()[:, None] - offsets[None, :]), 0.0, None)  # (Q, 2R+1)
-    ty = np.clip(1.0 - np.abs(uy.ravel()[:, None] - offsets[None, :]), 0.0, None)
-    octant = (tx * w.ravel()[:, None]).T @ ty  # (2R+1, 2R+1): E[tri_x tri_y] over the first octant's headings
+    ux = ((speeds[:, None] * dt / resolution) * np.cos(headings)[None, :]).ravel()
+    uy = ((speeds[:, None] * dt / resolution) * np.sin(headings)[None, :]).ravel()
+    w = np.broadcast_to(s_weights[:, None] / _N_HEADING, (speeds.size, headings.size)).ravel()
+    side = 2 * radius + 1
+    if ux.size * side <= _DENSE_TENT_ENTRIES:
+        octant = _octant_dense(ux, uy, w, radius)
+    else:
+        octant = _octant_sparse(ux, uy, w, radius)
     quadrant = octant + octant.T  # heading pi/2 - h swaps x and y
     moving = quadrant + quadrant[::-1, :] + quadrant[:, ::-1] + quadrant[::-1, ::-1]  # pi - h, -h, pi + h
     kernel = (1.0 - motion.p_stationary) * moving
     kernel[radius, radius] += motion.p_stationary
     return kernel
+
+
+def _octant_dense(
+    ux: NDArray[np.float64], uy: NDArray[np.float64], w: NDArray[np.float64], radius: int
+) -> NDArray[np.float64]:
+    """``E[tri(u_x - di) tri(u_y - dj)]`` over the quadrature points ``(ux, uy)`` (cells) with weights ``w``, shape
+    ``(2R + 1, 2R + 1)``: the tents of every point on every offset, summed by one matrix product (memory: three
+    arrays of ``points x (2R + 1)``)."""
+    offsets = np.arange(-radius, radius + 1, dtype=float)
+    tx = np.clip(1.0 - np.abs(ux[:, None] - offsets[None, :]), 0.0, None)  # (Q, 2R+1)
+    ty = np.clip(1.0 - np.abs(uy[:, None] - offsets[None, :]), 0.0, None)
+    out: NDArray[np.float64] = (tx * w[:, None]).T @ ty
+    return out
+
+
+def _octant_sparse(
+    ux: NDArray[np.float64], uy: NDArray[np.float64], w: NDArray[np.float64], radius: int
+) -> NDArray[np.float64]:
+    """:func:`_octant_dense` from the two offsets each tent covers (``floor(u)`` and ``floor(u) + 1``): the same
+    terms (equal to round-off: the sums run in another order), in memory and time linear in the points."""
+    side = 2 * radius + 1
+    fx, fy = np.floor(ux), np.floor(uy)
+    out = np.zeros(side * side)
+    for ox in (0.0, 1.0):
+        tx = 1.0 - np.abs(ux - (fx + ox))
+        for oy in (0.0, 1.0):
+            ty = 1.0 - np.abs(uy - (fy + oy))
+            index = (fx + ox + radius).astype(np.intp) * side + (fy + oy + radius).astype(np.intp)
+            out += np.bincount(index, weights=tx * w * ty, minlength=side * side)
+    return out.reshape(side, side)
+
+
+def outside_inflow(shape: tuple[int, int], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+    """The mass a linear people prediction brings into each cell from beyond the grid: ``outside * sum_{k outside}
+    T(c <- k)``, shape ``shape`` (the linear prediction of an empty grid whose border reads ``outside``).
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The grid's ``(nx, ny)``.
+    kernel : ndarray, shape (2R + 1, 2R + 1)
+        A people-motion kernel (symmetric under both flips, as :func:`people_motion_kernel`'s).
+    outside : float
+        The belief beyond the border.
+
+    Notes
+    -----
+    A kernel up to about the grid's size (side at most ``2 max(nx, ny) + 1``) is applied by
+    ``scipy.ndimage.convolve``; for a larger one (a step of seconds) scipy takes memory and time in proportion to the
+    kernel's cells times the grid's (850 MB and 2 s for a 10 s step on the paper's grid), so the sum over the taps whose
+    source is inside the grid, a rectangle of the kernel for every cell, is read from the kernel's summed-area table
+    instead (memory of the kernel's size; equal to round-off).
+    """
+    nx, ny = int(shape[0]), int(shape[1])
+    side = kernel.shape[0]
+    if side <= 2 * max(nx, ny) + 1:
+        out: NDArray[np.float64] = ndimage.convolve(np.zeros((nx, ny)), kernel, mode="constant", cval=outside)
+        return out
+    rad = side // 2
+    table = np.zeros((side + 1, side + 1))
+    table[1:, 1:] = np.cumsum(np.cumsum(kernel, axis=0), axis=1)
+    i, j = np.arange(nx)[:, None], np.arange(ny)[None, :]
+    a0, a1 = np.clip(i - nx + 1 + rad, 0, side), np.clip(i + rad + 1, 0, side)  # taps whose source row is inside
+    b0, b1 = np.clip(j - ny + 1 + rad, 0, side), np.clip(j + rad + 1, 0, side)
+    inside = table[a1, b1] - table[a0, b1] - table[a1, b0] + table[a0, b0]
+    return np.clip(outside * (table[-1, -1] - inside), 0.0, None)
 
 
 def predict_people(
@@ -214,12 +301,29 @@ def predict_people(
     if form == "linear":
         if jit.enabled():
             return kernels.convolve_const(np.ascontiguousarray(bel), np.ascontiguousarray(k), outside)
-        out = ndimage.convolve(bel, k, mode="constant", cval=outside)
+        out = _convolve_numpy(bel, k, outside)
         return np.clip(out, 0.0, 1.0, out=out)
     if jit.enabled():
         _check_paper_kernel(k)
         return kernels.predict_paper(np.ascontiguousarray(bel), np.ascontiguousarray(k), outside)
     return _predict_paper(bel, k, outside)
+
+
+def _convolve_numpy(bel: NDArray[np.float64], kernel: NDArray[np.float64], outside: float) -> NDArray[np.float64]:
+    """The linear prediction's sum on the numpy path: ``scipy.ndimage.convolve`` with ``outside`` beyond the border;
+    for a kernel larger than about the grid (whose memory in scipy grows with its cells times the grid's: 1.2 GB for
+    a 10 s step), the taps that reach inside the grid by scipy and the rest as :func:`outside_inflow` (equal to
+    round-off)."""
+    nx, ny = bel.shape
+    side = kernel.shape[0]
+    if side <= 2 * max(nx, ny) + 1:
+        out: NDArray[np.float64] = ndimage.convolve(bel, kernel, mode="constant", cval=outside)
+        return out
+    keep = max(nx, ny) - 1  # larger displacements leave the grid whatever the cell
+    rad = side // 2
+    inner = kernel[rad - keep : rad + keep + 1, rad - keep : rad + keep + 1]
+    inside: NDArray[np.float64] = ndimage.convolve(bel, inner, mode="constant", cval=0.0)
+    return inside + outside_inflow((nx, ny), kernel, outside)
 
 
 def _check_paper_kernel(kernel: NDArray[np.float64]) -> None:

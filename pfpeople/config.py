@@ -61,8 +61,13 @@ table is optional except ``[frames]`` (the driving topic) and at least one ``[[d
     laser_odometry = true       # no odometry topic: move the grid by scan matching the driving laser
     [clutter.params]            # pfpeople.perception.clutter_map.ClutterConfig fields
 
+    [output]
+    frame = ""                  # frame of the people, tracks and markers written (people.csv / tracks.csv extra
+                                #   columns, result bag, pfpeople node): "" = the grid frame; e.g. "odom" (the
+                                #   odometry's frame or any TF frame); the grid stays in the grid frame
+
     [[detectors]]
-    name = "laser-legs"
+    name = "laser_legs"
     kind = "leg"                # "leg" | "boosted" | "single-legs" | "hog" (built-in) | "topic" (in the bag)
     topic = "/scan"             # its input: LaserScan for leg/boosted/single-legs, Image/CompressedImage for hog,
                                 #   PoseArray or any message with a pose / poses field for "topic"
@@ -79,15 +84,15 @@ Angles are radians, lengths metres, times seconds (REP-103 frames).
 
 from __future__ import annotations
 
-import tomllib
+import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from gridbridge.grid import GridSpec
-from gridbridge.limits import check_grid_size, check_memory, check_particles
-from gridbridge.params import DetectorModel, PeopleMotion
+from gridbridge.limits import check_grid_size, check_memory, check_smooth
+from gridbridge.params import DetectorModel, PeopleMotion, current_detector_name
 from gridbridge.validation import check_int, check_number, check_probability, check_real
 
 __all__ = [
@@ -98,12 +103,15 @@ __all__ = [
     "ClutterSuppression",
     "DetectorConfig",
     "FilterConfig",
+    "OutputConfig",
     "TrackingConfig",
     "check_run_limits",
     "config_from_mapping",
     "load_config",
     "run_topics",
 ]
+
+log = logging.getLogger(__name__)
 
 #: Detector kinds: the built-in detectors and detections read from a topic.
 DETECTOR_KINDS = ("leg", "boosted", "single-legs", "learned", "motion", "hog", "topic")
@@ -197,7 +205,7 @@ class FilterConfig:
     n_particles : int or None
         Particle count (particle filter only); None: 5 per cell, at least 5000.
     seed : int
-        Seed of the particle filter's ``numpy.random.Generator``.
+        Seed (>= 0) of the particle filter's ``numpy.random.Generator``.
     motion_model : {"paper", "persistent"} or None
         Particle people-motion sampler (:mod:`pfpeople.particle.propagation`); None: ``"persistent"`` in the recommended
         mode (walkers keep their heading and speed: compact person blobs, README "Recommended particles"),
@@ -246,7 +254,7 @@ class FilterConfig:
             check_probability(check_real(self.initial, "FilterConfig.initial"), "FilterConfig.initial")
         if self.n_particles is not None:
             check_int(self.n_particles, "FilterConfig.n_particles", minimum=1)
-        check_int(self.seed, "FilterConfig.seed")
+        check_int(self.seed, "FilterConfig.seed", minimum=0)  # numpy's generators take non-negative seeds
         if self.motion_model not in (None, "paper", "persistent"):
             raise ValueError(
                 f"FilterConfig.motion_model must be 'paper', 'persistent' or unset, got {self.motion_model!r}"
@@ -287,7 +295,8 @@ class ClassifierConfig:
         (see ``pfpeople.pipeline.assembly.PEAK_KEEP``); equal to ``threshold``: no hysteresis.
     smooth : float
         Peaks: standard deviation (cells) of a Gaussian the belief is smoothed with before its maxima are found
-        (:func:`gridbridge.classifiers.classify_peaks`); 0 (default): none. For the particle filter, whose
+        (:func:`gridbridge.classifiers.classify_peaks`); 0 (default): none; at most
+        :data:`gridbridge.limits.MAX_SMOOTH_CELLS` (10). For the particle filter, whose
         rasterised mass gives a person several separate cells at the bound: with 1.0 its pipeline's precision on
         the scan-level scenes goes from 0.79-0.82 to 0.89-0.96 and the MOTA of its tracks from 0.32-0.35 to
         0.45-0.55, for 0.06-0.07 less recall there and 0.13-0.15 less on the ETH/UCY replays (README,
@@ -310,7 +319,7 @@ class ClassifierConfig:
         if keep is not None and thr is not None and keep > thr:
             raise ValueError(f"ClassifierConfig.keep must be <= threshold, got keep={keep!r} > threshold={thr!r}")
         check_real(self.min_separation, "ClassifierConfig.min_separation", low=0.0, low_open=True)
-        check_real(self.smooth, "ClassifierConfig.smooth", low=0.0)
+        check_smooth(self.smooth, "ClassifierConfig.smooth")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -425,6 +434,27 @@ class TrackingConfig:
 
 
 @dataclass(frozen=True, kw_only=True)
+class OutputConfig:
+    """Where a run's results are given (``[output]``).
+
+    Parameters
+    ----------
+    frame : str
+        The frame of the people, tracks and markers a run writes besides the grid frame's (``people.csv`` and
+        ``tracks.csv`` ``out_*`` columns, the result bag's people, tracks and markers, the node's topics): the
+        odometry's frame (its messages' ``header.frame_id``) or any frame TF connects to the grid frame, e.g.
+        ``"odom"``; ``""``: the grid frame (nothing more is written). The grid stays in the grid frame.
+    """
+
+    frame: str = ""
+
+    def __post_init__(self) -> None:
+        _check_str(self.frame, "OutputConfig.frame", allow_empty=True)
+        if self.frame.startswith("/"):
+            raise ValueError(f"OutputConfig.frame: a TF frame id has no leading '/', got {self.frame!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
 class BagConfig:
     """Everything a bag run needs besides the bag (see the module docstring for the TOML form).
 
@@ -462,6 +492,8 @@ class BagConfig:
         People -> tracks.
     clutter : ClutterSuppression
         Static-clutter suppression of laser detections, laser odometry.
+    output : OutputConfig
+        The frame of the results besides the grid frame.
     """
 
     driver: str
@@ -479,6 +511,7 @@ class BagConfig:
     classifier: ClassifierConfig = field(default_factory=ClassifierConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)
     clutter: ClutterSuppression = field(default_factory=ClutterSuppression)
+    output: OutputConfig = field(default_factory=OutputConfig)
 
     def __post_init__(self) -> None:
         _check_str(self.driver, "BagConfig.driver")
@@ -510,6 +543,8 @@ class BagConfig:
             raise ValueError("BagConfig.tracking must be a TrackingConfig")
         if not isinstance(self.clutter, ClutterSuppression):
             raise ValueError("BagConfig.clutter must be a ClutterSuppression")
+        if not isinstance(self.output, OutputConfig):
+            raise ValueError("BagConfig.output must be an OutputConfig")
         if self.grid is not None:
             check_run_limits(self.grid, self.filter, len(self.detectors))
 
@@ -569,6 +604,8 @@ class BagConfig:
         }
         if self.grid is not None:
             out["grid"] = {f.name: getattr(self.grid, f.name) for f in fields(GridSpec)}
+        if self.output.frame:
+            out["output"] = {"frame": self.output.frame}
         # TOML has no null: unset options are left out (they mean "the mode's default")
         out["filter"] = {k: v for k, v in out["filter"].items() if v is not None}
         out["classifier"] = {k: v for k, v in out["classifier"].items() if v is not None}
@@ -576,7 +613,10 @@ class BagConfig:
 
 
 def check_run_limits(g: GridSpec, filt: FilterConfig, n_detectors: int) -> None:
-    """Resource limits before anything is allocated (:mod:`gridbridge.limits`): cells, prediction work, memory."""
+    """Resource limits before anything is allocated (:mod:`gridbridge.limits`, :mod:`pfpeople.particle.limits`): cells,
+    prediction work, particles, memory."""
+    from pfpeople.particle.limits import check_particles
+
     check_grid_size(g.nx, g.ny, g.resolution, v_max=PeopleMotion().v_max, dt=0.1, where="BagConfig.grid")
     if filt.kind == "particle":
         check_particles(
@@ -611,13 +651,15 @@ def _mount(key: str, value: object) -> tuple[float, float, float]:
     return x, y, yaw
 
 
-def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
-    """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring)."""
-    _only(
-        data,
-        {"frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter", "detectors"},
-        "top level",
-    )
+#: The tables of a run configuration.
+_TABLES = frozenset(("frames", "odometry", "tf", "mounts", "grid", "filter", "classifier", "tracking", "clutter"))
+_TABLES |= {"output", "detectors"}
+
+
+def config_from_mapping(data: Mapping[str, Any], *, source: str = "config") -> BagConfig:
+    """Build a :class:`BagConfig` from a parsed TOML document (see the module docstring); ``source`` names it in
+    the warning about detector names of earlier versions (:func:`gridbridge.params.current_detector_name`)."""
+    _only(data, set(_TABLES), "top level")
     frames = _table(data, "frames")
     _only(
         frames,
@@ -643,15 +685,27 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
     _only(tracking, {f.name for f in fields(TrackingConfig)}, "tracking")
     clutter = _table(data, "clutter")
     _only(clutter, {"enabled", "laser_odometry", "params"}, "clutter")
+    output = _table(data, "output")
+    _only(output, {"frame"}, "output")
     dets = data.get("detectors", [])
     if not isinstance(dets, list):
         raise ValueError("config: detectors must be an array of tables ([[detectors]])")
     detectors = []
+    renamed: dict[str, str] = {}
     for k, d in enumerate(dets):
         if not isinstance(d, Mapping):
             raise ValueError(f"config: detectors[{k}] must be a table")
         _only(d, {f.name for f in fields(DetectorConfig)}, f"detectors[{k}]")
-        detectors.append(DetectorConfig(**d))
+        detectors.append(DetectorConfig(**_current_name(d, renamed)))
+    if renamed:
+        pairs = [f"{old!r} as {new!r}" for old, new in renamed.items()]
+        log.warning(
+            "%s: %d detector name(s) are pfpeople's former default names, which are not valid ROS names: read with "
+            "today's (%s); rename them in the config to silence this",
+            source,
+            len(pairs),
+            ", ".join(pairs[:3] + (["..."] if len(pairs) > 3 else [])),
+        )
     mounts = {str(k): _mount(k, v) for k, v in _table(data, "mounts").items()}
     return BagConfig(
         **frames,
@@ -664,21 +718,36 @@ def config_from_mapping(data: Mapping[str, Any]) -> BagConfig:
         classifier=ClassifierConfig(**classifier),
         tracking=TrackingConfig(**tracking),
         clutter=ClutterSuppression(**clutter),
+        output=OutputConfig(**output),
     )
 
 
+def _current_name(table: Mapping[str, Any], renamed: dict[str, str]) -> dict[str, Any]:
+    """A ``[[detectors]]`` table with an old default name (``laser-legs``, ``laser-boosted:rear_scan``) as today's
+    (:func:`gridbridge.params.current_detector_name`), its ``[detectors.model] name`` too; ``renamed`` gets
+    ``old -> new``."""
+    out = dict(table)
+    name = out.get("name")
+    new = current_detector_name(name) if isinstance(name, str) else name
+    if new == name:
+        return out
+    renamed[str(name)] = str(new)
+    out["name"] = new
+    model = out.get("model")
+    if isinstance(model, Mapping) and model.get("name") == name:
+        out["model"] = {**model, "name": new}
+    return out
+
+
 def load_config(path: str | Path) -> BagConfig:
-    """Read a TOML run configuration; errors name the file."""
+    """Read a TOML run configuration; errors name the file (:func:`pfpeople.io.tomlio.load_toml`: not UTF-8, not
+    TOML, nested too deeply; then the setting at fault)."""
+    from pfpeople.io.tomlio import load_toml
+
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"config file {str(path)!r} does not exist")
+    data = load_toml(path, "config file")
     try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"config file {str(path)!r} is not valid TOML: {exc}") from None
-    try:
-        return config_from_mapping(data)
+        return config_from_mapping(data, source=f"config file {str(path)!r}")
     except (ValueError, TypeError) as exc:
         raise ValueError(f"config file {str(path)!r}: {exc}") from None
 

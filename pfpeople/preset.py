@@ -129,8 +129,8 @@ def recommended(
         The grid (default: 30 x 30 cells of 0.3 m, the sensor at the middle of the x = 0 edge).
     detectors : sequence of DetectorModel, optional
         The detectors, in the order of :meth:`Recommended.step`'s detections (default: the built-in laser
-        detectors with their measured PPV / FNR, :data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`: laser-legs,
-        laser-boosted, laser-single-legs).
+        detectors with their measured PPV / FNR, :data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`: laser_legs,
+        laser_boosted, laser_single_legs).
     kind : {"grid", "particle"}
         The grid filter or the particle filter.
     seed : int

@@ -1,9 +1,9 @@
 """What the parts of a bag run share: one processed frame, the run's counts, and warn-once logging.
 
 :class:`FrameResult` is what :class:`pfpeople.pipeline.runner.Pipeline` yields per frame and what every sink
-(:mod:`pfpeople.io.sinks`) writes; :class:`RunSummary` collects the counts that the detector adapters
+(:mod:`pfpeople.pipeline.sinks`) writes; :class:`RunSummary` collects the counts that the detector adapters
 (:mod:`pfpeople.detect.adapters`), the odometry integrator (:mod:`pfpeople.perception.odometry`) and the clutter stage
-(:mod:`pfpeople.perception.clutter_stage`) add to during a run (written to ``run.json`` as ``stats``); :class:`WarnOnce`
+(:mod:`pfpeople.pipeline.clutter_stage`) add to during a run (written to ``run.json`` as ``stats``); :class:`WarnOnce`
 logs a condition the first time it happens in a run (the count says how often).
 """
 
@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.ego_motion import Odometry
+from gridbridge.geometry import Pose2D
 from pfpeople.io.bag.sync import Frame
 
 __all__ = ["EGO_SOURCES", "FrameResult", "RunSummary", "WarnOnce", "count"]
@@ -58,6 +59,9 @@ class FrameResult:
     scans : dict of str to (ndarray (N, 2), ndarray (N,) of bool or None)
         Per laser topic, its scan's valid end points (m, grid frame) and which of them lie in a cell its
         static-clutter map calls static (None: the topic has no map); empty when the run has no laser.
+    output_pose : Pose2D or None
+        With ``[output] frame``, the grid frame's pose in the output frame at the frame's stamp (None: no output
+        frame, or unknown there; :mod:`pfpeople.pipeline.output_frame`).
     """
 
     frame: Frame
@@ -74,6 +78,7 @@ class FrameResult:
     support: list[NDArray[np.float64] | None] | None = None
     support_static: list[NDArray[np.bool_] | None] | None = None
     scans: dict[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]] = field(default_factory=dict)
+    output_pose: Pose2D | None = None
 
 
 #: The keys of :attr:`RunSummary.ego_motion`: where a frame's ego-motion came from.
@@ -112,7 +117,10 @@ class RunSummary:
     :class:`pfpeople.io.bag.tf.MountWatch`). The run follows them (:mod:`pfpeople.pipeline.mounts`): ``mounts_followed``
     counts, per detector, the frames placed with a mount other than the one read before the run;
     ``frame_id_changes`` the messages in a frame other than the detector's first one (each placed by its own
-    frame's mount), ``frame_id_unplaced`` those of them TF does not place (no data).
+    frame's mount), ``frame_id_unplaced`` those of them TF does not place (no data). ``bad_transforms`` counts, per
+    TF edge, the transforms read during the run that were broken (NaN, a zero quaternion) and left out.
+    ``fov_narrowed`` counts, per detector, the frames whose scan covered less than its field of view (the cells
+    outside what it covered got no update: :mod:`pfpeople.pipeline.views`).
 
     ``suppressed`` counts, per detector, the detections the static-clutter map called static; ``readmitted`` those
     of them the filter saw all the same, at the place a tracked person stopped
@@ -124,6 +132,9 @@ class RunSummary:
     ``blas_threads`` is the most threads a BLAS library of the run's process would use while the frames ran
     (:mod:`pfpeople.pipeline.blas`: 1 by default; 0: no BLAS library found), ``front_blas_threads`` the same in the
     front end's process (:mod:`pfpeople.pipeline.front_end`; the run's own process when there is one).
+
+    ``output_unplaced`` (only with ``[output] frame``; None otherwise, and then not in ``run.json``) counts the
+    frames whose results could not be placed in the output frame (:mod:`pfpeople.pipeline.output_frame`).
     """
 
     frames: int = 0
@@ -140,6 +151,8 @@ class RunSummary:
     mounts_followed: dict[str, int] = field(default_factory=dict)
     frame_id_changes: dict[str, int] = field(default_factory=dict)
     frame_id_unplaced: dict[str, int] = field(default_factory=dict)
+    bad_transforms: dict[str, int] = field(default_factory=dict)
+    fov_narrowed: dict[str, int] = field(default_factory=dict)
     max_lateral_m: float = 0.0
     suppressed: dict[str, int] = field(default_factory=dict)
     readmitted: dict[str, int] = field(default_factory=dict)
@@ -150,6 +163,7 @@ class RunSummary:
     blas_threads: int = 0
     front_blas_threads: int = 0
     error: str | None = None
+    output_unplaced: int | None = None
 
     @property
     def fps(self) -> float:
@@ -157,6 +171,8 @@ class RunSummary:
 
     def as_dict(self) -> dict[str, Any]:
         out = dataclasses.asdict(self)
+        if self.output_unplaced is None:
+            del out["output_unplaced"]
         out["fps"] = self.fps
         return out
 

@@ -1,5 +1,6 @@
 """Bags the tests write: a moving robot with people and odometry (``write_bag``), a laser in a room with two
-standing people (``write_scan_bag``), and sync-test messages; with the configurations that read them."""
+standing people (``write_scan_bag``), a robot with three lasers (``write_lasers_bag``), and sync-test messages; with
+the configurations that read them."""
 
 from __future__ import annotations
 
@@ -65,17 +66,20 @@ def write_scan_bag(
     tf_mount: Any = None,
     frame_of: Any = None,
     static_mounts: dict[str, Pose2D] | None = None,
+    angle_increment: float = INC,
+    beams_of: Any = None,
 ) -> None:
-    """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``.
+    """A ROS1 bag of ``n`` identical scans at 10 Hz (the people of ``PEOPLE``) on ``/scan``, ``angle_increment`` apart.
 
     ``reverse``: the same beams listed clockwise (negative ``angle_increment``): the same points. Topics
     after the first get a connection and no message. ``tf_mount(k) -> Pose2D``: the pose of ``laser`` in
     ``base_link`` published on ``/tf`` with each scan ``k``. ``frame_of(k)``: scan ``k``'s frame_id (default
-    ``laser``); ``static_mounts``: frame -> its pose in ``base_link`` on ``/tf_static``.
+    ``laser``); ``static_mounts``: frame -> its pose in ``base_link`` on ``/tf_static``. ``beams_of(k)``: the slice of
+    the beams scan ``k`` keeps (a narrower scan with consistent angles; default all).
     """
     ts = typestore(False)
     m = Msgs(ts, False)
-    scan = render_scan(circles=legs(PEOPLE), angle_increment=INC)
+    scan = render_scan(circles=legs(PEOPLE), angle_increment=angle_increment)
     ranges = np.asarray(scan.ranges, dtype=np.float32)
     a0, inc = scan.angle_min, scan.angle_increment
     if reverse:
@@ -96,16 +100,17 @@ def write_scan_bag(
         if tf_conn is not None:
             tf = m.tf(stamp, "base_link", "laser", tf_mount(k))
             w.write(tf_conn, stamp + 1_000_000, ts.serialize_ros1(tf, "tf2_msgs/msg/TFMessage"))
+        keep = np.arange(ranges.size)[beams_of(k) if beams_of is not None else slice(None)]
         msg = T["sensor_msgs/msg/LaserScan"](
             header=m.header(stamp, "laser" if frame_of is None else frame_of(k)),
-            angle_min=a0,
-            angle_max=a0 + inc * (ranges.size - 1),
+            angle_min=a0 + inc * keep[0],
+            angle_max=a0 + inc * keep[-1],
             angle_increment=inc,
             time_increment=0.0,
             scan_time=0.1,
             range_min=range_min,
             range_max=range_max,
-            ranges=ranges,
+            ranges=np.ascontiguousarray(ranges[keep]),
             intensities=np.zeros(0, dtype=np.float32),
         )
         w.write(conn, stamp + 3_000_000, ts.serialize_ros1(msg, "sensor_msgs/msg/LaserScan"))
@@ -349,6 +354,53 @@ def config(*, ros2: bool = False, odometry: bool = True, **changes: Any) -> BagC
     cfg = BagConfig(
         driver="/scan",
         odometry="/odom" if odometry else "",
-        detectors=(DetectorConfig(name="laser-legs", kind="leg", topic="/scan"), people),
+        detectors=(DetectorConfig(name="laser_legs", kind="leg", topic="/scan"), people),
     )
     return replace(cfg, **changes)
+
+
+#: topic -> (frame, mount in base_link, stamp offset from the front laser's in ns)
+LASERS: dict[str, tuple[str, Pose2D, int]] = {
+    "/front_scan": ("front_laser", Pose2D(x=0.3, y=0.0, yaw=0.0), 0),
+    "/rear_scan": ("rear_laser", Pose2D(x=-0.3, y=0.0, yaw=math.pi), 10_000_000),
+    "/side_scan": ("side_laser", Pose2D(x=0.0, y=0.2, yaw=math.pi / 2), 30_000_000),
+}
+PEOPLE_BASE = np.array([[2.5, 0.3], [-2.5, -0.4], [0.8, 2.5]])
+
+
+def write_lasers_bag(path: Path, *, n_scans: int = 8, tf_for: tuple[str, ...] = tuple(LASERS)) -> None:
+    """A ROS 1 bag of a standing robot with three lasers (no odometry): ``n_scans`` scans at 10 Hz on each of
+    :data:`LASERS`, 361 beams of 0.5 deg over 180 deg, each in its own frame: /front_scan (front_laser at 0.3 m,
+    0, yaw 0), /rear_scan (rear_laser at -0.3 m, 0, yaw 180 deg; stamps 10 ms after the front's) and /side_scan
+    (side_laser at 0, 0.2 m, yaw 90 deg; 30 ms after); each message recorded 3 ms after its stamp. Three people
+    stand around the robot (:data:`PEOPLE_BASE`, base_link): in front (2.5 m, 0.3 m), behind (-2.5 m, -0.4 m:
+    only the rear laser sees them) and on its left (0.8 m, 2.5 m). /tf_static gives the mounts (in base_link)
+    of the lasers in ``tf_for`` only."""
+    ts = typestore(False)
+    m = Msgs(ts, False)
+    items: list[tuple[int, str, str, Any]] = []
+    for topic in tf_for:
+        frame, mount, _ = LASERS[topic]
+        items.append(
+            (T0_NS - 200_000_000, "/tf_static", "tf2_msgs/msg/TFMessage", m.tf(T0_NS, "base_link", frame, mount))
+        )
+    inc = math.radians(0.5)
+    for topic, (frame, mount, offset) in LASERS.items():
+        circles = []
+        for x, y in mount.inverse().apply(PEOPLE_BASE):
+            b = math.atan2(y, x)
+            px, py = -math.sin(b) * 0.15, math.cos(b) * 0.15
+            circles += [(x + px, y + py, 0.06), (x - px, y - py, 0.06)]
+        ranges = render_scan(circles=circles, angle_increment=inc).ranges
+        for k in range(n_scans):
+            stamp = T0_NS + k * 100_000_000 + offset
+            msg = m.scan(stamp, ranges, -math.pi / 2, inc)
+            msg = replace(msg, header=m.header(stamp, frame))
+            items.append((stamp + 3_000_000, topic, "sensor_msgs/msg/LaserScan", msg))
+    items.sort(key=lambda it: it[0])
+    with Writer1(path) as w:
+        conns: dict[str, Any] = {}
+        for t_ns, topic, msgtype, msg in items:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, msgtype, typestore=ts)
+            w.write(conns[topic], t_ns, ts.serialize_ros1(msg, msgtype))

@@ -26,6 +26,6 @@ def test_notebook_executes(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
         assert "ms/" in text or " ms" in text
         assert any("image/png" in o.get("data", {}) for o in outputs)
     else:
-        assert "Detector laser-legs" in text and "grid (paper) + blobs" in text
+        assert "Detector laser_legs" in text and "grid (paper) + blobs" in text
         assert any("image/png" in o.get("data", {}) for o in outputs)
     assert "quick sizes: True" in text  # the kernel ran the small sizes (the variable reached it)

@@ -6,6 +6,7 @@ import contextlib
 import io
 import json
 import re
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +41,8 @@ def test_readme_has_the_library_examples() -> None:
 
 
 @pytest.mark.parametrize("index", range(len(BLOCKS)))
-def test_every_python_block_runs_and_prints(index: int) -> None:
+def test_every_python_block_runs_and_prints(index: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # a block's temporary files go under tmp_path
     _, printed = _run(BLOCKS[index])
     assert printed.strip(), f"README python block {index + 1} prints nothing"
 
@@ -112,3 +114,9 @@ def test_the_three_commands_run_as_written_on_a_simulated_bag(tmp_path: Path, mo
     run = tmp_path / "runs" / "my"
     assert json.loads((run / "run.json").read_text())["frames"] == 8
     assert (run / "view.mp4").stat().st_size > 0 and (run / "summary.png").stat().st_size > 0
+
+
+def test_readme_names_every_notebook() -> None:
+    notebooks = sorted(p.name for p in (Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
+    assert notebooks and all(f"notebooks/{name}" in README or f"`{name}`" in README for name in notebooks)
+    assert "## Notebooks" in README

@@ -38,7 +38,7 @@ from pfpeople.detect.synthetic import render_scan
 __all__ = ["SYNTHETIC_CONFIG", "main", "write_synthetic_bag"]
 
 #: The run configuration of the synthetic bags: frames driven by /scan, one leg detector, no odometry.
-SYNTHETIC_CONFIG = BagConfig(driver="/scan", detectors=(DetectorConfig(name="laser-legs", kind="leg", topic="/scan"),))
+SYNTHETIC_CONFIG = BagConfig(driver="/scan", detectors=(DetectorConfig(name="laser_legs", kind="leg", topic="/scan"),))
 
 _T0_NS = 1_000 * 1_000_000_000
 

@@ -6,7 +6,7 @@ as the targets of issue 26 are stated: 1e5 particles <= 3 ms/step, 1e6 <= 25 ms/
 Stone Soup's bootstrap particle step, on the paper's 30 x 30 grid).
 
 Scenario (fixed): the paper's grid and detectors; the robot drives at 0.5 m/s turning at 0.2 rad/s with the
-default odometry noise; every frame the three detectors fire (laser-legs twice, laser-boosted twice, camera
+default odometry noise; every frame the three detectors fire (laser_legs twice, laser_boosted twice, camera
 once) at fixed positions; dt = 0.1 s. Each configuration runs ``--warmup`` steps, then ``--repeats`` timed
 steps; the table gives the median ms per step.
 
@@ -106,16 +106,17 @@ def _has_components() -> bool:
     install of this checkout would supply the module to a release's worker)."""
     import pfpeople
 
-    return (Path(pfpeople.__file__ or "").parent / "particle" / "components.py").is_file()
+    particle = Path(pfpeople.__file__ or "").parent / "particle"
+    return (particle / "components.py").is_file() or (particle / "resampler" / "policy.py").is_file()
 
 
 def _particle_filter(n: int, **resampling: Any) -> ParticleFilter:
     """The benchmark's particle filter with ``n`` particles, resampling as ``resampling`` says (``ess_threshold``,
     ``resampler``: a scheme name or callable): through the components of this checkout
-    (:class:`pfpeople.particle.components.Resampling`) or, in a release without them, the constructor's keywords."""
+    (:class:`pfpeople.Resampling`) or, in a release without them, the constructor's keywords."""
     if not _has_components():
         return ParticleFilter(n_particles=n, rng=np.random.default_rng(2015), **resampling)  # a release's keywords
-    from pfpeople.particle.components import Resampling
+    from pfpeople import Resampling
 
     policy = Resampling(
         scheme=resampling.pop("resampler", "systematic"), ess_threshold=resampling.pop("ess_threshold", 0.5)

@@ -149,8 +149,8 @@ def _worker_config(args: argparse.Namespace) -> Any:
 
 
 def _motion_model(filt: Any) -> str | None:
-    """The people-motion model of a particle filter by its configuration name (None for the grid filter): its
-    sampler's ``name`` (:mod:`pfpeople.particle.components`), or the ``motion_model`` of a release without
+    """The people-motion model of a particle filter by its configuration name (None for the grid filter): its sampler's
+    ``name`` (:data:`pfpeople.particle.predictor.PEOPLE_SAMPLERS`), or the ``motion_model`` of a release without
     components."""
     people = getattr(filt, "people_motion", None)
     if people is not None:

@@ -50,8 +50,8 @@ from numpy.typing import NDArray  # noqa: E402
 
 from gridbridge import GridFilter, GridSpec, Odometry  # noqa: E402
 from gridbridge.params import PAPER_DETECTORS  # noqa: E402
-from pfpeople.particle.components import PersistentSampling  # noqa: E402
 from pfpeople.particle.filter import ParticleFilter  # noqa: E402
+from pfpeople.particle.predictor import PersistentSampling  # noqa: E402
 
 __all__ = ["SoakResult", "main", "soak", "soak_modes"]
 

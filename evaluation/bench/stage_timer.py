@@ -30,7 +30,10 @@ _clock = time.thread_time
 #: names are nested in the one above them.
 STAGES: tuple[tuple[str, tuple[str, ...], str, bool], ...] = (
     ("reading", ("pfpeople.pipeline.runner", "pfpeople.pipeline"), "Pipeline._messages", True),
-    ("detectors", ("pfpeople.pipeline.runner", "pfpeople.pipeline"), "Pipeline._detect", False),
+    ("ego-motion", ("pfpeople.pipeline.ego_stage",), "EgoMotionStage.begin", False),
+    ("  scan matching", ("pfpeople.perception.scan_matching", "pfpeople.scanmatch"), "ScanOdometry.update", False),
+    ("detectors", ("pfpeople.pipeline.detection",), "DetectionStage.detect", False),
+    ("detectors ", ("pfpeople.pipeline.runner", "pfpeople.pipeline"), "Pipeline._detect", False),
     ("  decoding", ("pfpeople.detect.adapters", "pfpeople.adapters"), "laser_from_msg", False),
     (
         "  segmentation",
@@ -41,8 +44,12 @@ STAGES: tuple[tuple[str, tuple[str, ...], str, bool], ...] = (
     ("  features", ("pfpeople.detect.segments", "pfpeople.detectors.segments"), "segment_features", False),
     ("  leg classifier", ("pfpeople.detect.legs", "pfpeople.detectors.legs"), "LegDetector.leg_mask", False),
     ("  boosted classifier", ("pfpeople.detect.boosted", "pfpeople.detectors.boosted"), "boost_scores", False),
-    ("clutter", ("pfpeople.perception.clutter_stage", "pfpeople.suppression"), "ClutterStage.step", False),
-    ("  scan matching", ("pfpeople.perception.scan_matching", "pfpeople.scanmatch"), "ScanOdometry.update", False),
+    (
+        "clutter",
+        ("pfpeople.pipeline.clutter_stage", "pfpeople.perception.clutter_stage", "pfpeople.suppression"),
+        "ClutterStage.step",
+        False,
+    ),
     ("  map update", ("pfpeople.perception.clutter_map", "pfpeople.clutter"), "StaticClutterMap.update", False),
     (
         "  clutter queries",
@@ -53,9 +60,14 @@ STAGES: tuple[tuple[str, tuple[str, ...], str, bool], ...] = (
     ("  moving people", ("pfpeople.perception.clutter_map", "pfpeople.clutter"), "MovingPeople.update", False),
     ("filter", ("gridbridge.filter",), "GridFilter.step", False),
     ("filter ", ("pfpeople.particle.filter", "pfpeople.particle_filter"), "ParticleFilter.step", False),
-    ("classification", ("pfpeople.pipeline.runner", "pfpeople.pipeline"), "classify_frame", False),
+    (
+        "classification",
+        ("pfpeople.pipeline.back", "pfpeople.pipeline.runner", "pfpeople.pipeline"),
+        "classify_frame",
+        False,
+    ),
     ("tracking", ("pfpeople.track.reported_people", "pfpeople.mot.people"), "PeopleTracker.step", False),
-    ("writing", ("pfpeople.io.sinks", "pfpeople.sinks"), "RunDirSink.write", False),
+    ("writing", ("pfpeople.pipeline.sinks", "pfpeople.io.sinks", "pfpeople.sinks"), "RunDirSink.write", False),
 )
 
 

@@ -37,7 +37,7 @@ from evaluation.harness.calibration import (
 from evaluation.harness.run_truth import truth_and_sources
 from evaluation.scenarios import Scenario
 from gridbridge.grid import GridSpec
-from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from gridbridge.params import PAPER_DETECTORS, DetectorModel, current_detector_name
 from pfpeople.cli.support import examples
 from pfpeople.io.ground_truth import read_gt_csv
 from pfpeople.io.jsonio import dumps
@@ -65,8 +65,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--detections", type=Path, help="detections CSV (frame, x_m, y_m) for --truth")
     p.add_argument(
         "--detector",
-        default="laser-legs",
-        help="paper detector whose field of view applies to --detections (default laser-legs)",
+        default="laser_legs",
+        help="paper detector whose field of view applies to --detections (default laser_legs)",
     )
     p.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     p.add_argument("--frames", type=int, default=None, help="override the scenario's number of frames")
@@ -234,9 +234,10 @@ def run(args: argparse.Namespace) -> int:
         if args.detections is None:
             raise ValueError("--truth needs --detections")
         by_name = {m.name: m for m in PAPER_DETECTORS}
-        if args.detector not in by_name:
+        detector = current_detector_name(args.detector)  # the old "laser-legs" reads as "laser_legs"
+        if detector not in by_name:
             raise ValueError(f"--detector must be one of {sorted(by_name)}, got {args.detector!r}")
-        model = by_name[args.detector]
+        model = by_name[detector]
         truth = _read_csv(args.truth, "truth")
         dets = _read_csv(args.detections, "detections")
         if not truth and not dets:

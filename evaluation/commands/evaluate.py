@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from evaluation.harness.ab import FilterSpec, default_filters, format_table, particles_label, run_ab
+from evaluation.harness.ab import FilterSpec, default_filters, format_table, particles_label, run_ab, table_key
 from evaluation.scenarios.scenario import Scenario, builtin_scenarios
 from pfpeople.cli.support import examples
 
@@ -74,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
     )
     print(format_table(result))
+    print()
+    print(table_key(args.gate))
     print()
     for r in result.filters:
         t = r.tracking

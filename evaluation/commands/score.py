@@ -19,9 +19,15 @@ given, must agree (else an error naming both). For plain ``x``, ``y`` columns: `
 the GT is in the run's grid frame; ``--frame laser`` means the frame of the driving sensor; any other name must
 be one the run recorded (``frames_in_grid`` in ``run.json``).
 
-Coverage: the score says how many GT frames had no run frame (``gt_frames_without_run_frame``) and how many
-lie after the run's last frame (``gt_frames_beyond_run``: a run stopped early or a ``frames.csv`` cut short);
-the latter are also logged as a warning.
+Matching: GT rows keyed by ``stamp_ns`` go to the nearest run frame within half the run's median frame period,
+rows keyed by ``bag_time_ns`` (a record time) to the latest frame recorded at most one period before them
+(:func:`pfpeople.io.ground_truth.match_window_ns`; ``gt_match_window_s`` in the result).
+
+Coverage: the score says how many GT rows fell on no run frame (``gt_rows_unassigned``: before the run's first
+frame, between frames further apart than the window, after its last frame, each counted), how many GT frames had
+no run frame (``gt_frames_without_run_frame``) and how many lie after the run's last frame
+(``gt_frames_beyond_run``: a run stopped early or a ``frames.csv`` cut short); every such row is also logged as a
+warning: none is dropped silently.
 
 Stamps: a GT keyed by ``scan_index`` that also has ``stamp_ns`` (or ``bag_time_ns``) is checked against the
 run's frames (:func:`evaluation.harness.run_truth.check_gt_stamps`): more than 10 % of the matched rows disagreeing (a
@@ -76,7 +82,7 @@ def score_run(
     gate: float = 0.5,
     recall_only: bool = False,
     person_radius: float = 0.3,
-    tolerance_ns: int = 50_000_000,
+    tolerance_ns: int | None = None,
     in_grid: bool = False,
 ) -> dict[str, Any]:
     """Score every detector and the filter of ``run`` against ``gt`` (see the module docstring).
@@ -85,8 +91,8 @@ def score_run(
     -------
     dict
         ``{"frames": F, "gt_rows": R, "gt_rows_unassigned": U, "gt_frames": G, "gt_frames_without_run_frame": M,
-        "gt_frames_beyond_run": B, "gt_rows_beyond_run": RB, "gt_rows_stamp_mismatch": S, "gt_frame": name,
-        "scores": {name: summary}}``
+        "gt_frames_beyond_run": B, "gt_rows_beyond_run": RB, "gt_rows_before_run": RA, "gt_rows_between_frames": RG,
+        "gt_match_window_s": W, "gt_rows_stamp_mismatch": S, "gt_frame": name, "scores": {name: summary}}``
         (see :func:`evaluation.harness.run_truth.gt_coverage`) where ``name`` is each detector and ``"filter"``; a
         summary has frames, tp, fp, fn, recall, mean_match_distance_m and (unless ``recall_only``) precision
         and, for the filter, fpcpf.
@@ -154,8 +160,16 @@ def _score(args: argparse.Namespace) -> int:
     status = run.meta.get("status")
     print(
         f"run {args.run_dir} ({status}, {result['frames']} frames) vs {args.gt} ({result['gt_rows']} GT rows, "
-        f"{result['gt_rows_unassigned']} outside the run's frames; GT frame {result['gt_frame']!r})"
+        f"{result['gt_rows_unassigned']} on no run frame; GT frame {result['gt_frame']!r})"
     )
+    if result["gt_rows_unassigned"]:
+        window = result["gt_match_window_s"]
+        print(
+            f"GT rows on no run frame: {result['gt_rows_before_run']} before its first frame, "
+            f"{result['gt_rows_between_frames']} between frames"
+            + (f" (further than {window:.3f} s)" if window else "")
+            + f", {result['gt_rows_beyond_run']} after its last frame"
+        )
     print(
         f"GT frames: {result['gt_frames']}, of which {result['gt_frames_without_run_frame']} had no run frame"
         + (

@@ -52,6 +52,7 @@ __all__ = [
     "format_table",
     "particles_label",
     "run_ab",
+    "table_key",
 ]
 
 
@@ -109,8 +110,8 @@ class FilterSpec:
             return build_filter(cfg, spec, detectors)
         if self.kind == "grid":
             return GridFilter(spec, detectors=detectors, form=self.form)
-        from pfpeople.particle.components import PEOPLE_SAMPLERS
         from pfpeople.particle.filter import ParticleFilter
+        from pfpeople.particle.predictor import PEOPLE_SAMPLERS
 
         return ParticleFilter(
             spec,
@@ -464,6 +465,22 @@ def write_record(
     }
     path.write_text(dumps(record) + "\n")
     return path
+
+
+def table_key(gate: float = 0.5) -> str:
+    """What the rows and columns of :func:`format_table` are, for printing under it (``gate``: the matching
+    distance, m)."""
+    return "\n".join(
+        [
+            "Rows: 'Detector X' is one detector alone; 'F + blobs' the filter F with the paper's blob classification,",
+            "'F + threshold' with connected cells above 0.5 instead.",
+            "Recall: true people found / true people in the grid; Precision: found people that are true (matched one",
+            f"to one within {gate:g} m). FPCPF: false-positive cells per frame (cells classified as a person where",
+            "nobody is). Brier, LogLoss (lower is better) and AUC (higher is better) score the belief grid against",
+            "the true occupancy. ms/iter: median time of one filter step. tracked: the fraction of frames in which",
+            "the paper's tracking application holds the person it started on, while that person is in the grid.",
+        ]
+    )
 
 
 def format_table(result: ABResult) -> str:

@@ -90,8 +90,8 @@ _TABLE1 = {m.name: m for m in PAPER_DETECTORS}
 class Mode:
     """One filter + classifier row of the table.
 
-    The paper's modes use the paper's Table 1 PPV / FNR for the detectors it names (laser-legs, laser-boosted,
-    camera-hog): its update needs FNR < 0.5 (a detector with FNR >= 0.5 makes every non-detection raise the
+    The paper's modes use the paper's Table 1 PPV / FNR for the detectors it names (laser_legs, laser_boosted,
+    camera_hog): its update needs FNR < 0.5 (a detector with FNR >= 0.5 makes every non-detection raise the
     belief, so every cell would drift to 1 with the measured FNR of our laser detectors, 0.60 / 0.55).
     """
 
@@ -211,7 +211,7 @@ _SEEN: dict[int, ReplayLog] = {}
 
 def _paper_detectors(log: ReplayLog) -> ReplayLog:
     """The log with only the detectors the paper's Table 1 names (its modes are the paper's three-detector
-    setup: a detector it has no PPV / FNR for, e.g. ``laser-single-legs`` with FNR >= 0.5, would make every
+    setup: a detector it has no PPV / FNR for, e.g. ``laser_single_legs`` with FNR >= 0.5, would make every
     non-detection raise the belief in its update)."""
     keep = [k for k, m in enumerate(log.models) if m.name in _TABLE1]
     if len(keep) == len(log.models):
@@ -498,7 +498,7 @@ def mot_rows(
         from evaluation.scenarios.scenario import Scenario
 
         return evaluate_log(log_from_scenario(Scenario.from_name(scene, n_frames=frames)), gate=gate, particle=particle)
-    srcs = ["tracks", "laser-legs", "laser-boosted", "all detectors merged"]
+    srcs = ["tracks", "laser_legs", "laser_boosted", "all detectors merged"]
     if scene.startswith("scan:"):
         name = scene.split(":", 1)[1]
         bag, cfg = work / name / f"{name}.bag", load_config(work / name / f"{name}_starter.toml")  # as scene_logs

@@ -369,7 +369,7 @@ def _run_egos(run: RunData) -> tuple[list[float], list[Pose2D | None]]:
 
 
 def _gt_frames(
-    run: RunData, gt: GroundTruth, frame: str, tolerance_ns: int
+    run: RunData, gt: GroundTruth, frame: str, tolerance_ns: int | None
 ) -> list[tuple[NDArray[np.int64], Positions]]:
     fr = run.frames
     rows_frame, _ = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
@@ -396,7 +396,7 @@ def evaluate_run(
     sector: tuple[float, float] | None = None,
     max_range: float | None = None,
     follow_id: int | None = None,
-    tolerance_ns: int = 50_000_000,
+    tolerance_ns: int | None = None,
     sources: Sequence[str] | None = None,
     classify: Classifier | None = peak_classifier,
     classifier_name: str = "peaks",
@@ -563,7 +563,7 @@ def read_tracks_csv(path: str | Path, n_frames: int) -> HypFrames:
     ]
 
 
-def _gt_hit_beams(run: RunData, gt: GroundTruth, tolerance_ns: int) -> list[dict[int, int]]:
+def _gt_hit_beams(run: RunData, gt: GroundTruth, tolerance_ns: int | None) -> list[dict[int, int]]:
     """Per run frame, ``{person id: hit_beams}`` from the GT CSV's ``hit_beams`` column (rows as ``gt``)."""
     with gt.path.open(newline="", encoding="utf-8-sig") as fh:
         reader = csv.DictReader(fh)

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge import GridFilter, Odometry, SensorMotionNoise
-from pfpeople.particle.components import PaperSampling, VelocityEgoSampling
 from pfpeople.particle.filter import ParticleFilter
+from pfpeople.particle.predictor import PaperSampling, VelocityEgoSampling
 
 DETECTIONS = [np.array([[3.0, 0.5], [5.0, -1.0]]), np.array([[3.1, 0.4], [6.0, 2.0]]), np.array([[4.0, 0.0]])]
 FRAMES = 5

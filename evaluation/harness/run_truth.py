@@ -36,6 +36,7 @@ __all__ = [
     "gt_coverage",
     "gt_to_grid",
     "in_region",
+    "lost_rows",
     "truth_and_sources",
 ]
 
@@ -95,7 +96,7 @@ def check_gt_stamps(run: RunData, gt: GroundTruth, frame_of_row: NDArray[np.int6
     return bad
 
 
-def gt_coverage(run: RunData, gt: GroundTruth, *, tolerance_ns: int = 50_000_000) -> dict[str, Any]:
+def gt_coverage(run: RunData, gt: GroundTruth, *, tolerance_ns: int | None = None) -> dict[str, Any]:
     """How much of the ground truth the run's frames cover.
 
     Returns
@@ -104,20 +105,59 @@ def gt_coverage(run: RunData, gt: GroundTruth, *, tolerance_ns: int = 50_000_000
         ``gt_frames``: distinct GT frame keys; ``gt_frames_without_run_frame``: keys no run frame was assigned
         to (skipped frames, rows before the run, rows after it); ``gt_frames_beyond_run`` and
         ``gt_rows_beyond_run``: keys and rows after the run's last frame (a run stopped early or a
-        ``frames.csv`` cut short); ``gt_rows_stamp_mismatch``: matched rows whose ``stamp_ns`` /
-        ``bag_time_ns`` disagrees with their run frame's (:func:`check_gt_stamps`; 0 without such a column).
+        ``frames.csv`` cut short); ``gt_rows_before_run`` and ``gt_rows_between_frames``: the other rows on no
+        run frame (before its first frame; in a gap between frames wider than the matching window);
+        ``gt_match_window_s``: that window (:func:`pfpeople.io.ground_truth.match_window_ns`, or ``tolerance_ns``;
+        0 for ``scan_index`` keys); ``gt_rows_stamp_mismatch``: matched rows whose ``stamp_ns`` / ``bag_time_ns``
+        disagrees with their run frame's (:func:`check_gt_stamps`; 0 without such a column).
     """
     fr = run.frames
     rows_frame, _ = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    lost = lost_rows(run, gt, rows_frame, tolerance_ns)
     beyond = gt.beyond(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
     check = stamp_agreement(gt, rows_frame, fr["stamp_ns"], fr["bag_time_ns"])
+    window = gt.window_ns(fr["stamp_ns"], fr["bag_time_ns"]) if tolerance_ns is None else tolerance_ns
     return {
         "gt_frames": int(np.unique(gt.keys).size),
         "gt_frames_without_run_frame": int(np.unique(gt.keys[rows_frame < 0]).size),
         "gt_frames_beyond_run": int(np.unique(gt.keys[beyond]).size),
-        "gt_rows_beyond_run": int(np.count_nonzero(beyond)),
+        "gt_rows_beyond_run": lost["beyond"],
+        "gt_rows_before_run": lost["before"],
+        "gt_rows_between_frames": lost["between"],
+        "gt_match_window_s": window * 1e-9 if gt.key != "scan_index" else 0.0,
         "gt_rows_stamp_mismatch": int(check.disagree.sum()) if check is not None else 0,
     }
+
+
+def lost_rows(
+    run: RunData, gt: GroundTruth, frame_of_row: NDArray[np.int64], tolerance_ns: int | None = None
+) -> dict[str, int]:
+    """The GT rows on no run frame, by where they lie: ``before`` the run's first frame, ``beyond`` its last, and
+    ``between`` frames (in a gap wider than the matching window: frames the run skipped or did not make)."""
+    fr = run.frames
+    none = frame_of_row < 0
+    before = none & gt.before(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"])
+    beyond = none & gt.beyond(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
+    between = none & ~before & ~beyond
+    return {k: int(np.count_nonzero(v)) for k, v in (("before", before), ("beyond", beyond), ("between", between))}
+
+
+def _warn_lost(run: RunData, gt: GroundTruth, lost: dict[str, int], window_ns: int) -> None:
+    """Log the GT rows on no run frame (other than those after the run's last frame, logged on their own)."""
+    if not lost["before"] and not lost["between"]:
+        return
+    window = f"{window_ns / 1e6:.0f} ms {'after' if gt.key == 'bag_time_ns' else 'around'} a frame"
+    log.warning(
+        "%d ground-truth row(s) of %s (keyed by %s) fall on no frame of run %s and are not scored: %d before its first "
+        "frame, %d between frames (further than %s: frames the run skipped or did not make)",
+        lost["before"] + lost["between"],
+        gt.path,
+        gt.key,
+        run.path,
+        lost["before"],
+        lost["between"],
+        window if gt.key != "scan_index" else "no frame of their scan_index",
+    )
 
 
 def in_region(
@@ -150,7 +190,7 @@ def truth_and_sources(
     frame: str | None = None,
     sector: tuple[float, float] | None = None,
     max_range: float | None = None,
-    tolerance_ns: int = 50_000_000,
+    tolerance_ns: int | None = None,
 ) -> tuple[list[NDArray[np.float64]], dict[str, list[NDArray[np.float64]]], int]:
     """Per frame: true positions and, per source (each detector and ``"filter"``), positions (m, grid frame).
 
@@ -158,9 +198,11 @@ def truth_and_sources(
     columns name, else ``"grid"``; a frame other than the file's raises ValueError naming both.
 
     Returns ``(truth, sources, unassigned)``: ``truth[k]`` is ``(P, 2)``, ``sources[name][k]`` is ``(M, 2)``,
-    both limited to the sector and range; ``unassigned`` counts GT rows outside the run's frames. GT rows
-    after the run's last frame are logged as a warning with their count; GT stamps are checked against the
-    run's by :func:`check_gt_stamps` (a ValueError when most disagree).
+    both limited to the sector and range; ``unassigned`` counts GT rows on no run frame. Those rows are logged as a
+    warning with their count (after the run's last frame; before its first or between its frames,
+    :func:`lost_rows`); GT stamps are checked against the run's by :func:`check_gt_stamps` (a ValueError when most
+    disagree). Rows keyed by a time are matched within :func:`pfpeople.io.ground_truth.match_window_ns` of the run's
+    frame period unless ``tolerance_ns`` is given.
     """
     frame = resolve_gt_frame(gt, frame)
     if sector is not None and not sector[0] < sector[1]:
@@ -171,6 +213,8 @@ def truth_and_sources(
     fr = run.frames
     rows_frame, unassigned = gt.assign(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
     check_gt_stamps(run, gt, rows_frame)
+    window = gt.window_ns(fr["stamp_ns"], fr["bag_time_ns"]) if tolerance_ns is None else tolerance_ns
+    _warn_lost(run, gt, lost_rows(run, gt, rows_frame, tolerance_ns), window)
     beyond = gt.beyond(fr["driver_index"], fr["stamp_ns"], fr["bag_time_ns"], tolerance_ns=tolerance_ns)
     if beyond.any():
         log.warning(

@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import in_field_of_view as grid_in_field_of_view
-from gridbridge.params import PAPER_DETECTORS, DetectorModel
+from gridbridge.params import PAPER_DETECTORS, DetectorModel, current_detector_name
 from gridbridge.validation import check_positive, check_probability
 
 __all__ = [
@@ -125,7 +125,7 @@ class SimulatedDetector:
     def from_dict(cls, data: dict[str, Any]) -> SimulatedDetector:
         """Build from a TOML table.
 
-        ``base`` names one of ``PAPER_DETECTORS`` (``laser-legs``, ``laser-boosted``, ``camera-hog``) whose
+        ``base`` names one of ``PAPER_DETECTORS`` (``laser_legs``, ``laser_boosted``, ``camera_hog``) whose
         model and paper-like failure settings are the starting point; ``model`` (a table) overrides fields
         of the :class:`DetectorModel` (FOV in degrees via ``fov_min_deg``/``fov_max_deg``); the other keys
         override fields of this class. ``people_in_view`` with ``ppv`` sets ``clutter_rate`` by
@@ -138,6 +138,7 @@ class SimulatedDetector:
         model_over = dict(data.pop("model", {}))
         if base_name is not None:
             by_name = {d.name: d for d in paper_simulated_detectors()}
+            base_name = current_detector_name(str(base_name))  # the old "laser-legs" reads as "laser_legs"
             if base_name not in by_name:
                 raise ValueError(f"detector base must be one of {sorted(by_name)}, got {base_name!r}")
             base = by_name[base_name]

@@ -186,8 +186,17 @@ def run(prog: str, description: str, commands: ModuleType, argv: Sequence[str] |
         args.no_progress = True
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    # the packages' loggers at the level asked for while the command runs, also when logging was set up before
+    # (basicConfig then does nothing): -v shows their debug messages, -q hides their info messages
+    loggers = [logging.getLogger(name) for name in ("pfpeople", "gridbridge", "evaluation")]
+    before = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(level)
     try:
         return int(args.func(args) or 0)
     except (ValueError, OSError, KeyError, MissingExtraError) as exc:  # bad input or files, a missing extra
         print(f"{prog} {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        for lg, old in zip(loggers, before, strict=True):
+            lg.setLevel(old)

@@ -25,6 +25,11 @@ The pipeline reads ``input_types`` and ``laser`` from the factory itself before 
 check the topics and fill in a laser's field of view), so a factory that is not a class carries them as
 attributes (default: any type, not a laser).
 
+Ego-motion: an adapter whose class sets ``uses_ego_motion = True`` (a detector with a memory of earlier scans,
+aligned by the robot's motion) is called as ``detect(msgs, motion=SensorMotion(...))``: the motion of its sensor
+frame since the previous frame (:class:`SensorMotion`), known before any detector runs (the pipeline's ego-motion
+stage, :mod:`pfpeople.pipeline.ego_stage`). Other adapters are called as ``detect(msgs)``.
+
 Bad data versus bugs: a message that cannot be used raises
 :class:`~pfpeople.io.bag.reader.MessageDataError` (raised by the message converters of
 :mod:`pfpeople.io.bag.reader`; :class:`EmptyInputError` for a LaserScan without beams). The pipeline counts
@@ -35,6 +40,7 @@ from inside a detector included, is a bug and ends the run.
 from __future__ import annotations
 
 import importlib
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
@@ -44,10 +50,13 @@ from numpy.typing import NDArray
 
 from gridbridge.params import DetectorModel
 from pfpeople.config import DetectorConfig
+from pfpeople.detect.coverage import frame_view, scan_sector
 from pfpeople.detect.settings import kwargs_from_table
+from pfpeople.detect.spacing import detector_scan
 from pfpeople.io.bag.reader import (
     IMAGE_TYPES,
     LASER_TYPES,
+    BadScanError,
     BagMessage,
     MessageDataError,
     image_from_msg,
@@ -68,11 +77,12 @@ __all__ = [
     "LearnedAdapter",
     "LegAdapter",
     "MotionAdapter",
+    "SensorMotion",
     "TopicAdapter",
     "build_detector",
     "make_adapter",
     "model_for",
-    "observe_ego",
+    "read_scan",
 ]
 
 
@@ -118,6 +128,10 @@ class Detections:
         Weaker evidence than a detection (m; detector frame, grid frame): positions that may keep a person the
         tracker already follows but never start one. The laser detectors give their unpaired single legs
         (:func:`pfpeople.detect.legs.people_and_single_legs`); empty for other detectors.
+    field_of_view : tuple of float or None
+        ``(fov_min, fov_max)`` (rad, detector frame) the detector covered in this frame: a laser detector's configured
+        field of view, or the part of it its scan covered (:func:`pfpeople.detect.coverage.frame_view`); None for
+        detectors whose view does not follow their input.
     """
 
     sensor: NDArray[np.float64]
@@ -125,6 +139,33 @@ class Detections:
     scan: LaserScan | None = None
     support_sensor: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     support: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    field_of_view: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorMotion:
+    """The motion of a detector's sensor frame into one frame, for the adapters with ``uses_ego_motion = True``.
+
+    Attributes
+    ----------
+    ego : Pose2D or None
+        The sensor frame at this frame's stamp expressed in the sensor frame at the previous frame's stamp (m, rad:
+        ``p_prev = ego.apply(p_now)``), from odometry or the driving laser's scan matching (the grid frame's motion
+        ``E`` moved to the sensor by its mount ``T``: ``T^-1 E T``); None when unknown (no odometry, a failed scan
+        match, the first frame).
+    dt : float
+        Time since the previous frame (s; 0.1 on the first frame and after a restart).
+    stamp_ns : int
+        The frame's stamp (ns).
+    restarted : bool
+        True on the first frame of a run and where the run restarted (a gap, an odometry jump): nothing before
+        this frame is to be remembered.
+    """
+
+    ego: Pose2D | None
+    dt: float
+    stamp_ns: int
+    restarted: bool = False
 
 
 class DetectorAdapter(Protocol):
@@ -148,6 +189,8 @@ class DetectorAdapter(Protocol):
     nobody_when_missing : bool
         True when a frame without an input message means the detector saw nobody (empty positions) rather
         than having no data.
+    uses_ego_motion : bool, optional
+        True: :meth:`detect` is called with the keyword ``motion`` (:class:`SensorMotion`); default False.
     """
 
     config: DetectorConfig
@@ -163,7 +206,8 @@ class DetectorAdapter(Protocol):
         ...
 
     def detect(self, msgs: Sequence[BagMessage]) -> Detections:
-        """Positions from the messages assigned to one frame (at least one).
+        """Positions from the messages assigned to one frame (at least one); an adapter with ``uses_ego_motion``
+        takes ``motion: SensorMotion`` as a keyword too.
 
         Raises
         ------
@@ -224,6 +268,7 @@ class BuiltinAdapter:
     input_types: tuple[str, ...] | None = None
     laser = False
     nobody_when_missing = False
+    uses_ego_motion = False
     #: True when the detector maps its positions into the grid frame itself (it is given ``mounting``).
     self_mounted = False
 
@@ -259,11 +304,16 @@ class BuiltinAdapter:
         data = self.read(msgs[0])
         assert self.detector is not None
         scan = data if isinstance(data, LaserScan) else None
+        given = self.detector_input(data)
         with_singles = getattr(self.detector, "detect_with_singles", None)
         if with_singles is None:
-            return self.located(self.detector.detect(data), scan=scan)
-        people, singles = with_singles(data)
+            return self.located(self.detector.detect(given), scan=scan)
+        people, singles = with_singles(given)
         return self.located(people, scan=scan, support=singles)
+
+    def detector_input(self, data: Any) -> Any:
+        """What the detector gets of the message's data (by default the data itself)."""
+        return data
 
     def located(self, positions: Any, *, scan: LaserScan | None = None, support: Any = None) -> Detections:
         """``positions`` ``(M, 2)`` and ``support`` ``(S, 2)`` (m) as the detector gave them, with their
@@ -280,16 +330,73 @@ class BuiltinAdapter:
         return pts, pts if self.self_mounted else self.mount.apply(pts)
 
 
-#: The latest (message, LaserScan) read: the detectors of one laser get the same scan object, so they share its
-#: segmentation (:func:`pfpeople.detect.segments.scan_segments`).
+#: The latest (message, LaserScan) read: the detectors of one laser (and the ego-motion stage's scan matcher) get
+#: the same scan object, so they share its segmentation (:func:`pfpeople.detect.segments.scan_segments`).
 _LATEST_SCAN: tuple[BagMessage, LaserScan] | None = None
 
 
+def read_scan(msg: BagMessage) -> LaserScan:
+    """The :class:`LaserScan` of ``msg``, converted once for every reader of the same message object.
+
+    Raises
+    ------
+    EmptyInputError
+        If the scan has no beams.
+    MessageDataError
+        If the message is not a usable LaserScan (:func:`pfpeople.io.bag.reader.laser_from_msg`).
+    """
+    global _LATEST_SCAN
+    latest = _LATEST_SCAN
+    if latest is not None and latest[0] is msg:  # another reader of the same laser read this message
+        return latest[1]
+    scan = laser_from_msg(msg.msg, stamp_ns=msg.stamp_ns, frame_id=msg.frame_id, topic=msg.topic)
+    if scan.ranges.size == 0:
+        raise EmptyInputError(msg.topic, msg.stamp_ns)
+    _LATEST_SCAN = (msg, scan)
+    return scan
+
+
 class LaserAdapter(BuiltinAdapter):
-    """A detector on a ``sensor_msgs/LaserScan`` (positions in the laser's frame)."""
+    """A detector on a ``sensor_msgs/LaserScan`` (positions in the laser's frame).
+
+    The detector gets a scan denser than the spacing the laser detectors are built for thinned to it
+    (:func:`pfpeople.detect.spacing.detector_scan`); the static-clutter map and the rest of the run get every beam.
+    """
 
     input_types: tuple[str, ...] | None = LASER_TYPES
     laser = True
+
+    def __init__(self, config: DetectorConfig, mount: Pose2D, detector: Detector | None = None) -> None:
+        super().__init__(config, mount, detector)
+        #: The configured field of view ``(fov_min, fov_max)`` (rad); a frame's scan may cover less of it.
+        self.view = (self.model.fov_min, self.model.fov_max)
+
+    def detect(self, msgs: Sequence[BagMessage]) -> Detections:
+        """:meth:`BuiltinAdapter.detect`, with the model's field of view set to the part of the configured one the
+        frame's scan covers (:func:`pfpeople.detect.coverage.frame_view`; also in the result's ``field_of_view``).
+
+        Raises
+        ------
+        BadScanError
+            Reason ``"sector"``: the scan covers nothing of the field of view (no data in the frame).
+        """
+        scan = self.read(msgs[0])
+        view = frame_view(self.view, scan) or self.view
+        if view[1] <= view[0]:
+            lo, hi = scan_sector(scan)
+            raise BadScanError(
+                f"topic {msgs[0].topic!r}: LaserScan at stamp {scan.stamp_ns} ns covers {math.degrees(lo):.1f} .. "
+                f"{math.degrees(hi):.1f} deg ({scan.ranges.size} beam(s)), nothing of the field of view "
+                f"{math.degrees(self.view[0]):.1f} .. {math.degrees(self.view[1]):.1f} deg",
+                "sector",
+            )
+        if view != (self.model.fov_min, self.model.fov_max):
+            self.model = replace(self.model, fov_min=view[0], fov_max=view[1])
+        return replace(super().detect(msgs), field_of_view=view)
+
+    def detector_input(self, data: Any) -> Any:
+        """The scan thinned for the detector (:func:`pfpeople.detect.spacing.detector_scan`)."""
+        return detector_scan(data)
 
     def read(self, msg: BagMessage) -> LaserScan:
         """The :class:`LaserScan` of ``msg``.
@@ -301,15 +408,7 @@ class LaserAdapter(BuiltinAdapter):
         MessageDataError
             If the message is not a usable LaserScan (:func:`pfpeople.io.bag.reader.laser_from_msg`).
         """
-        global _LATEST_SCAN
-        latest = _LATEST_SCAN
-        if latest is not None and latest[0] is msg:  # another detector of the same laser read this message
-            return latest[1]
-        scan = laser_from_msg(msg.msg, stamp_ns=msg.stamp_ns, frame_id=msg.frame_id, topic=msg.topic)
-        if scan.ranges.size == 0:
-            raise EmptyInputError(msg.topic, msg.stamp_ns)
-        _LATEST_SCAN = (msg, scan)
-        return scan
+        return read_scan(msg)
 
 
 class LegAdapter(LaserAdapter):
@@ -330,13 +429,26 @@ class SingleLegAdapter(LaserAdapter):
     detector_class = "SingleLegDetector"
 
 
-class LearnedAdapter(LaserAdapter):
+class TemporalLaserAdapter(LaserAdapter):
+    """A LaserScan detector with a memory of earlier scans (``observe_motion``, ``reset``): each frame it is told
+    its laser's motion since the previous frame (:class:`SensorMotion`; forgotten on a restart) before it runs."""
+
+    uses_ego_motion = True
+
+    def detect(self, msgs: Sequence[BagMessage], *, motion: SensorMotion | None = None) -> Detections:
+        """:meth:`LaserAdapter.detect` after giving the detector ``motion`` (None or a restart: unknown)."""
+        known = None if motion is None or motion.restarted else motion.ego
+        self.detector.observe_motion(known)  # type: ignore[union-attr]
+        return super().detect(msgs)
+
+
+class LearnedAdapter(TemporalLaserAdapter):
     """``kind = "learned"``: :class:`pfpeople.detect.LearnedPeopleDetector` (a learned whole-scan detector)."""
 
     detector_class = "LearnedPeopleDetector"
 
 
-class MotionAdapter(LaserAdapter):
+class MotionAdapter(TemporalLaserAdapter):
     """``kind = "motion"``: :class:`pfpeople.detect.MotionDetector` (returns in space seen free before)."""
 
     detector_class = "MotionDetector"
@@ -385,6 +497,7 @@ class TopicAdapter:
 
     input_types: tuple[str, ...] | None = None
     laser = False
+    uses_ego_motion = False
 
     def __init__(self, config: DetectorConfig, mount: Pose2D, detector: Detector | None = None) -> None:
         self.config = config
@@ -416,18 +529,6 @@ ADAPTERS: dict[str, AdapterFactory] = {
     "hog": HogAdapter,
     "topic": TopicAdapter,
 }
-
-
-def observe_ego(adapters: Sequence[DetectorAdapter], ego_grid: Pose2D | None) -> None:
-    """Give every detector that looks at past scans (``observe_motion``: the learned and the motion detector) its
-    laser's motion into this frame, ``T^-1 ego T`` (``T``: the laser's mount in the grid frame; ``ego_grid``: the
-    grid frame's motion since the previous frame, None when unknown, which empties their memory). Call once per
-    frame before the detectors run."""
-    for a in adapters:
-        observe = getattr(a.detector, "observe_motion", None)
-        if observe is None:
-            continue
-        observe(None if ego_grid is None else a.mount.inverse().compose(ego_grid).compose(a.mount))
 
 
 def adapter_factory(kind: str, registry: Mapping[str, AdapterFactory] | None = None) -> AdapterFactory:

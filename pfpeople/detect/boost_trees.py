@@ -18,6 +18,7 @@ numpy twin (:func:`tree_sums_numpy`) giving the same floats.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -29,7 +30,7 @@ from numpy.typing import NDArray
 from gridbridge import jit as _jit
 from gridbridge.jit import jit as njit
 
-__all__ = ["BoostTrees", "load_trees", "tree_sums", "tree_sums_numpy"]
+__all__ = ["BoostTrees", "check_model_values", "load_trees", "tree_sums", "tree_sums_numpy"]
 
 #: OpenCV's missing-value marker of a sample (``TrainData::missingValue()``: ``FLT_MAX``).
 _MISSING = np.float32(np.finfo(np.float32).max)
@@ -246,6 +247,52 @@ def check_sample(trees: BoostTrees, n_features: int, *, rows: int = 512) -> NDAr
         )
         X[:, f] = rng.choice(pool, size=rows)
     return X
+
+
+def _bad_value(m: Any) -> str | None:
+    """Where the model node ``m`` (``opencv_ml_boost``) holds a value no prediction can use, or None: a leaf or node
+    value that is not finite (the sum of every row would be NaN or infinite), a NaN split threshold or missing-value
+    substitute (every row would go one way)."""
+    subst = m.getNode("missing_subst")
+    for i in range(subst.size() if subst.isSeq() else 0):
+        if math.isnan(subst.at(i).real()):
+            return f"missing_subst[{i}] is nan"
+    trees = m.getNode("trees")
+    for t in range(trees.size()):
+        nodes = trees.at(t).getNode("nodes")
+        for k in range(nodes.size()):
+            fn = nodes.at(k)
+            value = fn.getNode("value").real()
+            if not math.isfinite(value):
+                return f"tree {t} node {k} has the value {value!r}"
+            splits = fn.getNode("splits")
+            for j in range(splits.size() if not splits.empty() else 0):
+                sp = splits.at(j)
+                for key in ("le", "gt"):
+                    if not sp.getNode(key).empty() and math.isnan(sp.getNode(key).real()):
+                        return f"tree {t} node {k} splits at {key} nan"
+    return None
+
+
+def check_model_values(path: Path) -> None:
+    """Refuse a boosted model file whose trees hold a non-finite value (see :func:`_bad_value`): it loads in OpenCV,
+    and the detector would then score every segment NaN and find nobody, silently.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, the tree and the node.
+    """
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        bad = _bad_value(fs.getNode("opencv_ml_boost"))
+    finally:
+        fs.release()
+    if bad is not None:
+        raise ValueError(
+            f"boosted model file {str(path)!r} is damaged: {bad}; retrain it (`pfpeople train-detector`) or use the "
+            "shipped model"
+        )
 
 
 def load_trees(path: Path, boost: Any, n_features: int) -> BoostTrees | None:

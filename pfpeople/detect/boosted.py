@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, DetectorModel
 from gridbridge.validation import check_number
-from pfpeople.detect.boost_trees import BoostTrees, load_trees
+from pfpeople.detect.boost_trees import BoostTrees, check_model_values, load_trees
 from pfpeople.detect.legs import PairingParams, people_and_single_legs
 from pfpeople.detect.segments import FEATURE_NAMES, SegmentationParams
 from pfpeople.detect.training import boost_scores as _opencv_scores
@@ -146,6 +146,7 @@ class BoostedSegmentDetector:
             if isinstance(seg, dict):
                 self.segmentation = SegmentationParams(**seg)
         self._boost = _load_boost(path)
+        check_model_values(path)
         self._trees: BoostTrees | None = load_trees(path, self._boost, len(FEATURE_NAMES))
 
     def _resolved_path(self) -> Path:

@@ -52,7 +52,7 @@ class SingleLegDetector:
     exclude_radius : float
         Single legs within this distance (m) of a person the source found are not reported.
     model : DetectorModel, optional
-        PPV / FNR for the grid; default the measured ``laser-single-legs`` model
+        PPV / FNR for the grid; default the measured ``laser_single_legs`` model
         (:data:`gridbridge.params.CALIBRATED_LASER_DETECTORS`).
     """
 

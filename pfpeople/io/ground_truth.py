@@ -3,18 +3,23 @@
 Columns (header row required, any order, extra columns ignored):
 
 - a frame key, at least one of ``scan_index`` (index of the driving message on its topic, i.e. the run's
-  ``driver_index``), ``stamp_ns`` (the frame stamp, matched to the nearest run frame within a tolerance) or
-  ``bag_time_ns`` (a record time, assigned to the latest run frame recorded at or before it, as for the
-  leg_tracker GT messages written after their scan). When several are present the first of this list is used.
+  ``driver_index``), ``stamp_ns`` (the frame stamp, matched to the nearest run frame within half the run's frame
+  period) or ``bag_time_ns`` (a record time, assigned to the latest run frame recorded at or before it and less than
+  one frame period earlier, as for the leg_tracker GT messages written 43-57 ms after their 7.5 Hz scan). The window
+  follows the run's median frame period (:func:`match_window_ns`: a fixed window shorter than that delay would lose
+  rows), and rows
+  that fall on no frame are counted (:meth:`GroundTruth.assign`), never dropped silently. When several key columns
+  are present the first of this list is used.
 - ``person_id`` (integer); a (key, ``person_id``) pair appears once (a duplicate would count a person twice);
 - the position in metres: ``x``, ``y`` or ``x_<frame>_m``, ``y_<frame>_m`` (the frame name is then taken
   from the column names, e.g. ``x_laser_m`` -> ``laser``, ``x_base_link_m`` -> ``base_link``, and kept in
   :attr:`GroundTruth.frame`; :func:`resolve_gt_frame` checks it against the frame a caller asks for). A file
   naming several frames must be read with ``frame=`` choosing one.
 
-Keys are non-negative; a file without data rows is refused (every score would be NaN). The file is read as
-UTF-8 with an optional byte-order mark (``utf-8-sig``): spreadsheet programs write one, and it would otherwise
-become part of the first column's name.
+Keys are non-negative; a file without data rows is refused (every score would be NaN), and so is a row with more or
+fewer fields than the header (a shifted column). The file is read as UTF-8 with an optional byte-order mark
+(``utf-8-sig``): spreadsheet programs write one, and it would otherwise become part of the first column's name; another
+encoding is refused naming the file and the line.
 
 Example: ``../shared/data/leg_tracker/person_following_outdoor_1_gt.csv`` (scan_index, bag_time_ns,
 person_id, x_laser_m, y_laser_m).
@@ -28,6 +33,7 @@ This module lives in ``pfpeople`` so that the viewer can read ground truth; the 
 from __future__ import annotations
 
 import csv
+import io
 import math
 import re
 from collections.abc import Iterator
@@ -41,10 +47,12 @@ from pfpeople.io.run_dir import RunData
 from pfpeople.sensors import Pose2D
 
 __all__ = [
+    "DEFAULT_MATCH_NS",
     "KEY_COLUMNS",
     "GroundTruth",
     "StampCheck",
     "gt_to_grid",
+    "match_window_ns",
     "read_gt_csv",
     "resolve_gt_frame",
     "stamp_agreement",
@@ -52,6 +60,20 @@ __all__ = [
 ]
 
 KEY_COLUMNS = ("scan_index", "stamp_ns", "bag_time_ns")
+#: The matching window (ns) of a run with fewer than two frames (no period to derive it from).
+DEFAULT_MATCH_NS = 50_000_000
+
+
+def match_window_ns(key: str, times: NDArray[np.int64]) -> int:
+    """How far a ground-truth time keyed by ``key`` may lie from its run frame (ns), from the run frames' ``times``
+    (their ``stamp_ns`` or ``bag_time_ns`` column): half the median frame period for ``stamp_ns`` (the nearest frame),
+    one period for ``bag_time_ns`` (rows are recorded after their frame); :data:`DEFAULT_MATCH_NS` without a period."""
+    steps = np.diff(np.asarray(times, dtype=np.int64))
+    steps = steps[steps > 0]
+    if not steps.size:
+        return DEFAULT_MATCH_NS
+    period = int(np.median(steps))
+    return period // 2 if key == "stamp_ns" else period
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,7 +120,7 @@ class GroundTruth:
         stamp_ns: NDArray[np.int64],
         bag_time_ns: NDArray[np.int64],
         *,
-        tolerance_ns: int = 50_000_000,
+        tolerance_ns: int | None = None,
     ) -> tuple[NDArray[np.int64], int]:
         """Run frame (row of the run's frames table) of every GT row, -1 where none.
 
@@ -106,9 +128,9 @@ class GroundTruth:
         ----------
         driver_index, stamp_ns, bag_time_ns : ndarray, shape (F,)
             The run's frames (``frames.csv`` columns), increasing.
-        tolerance_ns : int
-            Largest stamp distance for ``key="stamp_ns"``; largest delay after a frame's record time for
-            ``key="bag_time_ns"``.
+        tolerance_ns : int, optional
+            Largest stamp distance for ``key="stamp_ns"`` (inclusive); largest delay after a frame's record time for
+            ``key="bag_time_ns"`` (exclusive). Default: :func:`match_window_ns` of the run's frames.
 
         Returns
         -------
@@ -117,6 +139,8 @@ class GroundTruth:
             Number of GT rows with no run frame (outside the run, or a skipped frame).
         """
         n = len(driver_index)
+        if tolerance_ns is None:
+            tolerance_ns = self.window_ns(stamp_ns, bag_time_ns)
         if self.key == "scan_index":
             lookup = {int(d): k for k, d in enumerate(driver_index)}
             out = np.array([lookup.get(int(s), -1) for s in self.keys], dtype=np.int64)
@@ -131,7 +155,7 @@ class GroundTruth:
                 out[ok] = best[ok]
         else:
             idx = np.searchsorted(bag_time_ns, self.keys, side="right") - 1
-            ok = (idx >= 0) & (self.keys - bag_time_ns[np.maximum(idx, 0)] <= tolerance_ns) if n else idx >= 0
+            ok = (idx >= 0) & (self.keys - bag_time_ns[np.maximum(idx, 0)] < tolerance_ns) if n else idx >= 0
             out = np.where(ok, idx, -1).astype(np.int64)
         return out, int(np.count_nonzero(out < 0))
 
@@ -141,7 +165,7 @@ class GroundTruth:
         stamp_ns: NDArray[np.int64],
         bag_time_ns: NDArray[np.int64],
         *,
-        tolerance_ns: int = 50_000_000,
+        tolerance_ns: int | None = None,
     ) -> NDArray[np.bool_]:
         """Rows whose key lies after the run's last frame (e.g. a ``frames.csv`` cut short), shape (N,).
 
@@ -151,8 +175,30 @@ class GroundTruth:
             return np.ones(len(self.keys), dtype=bool)
         if self.key == "scan_index":
             return self.keys > int(np.max(driver_index))
+        if tolerance_ns is None:
+            tolerance_ns = self.window_ns(stamp_ns, bag_time_ns)
         last = int(stamp_ns[-1] if self.key == "stamp_ns" else bag_time_ns[-1])
-        return self.keys > last + tolerance_ns
+        reach = tolerance_ns if self.key == "stamp_ns" else tolerance_ns - 1  # bag_time_ns: less than the window
+        return self.keys > last + reach
+
+    def before(
+        self, driver_index: NDArray[np.int64], stamp_ns: NDArray[np.int64], bag_time_ns: NDArray[np.int64]
+    ) -> NDArray[np.bool_]:
+        """Rows whose key lies before the run's first frame, shape (N,) (outside its matching window)."""
+        if len(driver_index) == 0:
+            return np.zeros(len(self.keys), dtype=bool)
+        if self.key == "scan_index":
+            return self.keys < int(np.min(driver_index))
+        if self.key == "stamp_ns":
+            return self.keys < int(stamp_ns[0]) - self.window_ns(stamp_ns, bag_time_ns)
+        return self.keys < int(bag_time_ns[0])
+
+    def window_ns(self, stamp_ns: NDArray[np.int64], bag_time_ns: NDArray[np.int64]) -> int:
+        """The matching window of this file's key for a run whose frames have ``stamp_ns`` and ``bag_time_ns``
+        (:func:`match_window_ns`; 0 for ``scan_index``)."""
+        if self.key == "scan_index":
+            return 0
+        return match_window_ns(self.key, stamp_ns if self.key == "stamp_ns" else bag_time_ns)
 
 
 @dataclass(frozen=True, eq=False)
@@ -304,8 +350,10 @@ def _read_rows(
     for line, row in enumerate(reader, start=2):
         if not row:
             continue
-        if len(row) < len(cols):
-            raise ValueError(f"{path}: line {line} has {len(row)} fields, expected {len(cols)}")
+        if len(row) != len(cols):
+            raise ValueError(
+                f"{path}: line {line} has {len(row)} fields, expected {len(cols)} (the header's: {', '.join(cols)})"
+            )
         k, pid = _int(row[ik], path, line, key), _int(row[ip], path, line, "person_id")
         if k < 0:
             raise ValueError(f"{path}: line {line}: {key} must be non-negative, got {k}")
@@ -330,6 +378,19 @@ def _read_rows(
     return keys, ids, xy, stamps, lines
 
 
+def _utf8_text(path: Path) -> str:
+    """The text of ``path`` as UTF-8, without a byte-order mark; ValueError naming the file and line otherwise."""
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise ValueError(
+            f"ground-truth file {str(path)!r} is not UTF-8 text (byte {data[exc.start]:#04x} at line {line}); save it "
+            "as UTF-8"
+        ) from None
+
+
 def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
     """Read a ground-truth CSV (see the module docstring); errors name the file, line and column.
 
@@ -344,13 +405,14 @@ def read_gt_csv(path: str | Path, *, frame: str | None = None) -> GroundTruth:
     Raises
     ------
     ValueError
-        Naming the file (and the line): no header (a zero-byte file), no data rows (a header only: every score
-        would be NaN), a missing column, a bad or negative key, a duplicated (key, person_id) row.
+        Naming the file (and the line): not UTF-8, no header (a zero-byte file), no data rows (a header only: every
+        score would be NaN), a missing column, a row with more or fewer fields than the header, a bad or negative
+        key, a duplicated (key, person_id) row.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"ground-truth file {str(path)!r} does not exist")
-    with path.open(newline="", encoding="utf-8-sig") as fh:
+    with io.StringIO(_utf8_text(path), newline="") as fh:
         reader = csv.reader(fh)
         header = next(reader, None)
         if header is None:
@@ -400,7 +462,7 @@ def gt_to_grid(run: RunData, gt: GroundTruth, frame: str) -> NDArray[np.float64]
 
 
 def truth_per_frame(
-    run: RunData, gt: GroundTruth, *, frame: str | None = None, tolerance_ns: int = 50_000_000
+    run: RunData, gt: GroundTruth, *, frame: str | None = None, tolerance_ns: int | None = None
 ) -> tuple[list[NDArray[np.float64]], int]:
     """Ground-truth positions of every run frame, ``(P, 2)`` each, in the run's grid frame (m).
 

@@ -11,23 +11,34 @@ system releases it when the writer dies. Two more rules make a dead writer never
 
 Whoever takes a lock checks afterwards that the path still names the file it locked (a lock file replaced or
 removed meanwhile is tried again), so a lock file can be removed when its writer is done (:func:`release`).
+
+A lock file is never opened through a symbolic link (``O_NOFOLLOW``): a link in its place (``ln -s ~/victim
+RUN/.lock``) is refused, naming it, and what it points to is neither read nor written. :func:`acquire` tells whether
+it created the file (:func:`created`), so a writer that then refuses its output removes only a lock file of its
+own. An error writing the pid (a full disk) names the lock file.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import logging
 import os
+import stat
 from pathlib import Path
 from typing import IO
 
-__all__ = ["PathLockedError", "acquire", "check_free", "release"]
+from pfpeople.io.files import named_os_error
+
+__all__ = ["PathLockedError", "acquire", "check_free", "created", "release"]
 
 log = logging.getLogger(__name__)
 
 #: The lock files this process holds (closed in a forked child).
 _HELD: list[IO[str]] = []
+#: The ids of the held lock files that :func:`acquire` created (see :func:`created`).
+_CREATED: set[int] = set()
 
 
 class PathLockedError(FileExistsError):
@@ -39,6 +50,7 @@ def _close_in_child() -> None:
         with contextlib.suppress(OSError):
             fh.close()  # the child's copy only: the parent's lock stays
     _HELD.clear()
+    _CREATED.clear()
 
 
 os.register_at_fork(after_in_child=_close_in_child)
@@ -59,23 +71,75 @@ def _holder(fh: IO[str]) -> str:
     return fh.read().strip() or "unknown"
 
 
-def _try_lock(lock_path: Path) -> tuple[IO[str] | None, str]:
-    """Lock ``lock_path`` once: ``(file, "")``, or ``(None, holder pid)`` when another process holds it."""
-    fh = lock_path.open("a+")
+def _open_lock(lock_path: Path, what: str, error: type[PathLockedError], *, create: bool) -> tuple[IO[str], bool]:
+    """Open ``lock_path`` without following a link, to lock it (created if need be, read and write) or, without
+    ``create``, to read it; ``(file, created)``.
+
+    Raises
+    ------
+    PathLockedError (or ``error``)
+        The path is a symbolic link or not a regular file.
+    FileNotFoundError
+        It does not exist and ``create`` is false.
+    """
+    flags = (os.O_RDWR if create else os.O_RDONLY) | os.O_NOFOLLOW | os.O_CLOEXEC
+    made = False
+    try:
+        if create:
+            try:
+                fd, made = os.open(lock_path, flags | os.O_CREAT | os.O_EXCL, 0o666), True
+            except FileExistsError:
+                fd = os.open(lock_path, flags)
+        else:
+            fd = os.open(lock_path, flags)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise error(
+                f"{what}: its lock file {str(lock_path)!r} is a symbolic link: not followed; remove it "
+                "(or choose another output)"
+            ) from None
+        raise
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise error(f"{what}: its lock file {str(lock_path)!r} is not a regular file; remove it")
+    return os.fdopen(fd, "r+" if create else "r"), made
+
+
+def _try_lock(lock_path: Path, what: str, error: type[PathLockedError]) -> tuple[IO[str] | None, str, bool]:
+    """Lock ``lock_path`` once: ``(file, "", created)``, or ``(None, holder pid, created)`` when another process
+    holds it."""
+    fh, made = _open_lock(lock_path, what, error, create=True)
     try:
         fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
         holder = _holder(fh)
         fh.close()
-        return None, holder
+        return None, holder, made
     try:
-        same = os.path.samestat(os.fstat(fh.fileno()), os.stat(lock_path))
+        same = os.path.samestat(os.fstat(fh.fileno()), os.stat(lock_path, follow_symlinks=False))
     except FileNotFoundError:
         same = False
     if not same:  # replaced or removed after we opened it: not the lock any more
         fh.close()
-        return None, ""
-    return fh, ""
+        return None, "", made
+    return fh, "", made
+
+
+def _pwrite(fd: int, data: bytes, offset: int) -> int:
+    """``os.pwrite`` (a seam for the tests' full disk)."""
+    return os.pwrite(fd, data, offset)
+
+
+def _write_pid(fh: IO[str], lock_path: Path) -> None:
+    """Replace the lock file's content by this pid; an error (a full disk) names the lock file."""
+    data = f"{os.getpid()}\n".encode()
+    try:
+        os.ftruncate(fh.fileno(), 0)
+        done = 0
+        while done < len(data):
+            done += _pwrite(fh.fileno(), data[done:], done)
+    except OSError as exc:
+        raise named_os_error(exc, lock_path) from None
 
 
 def acquire(lock_path: Path, what: str, error: type[PathLockedError] = PathLockedError) -> IO[str]:
@@ -84,10 +148,14 @@ def acquire(lock_path: Path, what: str, error: type[PathLockedError] = PathLocke
     Raises
     ------
     PathLockedError (or ``error``)
-        A live process holds the lock (its pid named).
+        A live process holds the lock (its pid named), or the lock file is a symbolic link or not a regular file.
+    OSError
+        The pid cannot be written (naming the lock file).
     """
+    made_any = False
     for _ in range(20):
-        fh, holder = _try_lock(lock_path)
+        fh, holder, made = _try_lock(lock_path, what, error)
+        made_any = made_any or made
         if fh is not None:
             break
         if holder.isdigit() and not _pid_alive(int(holder)):
@@ -102,18 +170,30 @@ def acquire(lock_path: Path, what: str, error: type[PathLockedError] = PathLocke
             )
     else:  # pragma: no cover - the lock file replaced 20 times in a row
         raise error(f"{what}: its lock file {str(lock_path)!r} keeps changing; another process is taking it")
-    fh.seek(0)
-    fh.truncate()
-    fh.write(f"{os.getpid()}\n")
-    fh.flush()
+    try:
+        _write_pid(fh, lock_path)
+    except OSError:
+        fh.close()
+        if made_any:
+            with contextlib.suppress(OSError):
+                lock_path.unlink()
+        raise
     _HELD.append(fh)
+    if made_any:
+        _CREATED.add(id(fh))
     return fh
 
 
+def created(fh: IO[str]) -> bool:
+    """Whether :func:`acquire` created the lock file of ``fh`` (it did not exist before)."""
+    return id(fh) in _CREATED
+
+
 def check_free(lock_path: Path, what: str, error: type[PathLockedError] = PathLockedError) -> None:
-    """Refuse now, before anything is created, an output whose lock a live process holds (nothing is written)."""
+    """Refuse now, before anything is created, an output whose lock a live process holds, or whose lock file is a
+    symbolic link (nothing is written)."""
     try:
-        fh = lock_path.open("r")
+        fh, _ = _open_lock(lock_path, what, error, create=False)
     except FileNotFoundError:
         return
     with fh:
@@ -137,5 +217,6 @@ def release(fh: IO[str], *, remove: Path | None = None) -> None:
             remove.unlink()
     with contextlib.suppress(ValueError):
         _HELD.remove(fh)
+    _CREATED.discard(id(fh))
     fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
     fh.close()

@@ -51,7 +51,14 @@ Safety against a second process and damage:
   holding it is dead: :mod:`pfpeople.io.locks`): a second writer, also with ``overwrite``, is refused
   (:class:`RunLockedError`). ``run.json`` is replaced atomically (a temporary file, fsync, ``os.replace``), with
   the permissions of the umask like every other file (0644 under umask 022).
-- A directory that holds files but no ``run.json`` is never written into (they are the user's files).
+- A directory that holds files but no ``run.json`` is never written into (they are the user's files), and gets no
+  lock file: it is refused before anything is created. ``overwrite`` replaces exactly a run's own files
+  (:data:`REPLACED_ON_OVERWRITE`: the run's tables and arrays, ``tracks.csv``, ``support.csv``, and the pictures
+  ``pfpeople view`` made of it, ``view.mp4``, ``view.gif``, ``summary.png``) and keeps every other file.
+- Nothing is written through a symbolic link: every file of the run is created anew (``O_EXCL | O_NOFOLLOW``), the
+  lock file is opened without following a link (:mod:`pfpeople.io.locks`), and an output directory holding a link
+  in place of one of the run's files is refused, naming it, before anything is changed. A dangling symbolic link
+  given as the directory is refused naming where it points.
 - Writing errors (a full disk, ``ENOSPC``) are re-raised naming the file; the frames before stay readable:
   :func:`load_run` reads the frames that every file holds completely (a half-written last row is dropped).
 - :func:`interrupt_signals` turns SIGTERM into :class:`RunInterrupted` (as SIGINT is turned into
@@ -63,7 +70,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import errno
 import json
 import math
 import os
@@ -85,6 +91,7 @@ from gridbridge.ego_motion import Odometry
 from gridbridge.grid import GridSpec
 from gridbridge.validation import finite_rows
 from pfpeople.io import locks
+from pfpeople.io.files import create_new, current_umask, named_os_error
 from pfpeople.io.jsonio import dumps
 
 __all__ = [
@@ -92,6 +99,7 @@ __all__ = [
     "FORMAT_VERSION",
     "MAX_PARTICLES_SAVED",
     "PARTICLE_DTYPE",
+    "REPLACED_ON_OVERWRITE",
     "RUN_FILES",
     "SCAN_DTYPE",
     "RunData",
@@ -181,29 +189,23 @@ def deferred_signals() -> Iterator[None]:
             raise RunInterrupted(signum)
 
 
-def _current_umask() -> int:
-    """The process's umask: from ``/proc/self/status`` (Linux), else set and restored at once."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    except (OSError, ValueError, IndexError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def _named_os_error(exc: OSError, path: Path) -> OSError:
-    """``exc`` re-raised naming ``path`` (e.g. "[Errno 28] No space left on device: 'run/grids.npy'")."""
-    if exc.filename:
-        return exc
-    code = exc.errno if exc.errno is not None else errno.EIO
-    return OSError(code, exc.strerror or os.strerror(code), str(path))
-
-
 #: The names a run directory's writer creates, replaces or locks in it.
 RUN_OWNED = (*RUN_FILES, "tracks.csv", "support.csv", LOCK_NAME)
+#: The pictures ``pfpeople view`` writes into a run directory by default (they show the run they were made of).
+VIEW_FILES = ("view.mp4", "view.gif", "summary.png")
+#: The files ``overwrite`` replaces: the previous run's own and its pictures (every other file is kept).
+REPLACED_ON_OVERWRITE = (*RUN_FILES, "tracks.csv", "support.csv", *VIEW_FILES)
+
+
+def _check_out_dir(path: Path) -> None:
+    """Refuse an output directory path that is a file or a dangling symbolic link (``[Errno 17]`` from mkdir)."""
+    if path.is_symlink() and not path.exists():
+        raise FileExistsError(
+            f"output directory {str(path)!r} is a symbolic link to {os.readlink(path)!r}, which does not exist; "
+            "remove the link or create the directory it names"
+        )
+    if path.exists() and not path.is_dir():
+        raise FileExistsError(f"output path {str(path)!r} exists and is not a directory")
 
 
 def _overlaps(a: Path, b: Path) -> bool:
@@ -269,6 +271,12 @@ FRAME_COLUMNS = (
 #: The columns of run directories written before the ``vy_mps`` column (read with ``vy_mps = 0``).
 _FRAME_COLUMNS_V1 = tuple(c for c in FRAME_COLUMNS if c != "vy_mps")
 PEOPLE_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "x_m", "y_m", "size_cells", "mean_probability")
+#: With an output frame (``[output] frame``, ``run.json`` ``output_frame``): the columns appended to ``frames.csv``
+#: (the grid frame's pose in the output frame), ``people.csv`` and ``tracks.csv`` (positions, velocities and the
+#: position covariance in the output frame); NaN where the pose was unknown.
+OUT_FRAME_COLUMNS = ("out_x_m", "out_y_m", "out_yaw_rad")
+OUT_PEOPLE_COLUMNS = ("out_x_m", "out_y_m")
+OUT_TRACK_COLUMNS = ("out_x", "out_y", "out_vx", "out_vy", "out_cov_xx", "out_cov_xy", "out_cov_yy")
 DETECTION_COLUMNS = ("frame", "driver_index", "stamp_ns", "bag_time_ns", "detector", "x_m", "y_m", "static")
 #: The columns of run directories written before the ``static`` column (read with ``static = 0``).
 _DETECTION_COLUMNS_V1 = DETECTION_COLUMNS[:-1]
@@ -315,7 +323,7 @@ class _RecordFile:
     def __init__(self, path: Path, dtype: np.dtype[Any]) -> None:
         self.path, self.dtype, self.rows = path, dtype, 0
         self._descr = np.lib.format.dtype_to_descr(dtype)  # once: numpy builds it anew each call
-        self.fh: BinaryIO = path.open("wb")
+        self.fh: BinaryIO = create_new(path, "wb")
         self.fh.write(self._header())
 
     def _header(self) -> bytes:
@@ -391,6 +399,10 @@ class RunWriter:
         Extra keys of ``run.json`` (configuration, provenance, grid frame, detector models ...).
     overwrite : bool
         Replace an existing run in ``out_dir``.
+    output_frame : str
+        The output frame (``[output] frame``): ``frames.csv`` and ``people.csv`` get the :data:`OUT_FRAME_COLUMNS`
+        and :data:`OUT_PEOPLE_COLUMNS`, ``tracks.csv`` rows carry the :data:`OUT_TRACK_COLUMNS`, ``run.json``
+        names it (``output_frame``); ``""``: none.
     """
 
     def __init__(
@@ -401,19 +413,24 @@ class RunWriter:
         detector_names: Sequence[str],
         metadata: Mapping[str, Any] | None = None,
         overwrite: bool = False,
+        output_frame: str = "",
     ) -> None:
         self.path = Path(out_dir)
-        if self.path.exists() and not self.path.is_dir():
-            raise FileExistsError(f"output path {str(self.path)!r} exists and is not a directory")
+        _check_out_dir(self.path)
+        if self.path.is_dir():  # refused before anything (a lock file) is created
+            locks.check_free(self.path / LOCK_NAME, f"output directory {str(self.path)!r}", RunLockedError)
+            self._previous_files(overwrite)
         self.path.mkdir(parents=True, exist_ok=True)
         self._lock_fh: IO[str] | None = self._lock()
         try:
-            self._clear_or_refuse(overwrite)
+            for old in self._previous_files(overwrite):  # again under the lock
+                old.unlink(missing_ok=True)
         except BaseException:
-            self._unlock()
+            self._unlock(remove_created=True)
             raise
         self.spec = spec
         self.detector_names = list(detector_names)
+        self.output_frame = output_frame
         self.n_frames = 0
         self._t0 = time.perf_counter()
         self._meta: dict[str, Any] = {
@@ -425,6 +442,7 @@ class RunWriter:
             "grid": {"nx": spec.nx, "ny": spec.ny, "resolution": spec.resolution, "x0": spec.x0, "y0": spec.y0},
             "detectors": self.detector_names,
             **dict(metadata or {}),
+            **({"output_frame": output_frame} if output_frame else {}),
             "frames": 0,
         }
         self._files: list[TextIO] = []
@@ -432,10 +450,11 @@ class RunWriter:
         self._closed = False
         try:
             self._write_json()
-            self._grids: BinaryIO = (self.path / "grids.npy").open("wb")
+            self._grids: BinaryIO = create_new(self.path / "grids.npy", "wb")
             self._grids.write(_npy_header(0, spec.nx, spec.ny))
-            self._frames = self._csv("frames.csv", FRAME_COLUMNS)
-            self._people = self._csv("people.csv", PEOPLE_COLUMNS)
+            out = bool(output_frame)
+            self._frames = self._csv("frames.csv", FRAME_COLUMNS + OUT_FRAME_COLUMNS * out)
+            self._people = self._csv("people.csv", PEOPLE_COLUMNS + OUT_PEOPLE_COLUMNS * out)
             self._dets = self._csv("detections.csv", DETECTION_COLUMNS)
             self._tracks: Any = None
             self._support: Any = None
@@ -444,23 +463,36 @@ class RunWriter:
             self._scan_topics: list[str] = []
         except OSError as exc:
             self._unlock()
-            raise _named_os_error(exc, self.path) from exc
+            raise named_os_error(exc, self.path) from exc
 
-    def _clear_or_refuse(self, overwrite: bool) -> None:
-        """Make the locked directory ready for a new run: remove a previous run's files (with ``overwrite``).
+    def _previous_files(self, overwrite: bool) -> list[Path]:
+        """The files of a previous run in the directory that ``overwrite`` replaces (see the module docstring).
 
         Raises
         ------
         FileExistsError
-            The directory holds a run and ``overwrite`` is false, or it holds other files and no ``run.json``
-            (naming up to 5 of them).
+            The directory holds a run and ``overwrite`` is false; one of :data:`REPLACED_ON_OVERWRITE` is a symbolic
+            link or not a file (naming it); or it holds other files and no ``run.json`` (naming up to 5 of them).
         """
-        if (self.path / "run.json").exists():
+        if (self.path / "run.json").exists() or (self.path / "run.json").is_symlink():
             if not overwrite:
-                raise FileExistsError(f"output directory {str(self.path)!r} already holds a run (use overwrite)")
-            for name in RUN_FILES:
-                (self.path / name).unlink(missing_ok=True)
-            return
+                raise FileExistsError(
+                    f"output directory {str(self.path)!r} already holds a run (replace it with --overwrite, or "
+                    "overwrite=True from Python)"
+                )
+            old = []
+            for name in REPLACED_ON_OVERWRITE:
+                p = self.path / name
+                if p.is_symlink():
+                    raise FileExistsError(
+                        f"output directory {str(self.path)!r}: {name!r} is a symbolic link (to {os.readlink(p)!r}): "
+                        "not writing through it or removing it; remove it yourself or choose another directory"
+                    )
+                if p.exists() and not p.is_file():
+                    raise FileExistsError(f"output directory {str(self.path)!r}: {name!r} is not a file: not replaced")
+                if p.exists():
+                    old.append(p)
+            return old
         others = sorted(
             p.name for p in self.path.iterdir() if p.name != LOCK_NAME and not p.name.startswith(".run.json.")
         )
@@ -470,19 +502,24 @@ class RunWriter:
                 f"output directory {str(self.path)!r} is not empty and holds no run.json ({listing}): "
                 "not writing into it; choose a new or empty directory"
             )
+        return []
 
     def _lock(self) -> IO[str]:
         """Take the directory's lock (non-blocking, :func:`pfpeople.io.locks.acquire`); refuse when a live process
         holds it, take it over (with a warning) when the pid holding it is dead."""
         return locks.acquire(self.path / LOCK_NAME, f"output directory {str(self.path)!r}", RunLockedError)
 
-    def _unlock(self) -> None:
+    def _unlock(self, *, remove_created: bool = False) -> None:
+        """Release the directory's lock and remove its file: a finished run directory holds no ``.lock``;
+        ``remove_created`` (a refused run): only when this writer created it (a refused directory keeps nothing
+        of the writer, and a lock file it found stays)."""
         if self._lock_fh is not None:
-            locks.release(self._lock_fh)
+            remove = not remove_created or locks.created(self._lock_fh)
+            locks.release(self._lock_fh, remove=self.path / LOCK_NAME if remove else None)
             self._lock_fh = None
 
     def _csv(self, name: str, columns: Sequence[str]) -> Any:
-        fh = (self.path / name).open("w", newline="")
+        fh = create_new(self.path / name, "w")
         self._files.append(fh)
         w = csv.writer(fh)
         w.writerow(columns)
@@ -493,7 +530,7 @@ class RunWriter:
         text = dumps(self._meta) + "\n"
         fd, tmp = tempfile.mkstemp(prefix=".run.json.", suffix=".tmp", dir=self.path)
         try:
-            os.fchmod(fd, 0o666 & ~_current_umask())  # mkstemp makes it 0600: give it the mode open() would
+            os.fchmod(fd, 0o666 & ~current_umask())  # mkstemp makes it 0600: give it the mode open() would
             with os.fdopen(fd, "w") as fh:
                 fh.write(text)
                 fh.flush()
@@ -502,7 +539,7 @@ class RunWriter:
         except OSError as exc:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
-            raise _named_os_error(exc, self.path / "run.json") from exc
+            raise named_os_error(exc, self.path / "run.json") from exc
 
     def __enter__(self) -> RunWriter:
         return self
@@ -538,29 +575,31 @@ class RunWriter:
         support_static: Sequence[NDArray[np.bool_] | None] | None = None,
         scans: Mapping[str, tuple[NDArray[np.float64], NDArray[np.bool_] | None]] | None = None,
         particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+        output_pose: tuple[float, float, float] | None = None,
+        people_out: NDArray[np.float64] | None = None,
     ) -> None:
         """Append one frame to every file and flush (see the module docstring for the columns).
 
         ``odometry``: the frame's ego-motion, an :class:`gridbridge.Odometry` or ``(v, omega[, vy])`` (m/s, rad/s,
-        m/s; grid frame); None: the robot was taken as standing.
-
-        ``static``: per detector, which of its detections the static-clutter map suppressed (column ``static``).
-        ``tracks``: rows of ``tracks.csv`` (:data:`pfpeople.track.TRACK_COLUMNS`), written when given (the file is
-        created at the first frame that has them, with its header). ``support`` and ``support_static``: per
-        detector, its support positions and which of them the static-clutter map called static (``support.csv``,
-        created like ``tracks.csv``). ``scans``: per laser topic, its returns (m, grid frame) and which of them the
-        static-clutter map calls static (``scans.npy``, created at the first frame that has them; a new topic is
-        added to ``run.json`` ``scans.topics``). ``particles``: the filter's particles ``(x, y)`` (m, grid frame),
-        subsampled into ``particles.npy`` (:func:`particle_records`).
+        m/s; grid frame); None: the robot was taken as standing. ``static``: per detector, which of its detections
+        the static-clutter map suppressed (column ``static``). ``tracks``: rows of ``tracks.csv``
+        (:data:`pfpeople.track.TRACK_COLUMNS`; the file made at the first frame with them). ``support``,
+        ``support_static``: per detector, its support positions and which of them the map called static
+        (``support.csv``, made like ``tracks.csv``). ``scans``: per laser topic, its returns (m, grid frame) and
+        which of them the map calls static (``scans.npy``; each topic in ``run.json`` ``scans.topics``).
+        ``particles``: the filter's particles ``(x, y)`` (m, grid frame), subsampled into ``particles.npy``
+        (:func:`particle_records`). With an ``output_frame``: ``output_pose`` (the grid frame's ``x, y, yaw``
+        there) and ``people_out`` ``(P, 2)`` (None: unknown, NaN); ``tracks`` rows end with :data:`OUT_TRACK_COLUMNS`.
         """
         belief, people, sizes, probs = self._check_frame(belief, detections, people, people_size, people_probability)
         key = (frame, driver_index, stamp_ns, bag_time_ns)
         row = self._frames_row(key, dt_s, odometry, forced, len(people), detections)
+        row, people_out = self._out_values(row, people, output_pose, people_out) if self.output_frame else (row, None)
         with deferred_signals():  # a signal arriving now is raised once the frame is complete on disk
             self._run_steps(
                 [
                     ("frames.csv", lambda: self._frames.writerow(row)),
-                    ("people.csv", lambda: self._write_people(key, people, sizes, probs)),
+                    ("people.csv", lambda: self._write_people(key, people, sizes, probs, people_out)),
                     ("detections.csv", lambda: self._positions(self._dets, key, detections, static)),
                     ("support.csv", lambda: self._write_support(key, support, support_static)),
                     ("tracks.csv", lambda: self._write_tracks(tracks)),
@@ -575,6 +614,17 @@ class RunWriter:
                 ]
             )
             self.n_frames += 1
+
+    @staticmethod
+    def _out_values(
+        row: tuple[Any, ...],
+        people: NDArray[np.float64],
+        output_pose: tuple[float, float, float] | None,
+        people_out: NDArray[np.float64] | None,
+    ) -> tuple[tuple[Any, ...], NDArray[np.float64]]:
+        """The frame's row with the output pose (NaN: unknown), and the people in the output frame (NaN: unknown)."""
+        row = (*row, *(f"{v:.9g}" for v in (output_pose or (math.nan,) * 3)))
+        return row, np.full_like(people, math.nan) if people_out is None else np.reshape(people_out, (-1, 2))
 
     def _flush_steps(self) -> list[tuple[str, Callable[[], object]]]:
         """The ``(file name, flush)`` steps of the tables, made anew only when a table was added."""
@@ -640,17 +690,23 @@ class RunWriter:
             try:
                 step()
             except OSError as exc:
-                raise _named_os_error(exc, self.path / name) from exc
+                raise named_os_error(exc, self.path / name) from exc
 
     def _write_people(
-        self, key: tuple[int, int, int, int], people: NDArray[np.float64], sizes: list[int], probs: list[float]
+        self,
+        key: tuple[int, int, int, int],
+        people: NDArray[np.float64],
+        sizes: list[int],
+        probs: list[float],
+        people_out: NDArray[np.float64] | None = None,
     ) -> None:
-        self._people.writerows(
-            [
-                (*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}")
-                for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True)
-            ]
-        )
+        rows: list[tuple[Any, ...]] = [
+            (*key, f"{x:.6f}", f"{y:.6f}", int(size), f"{p:.6g}")
+            for (x, y), size, p in zip(people.tolist(), sizes, probs, strict=True)
+        ]
+        if people_out is not None:
+            rows = [(*r, f"{x:.6f}", f"{y:.6f}") for r, (x, y) in zip(rows, people_out.tolist(), strict=True)]
+        self._people.writerows(rows)
 
     def _write_support(
         self,
@@ -670,7 +726,7 @@ class RunWriter:
         if self._tracks is None:
             from pfpeople.track import TRACK_COLUMNS
 
-            self._tracks = self._csv("tracks.csv", TRACK_COLUMNS)
+            self._tracks = self._csv("tracks.csv", TRACK_COLUMNS + OUT_TRACK_COLUMNS * bool(self.output_frame))
         self._tracks.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in row] for row in tracks])
 
     def _write_particles(self, frame: int, particles: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
@@ -749,7 +805,7 @@ class RunWriter:
                 try:
                     fh.close()
                 except OSError as exc:
-                    first = first or _named_os_error(exc, Path(str(fh.name)))
+                    first = first or named_os_error(exc, Path(str(fh.name)))
             elapsed = time.perf_counter() - self._t0
             self._meta.update(items)
             self._meta.update(status=status, frames=self.n_frames, elapsed_s=round(elapsed, 3))
@@ -781,6 +837,9 @@ class RunData:
     scans: NDArray[Any] | None = None
     #: ``particles.npy`` (:data:`PARTICLE_DTYPE` records of the frames on disk); None when the run wrote none.
     particles: NDArray[Any] | None = None
+    #: ``tracks.csv`` (columns :data:`pfpeople.track.TRACK_COLUMNS`: ``id`` an int, positions and velocities in the
+    #: grid frame; with an output frame also :data:`OUT_TRACK_COLUMNS`); None when the run wrote none (tracking off).
+    tracks: dict[str, NDArray[Any]] | None = None
 
     @property
     def scan_topics(self) -> list[str]:
@@ -808,6 +867,7 @@ _INT_COLS = {
     "n_people",
     "size_cells",
     "static",
+    "id",
 }
 _STR_COLS = {"detector", "no_data"}
 
@@ -840,13 +900,25 @@ def _read_csv(path: Path, columns: Sequence[str]) -> dict[str, NDArray[Any]]:
     return out
 
 
+#: The values of ``run.json`` ``status``.
+STATUSES = ("running", "complete", "failed", "interrupted")
+
+
+def _no_constant(name: str) -> Any:
+    """``json.loads``' ``parse_constant``: ``NaN`` and ``Infinity`` are not JSON (the project writes null and
+    ``"inf"``, :mod:`pfpeople.io.jsonio`)."""
+    raise ValueError(f'{name} is not a JSON value (a non-finite number; the project writes null or "inf")')
+
+
 def _read_meta(meta_path: Path) -> dict[str, Any]:
     try:
-        meta = json.loads(meta_path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"), parse_constant=_no_constant)
+    except (UnicodeDecodeError, ValueError) as exc:  # json.JSONDecodeError is a ValueError
         raise ValueError(f"{str(meta_path)!r} is not valid JSON: {exc}") from None
     if not isinstance(meta, dict):
         raise ValueError(f"{str(meta_path)!r} must hold a JSON object, got {type(meta).__name__}")
+    if "status" in meta and meta["status"] not in STATUSES:
+        raise ValueError(f"{str(meta_path)!r}: key 'status' must be one of {list(STATUSES)}, got {meta['status']!r}")
     if meta.get("format") != FORMAT:
         raise ValueError(f"{str(meta_path)!r} is not a {FORMAT} file (format={meta.get('format')!r})")
     if meta.get("version") != FORMAT_VERSION:
@@ -862,10 +934,22 @@ def _read_meta(meta_path: Path) -> dict[str, Any]:
     return meta
 
 
+def _read_table(path: Path, columns: Sequence[str], out: Sequence[str]) -> dict[str, NDArray[Any]]:
+    """A table of ``columns``, or of ``columns`` and the output-frame columns ``out`` (a run with an output
+    frame)."""
+    try:
+        return _read_csv(path, columns)
+    except ValueError as exc:
+        try:
+            return _read_csv(path, (*columns, *out))
+        except ValueError:
+            raise exc from None
+
+
 def _read_frames(path: Path) -> dict[str, NDArray[Any]]:
     """``frames.csv``; one written before the ``vy_mps`` column reads with ``vy_mps = 0``."""
     try:
-        return _read_csv(path, FRAME_COLUMNS)
+        return _read_table(path, FRAME_COLUMNS, OUT_FRAME_COLUMNS)
     except ValueError as exc:  # a run written before vy_mps, or a bad table: then its own error
         try:
             frames = _read_csv(path, _FRAME_COLUMNS_V1)
@@ -898,7 +982,7 @@ def load_run(path: str | Path) -> RunData:
     frames = _read_frames(path / "frames.csv")
     n = min(len(grids), len(frames["frame"]))
     frames = {k: v[:n] for k, v in frames.items()}
-    people = _read_csv(path / "people.csv", PEOPLE_COLUMNS)
+    people = _read_table(path / "people.csv", PEOPLE_COLUMNS, OUT_PEOPLE_COLUMNS)
     try:
         dets = _read_csv(path / "detections.csv", DETECTION_COLUMNS)
     except ValueError as exc:  # a run written before the static column, or a bad table: then its own error
@@ -913,6 +997,12 @@ def load_run(path: str | Path) -> RunData:
     if (path / "support.csv").is_file():
         sup = _read_csv(path / "support.csv", DETECTION_COLUMNS)
         support = {k: v[sup["frame"] < n] for k, v in sup.items()}
+    tracks = None
+    if (path / "tracks.csv").is_file():
+        from pfpeople.track import TRACK_COLUMNS
+
+        trk = _read_table(path / "tracks.csv", TRACK_COLUMNS, OUT_TRACK_COLUMNS)
+        tracks = {k: v[trk["frame"] < n] for k, v in trk.items()}
     return RunData(
         path=path,
         meta=meta,
@@ -923,6 +1013,7 @@ def load_run(path: str | Path) -> RunData:
         support=support,
         scans=_read_records(path / "scans.npy", SCAN_DTYPE, n),
         particles=_read_records(path / "particles.npy", PARTICLE_DTYPE, n),
+        tracks=tracks,
     )
 
 

@@ -86,7 +86,7 @@ from pfpeople.perception.clutter_kernels import (
     static_lookup,
     update_evidence,
 )
-from pfpeople.perception.scan_matching import ScanOdometry
+from pfpeople.perception.scan_matching import LaserEgoMotion, ScanOdometry
 from pfpeople.perception.self_returns import SelfReturns
 
 __all__ = [
@@ -848,27 +848,19 @@ class ClutterSuppressor:
         odometry: ScanOdometry | None = None,
         moving: MovingPeople | None = None,
     ) -> None:
-        if odometry is not None and not isinstance(odometry, ScanOdometry):
-            raise TypeError(f"odometry must be a ScanOdometry, got {type(odometry).__name__}")
         if moving is not None and not isinstance(moving, MovingPeople):
             raise TypeError(f"moving must be a MovingPeople, got {type(moving).__name__}")
         self.map = StaticClutterMap(config)
         cfg = self.map.config
         #: The robot's own returns (None with ``self_range = 0``).
         self.own = SelfReturns(max_range=cfg.self_range, travel=cfg.self_travel) if cfg.self_range > 0 else None
-        self.odometry = odometry or ScanOdometry()
+        #: The scan matcher with its back-off (:class:`pfpeople.perception.scan_matching.LaserEgoMotion`), used when
+        #: :meth:`step` gets no ``ego``.
+        self.laser_ego = LaserEgoMotion(odometry)
         self.moving = moving or MovingPeople()
         self._moving_sets: list[MovingPeople] = [self.moving]
         self._prev_moving = np.zeros((0, 2))
         self.scans = 0
-        self._failures = 0
-        self._backoff = 0
-        #: After k consecutive failed matches the next min(2^(k-1), max_backoff) - 1 scans skip the matcher
-        #: (the ego-motion is unknown there: the map restarts, as after a failure). Where matching does not work
-        #: (outdoors with a short-range laser: 83 % of person_following_outdoor_1) this saves most of its cost.
-        #: A skipped scan becomes the matcher's keyframe (:meth:`ScanOdometry.skip`), so the next attempt matches
-        #: two scans one period apart: the back-off bounds the cost, it never turns matching off.
-        self.max_backoff = 8
         self.odometry_s = 0.0
         """Wall-clock seconds spent in the scan matcher (all scans)."""
         self.map_s = 0.0
@@ -880,6 +872,7 @@ class ClutterSuppressor:
         detections: Sequence[ArrayLike],
         *,
         ego: Pose2D | None = None,
+        ego_ok: bool = True,
         exclude: ArrayLike | None = None,
         stamp_ns: int | None = None,
         dt: float | None = None,
@@ -895,27 +888,26 @@ class ClutterSuppressor:
             The person detections of this scan in the same laser frame (m), one array per detector, always in the
             same order (array i feeds the i-th "people seen moving" set).
         ego : Pose2D, optional
-            The laser frame now in the laser frame of the previous scan (from wheel odometry / TF); when
-            omitted it comes from the scan matcher.
+            The laser frame now in the laser frame of the previous scan (odometry, TF, or a match made elsewhere);
+            when omitted it comes from this map's scan matcher (:attr:`laser_ego`).
+        ego_ok : bool
+            False: ``ego`` is a failed match made elsewhere (the map forgets, as after a failure of its own).
         exclude : array_like, shape (K, 2), optional
             More people to keep out of the map, in this scan's laser frame (e.g. the confirmed people of a
             tracker or of the filter's output, moved into this frame), besides the moving tracks.
         stamp_ns, dt : optional
             The scan's time, see :meth:`StaticClutterMap.update`.
         free : array_like, shape (F, 2), optional
-            End points of the beams without a return (:meth:`pfpeople.sensors.LaserScan.free_rays`), traced as
-            free space (see :meth:`StaticClutterMap.update`).
+            Ends of the beams without a return (:meth:`pfpeople.sensors.LaserScan.free_rays`): free space.
 
         Returns
         -------
         SuppressionStep
         """
-        if ego is not None and not isinstance(ego, Pose2D):
-            raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
         dets = [_positions(d, f"detections[{i}]") for i, d in enumerate(detections)]
         extra = _positions(exclude if exclude is not None else np.zeros((0, 2)), "exclude")
         t0 = time.perf_counter()
-        ego, ok = (ego, True) if ego is not None else self._scan_ego(points)
+        ego, ok = self._ego(points, ego, ego_ok)
         t1 = time.perf_counter()
         if not ok:
             self.map.forget()
@@ -935,21 +927,18 @@ class ClutterSuppressor:
         self.map_s += t2 - t1
         return SuppressionStep(keep=keep, ego=ego, ego_ok=ok, excluded=excluded)
 
-    def _scan_ego(self, points: ArrayLike) -> tuple[Pose2D, bool]:
-        """The ego-motion from the scan matcher, and whether it is known (with the back-off after failures: a
-        skipped scan's ego is unknown and becomes the next match's reference)."""
-        if self._backoff > 0:  # the matcher failed lately: skip it (ego unknown, the map restarts)
-            self._backoff -= 1
-            self.odometry.skip(points)  # the next attempt is matched against this scan
-            return Pose2D(), False
-        st = self.odometry.update(points)
-        ok = st.ok or self.scans == 0
-        if ok:
-            self._failures = 0
-        else:
-            self._failures += 1
-            self._backoff = min(2 ** (self._failures - 1), self.max_backoff) - 1
-        return st.ego, ok
+    def _ego(self, points: ArrayLike, ego: Pose2D | None, ego_ok: bool) -> tuple[Pose2D, bool]:
+        """The scan's ego-motion and whether it is known: the given one, else this map's scan match."""
+        if ego is None:
+            return self.laser_ego.match(points, first=self.scans == 0)
+        if not isinstance(ego, Pose2D):
+            raise TypeError(f"ego must be a Pose2D, got {type(ego).__name__}")
+        return ego, bool(ego_ok)
+
+    @property
+    def odometry(self) -> ScanOdometry:
+        """The scan matcher used when :meth:`step` gets no ``ego``."""
+        return self.laser_ego.odometry
 
     def clutter_flags(self, groups: Sequence[NDArray[np.float64]]) -> list[NDArray[np.bool_]]:
         """:meth:`is_clutter` of each array of positions ``(M_i, 2)`` in ``groups``, in one query of them all

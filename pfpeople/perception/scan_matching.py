@@ -39,7 +39,16 @@ from scipy.spatial import cKDTree
 from gridbridge.geometry import Pose2D
 from gridbridge.validation import check_int, check_real
 
-__all__ = ["MatchResult", "OdometryStep", "ScanMatchConfig", "ScanOdometry", "ScanOdometryConfig", "match_scans"]
+__all__ = [
+    "EgoMatch",
+    "LaserEgoMotion",
+    "MatchResult",
+    "OdometryStep",
+    "ScanMatchConfig",
+    "ScanOdometry",
+    "ScanOdometryConfig",
+    "match_scans",
+]
 
 
 def _points(points: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -444,3 +453,78 @@ class ScanOdometry:
             return OdometryStep(ego=ego, ok=True, match=res, new_keyframe=True)
         self._t_kp = t
         return OdometryStep(ego=ego, ok=True, match=res, new_keyframe=False)
+
+
+@dataclass(frozen=True)
+class EgoMatch:
+    """A laser's scan-matched motion into one scan (:meth:`LaserEgoMotion.match`).
+
+    Attributes
+    ----------
+    ego : Pose2D
+        The laser frame now in the laser frame of the previous scan (m, rad); when not ``ok``, the matcher's
+        fallback (the identity on a skipped scan).
+    ok : bool
+        Whether ``ego`` is known.
+    """
+
+    ego: Pose2D
+    ok: bool
+
+
+class LaserEgoMotion:
+    """A laser's ego-motion from its scan matcher, scan after scan, with a back-off after failed matches.
+
+    After ``k`` consecutive failed matches the next ``min(2^(k-1), max_backoff) - 1`` scans skip the matcher (their
+    ego-motion is unknown, as after a failure). Where matching does not work (outdoors with a short-range laser: 83 %
+    of ``person_following_outdoor_1``) this saves most of its cost. A skipped scan becomes the matcher's keyframe
+    (:meth:`ScanOdometry.skip`), so the next attempt matches two scans one period apart: the back-off bounds the cost,
+    it never turns matching off.
+
+    Parameters
+    ----------
+    odometry : ScanOdometry, optional
+        The scan matcher (a default one when omitted).
+    max_backoff : int
+        The longest back-off (scans, including the failed one).
+    """
+
+    def __init__(self, odometry: ScanOdometry | None = None, *, max_backoff: int = 8) -> None:
+        if odometry is not None and not isinstance(odometry, ScanOdometry):
+            raise TypeError(f"odometry must be a ScanOdometry, got {type(odometry).__name__}")
+        self.odometry = odometry or ScanOdometry()
+        self.max_backoff = check_int(max_backoff, "max_backoff", minimum=1)
+        self._failures = 0
+        self._backoff = 0
+
+    def match(self, points: ArrayLike, *, first: bool) -> tuple[Pose2D, bool]:
+        """The laser frame of ``points`` in the laser frame of the previous scan, and whether it is known.
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 2)
+            The scan's end points (m, laser frame; NaN rows ignored).
+        first : bool
+            True for the first scan of its user (a static-clutter map): that scan's motion counts as known (the
+            identity), whatever the matcher says.
+
+        Returns
+        -------
+        ego : Pose2D
+            The matcher's motion (also when unknown: the identity on a skipped scan, the matcher's fallback on a
+            failed match).
+        ok : bool
+            Whether ``ego`` is known (False on a failed or skipped match).
+        """
+        if self._backoff > 0:  # the matcher failed lately: skip it (ego unknown)
+            self._backoff -= 1
+            self.odometry.skip(points)  # the next attempt is matched against this scan
+            return Pose2D(), False
+        st = self.odometry.update(points)
+        ok = st.ok or first
+        if ok:
+            self._failures = 0
+        else:
+            self._failures += 1
+            self._backoff = min(2 ** (self._failures - 1), self.max_backoff) - 1
+        return st.ego, ok

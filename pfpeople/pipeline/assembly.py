@@ -62,7 +62,7 @@ PEAK_KEEP = 0.5
 #: accuracy unchanged); the paper mode resamples whenever births overflow, as in round one.
 DEFAULT_OVERFLOW = {"recommended": 0.1, "paper": 0.0}
 #: Default people-motion sampler of the particle filter per mode (see FilterConfig.motion_model; the names of
-#: :data:`pfpeople.particle.components.PEOPLE_SAMPLERS`): in the recommended mode walkers keep heading and speed
+#: :data:`pfpeople.particle.predictor.PEOPLE_SAMPLERS`): in the recommended mode walkers keep heading and speed
 #: (precision and tracks on every scene, README "Recommended particles"); the paper mode samples the paper's memoryless
 #: model, the grid filter's prediction.
 DEFAULT_MOTION_MODEL = {"recommended": "persistent", "paper": "paper"}
@@ -168,8 +168,9 @@ def build_filter(
         }
     if config.kind == "grid":
         return GridFilter(spec, detectors=models, prediction=pred, ego_motion=ego, **kwargs)
-    from pfpeople.particle.components import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling, Resampling
     from pfpeople.particle.filter import ParticleFilter
+    from pfpeople.particle.predictor import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling
+    from pfpeople.particle.resampler import Resampling
 
     sampler = PEOPLE_SAMPLERS[config.motion_model or DEFAULT_MOTION_MODEL[config.mode]]
     people: PaperSampling | PersistentSampling

@@ -367,7 +367,10 @@ def _run_dirs(out_dir: str | Path, names: Sequence[str], overwrite: bool) -> lis
     if not overwrite:
         held = [str(d) for d in run_dirs if (d / "run.json").exists() or (d / ERROR_FILE).exists()]
         if held:
-            raise FileExistsError(f"run directories already hold runs (use overwrite): {held}")
+            raise FileExistsError(
+                f"run directories already hold runs (replace them with --overwrite, or overwrite=True from Python): "
+                f"{held}"
+            )
     out.mkdir(parents=True, exist_ok=True)
     return run_dirs
 

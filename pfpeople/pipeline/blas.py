@@ -1,8 +1,8 @@
 """One BLAS thread per process during a run (threadpoolctl), and how to opt out.
 
 numpy's and scipy's OpenBLAS start one thread per core and hand a large enough dot product to all of them
-(``np.dot`` of the particle weights in :func:`pfpeople.particle.resampling.effective_sample_size`, 19 720 weights in the
-768-beam scenes). On a 2-core machine whose other core is busy (another process, or the
+(``np.dot`` of the particle weights in :func:`pfpeople.particle.resampler.schemes.effective_sample_size`, 19 720
+weights in the 768-beam scenes). On a 2-core machine whose other core is busy (another process, or the
 pipeline's own front-end process) the second BLAS thread waits for that core and the particle pipeline ran 2.5x
 slower than with one BLAS thread, for the same outputs. :class:`pfpeople.pipeline.runner.Pipeline` therefore limits
 every loaded BLAS library to :func:`resolve_blas_threads` threads while its frames run (the front-end process, forked
@@ -18,10 +18,15 @@ libraries' own thread counts, or ``OPENBLAS_NUM_THREADS``)::
     pfpeople run my.bag --config my.toml --blas-threads 2
 
 Only the BLAS libraries are limited (``user_api="blas"``); OpenMP pools are left alone (the pipeline uses none).
+
+More threads than the CPUs the process may use (:func:`usable_cpus`) are never asked for: a larger count is capped
+to it with a warning (``--blas-threads 64`` under an address-space limit crashed OpenBLAS, which reserves memory
+for every thread, with a SIGSEGV).
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import threading
 from collections.abc import Callable, Iterator
@@ -31,7 +36,16 @@ from typing import Any
 
 from threadpoolctl import threadpool_info, threadpool_limits
 
-__all__ = ["BLAS_THREADS_ENV", "DEFAULT_BLAS_THREADS", "blas_threads_in_use", "limit_blas", "resolve_blas_threads"]
+__all__ = [
+    "BLAS_THREADS_ENV",
+    "DEFAULT_BLAS_THREADS",
+    "blas_threads_in_use",
+    "limit_blas",
+    "resolve_blas_threads",
+    "usable_cpus",
+]
+
+log = logging.getLogger(__name__)
 
 #: The environment variable giving the default number of BLAS threads of a run (``0``: no limit).
 BLAS_THREADS_ENV = "PFPEOPLE_BLAS_THREADS"
@@ -50,7 +64,8 @@ def resolve_blas_threads(threads: int | None = None) -> int:
     Returns
     -------
     int
-        Threads per BLAS library and process, 0 for no limit.
+        Threads per BLAS library and process, 0 for no limit; at most :func:`usable_cpus` (a larger count is capped,
+        with a warning naming the setting).
 
     Raises
     ------
@@ -69,7 +84,19 @@ def resolve_blas_threads(threads: int | None = None) -> int:
             raise ValueError(f"{source} must be an integer >= 0 (0: no limit), got {text!r}") from None
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
         raise ValueError(f"{source} must be an integer >= 0 (0: no limit), got {threads!r}")
+    cpus = usable_cpus()
+    if threads > cpus:
+        log.warning("%s = %d is more than the %d CPU(s) this process may use: %d used", source, threads, cpus, cpus)
+        return cpus
     return threads
+
+
+def usable_cpus() -> int:
+    """The CPUs this process may run on (its affinity mask; ``os.cpu_count()`` where there is none), at least 1."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
 
 
 _lock = threading.Lock()

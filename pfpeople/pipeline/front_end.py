@@ -1,11 +1,11 @@
 """The pipeline's front end (ego-motion, detectors, static clutter) in a second process.
 
-A frame's work splits in two (:class:`pfpeople.pipeline.runner.Pipeline`): the *front end* (odometry, the detectors, the
-static-clutter map) needs only the frame's messages and its own state; the *back end* (filter, classifier,
-tracker, outputs) needs the front end's result. On a machine with two or more cores the front end of the next
-frames runs in a child process while this one runs the back end of the current frame, as a robot runs its
-detectors and its fusion as separate ROS nodes. The results are the same as in one process: the same code runs
-on the same frames in the same order, only in two processes.
+A frame's work splits in two: the *front end* (:mod:`pfpeople.pipeline.front`: ego-motion, the detectors, the
+static-clutter map) needs only the frame's messages and its own state; the *back end* (:mod:`pfpeople.pipeline.back`:
+filter, classifier, tracker) and the outputs need the front end's result. On a machine with two or more cores the
+front end of the next frames runs in a child process while this one runs the back end of the current frame, as a
+robot runs its detectors and its fusion as separate ROS nodes. The results are the same as in one process: the same
+code runs on the same frames in the same order, only in two processes.
 
 Protocol. The child is forked once the pipeline is prepared: it starts with a copy of every part in the state
 of the start of the run. It reads the bag itself, with its own reader of the same files (an open reader cannot
@@ -37,26 +37,20 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from logging.handlers import QueueHandler
 from multiprocessing.connection import Connection
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
-from pfpeople.detect.adapters import Detections
 from pfpeople.io.bag.sync import Frame
-from pfpeople.perception.odometry import EgoMotion
 from pfpeople.pipeline.blas import blas_threads_in_use
+from pfpeople.pipeline.front import FrontResult
 from pfpeople.run_state import RunSummary
-from pfpeople.sensors import Pose2D
 
 __all__ = ["FRONT_COUNTERS", "FrontProcess", "FrontResult", "front_process_available"]
 
 #: The :class:`~pfpeople.run_state.RunSummary` fields the front end updates (the back end: ``frames``, ``sync``,
-#: ``elapsed_s``, ``error``, ``blas_threads``, ``readmitted``, and ``mount_changes``, from the TF it reads along the
-#: frames).
+#: ``elapsed_s``, ``error``, ``blas_threads``, ``readmitted``, ``fov_narrowed``, and ``mount_changes`` and
+#: ``bad_transforms``, from the TF it reads along the frames).
 FRONT_COUNTERS = (
     "no_data",
     "empty_scans",
@@ -75,39 +69,8 @@ FRONT_COUNTERS = (
     "laser_odometry_frames",
     "ego_motion",
     "front_blas_threads",
+    "output_unplaced",
 )
-
-
-@dataclass
-class FrontResult:
-    """The front end's result for one frame (grid frame, m).
-
-    Attributes
-    ----------
-    motion : EgoMotion
-        Time step and ego-motion into the frame (the scan-matched motion when it gave the controls).
-    found : list of Detections or None
-        Per detector (configuration order), its output; None: no data in the frame.
-    dets : list of ndarray (M_k, 2) or None
-        Per detector, the detections the filter gets (static clutter removed).
-    static : list of ndarray (M_k,) of bool or None
-        Per detector, the detections the static-clutter map suppressed (None: no suppression).
-    support_static : list of ndarray (S_k,) of bool or None
-        Per detector, which support positions (single legs) the static-clutter map called static.
-    scan_static : dict of str to ndarray of bool
-        Per laser topic with a static-clutter map, which of its scan's end points lie in static cells
-        (:attr:`pfpeople.perception.clutter_stage.ClutterStage.scan_static`).
-    mounts : tuple of Pose2D
-        Per detector, the mount it was placed with in this frame (:mod:`pfpeople.pipeline.mounts`; empty: unchanged).
-    """
-
-    motion: EgoMotion
-    found: list[Detections | None]
-    dets: list[NDArray[np.float64] | None]
-    static: list[NDArray[np.bool_] | None]
-    support_static: list[NDArray[np.bool_] | None]
-    scan_static: dict[str, NDArray[np.bool_]] = field(default_factory=dict)
-    mounts: tuple[Pose2D, ...] = ()
 
 
 def front_process_available() -> tuple[bool, str]:

@@ -8,6 +8,9 @@ to the frame's stamp and each detector's mount is looked up for the frame its me
 - a mount that moved (a panning laser) is used for that frame: the detections are placed with it, and the filter's
   model of the detector gets it too (its field of view follows); frames placed with a mount other than the one
   read before the run are counted per detector in ``stats.mounts_followed``;
+- a transform read during the run that is broken (a NaN or infinite translation, a zero or non-finite quaternion:
+  refused before the run, :meth:`pfpeople.io.bag.tf.TfBuffer.add_message`) is left out, its edge keeping its last
+  good transform: counted per edge in ``stats.bad_transforms`` and warned once per edge;
 - a message whose ``frame_id`` differs from the detector's first one (two lasers on one topic, a renamed frame) is
   placed by its own frame's TF mount, counted in ``stats.frame_id_changes`` and warned once per detector; when TF
   does not connect that frame to the grid frame the detector has no data in the frame (counted in ``no_data`` and
@@ -76,12 +79,34 @@ class MountTracker:
         ]
 
     def add(self, msg: object, topic: str) -> None:
-        """A TF message read during the run."""
-        self.follower.add(msg, topic=topic)
+        """A TF message read during the run; its broken transforms (NaN, a zero quaternion) are left out, counted
+        per edge in ``stats.bad_transforms`` and warned once per edge."""
+        for edge in self.follower.add(msg, topic=topic):
+            count(self.summary.bad_transforms, edge)
+            self.warn(
+                f"badtf:{edge}",
+                "topic %r: transform %s is not finite (a NaN or infinite translation, a zero or non-finite "
+                "quaternion): left out, the edge keeps its last good transform (counted in stats.bad_transforms)",
+                topic,
+                edge,
+            )
 
     def advance(self, stamp_ns: int) -> None:
         """Apply the transforms stamped at or before a frame's stamp (call before the frame's detectors)."""
         self.follower.advance(stamp_ns)
+
+    def peek(self, k: int, adapter: DetectorAdapter, msg: BagMessage) -> Pose2D | None:
+        """The mount :meth:`place` gives detector ``k`` for ``msg`` (None: its frame has no mount), without placing
+        it or counting (the ego-motion stage asks before the detectors run)."""
+        frame = adapter.config.frame or msg.frame_id or self.grid_frame
+        if frame == self.frames[k] and self.fixed[k]:
+            return adapter.mount
+        try:
+            return self.follower.mount(frame)
+        except TfLookupError:
+            if frame != self.frames[k]:
+                return None
+            raise
 
     def place(self, k: int, adapter: DetectorAdapter, msg: BagMessage) -> bool:
         """Set detector ``k``'s mount (and model mount) for a frame whose input is ``msg``; False when its frame

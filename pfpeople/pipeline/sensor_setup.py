@@ -19,8 +19,10 @@ Before the first frame, :func:`setup_sensors` reads what is fixed for the whole 
 Once the detectors' models are known (:meth:`pfpeople.pipeline.runner.Pipeline.prepare`), two checks of the setup as a
 whole: :func:`check_grid_seen` refuses a grid with no cell inside any detector's field of view (the run could
 only find nobody; refused rather than warned, as no frame of such a run says anything and it fails before any
-output is written), and :func:`warn_coarse_lasers` warns once per topic when a leg detector's laser is too coarse
-to put :data:`pfpeople.detect.legs.MIN_LEG_BEAMS` returns on a leg within :data:`MIN_LEG_RANGE_M`.
+output is written), :func:`warn_coarse_lasers` warns once per topic when a leg detector's laser is too coarse
+to put :data:`pfpeople.detect.legs.MIN_LEG_BEAMS` returns on a leg within :data:`MIN_LEG_RANGE_M`, and
+:func:`warn_dense_lasers` once per topic when a laser detector's scans are finer than the detectors are built for
+(they get them thinned, :mod:`pfpeople.detect.spacing`).
 """
 
 from __future__ import annotations
@@ -36,8 +38,9 @@ from gridbridge.grid import GridSpec
 from gridbridge.measurement import fov_mask
 from gridbridge.params import DetectorModel
 from pfpeople.config import BagConfig, DetectorConfig, check_run_limits, run_topics
-from pfpeople.detect.adapters import DetectorAdapter
+from pfpeople.detect.adapters import DetectorAdapter, LaserAdapter
 from pfpeople.detect.legs import MIN_LEG_BEAMS, LegDetectorParams, leg_beam_range
+from pfpeople.detect.spacing import FINEST_SPACING_DEG, thinning
 from pfpeople.io.bag.reader import IMAGE_TYPES, LASER_TYPES, ODOMETRY_TYPES, BagMessage, BagSource
 from pfpeople.io.bag.tf import TfBuffer, TfLookupError
 from pfpeople.pipeline.assembly import grid_for_scan
@@ -51,6 +54,7 @@ __all__ = [
     "scan_bearings",
     "setup_sensors",
     "warn_coarse_lasers",
+    "warn_dense_lasers",
 ]
 
 log = logging.getLogger(__name__)
@@ -337,6 +341,11 @@ def _detector_mounts(
         detectors.append(d)
         mounts.append(mount)
         frame_mounts[src] = mount
+        how = "[mounts]" if any(link.child == src for link in tf.fallback_links([src])) else "TF"
+        log.debug(
+            "detector %s (%s on %s, frame %r): at x=%.3f y=%.3f m yaw=%.1f deg in the grid frame %r (%s)",
+            d.name, d.kind, d.topic, src, mount.x, mount.y, math.degrees(mount.yaw), grid_frame, how,
+        )  # fmt: skip
     return detectors, mounts, frame_mounts
 
 
@@ -475,5 +484,46 @@ def warn_coarse_lasers(adapters: Sequence[DetectorAdapter], first: Mapping[str, 
             math.degrees(inc) * reach / MIN_LEG_RANGE_M,
             MIN_LEG_BEAMS,
             MIN_LEG_RANGE_M,
+        )
+    return warned
+
+
+def warn_dense_lasers(adapters: Sequence[DetectorAdapter], first: Mapping[str, BagMessage]) -> list[str]:
+    """Warn once per topic whose beam spacing is finer than the laser detectors are built for: its scans reach them
+    thinned to every ``k``-th beam (:mod:`pfpeople.detect.spacing`; without it they went blind, unwarned).
+
+    Parameters
+    ----------
+    adapters : sequence of DetectorAdapter
+        The run's detectors (the laser detectors among them: :class:`pfpeople.detect.adapters.LaserAdapter`).
+    first : mapping of str to BagMessage
+        The first message of each topic (the spacing of a topic's first LaserScan is used).
+
+    Returns
+    -------
+    list of str
+        The topics warned about.
+    """
+    warned: list[str] = []
+    for a in adapters:
+        topic, msg = a.config.topic, first.get(a.config.topic)
+        if not isinstance(a, LaserAdapter) or msg is None or msg.msgtype not in LASER_TYPES or topic in warned:
+            continue
+        inc = abs(float(msg.msg.angle_increment))
+        k = thinning(inc)
+        if k == 1:
+            continue
+        warned.append(topic)
+        names = [b.config.name for b in adapters if isinstance(b, LaserAdapter) and b.config.topic == topic]
+        log.warning(
+            "topic %s: beam spacing %.3g deg is finer than the laser detectors are built for (%g deg and coarser; "
+            "range noise between neighbouring beams blinds their segment features): %s get every %d-th beam "
+            "(%.3g deg); the static-clutter map and the saved scans keep every beam",
+            topic,
+            math.degrees(inc),
+            FINEST_SPACING_DEG,
+            ", ".join(names),
+            k,
+            math.degrees(inc) * k,
         )
     return warned

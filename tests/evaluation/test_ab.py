@@ -74,7 +74,7 @@ def test_record_figures_and_determinism(tmp_path: Path) -> None:
     again = run_ab(Scenario.from_name("default", n_frames=40), GRID_ONLY[:1])
     assert again.filters[0].scores == res.filters[0].scores
     table = format_table(res)
-    assert "Detector laser-legs" in table and "grid (paper) + blobs" in table
+    assert "Detector laser_legs" in table and "grid (paper) + blobs" in table
 
 
 def test_bad_figure_frame_is_named() -> None:
@@ -101,6 +101,7 @@ def test_evaluate_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     out = capsys.readouterr().out
     assert code == 0
     assert "Recall" in out and "particles" in out and str(tmp_path / "run.json") in out
+    assert "FPCPF: false-positive cells per frame" in out and "tracked: the fraction of frames" in out
     assert eval_main(["evaluate", "--frames", "0", "--out", str(tmp_path)]) == 2
     assert "--frames must be positive" in capsys.readouterr().err
 

@@ -23,7 +23,7 @@ def _bench(tmp_path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> t
 def test_benchmark_rows_and_seed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     text, rows, work = _bench(tmp_path / "a", capsys, "--no-mot")
     sources = [r["source"] for r in rows]
-    assert sources[:2] == ["detector laser-legs", "detector laser-boosted"]
+    assert sources[:2] == ["detector laser_legs", "detector laser_boosted"]
     assert "recommended (pipeline)" in sources and "paper grid + blobs" in sources
     assert all(r["scene"] == "scan:corridor" and r["frames"] == 24 for r in rows)
     assert all(0.0 <= r["recall"] <= 1.0 for r in rows if r["recall"] is not None)
@@ -47,7 +47,7 @@ def test_mot_rows_score_both_filters_tracks(tmp_path: Path) -> None:
     _, _, skip = scene_logs("scan:corridor", data=tmp_path, work=work, frames=24)
     assert skip == ""
     rows = mot_rows("scan:corridor", data=tmp_path, work=work, frames=24)
-    head = ["tracks.csv (pipeline)", "tracks.csv (particle pipeline)", "laser-legs (raw)"]
+    head = ["tracks.csv (pipeline)", "tracks.csv (particle pipeline)", "laser_legs (raw)"]
     assert [r.source for r in rows[:3]] == head and [r.source for r in rows[5:8]] == head
     assert [r.sequence for r in rows] == ["corridor"] * 5 + ["corridor [hit_beams>=3]"] * 5
     meta = json.loads((work / "corridor_prun" / "run.json").read_text())

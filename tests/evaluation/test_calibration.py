@@ -141,7 +141,7 @@ def test_occlusion_adds_to_the_measured_fnr() -> None:
     laser = dataclasses.replace(base.detectors[0], clutter_rate=0.0, miss_rate=0.2)
     cfg = dataclasses.replace(base, n_frames=1500, seed=3, detectors=(laser,))
     frames = list(Scenario(cfg))
-    res = calibrate_frames(frames, cfg.detector_models, region=cfg.grid)["laser-legs"]
+    res = calibrate_frames(frames, cfg.detector_models, region=cfg.grid)["laser_legs"]
     inside = [cfg.grid.contains(f.people[:, 0], f.people[:, 1]) for f in frames]
     n_view = sum(
         int(np.isin(f.person_ids[k], f.outputs[0].in_view_ids).sum()) for f, k in zip(frames, inside, strict=True)
@@ -160,12 +160,12 @@ def test_calibrate_command_on_a_scenario_and_on_files(tmp_path, capsys) -> None:
     out = tmp_path / "cal.json"
     assert eval_main(["calibrate", "--scenario", "default", "--frames", "80", "--json", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "laser-legs" in text and "camera-hog" in text and out.is_file()
+    assert "laser_legs" in text and "camera_hog" in text and out.is_file()
     (tmp_path / "truth.csv").write_text("frame,person_id,x_m,y_m\n0,1,2.0,0.0\n0,2,4.0,1.0\n2,1,2.1,0.0\n")
     (tmp_path / "det.csv").write_text("frame,x_m,y_m\n0,2.05,0.0\n0,6.0,-2.0\n2,2.1,0.1\n")
     args = ["calibrate", "--truth", str(tmp_path / "truth.csv"), "--detections", str(tmp_path / "det.csv")]
     assert eval_main(args) == 0
-    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.strip().startswith("laser-legs"))
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.strip().startswith("laser_legs"))
     assert "2/3" in line and "1/3" in line  # TP/detections and missed/people
     assert (
         eval_main(["calibrate", "--truth", str(tmp_path / "nope.csv"), "--detections", str(tmp_path / "det.csv")]) == 2

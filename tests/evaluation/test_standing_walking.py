@@ -36,7 +36,7 @@ def _run_dir(tmp_path: Path) -> tuple[Path, Path]:
     people += [f"{k},{k},0,0,{x},{y},3,0.9" for k, x, y in _PEOPLE]
     (run / "people.csv").write_text("\n".join(people) + "\n", encoding="utf-8")
     dets = ["frame,driver_index,stamp_ns,bag_time_ns,detector,x_m,y_m,static"]
-    dets += [f"{k},{k},0,0,laser-legs,{x},{y},{s}" for k, x, y, s in _DETS]
+    dets += [f"{k},{k},0,0,laser_legs,{x},{y},{s}" for k, x, y, s in _DETS]
     (run / "detections.csv").write_text("\n".join(dets) + "\n", encoding="utf-8")
     gt = tmp_path / "gt.csv"
     rows = ["scan_index,stamp_ns,person_id,x_laser_m,y_laser_m,hit_beams,speed_mps"]

@@ -27,9 +27,9 @@ from gridbridge import (
 from gridbridge.ego_motion import odometry_pose
 from gridbridge.geometry import Pose2D
 from pfpeople.io.run_dir import RunWriter, load_run
-from pfpeople.particle.components import PaperSampling, VelocityEgoSampling
 from pfpeople.particle.filter import ParticleFilter
-from pfpeople.particle.propagation import apply_ego_motion, sample_ego_poses
+from pfpeople.particle.predictor.ego import VelocityEgoSampling, apply_ego_motion, sample_ego_poses
+from pfpeople.particle.predictor.paper import PaperSampling
 from pfpeople.particle.state import ParticleState, uniform_in_cells
 from pfpeople.perception.odometry import odometry_between
 

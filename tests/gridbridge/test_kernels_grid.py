@@ -22,6 +22,7 @@ from gridbridge import (
     warp_belief,
 )
 from gridbridge.components import Appearance, BeliefBounds, LinearPrediction, PaperPrediction, VelocityEgoMotion
+from gridbridge.ego_motion import predict_sensor
 from gridbridge.params import DetectorModel
 
 pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
@@ -132,20 +133,26 @@ def test_grid_filter_steps_agree_to_1e12(form: str) -> None:
 
 
 class _Paper(PaperPrediction):
-    """A component the filter does not know: it goes through predict_people, the public function."""
+    """The paper prediction through predict_people, the public function (checked, its kernel looked up each call)."""
+
+    def predict(self, belief: np.ndarray, spec: GridSpec, dt: float) -> np.ndarray:
+        return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="paper")
 
 
 class _Linear(LinearPrediction):
-    pass
+    def predict(self, belief: np.ndarray, spec: GridSpec, dt: float) -> np.ndarray:
+        return predict_people(belief, self.kernel(spec, dt), outside=self.outside, form="linear")
 
 
 class _Ego(VelocityEgoMotion):
-    pass
+    def predict(self, belief: np.ndarray, spec: GridSpec, odometry: Odometry | None, dt: float) -> np.ndarray:
+        return predict_sensor(belief, spec, odometry, dt, noise=self.noise, outside=self.outside)
 
 
 @pytest.mark.parametrize(("builtin", "custom"), [(PaperPrediction, _Paper), (LinearPrediction, _Linear)])
 def test_grid_filter_runs_its_builtin_components_as_their_functions_do(builtin: type, custom: type) -> None:
-    """The filter's direct kernel calls for its built-in components give the components' results bit for bit."""
+    """The built-in components' compiled forms (their kernel kept per step, the belief checked in one pass) give
+    the public functions' results bit for bit, in a filter."""
     spec = GridSpec.centred_on_edge(19, 23, 0.3)
     runs = []
     for prediction, ego in ((builtin(), VelocityEgoMotion()), (custom(), _Ego())):
@@ -385,3 +392,54 @@ def test_appearance_compiled_is_the_numpy_one_bit_for_bit() -> None:
         app = Appearance(rate=float(rng.choice([0.0, 0.1, 2.0])))
         fast, slow = _both(app.apply, p, float(rng.uniform(0.01, 1.0)), where=where)
         assert fast.dtype == slow.dtype and fast.tobytes() == slow.tobytes(), k
+
+
+@pytest.mark.parametrize("on", [True, False])
+def test_grid_components_refuse_a_bad_belief_by_name_on_both_forms(on: bool) -> None:
+    """The compiled forms check the belief in one pass (all_probabilities) and name it as the numpy forms do; a
+    belief of another dtype or layout is converted and gives the same result."""
+    spec = GridSpec.centred_on_edge(11, 9, 0.3)
+    bel = np.random.default_rng(2).random(spec.shape)
+    odo = Odometry(v=0.3, omega=0.2)
+    with jit.override(on):
+        for bad, match in ((np.full(spec.shape, np.nan), "belief contains NaN"), (bel + 1.0, r"belief must hold")):
+            for call in (
+                lambda b: PaperPrediction().predict(b, spec, 0.1),
+                lambda b: LinearPrediction().predict(b, spec, 0.1),
+                lambda b: VelocityEgoMotion().predict(b, spec, odo, 0.1),
+            ):
+                with pytest.raises(ValueError, match=match):
+                    call(bad)
+        with pytest.raises(ValueError, match="belief must have shape"):
+            VelocityEgoMotion().predict(bel[:5], spec, odo, 0.1)
+        with pytest.raises(ValueError, match="belief must be a 2-D array"):
+            PaperPrediction().predict(bel.ravel(), spec, 0.1)
+        with pytest.raises(ValueError, match="dt"):
+            LinearPrediction().predict(bel, spec, 0.0)
+        same = LinearPrediction().predict(np.asfortranarray(bel).astype(np.float32), spec, 0.1)
+        want = LinearPrediction().predict(bel.astype(np.float32).astype(np.float64), spec, 0.1)
+        assert same.tobytes() == want.tobytes()
+
+
+def test_bayes_update_compiled_is_numpy_bit_for_bit_and_checks_by_name() -> None:
+    """bayes_update of float64 probability arrays runs compiled (any shape), the same bits as the numpy form; a
+    NaN, a value out of [0, 1] or differing shapes are refused by name on both forms."""
+    from gridbridge import bayes_update
+
+    rng = np.random.default_rng(4)
+    for shape in ((30, 30), (900,), (3, 4, 5)):
+        p, lik = rng.random(shape), rng.random(shape)
+        p.flat[:3], lik.flat[:3] = (0.0, 1.0, 1.0), (1.0, 0.0, 1.0)  # 0/0 keeps the prior
+        with jit.override(True):
+            fast = bayes_update(p, lik)
+        with jit.override(False):
+            slow = bayes_update(p, lik)
+        assert fast.shape == shape and fast.tobytes() == slow.tobytes()
+    for on in (True, False):
+        with jit.override(on):
+            with pytest.raises(ValueError, match="prior contains NaN"):
+                bayes_update(np.full(4, np.nan), np.full(4, 0.5))
+            with pytest.raises(ValueError, match="likelihood must hold probabilities"):
+                bayes_update(np.full(4, 0.5), np.full(4, 1.5))
+            with pytest.raises(ValueError, match="shapes differ"):
+                bayes_update(np.full(4, 0.5), np.full(5, 0.5))

@@ -135,7 +135,7 @@ def test_rasterise_sums_weights_per_cell() -> None:
         (lambda: fuse_detectors(np.ones((3, 2, 2)), PPV, FNR, covered=np.ones((3, 2, 2))), "covered"),
         (lambda: bayes_update(np.full((2, 2), np.nan), np.ones((2, 2))), "prior"),
         (lambda: bayes_update(np.ones((2, 2)), np.ones((2, 3))), "shapes"),
-        (lambda: detection_map(GridSpec(), PAPER_DETECTORS[0], [[np.nan, 0.0]]), "laser-legs"),
+        (lambda: detection_map(GridSpec(), PAPER_DETECTORS[0], [[np.nan, 0.0]]), "laser_legs"),
         (lambda: likelihood_from_detections(GridSpec(), PAPER_DETECTORS, [[]]), "one entry per detector"),
         (lambda: DetectorModel(name="x", ppv=1.2, fnr=0.1), "ppv"),
         (lambda: DetectorModel(name="x", ppv=0.9, fnr=0.1, uncertainty="box"), "uncertainty"),  # type: ignore[arg-type]

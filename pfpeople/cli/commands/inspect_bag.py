@@ -24,6 +24,9 @@ from pfpeople.io.jsonio import dumps
 
 
 def _run(args: argparse.Namespace) -> int:
+    path = Path(args.write_config) if args.write_config else None
+    if path is not None and path.exists() and not args.overwrite:  # refused before the bag is read and reported
+        raise FileExistsError(f"--write-config {str(path)!r} exists (use --overwrite to replace it)")
     try:
         with BagSource(args.bag) as bag:
             report = inspect_bag(bag, sample=args.sample, name=args.bag)
@@ -34,10 +37,7 @@ def _run(args: argparse.Namespace) -> int:
         print(dumps(report.to_dict()))
     else:
         print(format_report(report))
-    if args.write_config:
-        path = Path(args.write_config)
-        if path.exists() and not args.overwrite:
-            raise FileExistsError(f"--write-config {str(path)!r} exists (use --overwrite to replace it)")
+    if path is not None:
         path.write_text(starter_config(report, driver=args.driver))
         bag_arg, cfg_arg = shlex.quote(str(args.bag)), shlex.quote(str(path))  # a command to paste into a shell
         print(f"wrote {path}: run it with  pfpeople run {bag_arg} --config {cfg_arg}", file=sys.stderr)

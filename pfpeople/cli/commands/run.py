@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import logging
 import signal
 import sys
 from dataclasses import replace
@@ -27,8 +28,10 @@ from pfpeople.config import BagConfig, DetectorConfig, builtin_config_path, load
 from pfpeople.io.bag.reader import BagReadError, BagSource
 from pfpeople.io.bag.writer import BAG_FORMATS, check_bag_out
 from pfpeople.io.run_dir import RunInterrupted, check_output_paths, interrupt_signals
-from pfpeople.io.sinks import standard_sinks
 from pfpeople.pipeline.runner import Pipeline
+from pfpeople.pipeline.sinks import standard_sinks
+
+log = logging.getLogger(__name__)
 
 
 def config_from_args(args: argparse.Namespace) -> BagConfig:
@@ -40,7 +43,7 @@ def config_from_args(args: argparse.Namespace) -> BagConfig:
         if not args.driver:
             raise ValueError("give --config or --driver (the LaserScan topic that drives the frames)")
         cfg = BagConfig(
-            driver=args.driver, detectors=(DetectorConfig(name="laser-legs", kind="leg", topic=args.driver),)
+            driver=args.driver, detectors=(DetectorConfig(name="laser_legs", kind="leg", topic=args.driver),)
         )
     changes: dict[str, Any] = {}
     if args.driver and args.config:
@@ -60,6 +63,20 @@ def config_from_args(args: argparse.Namespace) -> BagConfig:
     return replace(cfg, **changes) if changes else cfg
 
 
+def _log_config(cfg: BagConfig) -> None:
+    """The run's configuration, as debug messages (``pfpeople -v run``)."""
+    log.debug(
+        "frames: driver %s, time source %s, sync tolerance %g s, odometry %s, base frame %s, grid frame %s",
+        cfg.driver, cfg.time_source, cfg.sync_tolerance_s, cfg.odometry or "none", cfg.base_frame,
+        cfg.grid_frame or "the driver's",
+    )  # fmt: skip
+    log.debug("filter: %s, %s mode; grid: %s", cfg.filter.kind, cfg.filter.mode, cfg.grid or "from the lasers")
+    for d in cfg.detectors:
+        log.debug("detector %s: kind %s on %s", d.name, d.kind, d.topic)
+    for frame, (x, y, yaw) in cfg.mounts.items():
+        log.debug("[mounts] %s: x=%g y=%g yaw=%g rad in %s (where TF has none)", frame, x, y, yaw, cfg.base_frame)
+
+
 def _run(args: argparse.Namespace) -> int:
     with interrupt_signals():  # SIGTERM as well as SIGINT end the run through its finally blocks
         try:
@@ -75,7 +92,10 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _run_checked(args: argparse.Namespace) -> int:
+    if not Path(args.bag).exists():  # said first: no configuration helps a bag that is not there
+        raise FileNotFoundError(f"bag {args.bag!r} does not exist")
     cfg = config_from_args(args)
+    _log_config(cfg)
     out = Path(args.out) if args.out else Path(f"{Path(args.bag).name.split('.')[0]}_{cfg.filter.kind}_run")
     inputs = [Path(args.bag)] + ([Path(args.config)] if args.config and Path(args.config).is_file() else [])
     check_output_paths(inputs, out_dir=out, bag_out=args.bag_out)  # no output writes over an input, or another
@@ -148,8 +168,9 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--bag-out",
         help="also write the results as a bag: a ROS 1 .bag file, or a rosbag2 folder (any other name): "
-        "OccupancyGrid, people_msgs/People (people, tracks with ids and velocities), MarkerArrays, PoseArrays, "
-        "/tf_static, the input scans and TF; and a Foxglove layout OUT.foxglove-layout.json beside it",
+        "OccupancyGrid, people_msgs/People (people, tracks with ids and velocities), "
+        "spencer_tracking_msgs/TrackedPersons (tracks with covariance), MarkerArrays, PoseArrays, /tf_static (with "
+        "the [mounts] of lasers without TF), the input scans and TF; and a Foxglove layout OUT.foxglove-layout.json",
     )
     p.add_argument(
         "--bag-format",

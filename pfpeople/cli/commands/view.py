@@ -71,7 +71,8 @@ def _check_run(run: RunData) -> None:
 
 def _run(args: argparse.Namespace) -> int:
     # Drawing and encoding libraries are imported here, not when the CLI builds its parser for every command.
-    from pfpeople.viz.run_view import RunFrameRenderer, ViewOptions, default_fps, fit_size, read_tracks, render_summary
+    from pfpeople.viz.run_view import RunFrameRenderer, ViewOptions, default_fps, fit_size, read_tracks
+    from pfpeople.viz.summary import render_summary
     from pfpeople.viz.video import write_animation
 
     run_dir = Path(args.run)

@@ -16,10 +16,11 @@ JSON in the format of Foxglove's "Export layout" (``configById``, ``layout``, ``
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
+
+from pfpeople.io.files import replace_text
 
 __all__ = ["layout", "layout_path", "write_layout"]
 
@@ -76,7 +77,5 @@ def layout(topics: Mapping[str, str], frame_id: str) -> dict[str, Any]:
 def write_layout(bag_path: str | Path, topics: Mapping[str, str], frame_id: str) -> Path:
     """Write :func:`layout` to :func:`layout_path` of ``bag_path`` (replacing an old one); returns the path."""
     out = layout_path(bag_path)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(json.dumps(layout(topics, frame_id), indent=2) + "\n", "utf8")
-    os.replace(tmp, out)
+    replace_text(out, json.dumps(layout(topics, frame_id), indent=2) + "\n")  # a link at ``out`` is not followed
     return out

@@ -28,9 +28,10 @@ radians where a configuration needs them.
 - ``[odometry] topic``: the ``nav_msgs/Odometry`` topic with the most messages, when one exists; then
   ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
   laser at the base origin (flagged in a comment and in the report's warnings: measure it).
-- on every LaserScan topic the three detectors of :data:`LASER_DETECTORS`: ``laser-legs`` (kind ``leg``),
-  ``laser-boosted`` (kind ``boosted``) and ``laser-single-legs`` (kind ``single-legs``), so named on the driver
-  and ``NAME:TOPIC`` on the others (:func:`laser_detector_name`: ``laser-legs:rear_scan``), each with
+- on every LaserScan topic the three detectors of :data:`LASER_DETECTORS`: ``laser_legs`` (kind ``leg``),
+  ``laser_boosted`` (kind ``boosted``) and ``laser_single_legs`` (kind ``single-legs``), so named on the driver
+  and ``NAME_TOPIC`` on the others (:func:`laser_detector_name`: ``laser_legs_rear_scan``; valid ROS names, so a
+  result bag's detection topics keep them), each with
   ``[detectors.model] fov_min, fov_max, max_range`` from its scan (radians, metres). The run places each laser
   by TF (its mount in the grid frame, :mod:`pfpeople.pipeline.sensor_setup`); a laser that TF does not connect to the
   driver's frame gets a ``[mounts]`` entry at the base origin, facing forward (on the root of its TF tree, and
@@ -44,7 +45,9 @@ from __future__ import annotations
 import bisect
 import json
 import math
+import re
 import statistics
+import textwrap
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -77,6 +80,12 @@ TIME_SOURCE_THRESHOLD_S = 1.0
 
 #: A run's default ``[frames] sync_tolerance_s`` (s); a starter config raises it when another laser needs more.
 SYNC_TOLERANCE_S = 0.05
+
+#: What a run (recommended mode) does without an odometry topic: the report and the starter config say it.
+NO_ODOMETRY = (
+    "a run moves the grid by scan matching the driving laser where its scans match ([clutter] laser_odometry, "
+    "the recommended mode) and takes the robot as standing where they do not (counted: run.json stats ego_motion)"
+)
 
 #: A topic's sampled messages were recorded in a burst when their record times span less than this fraction of
 #: the time their header stamps span (:attr:`TopicInfo.record_burst`).
@@ -544,6 +553,11 @@ def _relate_to_driver(
     return out
 
 
+def _wrap(text: str) -> list[str]:
+    """``text`` in lines of at most 110 characters (a starter config's comments)."""
+    return textwrap.wrap(text, 110)
+
+
 def _fmt(v: float | None, spec: str = ".2f") -> str:
     return "-" if v is None else format(v, spec)
 
@@ -554,12 +568,16 @@ def format_report(report: BagReport) -> str:
         f"bag: {report.bag} ({report.storage})",
         f"time span: {report.duration_s:.3f} s (record times {report.start_ns} .. {report.end_ns} ns)",
         "",
-        f"{'topic':<32} {'type':<36} {'count':>7} {'rate Hz':>8} {'hdr Hz':>8} {'hdr-rec s':>10}  frame ids",
     ]
+    # the name and type columns as wide as their longest entry (at least the usual 32 and 36), so rows align
+    wt = max([32, *(len(t.topic) for t in report.topics)])
+    wy = max([36, *(len(t.msgtype) for t in report.topics)])
+    head = f"{'count':>7} {'rate Hz':>8} {'hdr Hz':>8} {'hdr-rec s':>10}  frame ids"
+    lines.append(f"{'topic':<{wt}} {'type':<{wy}} {head}")
     for t in report.topics:
         ids = ", ".join(t.frame_ids) if t.frame_ids else "(no header)"
         lines.append(
-            f"{t.topic:<32} {t.msgtype:<36} {t.count:>7} {_fmt(t.rate_hz):>8} {_fmt(t.header_rate_hz):>8} "
+            f"{t.topic:<{wt}} {t.msgtype:<{wy}} {t.count:>7} {_fmt(t.rate_hz):>8} {_fmt(t.header_rate_hz):>8} "
             f"{_fmt(t.header_offset_s, '.3f'):>10}  {ids}"
         )
     lines.append("")
@@ -600,7 +618,7 @@ def format_report(report: BagReport) -> str:
             f"odometry {o.topic}: frame {o.frame_id} -> child {o.child_frame_id}, {o.count} msgs, {_fmt(o.rate_hz)} Hz"
         )
     if not report.odometry:
-        lines.append("odometry: none (nav_msgs/Odometry absent: a run takes the robot as standing)")
+        lines.append(f"odometry: none (no nav_msgs/Odometry topic): {NO_ODOMETRY}")
     lines.append("")
     lines.append(f"suggested driver: {report.driver or '-'}; time source: {report.time_source}")
     for w in report.warnings:
@@ -614,9 +632,9 @@ def _q(s: str) -> str:
 
 #: The built-in detectors a starter configuration puts on a laser: (name, kind, what it is).
 LASER_DETECTORS: tuple[tuple[str, str, str], ...] = (
-    ("laser-legs", "leg", "leg detector (segments paired into people)"),
-    ("laser-boosted", "boosted", "boosted segment classifier (pfpeople/models/boosted_legs.yml)"),
-    ("laser-single-legs", "single-legs", "single legs the boosted classifier cannot pair, a detector of their own"),
+    ("laser_legs", "leg", "leg detector (segments paired into people)"),
+    ("laser_boosted", "boosted", "boosted segment classifier (pfpeople/models/boosted_legs.yml)"),
+    ("laser_single_legs", "single-legs", "single legs the boosted classifier cannot pair, a detector of their own"),
 )
 
 
@@ -624,7 +642,7 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
     """TOML text of a starter run configuration for the inspected bag (see the module docstring).
 
     Every LaserScan topic gets the detectors of :data:`LASER_DETECTORS`: the driver's named as listed, each
-    other laser's named ``NAME:TOPIC`` (``laser-legs:rear_scan``). A laser placed by TF (the pipeline looks its
+    other laser's named ``NAME_TOPIC`` (``laser_legs_rear_scan``). A laser placed by TF (the pipeline looks its
     mount up in the grid frame, :mod:`pfpeople.pipeline.sensor_setup`) needs no entry; one that TF does not connect to
     the driver's frame gets a ``[mounts]`` entry at the base origin, flagged "measure it".
 
@@ -738,7 +756,7 @@ def _frames_lines(report: BagReport, order: Sequence[LaserInfo], mounts: dict[st
         f"# The LaserScan topic with the most messages ({drv.count}, {_fmt(drv.rate_hz)} Hz) makes the frames.",
     ]
     if len(order) > 1:
-        out.append("# The other LaserScan topics, each with the same detectors (named NAME:TOPIC), join its frames:")
+        out.append("# The other LaserScan topics, each with the same detectors (named NAME_TOPIC), join its frames:")
         for li in order[1:]:
             t = counts[li.topic]
             out.append(f"#   {li.topic}: {t.count} msgs, {_fmt(t.rate_hz)} Hz, frame {li.frame_id!r}")
@@ -782,8 +800,9 @@ def _sync_tolerance_lines(report: BagReport, order: Sequence[LaserInfo]) -> list
     half = math.inf if not rate else 0.5 / rate
     tol = min(math.ceil(gap * 1.25 * 1000) / 1000, math.floor(half * 1000) / 1000)
     out = [
-        f"# {topic}'s scans are {gap:.3f} s (95th percentile) from the driver's, more than the default",
-        f"# tolerance ({SYNC_TOLERANCE_S:g} s) allows: a scan further than sync_tolerance_s from a frame is not used.",
+        f"# {topic}'s scans are {gap:.3f} s (95th percentile) from the driver's; with a 25 % margin for jitter",
+        f"# ({gap * 1.25:.3f} s) that is more than the default tolerance ({SYNC_TOLERANCE_S:g} s), and a scan further",
+        "# than sync_tolerance_s from a frame is not used.",
     ]
     if gap > half:
         out.append("# Half the driver's period is the most that pairs each frame with its own scan: some frames")
@@ -794,7 +813,7 @@ def _sync_tolerance_lines(report: BagReport, order: Sequence[LaserInfo]) -> list
 def _odometry_lines(report: BagReport) -> list[str]:
     """The ``[odometry]`` table (the topic with the most messages), or a comment that there is none."""
     if not report.odometry:
-        return ["", "# No nav_msgs/Odometry topic: the robot is taken as standing (no [odometry] table)."]
+        return ["", "# No nav_msgs/Odometry topic (no [odometry] table):", *(f"# {w}" for w in _wrap(NO_ODOMETRY))]
     odom = max(report.odometry, key=lambda o: o.count)
     out = [
         "",
@@ -837,8 +856,9 @@ def _model_lines(li: LaserInfo) -> list[str]:
 
 def laser_detector_name(name: str, topic: str, driver: str) -> str:
     """Name of detector ``name`` of :data:`LASER_DETECTORS` on ``topic`` in a starter config: ``name`` on the
-    driver, ``name:TOPIC`` (without the leading slash) on every other laser."""
-    return name if topic == driver else f"{name}:{topic.lstrip('/')}"
+    driver, ``name_TOPIC`` on every other laser (the topic without its leading slash, every character but
+    ``[A-Za-z0-9_]`` as ``_``: a valid ROS name, e.g. ``laser_legs_robot_rear_scan`` for ``/robot/rear_scan``)."""
+    return name if topic == driver else f"{name}_{re.sub(r'[^A-Za-z0-9_]', '_', topic.lstrip('/'))}"
 
 
 def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: TfBuffer, assumed: bool) -> list[str]:

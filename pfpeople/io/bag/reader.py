@@ -12,7 +12,8 @@ Conversions (all errors name the topic and the message type):
 - ``sensor_msgs/LaserScan`` -> :class:`pfpeople.sensors.LaserScan`. NaN, inf and out-of-interval ranges are
   kept and marked invalid by ``LaserScan.valid`` (they are "no return", not points).
 - ``sensor_msgs/Image`` (mono8, bgr8, rgb8, bgra8, rgba8, 8UC1, 8UC3) and ``sensor_msgs/CompressedImage``
-  (decoded with ``cv2.imdecode``) -> :class:`pfpeople.sensors.CameraImage` (BGR or mono).
+  (PNG or JPEG, its size read from its header and checked before ``cv2.imdecode`` decodes it:
+  :mod:`pfpeople.io.bag.image_size`) -> :class:`pfpeople.sensors.CameraImage` (BGR or mono).
 - ``nav_msgs/Odometry`` -> :class:`pfpeople.sensors.Pose2D` of its child frame in its parent (odom) frame.
 - ``geometry_msgs/PoseArray``, ``Pose``, ``PoseStamped``, ``Point``, and any message with a ``pose``,
   ``poses``, ``position``, ``people`` or ``points`` field (e.g. ``leg_tracker/Person``) -> ``(M, 2)``
@@ -23,12 +24,12 @@ Damaged input (every error names the file, member or topic):
 - A file that is not a ROS1 bag (no ``#ROSBAG V2.0`` magic), a folder without ``metadata.yaml``: refused
   before ``rosbags`` reads it. A ROS1 bag that cannot be opened or read to its end (an interrupted
   recording) gets the hint to repair it with ``rosbag reindex``.
-- Zips: more than one bag in the archive is refused (naming the members); members are checked for their
-  size before extraction (larger than :data:`MAX_ZIP_MEMBER_BYTES`, compressed more than
-  :data:`MAX_ZIP_RATIO` times beyond :data:`ZIP_RATIO_MIN_BYTES`, or more than the free space: a zip bomb);
-  extraction goes to a temporary folder renamed when complete. The cache keeps at most
-  :data:`MAX_CACHE_ENTRIES` extracted bags and :data:`MAX_CACHE_BYTES` bytes (least recently used evicted
-  first; older copies of the same zip are evicted at once).
+- A ROS2 folder whose ``metadata.yaml`` is not YAML or lists no storage file: refused in one line naming the
+  file, the line and the problem (:func:`pfpeople.io.bag.rosbag2_meta.parse_metadata`).
+- Zips (:mod:`pfpeople.io.bag.archive`): members are read by their validated names only (an absolute name or one
+  with ``..`` is refused), only the bag's members are unpacked, and the archive's member count and the bag's
+  unpacked size are bounded before anything is written; more than one bag in the archive is refused (naming
+  the members).
 - A required sensor topic (LaserScan, Image) without messages is an error at :meth:`BagSource.require`.
 - LaserScans with ``range_min > range_max``, a NaN ``range_max``, or every range NaN (the sensor measured
   nothing: REP 117 NaN is an erroneous measurement, unlike +inf "no return") and odometry with implausible
@@ -47,15 +48,8 @@ Damaged input (every error names the file, member or topic):
 
 from __future__ import annotations
 
-import contextlib
-import hashlib
 import logging
 import math
-import os
-import shutil
-import tempfile
-import time
-import zipfile
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -70,7 +64,10 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_typestore
 
 from gridbridge.geometry import Pose2D, yaw_from_orientation
+from pfpeople.io.bag.archive import BagReadError, extract_zip
+from pfpeople.io.bag.image_size import check_encoded_size
 from pfpeople.io.bag.ros1_decoders import Decoder, ros1_decoder
+from pfpeople.io.bag.rosbag2_meta import parse_metadata
 from pfpeople.sensors import CameraImage, LaserScan
 
 __all__ = [
@@ -92,10 +89,6 @@ LASER_TYPES = ("sensor_msgs/msg/LaserScan",)
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 ODOMETRY_TYPES = ("nav_msgs/msg/Odometry",)
 TF_TYPES = ("tf2_msgs/msg/TFMessage",)
-
-
-class BagReadError(RuntimeError):
-    """A bag could not be opened or read (corrupt, truncated, unknown format or type)."""
 
 
 class MessageDataError(ValueError):
@@ -128,169 +121,15 @@ class BadScanError(MessageDataError):
 
 #: Beams by which ``len(ranges)`` may differ from ``(angle_max - angle_min) / angle_increment + 1``.
 MAX_BEAM_MISMATCH = 1.0
-#: Largest uncompressed zip member extracted (bytes); ``$PFPEOPLE_MAX_ZIP_BYTES`` overrides.
-MAX_ZIP_MEMBER_BYTES = 64 * 2**30
-#: Largest compression ratio accepted for a member larger than :data:`ZIP_RATIO_MIN_BYTES` (bags compress
-#: 2-20 times; a zip bomb hundreds or thousands of times).
-MAX_ZIP_RATIO = 200.0
-ZIP_RATIO_MIN_BYTES = 64 * 2**20
-#: Extracted bags kept in the cache, and their total size (bytes; ``$PFPEOPLE_CACHE_MAX_BYTES`` overrides).
-MAX_CACHE_ENTRIES = 8
-MAX_CACHE_BYTES = 100 * 2**30
 #: Odometry coordinates beyond this (m) are not a robot's pose.
 MAX_ODOMETRY_COORD_M = 1.0e7
 ROS1_MAGIC = b"#ROSBAG V2.0"
+#: Bytes of a bag folder's ``metadata.yaml`` read to check it (a real one is a few kB).
+MAX_METADATA_READ = 16 * 2**20
 REINDEX_HINT = (
     "a ROS1 bag whose recording was interrupted can often be repaired with `rosbag reindex FILE` "
     "(ROS1 tools; keeps a .orig.bag backup)"
 )
-
-
-def _cache_root() -> Path:
-    env = os.environ.get("PFPEOPLE_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "pfpeople"
-
-
-def _env_int(name: str, default: int) -> int:
-    value = os.environ.get(name)
-    if not value:
-        return default
-    try:
-        return int(float(value))
-    except ValueError:
-        raise ValueError(f"environment variable {name}={value!r} is not a number of bytes") from None
-
-
-def _bag_members(path: Path, names: list[str]) -> list[str]:
-    """The bags of a zip: ``.bag`` members and folders with a ``metadata.yaml``; refuse none or several."""
-    names = [n for n in names if not n.startswith("__MACOSX/")]
-    bags = [n for n in names if n.endswith(".bag")]
-    ros2 = sorted({n[: -len("metadata.yaml")] or "./" for n in names if n.rsplit("/", 1)[-1] == "metadata.yaml"})
-    found = sorted(bags) + ros2
-    if not found:
-        raise BagReadError(f"bag archive {str(path)!r} holds no .bag file and no ROS2 bag folder")
-    if len(found) > 1:
-        raise BagReadError(
-            f"bag archive {str(path)!r} holds {len(found)} bags ({', '.join(found)}); unzip it and give the bag to use"
-        )
-    return found
-
-
-def _check_zip_sizes(path: Path, infos: list[zipfile.ZipInfo], free: int) -> None:
-    """Refuse members too large or compressed like a zip bomb, or more than the free space, before extracting."""
-    limit = _env_int("PFPEOPLE_MAX_ZIP_BYTES", MAX_ZIP_MEMBER_BYTES)
-    total = 0
-    for info in infos:
-        size = info.file_size
-        total += size
-        if size > limit:
-            raise BagReadError(
-                f"bag archive {str(path)!r}: member {info.filename!r} is {size} bytes uncompressed, more than "
-                f"the limit of {limit} bytes (set PFPEOPLE_MAX_ZIP_BYTES to allow it)"
-            )
-        ratio = size / max(info.compress_size, 1)
-        if size > ZIP_RATIO_MIN_BYTES and ratio > MAX_ZIP_RATIO:
-            raise BagReadError(
-                f"bag archive {str(path)!r}: member {info.filename!r} is {size} bytes uncompressed from "
-                f"{info.compress_size} bytes (ratio {ratio:.0f}, more than {MAX_ZIP_RATIO:.0f}): refused as a "
-                "possible zip bomb; unzip it yourself if it is genuine"
-            )
-    if total > free:
-        raise BagReadError(
-            f"bag archive {str(path)!r} needs {total} bytes to extract; the cache has {free} bytes free "
-            "(set PFPEOPLE_CACHE to a larger disk)"
-        )
-
-
-def _dir_size(path: Path) -> int:
-    total = 0
-    for p in path.rglob("*"):
-        with contextlib.suppress(OSError):
-            if p.is_file() and not p.is_symlink():
-                total += p.stat().st_size
-    return total
-
-
-def evict_cache(root: Path, *, keep: Path | None = None, source: Path | None = None) -> list[Path]:
-    """Bound the zip extraction cache ``root``; returns the folders removed.
-
-    Removes older copies of the zip ``source`` (same zip path, another key: the zip changed), extraction folders left
-    by a crash more than an hour ago, then the least recently used entries beyond :data:`MAX_CACHE_ENTRIES`
-    or :data:`MAX_CACHE_BYTES` (``$PFPEOPLE_CACHE_MAX_BYTES``). ``keep`` is never removed.
-    """
-    if not root.is_dir():
-        return []
-    removed: list[Path] = []
-    entries: list[tuple[float, Path]] = []
-    now = time.time()
-    for d in root.iterdir():
-        if not d.is_dir() or d == keep:
-            continue
-        done = d / ".complete"
-        try:
-            if d.name.startswith(".extract-"):
-                if now - d.stat().st_mtime > 3600:
-                    removed.append(d)
-                continue
-            if not done.exists():
-                continue
-            origin = d / ".source"
-            if source is not None and origin.is_file() and origin.read_text() == str(source):
-                removed.append(d)
-                continue
-            entries.append((done.stat().st_mtime, d))
-        except OSError:
-            continue
-    entries.sort(reverse=True)  # most recently used first
-    max_bytes = _env_int("PFPEOPLE_CACHE_MAX_BYTES", MAX_CACHE_BYTES)
-    used = _dir_size(keep) if keep is not None and keep.is_dir() else 0
-    n = 1 if keep is not None else 0
-    for _, d in entries:
-        size = _dir_size(d)
-        if n + 1 > MAX_CACHE_ENTRIES or used + size > max_bytes:
-            removed.append(d)
-        else:
-            n += 1
-            used += size
-    for d in removed:
-        shutil.rmtree(d, ignore_errors=True)
-        log.info("bag cache: removed %s", d)
-    return removed
-
-
-def _extract_zip(path: Path, cache_dir: Path | None) -> Path:
-    """Extract a zipped bag once (checked, see the module docstring); returns the ``.bag`` file or ROS2 folder."""
-    stat = path.stat()
-    key = hashlib.sha1(f"{path.resolve()}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()[:12]
-    root = Path(cache_dir) if cache_dir is not None else _cache_root() / "bags"
-    dest = root / f"{path.stem}-{key}"
-    done = dest / ".complete"
-    try:
-        with zipfile.ZipFile(path) as zf:
-            infos = zf.infolist()
-            (member,) = _bag_members(path, [i.filename for i in infos])
-            if not done.exists():
-                root.mkdir(parents=True, exist_ok=True)
-                _check_zip_sizes(path, infos, shutil.disk_usage(root).free)
-                tmp = Path(tempfile.mkdtemp(prefix=".extract-", dir=root))
-                try:
-                    zf.extractall(tmp)
-                    (tmp / ".source").write_text(str(path.resolve()))
-                    (tmp / ".complete").touch()
-                    try:
-                        tmp.rename(dest)
-                    except OSError:  # another process finished the same extraction first
-                        if not done.exists():
-                            raise
-                finally:
-                    shutil.rmtree(tmp, ignore_errors=True)
-    except zipfile.BadZipFile as exc:
-        raise BagReadError(f"bag archive {str(path)!r} is not a valid zip file: {exc}") from None
-    except OSError as exc:
-        raise BagReadError(f"cannot extract bag archive {str(path)!r} into {str(root)!r}: {exc}") from None
-    done.touch()  # last use, for the cache's least-recently-used eviction
-    evict_cache(root, keep=dest, source=path.resolve())
-    return dest / member.rstrip("/") if member != "./" else dest
 
 
 def _check_bag_path(p: Path) -> None:
@@ -305,6 +144,12 @@ def _check_bag_path(p: Path) -> None:
             elif any(x.name.endswith((".db3", ".mcap")) for x in p.iterdir()):
                 hint = "; it holds ROS2 storage files but no metadata.yaml (`ros2 bag reindex FOLDER` recreates it)"
             raise BagReadError(f"folder {str(p)!r} is not a ROS2 bag (no metadata.yaml; it holds {inside}){hint}")
+        meta = p / "metadata.yaml"
+        try:
+            with meta.open("rb") as fh:
+                parse_metadata(fh.read(MAX_METADATA_READ), f"bag metadata {str(meta)!r}")
+        except ValueError as exc:
+            raise BagReadError(str(exc)) from None
         return
     if p.suffix == ".bag":
         with p.open("rb") as fh:
@@ -314,6 +159,25 @@ def _check_bag_path(p: Path) -> None:
                 f"cannot open bag {str(p)!r}: not a ROS1 bag (it does not start with {ROS1_MAGIC.decode()!r}; "
                 f"{'the file is empty' if not head else 'first bytes ' + repr(head[:12])})"
             )
+    elif p.suffix not in BAG_FILE_SUFFIXES:
+        _refuse_other_file(p)
+
+
+#: File names a bag argument may have (ROS 1 bag; a ROS 2 bag's storage file, read without its folder).
+BAG_FILE_SUFFIXES = (".bag", ".db3", ".mcap")
+
+
+def _refuse_other_file(p: Path) -> None:
+    """A file whose name is no bag's: refused, saying what a bag argument is (and when its first bytes are a ROS 1
+    bag's, that it needs the .bag name)."""
+    with p.open("rb") as fh:
+        head = fh.read(len(ROS1_MAGIC))
+    if head == ROS1_MAGIC:
+        raise BagReadError(f"cannot open bag {str(p)!r}: a ROS1 bag by its first bytes, but not named *.bag: rename it")
+    raise BagReadError(
+        f"cannot open bag {str(p)!r}: the file is not a bag (its name does not end in .bag, .db3, .mcap or .zip); "
+        "give a ROS1 .bag file, a ROS2 bag folder (holding metadata.yaml) or a .zip of either"
+    )
 
 
 def open_bag_paths(path: str | Path | Sequence[str | Path], *, cache_dir: Path | None = None) -> list[Path]:
@@ -335,7 +199,7 @@ def open_bag_paths(path: str | Path | Sequence[str | Path], *, cache_dir: Path |
         if not p.exists():
             raise FileNotFoundError(f"bag {str(p)!r} does not exist")
         if p.suffix == ".zip":
-            p = _extract_zip(p, cache_dir)
+            p = extract_zip(p, cache_dir)
         _check_bag_path(p)
         out.append(p)
     return out
@@ -392,7 +256,8 @@ class BagSource:
             self._reader.open()
         except Exception as exc:  # rosbags raises several error types for damaged files
             hint = f"; {REINDEX_HINT}" if self._ros1 else ""
-            raise BagReadError(f"cannot open bag {self.name!r}: {type(exc).__name__}: {exc}{hint}") from None
+            text = " ".join(str(exc).split())  # one line: rosbags' errors may quote a parser's several lines
+            raise BagReadError(f"cannot open bag {self.name!r}: {type(exc).__name__}: {text}{hint}") from None
 
     def __enter__(self) -> BagSource:
         return self
@@ -479,7 +344,7 @@ class BagSource:
                 log.warning("topic %s in bag %s has no messages", topic, self.name)
 
     def messages(self, topics: Iterable[str]) -> Iterator[BagMessage]:
-        """Deserialised messages of ``topics`` in bag-time order, one at a time.
+        """Deserialised messages of ``topics`` in bag-time order, one at a time (none for no topics).
 
         Raises
         ------
@@ -490,6 +355,8 @@ class BagSource:
         wanted = set(topics)
         self.require(wanted)
         conns = [c for c in self._reader.connections if c.topic in wanted]
+        if not conns:  # rosbags reads every connection when given none
+            return
         decoders = {c.id: self._decoder(c) for c in conns}
         counters: dict[str, int] = {}
         last: tuple[int, str, int] | None = None  # (index, topic, bag time) of the latest message; text on error
@@ -623,7 +490,13 @@ _ENCODINGS = {
 def image_from_msg(msg: Any, msgtype: str, *, stamp_ns: int, frame_id: str, topic: str = "") -> CameraImage:
     """``sensor_msgs/Image`` or ``CompressedImage`` -> :class:`CameraImage` (BGR uint8 or mono8)."""
     if msgtype.endswith("CompressedImage"):
-        data = np.frombuffer(bytes(msg.data), dtype=np.uint8)
+        raw = bytes(msg.data)
+        if raw:
+            try:
+                check_encoded_size(raw, f"topic {topic!r}: CompressedImage at stamp {stamp_ns} ns")
+            except ValueError as exc:
+                raise MessageDataError(str(exc)) from None
+        data = np.frombuffer(raw, dtype=np.uint8)
         pixels = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
         if pixels is None:
             raise MessageDataError(

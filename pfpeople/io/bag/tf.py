@@ -198,6 +198,21 @@ class TfBuffer:
             if f not in self._fallback
         ]
 
+    def fallback_links(self, frames: Iterable[str]) -> list[TfLink]:
+        """The ``[mounts]`` fallbacks that place ``frames``: the fallback edges on the way from each frame to the
+        root of its tree (parent: the fallback parent, the base frame), each once, in the order met.
+
+        These are the transforms a run took from its configuration because TF had none: a result bag writes them
+        on ``/tf_static`` so that every frame the run placed is placed in the bag too.
+        """
+        out: dict[str, TfLink] = {}
+        for frame in frames:
+            for f in self._chain(frame.lstrip("/"))[:-1]:
+                if f in self._fallback and f not in out:
+                    parent, pose, _ = self._parent[f]
+                    out[f] = TfLink(parent, f, pose, "")
+        return list(out.values())
+
     def _chain(self, frame: str) -> list[str]:
         """``frame`` and its ancestors up to the root (the tree has no cycle: :meth:`_to_root`)."""
         self._to_root(frame)
@@ -306,13 +321,12 @@ def _planar_pose(tr: Any, q: Any) -> Pose2D | None:
     return Pose2D(x=x, y=y, yaw=yaw_from_quaternion(qx, qy, qz, qw))
 
 
-def _transforms(msg: object) -> Iterable[tuple[int, str, str, Pose2D]]:
-    """``(stamp_ns, parent, child, pose)`` of every well-formed transform of a TFMessage (broken ones left out: the
-    run refuses them before it starts, :meth:`TfBuffer.add_message`; one appearing later is not a usable mount)."""
+def _transforms(msg: object) -> Iterable[tuple[int, str, str, Pose2D | None]]:
+    """``(stamp_ns, parent, child, pose)`` of every transform of a TFMessage; ``pose`` None for a broken one (a
+    non-finite translation, a zero or non-finite quaternion: the run refuses them before it starts,
+    :meth:`TfBuffer.add_message`; one appearing later is not a usable mount, counted by the caller)."""
     for t in getattr(msg, "transforms", None) or []:
         pose = _planar_pose(t.transform.translation, t.transform.rotation)
-        if pose is None:
-            continue
         parent, child = str(t.header.frame_id).lstrip("/"), str(t.child_frame_id).lstrip("/")
         yield int(t.header.stamp.sec) * 1_000_000_000 + int(t.header.stamp.nanosec), parent, child, pose
 
@@ -349,10 +363,21 @@ class MountFollower:
             for f in [grid_frame, *frames]:
                 self._relevant.update(self.tf._chain(f.lstrip("/")))
 
-    def add(self, msg: object, *, topic: str = "/tf") -> None:
+    def add(self, msg: object, *, topic: str = "/tf") -> list[str]:
         """Queue the transforms of a ``tf2_msgs/TFMessage`` read during the run (applied by :meth:`advance`);
-        a transform giving a known frame another parent is left out (the tree read before the run holds)."""
+        a transform giving a known frame another parent is left out (the tree read before the run holds).
+
+        Returns
+        -------
+        list of str
+            The edges (``"parent -> child"``) of the message's broken transforms (a NaN or infinite translation, a
+            zero or non-finite quaternion), left out: each edge keeps its last good transform.
+        """
+        broken = []
         for stamp, parent, child, pose in _transforms(msg):
+            if pose is None:
+                broken.append(f"{parent} -> {child}")
+                continue
             old = self.tf.parent_of(child)
             if old is not None and (old != parent or (self._relevant is not None and child not in self._relevant)):
                 continue
@@ -360,6 +385,7 @@ class MountFollower:
             heapq.heappush(self._pending, (stamp, self._seq, parent, child, pose, topic))
             if len(self._pending) > self.max_pending:
                 self._apply(heapq.heappop(self._pending))
+        return broken
 
     def _apply(self, item: tuple[int, int, str, str, Pose2D, str]) -> None:
         stamp, _, parent, child, pose, topic = item

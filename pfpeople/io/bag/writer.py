@@ -20,8 +20,9 @@ while it is written (``OUT.bag.lock`` beside it, :mod:`pfpeople.io.locks`): a se
 is, holds or lies inside an input. A Foxglove layout (:mod:`pfpeople.io.bag.foxglove`) is written beside the bag
 when it is closed: ``OUT.foxglove-layout.json``.
 
-Topics (header frame: the grid frame; header stamps: the stamps given to :meth:`ResultBagWriter.write`, the
-source scan's header stamp in a run; record time: the driver's bag time):
+Topics (header frame: the grid frame, or for people, tracks and their markers the results frame given as
+``results_frame_id``, e.g. ``odom`` (``[output] frame``); header stamps: the stamps given to
+:meth:`ResultBagWriter.write`, the source scan's header stamp in a run; record time: the driver's bag time):
 
 - ``/pfpeople/belief`` ``nav_msgs/OccupancyGrid``: belief * 100 rounded to int8 (0..100). OccupancyGrid data
   are row-major with ``width`` along x: ``data[j * nx + i] = belief[i, j]``; the origin is the grid's
@@ -38,18 +39,25 @@ source scan's header stamp in a run; record time: the driver's bag time):
 - ``/pfpeople/tracks`` ``people_msgs/People`` (frames given ``tracks`` only): one ``Person`` per confirmed
   track: ``name`` = the track id (decimal), ``position``, ``velocity`` (m/s, grid frame), ``reliability`` =
   the track score (1 when not given), ``tagnames`` / ``tags`` = ``cov_xx``, ``cov_xy``, ``cov_yy`` (the
-  position covariance, m^2, ``repr`` of the float) when given.
+  position covariance, m^2, ``repr`` of the float) when given, for readers of earlier bags.
+- ``/pfpeople/tracked_persons`` ``spencer_tracking_msgs/TrackedPersons`` (frames given ``tracks`` only): the
+  same tracks with their covariance in the message: per track ``track_id``, ``is_matched`` (a detection
+  updated it in this frame), ``is_occluded`` (not matched), ``detection_id``, ``age``, the position and its
+  covariance (``PoseWithCovariance``) and the velocity and its covariance (``TwistWithCovariance``), see
+  :mod:`pfpeople.io.bag.track_messages`.
 - ``/pfpeople/track_markers`` ``visualization_msgs/MarkerArray`` (frames given ``tracks`` only): first a
   ``DELETEALL`` marker (so tracks that ended vanish), then per track a ``SPHERE`` (namespace
   ``pfpeople/tracks``), a ``TEXT_VIEW_FACING`` id label (namespace ``pfpeople/track_ids``, text = the id,
   ``TEXT_Z_M`` above the track) and an ``ARROW`` (namespace ``pfpeople/track_velocities``) from the track's
   position to ``position + velocity * arrow_time_s`` (the distance walked in ``arrow_time_s``, 1 s); marker
-  id = track id in every namespace.
+  id = track id in every namespace; sphere and arrow in the track's own colour
+  (:func:`pfpeople.io.bag.track_messages.track_colour`), the label white.
 - ``/tf_static`` ``tf2_msgs/TFMessage`` (latched in ROS 1, ``transient_local`` in ROS 2): at the first frame,
   the grid frame -> ``pfpeople_grid_origin``, a child frame at the grid's lower corner ``(x0, y0)``, so the
-  grid frame exists in the TF tree even without the input's TF; plus the input's ``/tf_static`` messages when
-  they are copied. No transform with the grid frame as child is written, so nothing conflicts with the
-  source's TF (e.g. ``odom -> base_link -> laser``).
+  grid frame exists in the TF tree even without the input's TF, and the ``static_transforms`` given (in a run:
+  the ``[mounts]`` it used for frames the bag has no TF for, base frame -> laser frame, so every laser is
+  placed); plus the input's ``/tf_static`` messages when they are copied. No other transform with the grid frame
+  as child is written, so nothing conflicts with the source's TF (e.g. ``odom -> base_link -> laser``).
 - Input topics (``input_topics``, written with :meth:`ResultBagWriter.write_input`): the LaserScan topics
   the run read and ``/tf``, ``/tf_static``, under their own names, with their own record times and header
   stamps, so one bag shows the input and the results.
@@ -57,13 +65,16 @@ source scan's header stamp in a run; record time: the driver's bag time):
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import logging
 import math
 import os
 import re
 import shutil
+import sqlite3
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal
@@ -80,7 +91,22 @@ from gridbridge.geometry import quaternion_from_yaw
 from gridbridge.grid import GridSpec
 from pfpeople.io import locks
 from pfpeople.io.bag.foxglove import write_layout
+from pfpeople.io.bag.replace import check_replaceable, move_in
 from pfpeople.io.bag.rosbag2_meta import ROSBAG2_METADATA_VERSION, humble_metadata
+from pfpeople.io.bag.tf import TfLink
+from pfpeople.io.bag.track_messages import (
+    SPENCER_MSG_DEFINITIONS,
+    SPENCER_MSG_DEFINITIONS_ROS2,
+    TRACKED_PERSON_TYPE,
+    TRACKED_PERSONS_TYPE,
+    TrackTable,
+    duration,
+    pose_covariance,
+    track_colour,
+    track_table,
+    twist_covariance,
+)
+from pfpeople.io.files import named_os_error
 
 __all__ = [
     "BAG_FORMATS",
@@ -92,6 +118,7 @@ __all__ = [
     "TOPIC_PEOPLE_MARKERS",
     "TOPIC_TF",
     "TOPIC_TF_STATIC",
+    "TOPIC_TRACKED_PERSONS",
     "TOPIC_TRACKS",
     "TOPIC_TRACK_MARKERS",
     "BagLockedError",
@@ -114,6 +141,7 @@ TOPIC_PEOPLE = "/pfpeople/people"
 TOPIC_PEOPLE_MARKERS = "/pfpeople/people_markers"
 TOPIC_TRACKS = "/pfpeople/tracks"
 TOPIC_TRACK_MARKERS = "/pfpeople/track_markers"
+TOPIC_TRACKED_PERSONS = "/pfpeople/tracked_persons"
 TOPIC_TF = "/tf"
 TOPIC_TF_STATIC = "/tf_static"
 #: Child frame of the grid frame at the grid's lower corner, written on /tf_static.
@@ -150,6 +178,19 @@ TRACK_TAGS = ("cov_xx", "cov_xy", "cov_yy")
 _ROSBAG2_WRITE_VERSION: Literal[8] = 8  # what rosbags writes; metadata.yaml is then rewritten as version 5
 _TF_MSG = "geometry_msgs/TransformStamped[] transforms\n"
 _TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+@contextlib.contextmanager
+def naming_errors(path: Path) -> Iterator[None]:
+    """Within the block, an ``OSError`` without a file name (``ENOSPC`` from rosbags' writer) or an sqlite3 error
+    ("database or disk is full") is raised as an ``OSError`` naming the bag output ``path``."""
+    try:
+        yield
+    except OSError as exc:
+        raise named_os_error(exc, path) from exc
+    except sqlite3.Error as exc:
+        code = errno.ENOSPC if "full" in str(exc) else errno.EIO
+        raise OSError(code, f"{os.strerror(code)} ({exc})", str(path)) from exc
 
 
 class BagLockedError(locks.PathLockedError):
@@ -196,6 +237,7 @@ def output_topics(detector_names: Sequence[str], input_topics: Mapping[str, str]
     out[TOPIC_PEOPLE_MARKERS] = "visualization_msgs/msg/MarkerArray"
     out.update(dict.fromkeys(detector_topics(detector_names)[0].values(), "geometry_msgs/msg/PoseArray"))
     out.update({TOPIC_TRACKS: PEOPLE_TYPE, TOPIC_TRACK_MARKERS: "visualization_msgs/msg/MarkerArray"})
+    out[TOPIC_TRACKED_PERSONS] = TRACKED_PERSONS_TYPE
     return out
 
 
@@ -231,7 +273,9 @@ def check_bag_out(
     ------
     ValueError
         Bad format (see :func:`bag_format_for`), or ``overwrite`` asked for a path that is not a bag of the
-        format (a folder without ``metadata.yaml`` is never deleted, nor a directory in place of a ``.bag``).
+        format (a folder without ``metadata.yaml`` is never deleted, nor a directory in place of a ``.bag``), or
+        a rosbag2 folder where the new bag would write a file the old one does not list
+        (:func:`pfpeople.io.bag.replace.check_replaceable`).
     FileNotFoundError
         The parent folder does not exist.
     FileExistsError
@@ -255,6 +299,8 @@ def check_bag_out(
             raise ValueError(f"bag output {str(p)!r} exists and is not a file: not replaced")
         if fmt != "ros1" and not (p.is_dir() and ((p / "metadata.yaml").is_file() or not any(p.iterdir()))):
             raise ValueError(f"bag output {str(p)!r} exists and is not a rosbag2 folder (metadata.yaml): not replaced")
+        if fmt != "ros1" and not p.is_symlink():
+            check_replaceable(p, fmt, f"bag output {str(p)!r}")
     return p, fmt
 
 
@@ -324,38 +370,6 @@ def _convert_field(ts: Any, node: tuple[Any, Any], value: Any) -> Any:
     return [_convert_field(ts, sub, v) for v in value]
 
 
-def _track_rows(tracks: Any) -> NDArray[np.float64]:
-    """Tracks as rows ``[id, x, y, vx, vy, cov_xx, cov_xy, cov_yy, score]`` (NaN: not given), checked."""
-    if not isinstance(tracks, np.ndarray) and all(
-        hasattr(t, a) for t in tracks for a in ("id", "x", "y", "vx", "vy")
-    ):  # track objects (e.g. pfpeople.track Track snapshots)
-        tracks = [_track_row(t) for t in tracks] if len(tracks) else np.zeros((0, 9))
-    arr = np.asarray(tracks, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] not in (5, 9):
-        raise ValueError(f"tracks must have shape (K, 5) [id, x, y, vx, vy] or (K, 9), got {arr.shape}")
-    if arr.shape[1] == 5:
-        arr = np.hstack([arr, np.full((len(arr), 4), np.nan)])
-    if not np.all(np.isfinite(arr[:, :5])):
-        raise ValueError("tracks must be finite")
-    ids = arr[:, 0]
-    if np.any(ids != np.rint(ids)) or np.any(ids < 0) or np.any(ids > np.iinfo(np.int32).max):
-        raise ValueError(f"tracks: ids (column 0) must be integers in [0, 2**31 - 1], got {ids.tolist()}")
-    if len(np.unique(ids)) != len(ids):
-        raise ValueError(f"tracks: ids (column 0) must be unique in a frame, got {ids.tolist()}")
-    return arr
-
-
-def _track_row(t: Any) -> list[float]:
-    """``[id, x, y, vx, vy, cov_xx, cov_xy, cov_yy, score]`` of a track object (NaN for what it lacks).
-
-    The position covariance is the upper-left 2 x 2 block of ``covariance`` ((2, 2), or (4, 4) of
-    ``(x, y, vx, vy)`` as :class:`pfpeople.track.multi_person.Track` has).
-    """
-    c = np.asarray(getattr(t, "covariance", None), dtype=float)
-    cov = (c[0, 0], c[0, 1], c[1, 1]) if c.ndim == 2 and min(c.shape) >= 2 else (np.nan,) * 3
-    return [t.id, t.x, t.y, t.vx, t.vy, *cov, float(getattr(t, "score", np.nan))]
-
-
 class ResultBagWriter:
     """Write the belief, people, detections and tracks of each frame (and the input) into a ROS 1 bag or rosbag2.
 
@@ -383,6 +397,12 @@ class ResultBagWriter:
         ``tf2_msgs/msg/TFMessage``), written with :meth:`write_input` under the same names.
     layout : bool
         Write the Foxglove layout ``OUT.foxglove-layout.json`` beside the bag when it is closed.
+    static_transforms : sequence of TfLink
+        Transforms written on ``/tf_static`` with the grid origin's (``parent -> child``, the planar ``pose``):
+        in a run, the ``[mounts]`` used for frames without TF (:attr:`pfpeople.pipeline.sinks.RunInfo.mount_links`).
+    results_frame_id : str, optional
+        The frame of the people, the tracks and their markers (positions given in it to :meth:`write`); default
+        ``frame_id``. The grid and the detections stay in ``frame_id``.
     """
 
     def __init__(
@@ -397,6 +417,8 @@ class ResultBagWriter:
         arrow_time_s: float = 1.0,
         input_topics: Mapping[str, str] | None = None,
         layout: bool = True,
+        static_transforms: Sequence[TfLink] = (),
+        results_frame_id: str | None = None,
     ) -> None:
         if not isinstance(frame_id, str) or not frame_id:
             raise ValueError(f"frame_id must be a non-empty string, got {frame_id!r}")
@@ -424,8 +446,10 @@ class ResultBagWriter:
             )
         self.spec = spec
         self.frame_id = frame_id
+        self.results_frame_id = results_frame_id or frame_id
         self.arrow_time_s = float(arrow_time_s)
         self.layout = layout
+        self.static_transforms = tuple(static_transforms)
         self._closed = False
         self._conns: dict[str, Any] = {}
         for topic, msgtype in self.topics.items():
@@ -449,7 +473,8 @@ class ResultBagWriter:
         types: dict[str, Any] = {}
         if "tf2_msgs/msg/TFMessage" not in self.ts.types:  # not in rosbags' ROS 1 Noetic store
             types.update(get_types_from_msg(_TF_MSG, "tf2_msgs/msg/TFMessage"))
-        for name, text in PEOPLE_MSG_DEFINITIONS.items():
+        spencer = SPENCER_MSG_DEFINITIONS_ROS2 if self.ros2 else SPENCER_MSG_DEFINITIONS
+        for name, text in {**PEOPLE_MSG_DEFINITIONS, **spencer}.items():
             types.update(get_types_from_msg(text, name))
         self.ts.register(types)
         unknown = sorted(t for t in self.topics.values() if t not in self.ts.types)
@@ -465,14 +490,19 @@ class ResultBagWriter:
         return writer
 
     def _publish(self) -> None:
-        """Rename the finished bag into place (replacing an old one, checked at the start), then unlock."""
+        """Rename the finished bag into place (replacing an old one, checked at the start), then unlock.
+
+        An old rosbag2 folder keeps every file but the old bag's own (:func:`pfpeople.io.bag.replace.move_in`);
+        a symbolic link at the path is replaced, not what it points to."""
         assert self._tmp_dir is not None
         try:
-            if self.path.is_symlink():  # the link is replaced, not what it points to
+            new = self._tmp_dir / self.path.name
+            if self.path.is_symlink():
                 self.path.unlink()
-            elif self.path.is_dir():  # an old rosbag2: moved aside, then removed with the temporary folder
-                os.rename(self.path, self._tmp_dir / ".replaced")
-            os.replace(self._tmp_dir / self.path.name, self.path)
+            elif self.path.is_dir():
+                move_in(new, self.path, self._tmp_dir / ".replaced", f"bag output {str(self.path)!r}")
+                return
+            os.replace(new, self.path)
         finally:
             self._discard()
 
@@ -507,7 +537,8 @@ class ResultBagWriter:
     def _put(self, topic: str, bag_time_ns: int, msg: Any) -> None:
         conn, msgtype = self._conns[topic]
         data = self.ts.serialize_cdr(msg, msgtype) if self.ros2 else self.ts.serialize_ros1(msg, msgtype)
-        self._writer.write(conn, bag_time_ns, data)
+        with naming_errors(self.path):
+            self._writer.write(conn, bag_time_ns, data)
 
     def _m(self, typename: str, **given: Any) -> Any:
         return _message(self.ts, typename, **given)
@@ -540,20 +571,25 @@ class ResultBagWriter:
 
     # -- messages ------------------------------------------------------------------------------------------------
 
-    def _tf_static(self, stamp_ns: int) -> Any:
-        s = self.spec
+    def _transform(self, stamp_ns: int, parent: str, child: str, x: float, y: float, yaw: float) -> Any:
+        """A ``TransformStamped``: ``child``'s planar pose ``(x, y, yaw)`` in ``parent`` (m, rad)."""
+        qx, qy, qz, qw = quaternion_from_yaw(yaw)
         tr = self._m(
             "geometry_msgs/msg/Transform",
-            translation=self._m("geometry_msgs/msg/Vector3", x=float(s.x0), y=float(s.y0), z=0.0),
-            rotation=self._m("geometry_msgs/msg/Quaternion", w=1.0),
+            translation=self._m("geometry_msgs/msg/Vector3", x=float(x), y=float(y), z=0.0),
+            rotation=self._m("geometry_msgs/msg/Quaternion", x=qx, y=qy, z=qz, w=qw),
         )
-        t = self._m(
-            "geometry_msgs/msg/TransformStamped",
-            header=self._header(stamp_ns),
-            child_frame_id=GRID_ORIGIN_FRAME,
-            transform=tr,
-        )
-        return self._m("tf2_msgs/msg/TFMessage", transforms=[t])
+        header = self._header(stamp_ns, parent)
+        return self._m("geometry_msgs/msg/TransformStamped", header=header, child_frame_id=child, transform=tr)
+
+    def _tf_static(self, stamp_ns: int) -> Any:
+        """The grid frame -> :data:`GRID_ORIGIN_FRAME`, then :attr:`static_transforms`."""
+        s = self.spec
+        transforms = [self._transform(stamp_ns, self.frame_id, GRID_ORIGIN_FRAME, s.x0, s.y0, 0.0)]
+        for link in self.static_transforms:
+            p = link.pose
+            transforms.append(self._transform(stamp_ns, link.parent, link.child, p.x, p.y, p.yaw))
+        return self._m("tf2_msgs/msg/TFMessage", transforms=transforms)
 
     def _grid(self, stamp_ns: int, belief: NDArray[np.float64]) -> Any:
         s = self.spec
@@ -594,18 +630,18 @@ class ResultBagWriter:
             self._m(PERSON_TYPE, position=self._point(x, y), velocity=self._point(0.0, 0.0), reliability=r)
             for (x, y), r in zip(xy, rel, strict=True)
         ]
-        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns), people=persons)
+        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns, self.results_frame_id), people=persons)
 
     def _people_markers(self, stamp_ns: int, people: NDArray[np.float64]) -> Any:
-        header = self._header(stamp_ns)
+        header = self._header(stamp_ns, self.results_frame_id)
         markers = [self._m("visualization_msgs/msg/Marker", header=header, action=MARKER_DELETEALL)]
         xy = np.asarray(people, dtype=float).reshape(-1, 2)
         markers += [self._sphere(header, "pfpeople/people", k, x, y, (1.0, 0.6, 0.0)) for k, (x, y) in enumerate(xy)]
         return self._m("visualization_msgs/msg/MarkerArray", markers=markers)
 
-    def _tracks(self, stamp_ns: int, tracks: NDArray[np.float64]) -> Any:
+    def _tracks(self, stamp_ns: int, table: TrackTable) -> Any:
         persons = []
-        for tid, x, y, vx, vy, cxx, cxy, cyy, score in tracks:
+        for tid, x, y, vx, vy, cxx, cxy, cyy, score in table.rows:
             cov = [(n, repr(float(v))) for n, v in zip(TRACK_TAGS, (cxx, cxy, cyy), strict=True) if math.isfinite(v)]
             persons.append(
                 self._m(
@@ -618,15 +654,43 @@ class ResultBagWriter:
                     tags=[v for _, v in cov],
                 )
             )
-        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns), people=persons)
+        return self._m(PEOPLE_TYPE, header=self._header(stamp_ns, self.results_frame_id), people=persons)
 
-    def _markers(self, stamp_ns: int, tracks: NDArray[np.float64]) -> Any:
-        header = self._header(stamp_ns)
+    def _tracked_persons(self, stamp_ns: int, table: TrackTable) -> Any:
+        """SPENCER's ``TrackedPersons`` of the tracks (:mod:`pfpeople.io.bag.track_messages`)."""
+        tracks = []
+        for k, (tid, x, y, vx, vy) in enumerate(table.rows[:, :5]):
+            sec, nanosec = duration(float(table.age_s[k]))
+            cov = table.covariance[k]
+            pcov = pose_covariance(cov)
+            pose = self._m("geometry_msgs/msg/PoseWithCovariance", pose=self._pose(x, y), covariance=pcov)
+            linear = self._m("geometry_msgs/msg/Vector3", x=float(vx), y=float(vy), z=0.0)
+            twist = self._m("geometry_msgs/msg/Twist", linear=linear)
+            tracks.append(
+                self._m(
+                    TRACKED_PERSON_TYPE,
+                    track_id=int(tid),
+                    is_occluded=not bool(table.matched[k]),
+                    is_matched=bool(table.matched[k]),
+                    detection_id=int(table.detection[k]),
+                    age=self._m("builtin_interfaces/msg/Duration", sec=sec, nanosec=nanosec),
+                    pose=pose,
+                    twist=self._m(
+                        "geometry_msgs/msg/TwistWithCovariance", twist=twist, covariance=twist_covariance(cov)
+                    ),
+                )
+            )
+        return self._m(TRACKED_PERSONS_TYPE, header=self._header(stamp_ns, self.results_frame_id), tracks=tracks)
+
+    def _markers(self, stamp_ns: int, table: TrackTable) -> Any:
+        """``DELETEALL``, then per track its sphere and arrow in its colour and its id (white)."""
+        header = self._header(stamp_ns, self.results_frame_id)
         markers = [self._m("visualization_msgs/msg/Marker", header=header, action=MARKER_DELETEALL)]
         t = self.arrow_time_s
-        for tid, x, y, vx, vy in tracks[:, :5]:
+        for tid, x, y, vx, vy in table.rows[:, :5]:
             i = int(tid)
-            markers.append(self._sphere(header, "pfpeople/tracks", i, x, y, (0.2, 0.4, 1.0)))
+            colour = track_colour(i)
+            markers.append(self._sphere(header, "pfpeople/tracks", i, x, y, colour))
             markers.append(
                 self._marker(
                     header,
@@ -649,7 +713,7 @@ class ResultBagWriter:
                     action=MARKER_ADD,
                     pose=self._pose(0.0, 0.0),
                     scale=self._m("geometry_msgs/msg/Vector3", x=0.05, y=0.1, z=0.1),
-                    color=self._color(0.1, 0.9, 0.2),
+                    color=self._color(*colour),
                     points=[self._point(x, y), self._point(x + vx * t, y + vy * t)],
                 )
             )
@@ -662,7 +726,7 @@ class ResultBagWriter:
         bag_time_ns: int,
         stamp_ns: int,
         belief: NDArray[np.float64],
-        people: NDArray[np.float64],
+        people: NDArray[np.float64] | None,
         detections: Sequence[NDArray[np.float64] | None],
         tracks: NDArray[np.float64] | Sequence[Any] | None = None,
         *,
@@ -676,8 +740,9 @@ class ResultBagWriter:
             Record time and header stamp (ns); in a run the header stamp is the source scan's header stamp.
         belief : ndarray (nx, ny)
             Belief grid (probability of a person per cell, grid frame).
-        people : ndarray (P, 2)
-            Classified people (m, grid frame).
+        people : ndarray (P, 2) or None
+            Classified people (m, results frame); None: no people topics in this frame (their results-frame
+            positions are unknown).
         detections : sequence of ndarray (D_i, 2) or None
             Each detector's detections (m, grid frame); None: no data (nothing written on its topic).
         tracks : ndarray (K, 5) or (K, 9), or sequence of track objects, optional
@@ -693,18 +758,20 @@ class ResultBagWriter:
         belief = self.spec.check_grid(belief, "belief")
         if len(detections) != len(self._det_topics):
             raise ValueError(f"detections: expected {len(self._det_topics)} entries, got {len(detections)}")
-        trk = None if tracks is None else _track_rows(tracks)
-        people_msg = self._people(stamp_ns, people, people_reliability)
+        trk = None if tracks is None else track_table(tracks)
+        people_msg = None if people is None else self._people(stamp_ns, people, people_reliability)
         if self._seq == 0:
             self._put(TOPIC_TF_STATIC, bag_time_ns, self._tf_static(stamp_ns))
         self._put(TOPIC_BELIEF, bag_time_ns, self._grid(stamp_ns, belief))
-        self._put(TOPIC_PEOPLE, bag_time_ns, people_msg)
-        self._put(TOPIC_PEOPLE_MARKERS, bag_time_ns, self._people_markers(stamp_ns, people))
+        if people is not None:
+            self._put(TOPIC_PEOPLE, bag_time_ns, people_msg)
+            self._put(TOPIC_PEOPLE_MARKERS, bag_time_ns, self._people_markers(stamp_ns, people))
         for topic, det in zip(self._det_topics, detections, strict=True):
             if det is not None:
                 self._put(topic, bag_time_ns, self._pose_array(stamp_ns, det))
         if trk is not None:
             self._put(TOPIC_TRACKS, bag_time_ns, self._tracks(stamp_ns, trk))
+            self._put(TOPIC_TRACKED_PERSONS, bag_time_ns, self._tracked_persons(stamp_ns, trk))
             self._put(TOPIC_TRACK_MARKERS, bag_time_ns, self._markers(stamp_ns, trk))
         self._seq += 1
 
@@ -721,19 +788,23 @@ class ResultBagWriter:
         self._put(topic, bag_time_ns, _convert(self.ts, self._conns[topic][1], msg))
 
     def close(self) -> None:
-        """Finish the bag (index / metadata.yaml as version 5), rename it into place, write the layout; idempotent."""
+        """Finish the bag (index / metadata.yaml as version 5), rename it into place, write the layout; idempotent.
+
+        Errors (a full disk) name the bag output; the temporary folder is removed and an old bag stays."""
         if not self._closed:
             self._closed = True
             try:
-                self._writer.close()
-                if self.ros2:
-                    humble_metadata(self._tmp_dir_path() / self.path.name / "metadata.yaml")
-                if self.layout:  # beside the bag, written while the lock is held
-                    write_layout(self.path, self.topics, self.frame_id)
+                with naming_errors(self.path):
+                    self._writer.close()
+                    if self.ros2:
+                        humble_metadata(self._tmp_dir_path() / self.path.name / "metadata.yaml")
+                    if self.layout:  # beside the bag, written while the lock is held
+                        write_layout(self.path, self.topics, self.frame_id)
             except BaseException:
                 self._discard()
                 raise
-            self._publish()
+            with naming_errors(self.path):
+                self._publish()
 
     def _tmp_dir_path(self) -> Path:
         assert self._tmp_dir is not None

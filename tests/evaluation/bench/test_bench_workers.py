@@ -155,7 +155,7 @@ def test_default_baseline_is_a_revision_of_this_repository() -> None:
 
 def test_particle_worker_builds_the_filter_with_either_constructor(monkeypatch: pytest.MonkeyPatch) -> None:
     """The worker's shim: this checkout's components, or a release's keywords when it has no components."""
-    from pfpeople.particle.components import Resampling
+    from pfpeople import Resampling
 
     pf = bench_particles._particle_filter(900, ess_threshold=2.0, resampler=bench_particles.filterpy_systematic)
     assert pf.resampling == Resampling(scheme=bench_particles.filterpy_systematic, ess_threshold=2.0)

@@ -330,9 +330,9 @@ def test_bag_round_trip(tmp_path: Path, fmt: str, storage: str) -> None:
     cfg = load_config(out.run_toml)
     assert cfg.driver == "/scan" and cfg.odometry == "/odom"
     assert [(d.name, d.kind, d.topic) for d in cfg.detectors] == [
-        ("laser-legs", "leg", "/scan"),
-        ("laser-boosted", "boosted", "/scan"),
-        ("laser-single-legs", "single-legs", "/scan"),
+        ("laser_legs", "leg", "/scan"),
+        ("laser_boosted", "boosted", "/scan"),
+        ("laser_single_legs", "single-legs", "/scan"),
     ]
     assert cfg.detectors[0].model["fov_min"] == pytest.approx(las.angle_min)
     assert cfg.detectors[1].model["max_range"] == 25.0

@@ -109,7 +109,7 @@ def test_builtin_scenarios_load() -> None:
     for name in names:
         cfg = load_scenario_config(name)
         assert cfg.name == name and cfg.dt == pytest.approx(0.1)
-        assert [d.name for d in cfg.detectors] == ["laser-legs", "laser-boosted", "camera-hog"]
+        assert [d.name for d in cfg.detectors] == ["laser_legs", "laser_boosted", "camera_hog"]
     assert load_scenario_config("corridor").n_frames == 300
     assert load_scenario_config("eth").people == "eth_ucy"
     with pytest.raises(ValueError, match="built-in"):
@@ -168,7 +168,7 @@ y0 = -3.0
 [walkers]
 initial_people = 2
 [[detectors]]
-base = "laser-legs"
+base = "laser_legs"
 miss_rate = 0.1
 """
     path = tmp_path / "mine.toml"
@@ -229,9 +229,9 @@ def test_simulate_command(tmp_path, capsys) -> None:
     out = tmp_path / "run.npz"
     assert eval_main(["simulate", "default", "--frames", "30", "--out", str(out), "--csv-dir", str(tmp_path)]) == 0
     text = capsys.readouterr().out
-    assert "30 frames" in text and "laser-legs" in text
+    assert "30 frames" in text and "laser_legs" in text
     data = np.load(out)
     assert data["truth_grid"].shape == (30, 30, 30)
     assert data["v"].shape == (30,) and data["people"].shape[1] == 4
-    assert (tmp_path / "truth.csv").is_file() and (tmp_path / "detections_camera-hog.csv").is_file()
+    assert (tmp_path / "truth.csv").is_file() and (tmp_path / "detections_camera_hog.csv").is_file()
     assert eval_main(["simulate", "nowhere"]) == 2

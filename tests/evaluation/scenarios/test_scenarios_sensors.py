@@ -150,13 +150,13 @@ def test_bad_detector_config_names_the_field(kwargs: dict, field: str) -> None:
 
 def test_detector_from_dict() -> None:
     det = SimulatedDetector.from_dict(
-        {"base": "camera-hog", "miss_rate": 0.2, "people_in_view": 2.0, "model": {"fov_max_deg": 40.0, "ppv": 0.9}}
+        {"base": "camera_hog", "miss_rate": 0.2, "people_in_view": 2.0, "model": {"fov_max_deg": 40.0, "ppv": 0.9}}
     )
     assert det.model.fov_max == pytest.approx(math.radians(40.0))
     assert det.model.ppv == 0.9 and det.noise == "line_of_sight"
     assert det.clutter_rate == pytest.approx(clutter_for_ppv(0.9, 0.2, 2.0))
     with pytest.raises(ValueError, match="unknown detector field"):
-        SimulatedDetector.from_dict({"base": "laser-legs", "mis_rate": 0.2})
+        SimulatedDetector.from_dict({"base": "laser_legs", "mis_rate": 0.2})
     with pytest.raises(ValueError, match="base"):
         SimulatedDetector.from_dict({"base": "radar"})
     # without a base, miss_rate is required (was a bare KeyError with people_in_view)

@@ -15,7 +15,7 @@ import pytest
 from evaluation.bench.batch import write_synthetic_bag
 from pfpeople.progress import LineStream, is_terminal, progress_bar
 
-CONFIG = '[frames]\ndriver = "/scan"\n[[detectors]]\nname = "laser-legs"\nkind = "leg"\ntopic = "/scan"\n'
+CONFIG = '[frames]\ndriver = "/scan"\n[[detectors]]\nname = "laser_legs"\nkind = "leg"\ntopic = "/scan"\n'
 
 
 class _Terminal(io.StringIO):

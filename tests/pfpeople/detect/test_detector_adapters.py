@@ -7,6 +7,7 @@ computed by hand from the mount ``T = (x 1, y 2, yaw pi/2)``: ``(px, py) -> (1 -
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 from typing import Any
 
@@ -111,9 +112,14 @@ def test_leg_adapter_finds_a_person_and_maps_it_through_the_mount() -> None:
 def test_laser_adapter_with_a_given_detector_maps_its_positions_exactly() -> None:
     det = FixedDetector()
     adapter = LegAdapter(DetectorConfig(name="legs", kind="leg", topic="/scan"), MOUNT, det)
+    assert adapter.model is det.model
     out = adapter.detect([_scan_msg(np.full(11, 3.0))])
     assert np.array_equal(out.sensor, FIXED) and np.allclose(out.grid, FIXED_IN_GRID, atol=1e-12)
-    assert adapter.model is det.model and det.seen[0].ranges.tolist() == [3.0] * 11
+    assert det.seen[0].ranges.tolist() == [3.0] * 11
+    # the 11 beams cover 5 deg of the detector's 180: its model in this frame (pfpeople.detect.coverage)
+    view = (-math.pi / 2, -math.pi / 2 + math.radians(0.5) * 10.5)
+    assert out.field_of_view == pytest.approx(view) and adapter.model.fov_max == pytest.approx(view[1])
+    assert replace(adapter.model, fov_max=det.model.fov_max) == det.model
 
 
 def test_laser_adapter_reports_empty_and_bad_scans_as_data_errors() -> None:

@@ -230,5 +230,5 @@ def test_score_in_grid(wheelchair_runs: tuple[Path, Path, Path], tmp_path: Path)
     run = load_run(with_dir)
     every = score_run(run, read_gt_csv(gt2), frame="laser")["scores"]
     inside = score_run(run, read_gt_csv(gt2), frame="laser", in_grid=True)["scores"]
-    for name in ("filter", "laser-legs", "laser-boosted"):
+    for name in ("filter", "laser_legs", "laser_boosted"):
         assert every[name]["fn"] == inside[name]["fn"] + 1 and every[name]["tp"] == inside[name]["tp"]

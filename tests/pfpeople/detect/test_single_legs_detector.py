@@ -41,7 +41,7 @@ def test_single_legs_are_reported_alone_and_pairs_are_not() -> None:
 
 def test_single_legs_detector_arguments_and_model() -> None:
     assert SingleLegDetector().model == CALIBRATED_LASER_DETECTORS[2]
-    assert CALIBRATED_LASER_DETECTORS[2].name == "laser-single-legs"
+    assert CALIBRATED_LASER_DETECTORS[2].name == "laser_single_legs"
     with pytest.raises(ValueError, match="source must be one of"):
         SingleLegDetector("camera")
     with pytest.raises(ValueError, match="model_path is for source"):

@@ -46,8 +46,11 @@ def test_image_messages_decode_to_bgr() -> None:
     dec = image_from_msg(cmsg, "sensor_msgs/msg/CompressedImage", stamp_ns=1, frame_id="cam", topic="/img")
     np.testing.assert_array_equal(dec.pixels, img.pixels)
     bad = T["sensor_msgs/msg/CompressedImage"](header=header, format="jpeg", data=np.arange(50, dtype=np.uint8))
-    with pytest.raises(ValueError, match=r"topic '/img': CompressedImage .* cannot be decoded"):
+    with pytest.raises(ValueError, match=r"topic '/img': CompressedImage at stamp 1 ns: not a PNG or JPEG image"):
         image_from_msg(bad, "sensor_msgs/msg/CompressedImage", stamp_ns=1, frame_id="cam", topic="/img")
+    cut = T["sensor_msgs/msg/CompressedImage"](header=header, format="png", data=png.ravel()[:40])  # header only
+    with pytest.raises(ValueError, match=r"topic '/img': CompressedImage .* cannot be decoded"):
+        image_from_msg(cut, "sensor_msgs/msg/CompressedImage", stamp_ns=1, frame_id="cam", topic="/img")
     msg16 = T["sensor_msgs/msg/Image"](
         header=header, height=1, width=1, encoding="16UC1", is_bigendian=0, step=2, data=np.zeros(2, np.uint8)
     )

@@ -95,6 +95,9 @@ def test_gt_beyond_a_run_cut_short_is_reported(
         "gt_frames_without_run_frame": 6,
         "gt_frames_beyond_run": 6,
         "gt_rows_beyond_run": 7,
+        "gt_rows_before_run": 0,
+        "gt_rows_between_frames": 0,
+        "gt_match_window_s": 0.0,
         "gt_rows_stamp_mismatch": 0,
     }
     with caplog.at_level(logging.WARNING, logger="evaluation.harness.run_truth"):

@@ -57,9 +57,9 @@ def test_synthetic_bag_report_and_config_that_runs(tmp_path: Path, ros2: bool, s
     cfg = load_config(cfg_path)
     assert (cfg.driver, cfg.odometry, cfg.base_frame, cfg.time_source) == ("/scan", "/odom", "base_link", "header")
     assert [(d.name, d.kind, d.topic) for d in cfg.detectors] == [
-        ("laser-legs", "leg", "/scan"),
-        ("laser-boosted", "boosted", "/scan"),
-        ("laser-single-legs", "single-legs", "/scan"),
+        ("laser_legs", "leg", "/scan"),
+        ("laser_boosted", "boosted", "/scan"),
+        ("laser_single_legs", "single-legs", "/scan"),
     ]
     model = dict(cfg.detectors[0].model)
     assert model == pytest.approx({"fov_min": -math.pi / 2, "fov_max": math.pi / 2, "max_range": 10}, abs=1e-5)

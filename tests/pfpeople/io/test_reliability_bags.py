@@ -23,7 +23,7 @@ from gridbridge.limits import ResourceLimitError
 from gridbridge.params import DetectorModel
 from pfpeople.config import BagConfig, DetectorConfig, config_from_mapping, load_config
 from pfpeople.detect.synthetic import render_scan, reversed_scan
-from pfpeople.io.bag import reader
+from pfpeople.io.bag import archive
 from pfpeople.io.bag.reader import BagReadError, BagSource, laser_from_msg, odometry_pose_from_msg
 from pfpeople.io.run_dir import load_run
 from pfpeople.pipeline.runner import Pipeline
@@ -140,7 +140,7 @@ def test_all_nan_scan_is_warned_and_counted_as_no_data(
     write_bag(bag, n_scans=6, scan_hook=hook, odometry=False)
     with caplog.at_level(logging.WARNING), BagSource(bag) as src:
         summary, results = Pipeline(config(odometry=False), front_process=front_process).run(src, None, keep=True)
-    assert summary.bad_messages == {"laser-legs": 1} and summary.no_data == {"laser-legs": 1}
+    assert summary.bad_messages == {"laser_legs": 1} and summary.no_data == {"laser_legs": 1}
     assert results[4].detections[0] is None  # no data (covers no cell), not "saw nobody"
     assert caplog.text.count("all 361 ranges are NaN") == 1 and "'/scan'" in caplog.text
 
@@ -171,7 +171,7 @@ def test_zip_with_two_bags_names_both(tmp_path: Path) -> None:
 
 
 def test_zip_bomb_is_refused_before_extraction(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(reader, "ZIP_RATIO_MIN_BYTES", 2**20)  # the real threshold is 64 MiB: a small bomb here
+    monkeypatch.setattr(archive, "ZIP_RATIO_MIN_BYTES", 2**20)  # the real threshold is 64 MiB: a small bomb here
     z = tmp_path / "bomb.bag.zip"
     with zipfile.ZipFile(z, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         zf.writestr("bomb.bag", b"\0" * (8 * 2**20))
@@ -187,7 +187,7 @@ def test_zip_bomb_is_refused_before_extraction(tmp_path: Path, monkeypatch: pyte
 def test_zip_cache_is_bounded_and_old_copies_are_evicted(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import os
 
-    monkeypatch.setattr(reader, "MAX_CACHE_ENTRIES", 2)
+    monkeypatch.setattr(archive, "MAX_CACHE_ENTRIES", 2)
     bag = tmp_path / "s.bag"
     write_bag(bag, n_scans=2)
     cache = tmp_path / "cache"
@@ -214,7 +214,7 @@ def test_zip_cache_is_bounded_and_old_copies_are_evicted(tmp_path: Path, monkeyp
     ("grid", "filt", "match"),
     [
         ({"resolution": 1e-300}, {}, r"BagConfig\.grid: resolution 1e-300 m .*neighbourhood"),
-        ({"nx": 100000, "ny": 100000}, {}, r"BagConfig\.grid: 100000 x 100000 = 10000000000 cells"),
+        ({"nx": 100000, "ny": 100000}, {}, r"GridSpec: 100000 x 100000 = 10000000000 cells"),
         ({"nx": 2000, "ny": 2000, "resolution": 0.01}, {}, r"operations per frame"),
         ({"nx": 30}, {"kind": "particle", "n_particles": 10**9}, r"filter\.n_particles = 1000000000 is more"),
     ],

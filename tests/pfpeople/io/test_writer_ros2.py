@@ -32,6 +32,7 @@ from pfpeople.io.bag.writer import (
     TOPIC_PEOPLE,
     TOPIC_PEOPLE_MARKERS,
     TOPIC_TRACK_MARKERS,
+    TOPIC_TRACKED_PERSONS,
     TOPIC_TRACKS,
     ResultBagWriter,
     bag_format_for,
@@ -72,7 +73,7 @@ def _write(path: Path, fmt: str | None, rng: np.random.Generator) -> Written:
         None,  # no tracker output in this frame: nothing on the track topics
     ]
     with ResultBagWriter(
-        path, spec=SPEC, frame_id="laser", detector_names=["laser-legs", "hog cam"], bag_format=fmt
+        path, spec=SPEC, frame_id="laser", detector_names=["laser_legs", "hog cam"], bag_format=fmt
     ) as bag:
         for k in range(3):
             belief = rng.uniform(0.0, 1.0, (SPEC.nx, SPEC.ny))
@@ -120,9 +121,10 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
         TOPIC_BELIEF,
         TOPIC_PEOPLE,
         TOPIC_PEOPLE_MARKERS,
-        detection_topic("laser-legs"),
+        detection_topic("laser_legs"),
         "/pfpeople/detections/hog_cam",
         TOPIC_TRACKS,
+        TOPIC_TRACKED_PERSONS,
         TOPIC_TRACK_MARKERS,
     }
     # Static TF: once, grid frame -> grid origin at the grid's lower corner; latched / transient_local.
@@ -155,7 +157,7 @@ def test_round_trip_every_topic(tmp_path: Path, rng: np.random.Generator, fmt: s
         assert ma.markers[0].action == MARKER_DELETEALL
         spheres = [(m.type, m.id, m.pose.position.x, m.pose.position.y) for m in ma.markers[1:]]
         assert spheres == [(MARKER_SPHERE, k, x, y) for k, (x, y) in enumerate(people)]
-    legs = [_xy(m) for _, m in msgs[detection_topic("laser-legs")]]
+    legs = [_xy(m) for _, m in msgs[detection_topic("laser_legs")]]
     cam = [_xy(m) for _, m in msgs["/pfpeople/detections/hog_cam"]]
     assert len(legs) == 3 and len(cam) == 2 and cam[0].shape == (0, 2)
     np.testing.assert_allclose(legs[2], np.asarray(w.dets[2][0]), atol=1e-12)

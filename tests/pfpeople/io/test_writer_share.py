@@ -105,8 +105,10 @@ def _ns(header: Any) -> int:
     return int(header.stamp.sec) * 10**9 + int(header.stamp.nanosec)
 
 
-def _run(src: Path, out: Path | None, bag_out: Path, **kwargs: Any) -> list[Any]:
+def _run(src: Path, out: Path | None, bag_out: Path, *, name: str | None = None, **kwargs: Any) -> list[Any]:
     config = replace(SYNTHETIC_CONFIG, time_source="bag")
+    if name is not None:  # the one detector named so
+        config = replace(config, detectors=(replace(config.detectors[0], name=name),))
     with BagSource(src) as bag:
         _, kept = Pipeline(config, front_process=False).run(bag, out, bag_out=bag_out, keep=True, **kwargs)
     return kept
@@ -202,7 +204,11 @@ def test_rosbag2_metadata_is_version_5_for_humble(tmp_path: Path) -> None:
 def test_renamed_detector_topics_are_logged_and_in_run_json(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
     src, _ = _source(tmp_path, False)
     with caplog.at_level(logging.WARNING, logger="pfpeople.io.bag.writer"):
-        _run(src, tmp_path / "run", tmp_path / "res.bag")
+        _run(src, tmp_path / "default", tmp_path / "default.bag")
+    assert "its detections go to" not in caplog.text  # the default name, laser_legs, is a valid ROS name: kept
+    assert json.loads((tmp_path / "default" / "run.json").read_text())["result_bag"]["renamed_topics"] == {}
+    with caplog.at_level(logging.WARNING, logger="pfpeople.io.bag.writer"):
+        _run(src, tmp_path / "run", tmp_path / "res.bag", name="laser-legs")
     assert "detector 'laser-legs': its detections go to /pfpeople/detections/laser_legs" in caplog.text
     result_bag = json.loads((tmp_path / "run" / "run.json").read_text())["result_bag"]
     assert result_bag["renamed_topics"] == {"laser-legs": "/pfpeople/detections/laser_legs"}

@@ -1,13 +1,12 @@
 """The draws the compiled particle step makes inside its kernels, against the distributions of the numpy path.
 
-The paper's people motion, the births and the systematic resampling by cell draw from SplitMix64 streams in the
-kernels (:mod:`pfpeople.particle.rng_kernels`), not from numpy's ``Generator``: the compiled path no longer gives the
-numpy path's particles, only the same distributions. Tested here, with fixed seeds (deterministic) and stated
-tolerances:
+The paper's people motion, the births and the systematic resampling by cell draw from SplitMix64 streams in the kernels
+(:mod:`pfpeople.particle.predictor.draws`), not from numpy's ``Generator``: the compiled path no longer gives the numpy
+path's particles, only the same distributions. Tested here, with fixed seeds (deterministic) and stated tolerances:
 
 * the generator's normal, speed and heading draws: Kolmogorov-Smirnov against the exact distributions, alpha =
   1e-3; the tail of the ziggurat (|z| > r = 3.654) within 5 binomial standard errors;
-* the people motion of the compiled pass against :func:`pfpeople.particle.propagation.move_paper` on the same
+* the people motion of the compiled pass against :func:`pfpeople.particle.predictor.paper.move_paper` on the same
   particles: the fraction that stays within 5 binomial standard errors of ``p_stationary``, two-sample KS tests
   (alpha = 1e-3) of the walkers' speed, heading and displacement; the sensor motion is the numpy code's to 1e-12;
 * the births: inside their cells, uniform within them (KS), the stationary fraction;
@@ -28,12 +27,16 @@ import pytest
 from scipy import stats
 
 from gridbridge import GridSpec, Odometry, PeopleMotion, jit
-from pfpeople.particle import rng_kernels as rk
-from pfpeople.particle import step_kernels as kernels
-from pfpeople.particle.components import PersistentSampling, Resampling
 from pfpeople.particle.filter import ParticleFilter
-from pfpeople.particle.propagation import apply_ego_motion, move_paper
-from pfpeople.particle.resampling import resample_by_cell, resample_scaled, resample_state, systematic
+from pfpeople.particle.predictor import PersistentSampling
+from pfpeople.particle.predictor import draws as rk
+from pfpeople.particle.predictor.births import born_particles
+from pfpeople.particle.predictor.ego import apply_ego_motion, ego_rows
+from pfpeople.particle.predictor.paper import move_paper, paper_move_ego_compact
+from pfpeople.particle.predictor.persistent import persist_params, persistent_move_ego_compact
+from pfpeople.particle.resampler import Resampling
+from pfpeople.particle.resampler.by_cell import resample_by_cell, resample_scaled, resample_state
+from pfpeople.particle.resampler.schemes import systematic
 from pfpeople.particle.state import ParticleState
 
 pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
@@ -131,7 +134,7 @@ def _paper_pass(st: ParticleState, seeds: np.ndarray, poses: np.ndarray, ego: bo
     n_cells = SPEC.n_cells
     out, cells = tuple(np.empty(st.size) for _ in range(5)), np.empty(st.size, dtype=np.intp)
     sums = (np.zeros(n_cells), np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp), np.zeros(n_cells))
-    j, n_in = kernels.paper_move_ego_compact(st.x, st.y, st.w, seeds, WALK, 0.1, poses, ego, GRID, out, cells, sums)
+    j, n_in = paper_move_ego_compact(st.x, st.y, st.w, seeds, WALK, 0.1, poses, ego, GRID, out, cells, sums)
     assert j == n_in == st.size  # nobody left
     return (*out, cells, *sums)
 
@@ -164,7 +167,7 @@ def test_compiled_sensor_motion_is_the_numpy_code_and_seeds_repeat() -> None:
     """The same seeds give the same people motion with and without the sensor motion; that then is
     :func:`apply_ego_motion`'s (particle k uses pose k mod S) to round-off."""
     st = _interior(5000, 4)
-    rows = kernels.ego_rows(np.random.default_rng(5).standard_normal((3, 700)), np.array([0.05, 0.05, 0.02]),
+    rows = ego_rows(np.random.default_rng(5).standard_normal((3, 700)), np.array([0.05, 0.05, 0.02]),
                             (0.5, 0.2, 0.0), 0.1, 1e-9)  # fmt: skip
     moved = _paper_pass(st, _seeds(6), rows, True)
     still = _paper_pass(st, _seeds(6), np.zeros((4, 1)), False)
@@ -192,7 +195,7 @@ def test_compiled_cells_on_and_near_edges_are_flat_index() -> None:
     sums = (np.zeros(n_cells), np.zeros(n_cells), np.zeros(n_cells, dtype=np.intp), np.zeros(n_cells))
     stay = rk.walk_params(1.0, MOTION.mu, MOTION.sigma, MOTION.v_max)
     args = (gx, gy, np.arange(n, dtype=float), _seeds(0), stay, 0.1, np.zeros((4, 1)), False, GRID, out, cells, sums)
-    j, _ = kernels.paper_move_ego_compact(*args)
+    j, _ = paper_move_ego_compact(*args)
     want = SPEC.flat_index(gx, gy)
     assert j == np.count_nonzero(want >= 0)
     np.testing.assert_array_equal(cells[:j], SPEC.flat_index(out[0][:j], out[1][:j]))
@@ -205,7 +208,7 @@ def test_compiled_cells_on_and_near_edges_are_flat_index() -> None:
 
 def test_compiled_births_are_uniform_in_their_cells() -> None:
     cells_in = np.random.default_rng(7).integers(0, SPEC.n_cells, 100_000)
-    x, y, vx, vy = kernels.born_particles(cells_in, _seeds(8), WALK, GRID)
+    x, y, vx, vy = born_particles(cells_in, _seeds(8), WALK, GRID)
     np.testing.assert_array_equal(SPEC.flat_index(x, y), cells_in)
     u, v = SPEC.to_fractional(x, y)
     for frac in (u - np.floor(u), v - np.floor(v)):
@@ -332,11 +335,11 @@ def test_compiled_filter_same_seed_same_bits() -> None:
 
 def test_compiled_update_resamples_from_the_predicted_sums_as_from_the_scaled_weights() -> None:
     """The default policy's resampling, decided from the prediction's per-cell sums and drawn from the unscaled
-    weights, gives what scaling the weights first and resampling them gives (a policy with its own ``due``)."""
+    weights, gives what scaling the weights first and resampling them gives (a policy that does not draw scaled
+    weights: the update scales them in a pass first)."""
 
     class Scaled(Resampling):
-        def due(self, weights: np.ndarray, n: int) -> bool:
-            return super().due(weights, n)
+        draws_scaled = False  # type: ignore[assignment]
 
     runs = []
     with jit.override(True):
@@ -401,7 +404,7 @@ def test_compiled_persistent_filter_unaffected_by_the_paper_draws() -> None:
 def test_sensor_noise_drawn_in_the_kernel_matches_numpy_draws(odo: Odometry) -> None:
     """The sensor motion's noise drawn in the kernel (the paper path) against numpy's draws: the displacements
     dx, dy and the rotation, two-sample KS (alpha = 1e-3), and their means and variances within 5 standard errors."""
-    from pfpeople.particle.components import VelocityEgoSampling
+    from pfpeople.particle.predictor import VelocityEgoSampling
 
     ego = VelocityEgoSampling(pool=100_000)
     drawn = ego.rows_drawn(odo, 0.1, 100_000, seed=17)
@@ -436,11 +439,10 @@ def test_compiled_persistent_motion_matches_move_persistent_in_distribution() ->
     the same particles, dt = 0.3 s: stop and start fractions within 5 binomial standard errors of the rates; the
     walkers' change of speed and turn and the starters' speed and heading, two-sample KS at alpha = 1e-3; standing
     particles do not move."""
-    from pfpeople.particle.propagation import PersistentMotion, move_persistent
+    from pfpeople.particle.predictor.persistent import PersistentMotion, move_persistent
 
     n, dt, params = 200_000, 0.3, PersistentMotion()
     st = _walkers_and_standers(n, 4)
-    pf = ParticleFilter(rng=np.random.default_rng(0), people_motion=PersistentSampling(compiled_draws=True))
     out, cells = tuple(np.empty(n) for _ in range(5)), np.empty(n, dtype=np.intp)
     sums = (
         np.zeros(SPEC.n_cells),
@@ -449,8 +451,10 @@ def test_compiled_persistent_motion_matches_move_persistent_in_distribution() ->
         np.zeros(SPEC.n_cells),
     )
     src = (st.x, st.y, st.vx, st.vy, st.w)
-    j, n_in = kernels.persistent_move_ego_compact(src, _seeds(5), WALK, pf._persist(dt), np.zeros((4, 1)), False, GRID,
-                                                  out, cells, sums)  # fmt: skip
+    persist = persist_params(params, dt)
+    j, n_in = persistent_move_ego_compact(
+        src, _seeds(5), WALK, persist, np.zeros((4, 1)), False, GRID, out, cells, sums
+    )
     assert j == n_in == n  # nobody left: the pass keeps every particle in place
     x, vx, vy = out[0], out[2], out[3]
     moved = st.copy()

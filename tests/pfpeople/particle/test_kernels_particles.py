@@ -20,10 +20,10 @@ from evaluation.bench.particles import filterpy_systematic
 from gridbridge import GridSpec, Odometry, PeopleMotion, jit
 from gridbridge.components import Appearance, BeliefBounds
 from pfpeople.particle.buffers import BufferPool
-from pfpeople.particle.components import PaperSampling, PersistentSampling, Resampling
 from pfpeople.particle.filter import ParticleFilter
-from pfpeople.particle.propagation import PersistentMotion, move_persistent
-from pfpeople.particle.resampling import resample_by_cell
+from pfpeople.particle.predictor import PaperSampling, PersistentSampling
+from pfpeople.particle.predictor.persistent import PersistentMotion, move_persistent, move_persistent_compiled
+from pfpeople.particle.resampler import Resampling, resample_by_cell
 from pfpeople.particle.state import ParticleState
 
 pytestmark = pytest.mark.skipif(not jit.AVAILABLE, reason="numba is not installed")
@@ -172,7 +172,7 @@ def test_numba_switch_reads_the_environment() -> None:
 
 def test_grid_tuple_cells_match_flat_index() -> None:
     """The kernels' cell of a point is GridSpec.flat_index, on cell edges and outside too."""
-    from pfpeople.particle import step_kernels as kernels
+    from pfpeople.particle.predictor.passes import cell
 
     spec = GridSpec(nx=7, ny=5, resolution=0.3, x0=-0.45, y0=-1.2)
     grid = (spec.x0, spec.y0, spec.resolution, spec.nx, spec.ny)
@@ -180,7 +180,7 @@ def test_grid_tuple_cells_match_flat_index() -> None:
     xs = np.concatenate((edges_x, np.nextafter(edges_x, -np.inf), np.random.default_rng(0).uniform(-1, 3, 200)))
     ys = np.resize(np.concatenate((spec.y0 + np.arange(-1, 7) * spec.resolution, [-0.0, 1e-300])), xs.size)
     want = spec.flat_index(xs, ys)
-    got = [kernels.cell(float(x), float(y), grid) for x, y in zip(xs, ys, strict=True)]
+    got = [cell(float(x), float(y), grid) for x, y in zip(xs, ys, strict=True)]
     np.testing.assert_array_equal(got, want)
 
 
@@ -190,19 +190,17 @@ def test_grid_tuple_cells_match_flat_index() -> None:
 def test_ego_rows_are_sample_ego_poses_bit_for_bit(odo: Odometry) -> None:
     from gridbridge import SensorMotionNoise
     from gridbridge.ego_motion import _OMEGA_EPS
-    from pfpeople.particle import step_kernels as kernels
-    from pfpeople.particle.propagation import sample_ego_poses
+    from pfpeople.particle.predictor.ego import VelocityEgoSampling, ego_rows, sample_ego_poses
 
     noise = SensorMotionNoise()
     poses = sample_ego_poses(odo, 0.1, noise, 500, rng=np.random.default_rng(2))
     e = np.random.default_rng(2).standard_normal((3, 500))
     sd = np.sqrt(np.asarray(noise.variances(odo.v, odo.omega), dtype=np.float64))
-    rows = kernels.ego_rows(e, sd, (odo.v, odo.omega, odo.vy), 0.1, _OMEGA_EPS)
+    rows = ego_rows(e, sd, (odo.v, odo.omega, odo.vy), 0.1, _OMEGA_EPS)
     want = np.stack((poses[:, 0], poses[:, 1], np.cos(poses[:, 2]), np.sin(poses[:, 2])))
     assert rows.tobytes() == want.tobytes()
     # The component's rows draw in the kernel from the generator (ego_rows_from): the same bits, and the generator
     # left where numpy's draws leave it.
-    from pfpeople.particle.components import VelocityEgoSampling
 
     drawing, numpy_draws = np.random.default_rng(2), np.random.default_rng(2)
     assert VelocityEgoSampling(noise=noise).rows(odo, 0.1, 500, rng=drawing).tobytes() == want.tobytes()
@@ -219,8 +217,8 @@ def test_ego_rows_are_sample_ego_poses_bit_for_bit(odo: Odometry) -> None:
     ],
 )
 def test_move_persistent_compiled_is_the_numpy_walk_bit_for_bit(params: PersistentMotion) -> None:
-    """The walk's kernels (persistent_walk, persistent_velocities) against the numpy twin over several steps:
-    walkers, standing particles (signed zeros too), speeds near v_max and beyond it."""
+    """The compiled form (move_persistent_compiled: persistent_walk, persistent_velocities) against the reference
+    form over several steps: walkers, standing particles (signed zeros too), speeds near v_max and beyond it."""
     rng = np.random.default_rng(21)
     n = 3000
     vx, vy = rng.normal(size=n) * 1.5, rng.normal(size=n) * 1.5
@@ -229,14 +227,13 @@ def test_move_persistent_compiled_is_the_numpy_walk_bit_for_bit(params: Persiste
     vx[1000:1100] = 2.9
     motion = PeopleMotion(v_max=3.0)
     out = []
-    for compiled in (True, False):
+    for move in (move_persistent_compiled, move_persistent):
         st = ParticleState(x=np.ones(n), y=np.zeros(n), vx=vx.copy(), vy=vy.copy(), w=np.ones(n))
         draws = np.random.default_rng(5)
         rows = []
-        with jit.override(compiled, "pfpeople"):
-            for dt in (0.1, 0.133, 0.5):
-                move_persistent(st, motion, params, dt, rng=draws)
-                rows.append(np.stack((st.x, st.y, st.vx, st.vy)).tobytes())
+        for dt in (0.1, 0.133, 0.5):
+            move(st, motion, params, dt, rng=draws)
+            rows.append(np.stack((st.x, st.y, st.vx, st.vy)).tobytes())
         rows.append(draws.random(3).tobytes())  # the same number of draws on both paths
         out.append(rows)
     assert out[0] == out[1]
@@ -244,21 +241,23 @@ def test_move_persistent_compiled_is_the_numpy_walk_bit_for_bit(params: Persiste
 
 @pytest.mark.parametrize("odo", [Odometry(v=0.5, omega=0.3), None])
 def test_empty_cell_prior_at_the_empty_cells_is_the_whole_warp_there(odo: Odometry | None) -> None:
-    """_empty_cell_prior (compiled: the linear prior only at the cells warp_taps finds, convolve_at, warped only at
+    """empty_cell_prior (compiled: the linear prior only at the cells warp_taps finds, convolve_at, warped only at
     the empty cells, warp_at) against the whole grid's linear prior warped by the compiled grid functions, read at
     those cells; standing (one pose at 0) too."""
     from gridbridge import ego_motion_sigma_points, people_motion_kernel, predict_people, warp_belief
+    from pfpeople.particle.predictor.empty_cells import empty_cell_prior
 
     pf = ParticleFilter(n_particles=1500, rng=np.random.default_rng(3))
     for t in range(4):
         pf.step(DETECTIONS if t % 2 == 0 else [None, None, None], Odometry(v=0.4, omega=0.2), 0.1)
     poses, w = ego_motion_sigma_points(odo, 0.1, pf.noise)
     empty = np.random.default_rng(4).random(pf.spec.n_cells) < 0.2
+    models = (pf.spec, pf.motion, pf.outside, 0.1, (poses, w), empty)
     with jit.override(True):
-        got = pf._empty_cell_prior(0.1, poses, w, empty)
+        got = empty_cell_prior(pf.belief, *models)
         kernel = people_motion_kernel(pf.spec, pf.motion, dt=0.1, form="integrated")
         people = predict_people(pf.belief, kernel, outside=pf.outside, form="linear")
         want = warp_belief(people, pf.spec, poses, w, outside=pf.outside).ravel()[empty]
     assert got.tobytes() == want.tobytes()
     with jit.override(False, "gridbridge"):
-        np.testing.assert_allclose(pf._empty_cell_prior(0.1, poses, w, empty), want, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(empty_cell_prior(pf.belief, *models), want, rtol=0, atol=1e-12)

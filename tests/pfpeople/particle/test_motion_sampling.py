@@ -9,16 +9,9 @@ import pytest
 from scipy import stats
 
 from gridbridge import GridSpec, Odometry, PeopleMotion, SensorMotionNoise, ego_motion_sigma_points
-from pfpeople.particle.propagation import (
-    PersistentMotion,
-    apply_ego_motion,
-    move_paper,
-    move_persistent,
-    redraw_in_cells,
-    sample_ego_poses,
-    sample_speeds,
-    sample_velocity_prior,
-)
+from pfpeople.particle.predictor.ego import apply_ego_motion, sample_ego_poses
+from pfpeople.particle.predictor.paper import move_paper, redraw_in_cells, sample_speeds, sample_velocity_prior
+from pfpeople.particle.predictor.persistent import PersistentMotion, move_persistent
 from pfpeople.particle.state import ParticleState, uniform_in_cells
 
 N = 200_000

@@ -10,14 +10,14 @@ import pytest
 from gridbridge import FilterStep, GridFilter, GridSpec, Odometry, PeopleMotion, SensorMotionNoise, rasterise
 from gridbridge.components import VelocityEgoMotion
 from gridbridge.limits import ResourceLimitError
-from pfpeople.particle.components import (
+from pfpeople.particle.filter import ParticleFilter, ParticleStep
+from pfpeople.particle.predictor import (
     PaperSampling,
     PeopleSampler,
     PersistentSampling,
-    Resampling,
     VelocityEgoSampling,
 )
-from pfpeople.particle.filter import ParticleFilter, ParticleStep
+from pfpeople.particle.resampler import Resampling
 from pfpeople.particle.state import ParticleState, uniform_in_cells
 
 RNG = np.random.default_rng(0)

@@ -7,11 +7,11 @@ import pytest
 from filterpy.monte_carlo import stratified_resample, systematic_resample
 from scipy import stats
 
-from pfpeople.particle.resampling import (
+from pfpeople.particle.resampler.by_cell import resample_by_cell
+from pfpeople.particle.resampler.schemes import (
     RESAMPLERS,
     effective_sample_size,
     get_resampler,
-    resample_by_cell,
     stratified,
     systematic,
 )

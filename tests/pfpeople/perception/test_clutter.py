@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from gridbridge import jit
 from pfpeople.perception.clutter_map import ClutterConfig, ClutterSuppressor, MovingPeople, StaticClutterMap
+from pfpeople.perception.scan_matching import LaserEgoMotion
 from pfpeople.sensors import Pose2D
 
 DT = 0.1
@@ -456,3 +457,26 @@ def test_static_points_with_nonfinite_rows_compiled_equal_numpy(rng: np.random.G
     assert got.dtype == want.dtype == bool and got.tobytes() == want.tobytes()
     assert want.any() and not want.all()
     assert not m.static_points(np.full((3, 2), np.nan)).any() and m.static_points(np.zeros((0, 2))).shape == (0,)
+
+
+def test_a_match_made_outside_the_map_is_the_same_as_the_maps_own(rng: np.random.Generator) -> None:
+    """The pipeline's ego-motion stage matches the driving laser before the detectors and gives the map the match
+    (``ego`` and ``ego_ok``): a map fed so keeps the same detections, forgets at the same scans and ends in the same
+    state as one matching its scans itself (back-off and the first scan's known identity included)."""
+    own, given = ClutterSuppressor(CFG), ClutterSuppressor(CFG)
+    matcher = LaserEgoMotion()
+    robot = [Pose2D(x=-1.0 + 0.03 * k, y=0.2, yaw=0.005 * k) for k in range(40)]
+    for k, pose in enumerate(robot):
+        pts = rng.uniform(-5.0, 5.0, (768, 2)) if k in (1, 2, 9, 10, 11) else ray_cast(pose, post())
+        dets = [pose.inverse().apply(POST[None, :])]
+        a = own.step(pts, dets, dt=DT)
+        ego, ok = matcher.match(pts, first=k == 0)
+        b = given.step(pts, dets, ego=ego, ego_ok=ok, dt=DT)
+        assert (a.ego, a.ego_ok) == (b.ego, b.ego_ok), k
+        assert np.array_equal(a.keep[0], b.keep[0]) and np.array_equal(a.excluded, b.excluded), k
+    assert np.array_equal(own.map.static_points(pts), given.map.static_points(pts))
+    assert (own.odometry.skipped, own.odometry.poor_matches) == (
+        matcher.odometry.skipped,
+        matcher.odometry.poor_matches,
+    )
+    assert own.odometry.skipped > 0

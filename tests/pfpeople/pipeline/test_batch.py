@@ -99,7 +99,7 @@ def test_batch_command_on_a_running_scheduler(
     from pfpeople.cli import main
 
     cfg = tmp_path / "cfg.toml"
-    cfg.write_text('[frames]\ndriver = "/scan"\n[[detectors]]\nname = "laser-legs"\nkind = "leg"\ntopic = "/scan"\n')
+    cfg.write_text('[frames]\ndriver = "/scan"\n[[detectors]]\nname = "laser_legs"\nkind = "leg"\ntopic = "/scan"\n')
     address = client.scheduler.address
     base = ["batch", *map(str, bags), "--config", str(cfg), "--out", str(tmp_path / "o"), "--no-progress"]
     assert main([*base, "--scheduler", address, "--max-frames", "3", "--table", str(tmp_path / "r.csv")]) == 0
@@ -174,7 +174,7 @@ def test_batch_out_that_is_a_file_is_refused_naming_it(
     from pfpeople.cli import main
 
     cfg = tmp_path / "cfg.toml"
-    cfg.write_text('[frames]\ndriver = "/scan"\n[[detectors]]\nname = "laser-legs"\nkind = "leg"\ntopic = "/scan"\n')
+    cfg.write_text('[frames]\ndriver = "/scan"\n[[detectors]]\nname = "laser_legs"\nkind = "leg"\ntopic = "/scan"\n')
     afile = tmp_path / "out.txt"
     afile.write_text("not a folder\n")
     for out, what in ((afile, "is a file, not a folder"), (afile / "sub", f"its parent {str(afile)!r} is a file")):

@@ -11,7 +11,13 @@ import pytest
 from bag_fixtures import legs_only, write_scan_bag
 
 from pfpeople.io.bag.reader import BagSource
-from pfpeople.pipeline.blas import BLAS_THREADS_ENV, blas_threads_in_use, limit_blas, resolve_blas_threads
+from pfpeople.pipeline.blas import (
+    BLAS_THREADS_ENV,
+    blas_threads_in_use,
+    limit_blas,
+    resolve_blas_threads,
+    usable_cpus,
+)
 from pfpeople.pipeline.front_end import front_process_available
 from pfpeople.pipeline.runner import Pipeline
 from pfpeople.run_state import FrameResult
@@ -54,9 +60,9 @@ def test_the_number_of_threads_comes_from_the_argument_the_environment_or_is_one
 ) -> None:
     monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
     assert resolve_blas_threads() == 1
-    assert resolve_blas_threads(0) == 0 and resolve_blas_threads(3) == 3
+    assert resolve_blas_threads(0) == 0 and resolve_blas_threads(3) == min(3, usable_cpus())  # capped at the CPUs
     monkeypatch.setenv(BLAS_THREADS_ENV, " 0 ")
-    assert resolve_blas_threads() == 0 and resolve_blas_threads(2) == 2
+    assert resolve_blas_threads() == 0 and resolve_blas_threads(2) == min(2, usable_cpus())
     monkeypatch.setenv(BLAS_THREADS_ENV, "")
     assert resolve_blas_threads() == 1
     for bad in ("two", "-1", "1.5"):

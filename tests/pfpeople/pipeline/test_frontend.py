@@ -165,5 +165,6 @@ def test_a_front_end_process_that_dies_ends_the_run_with_a_named_error(tmp_path:
 
 def test_every_count_but_the_back_ends_comes_back_from_the_front_process() -> None:
     """A new :class:`RunSummary` count (e.g. ``odometry_jumps``) is copied back from the front-end process."""
-    back = {"frames", "sync", "elapsed_s", "error", "mount_changes", "blas_threads", "readmitted"}
+    back = {"frames", "sync", "elapsed_s", "error", "mount_changes", "bad_transforms", "blas_threads", "readmitted"}
+    back |= {"fov_narrowed"}
     assert set(FRONT_COUNTERS) == {f.name for f in dataclasses.fields(RunSummary)} - back

@@ -168,8 +168,8 @@ def test_camera_driven_frames_take_the_closest_laser_scan(tmp_path: Path) -> Non
     cfg = BagConfig(
         driver="/image",
         detectors=(
-            DetectorConfig(name="camera-hog", kind="hog", topic="/image"),
-            DetectorConfig(name="laser-legs", kind="leg", topic="/scan"),
+            DetectorConfig(name="camera_hog", kind="hog", topic="/image"),
+            DetectorConfig(name="laser_legs", kind="leg", topic="/scan"),
         ),
         sync_tolerance_s=0.04,
     )
@@ -186,7 +186,7 @@ def test_camera_driven_frames_take_the_closest_laser_scan(tmp_path: Path) -> Non
     # With a 10 ms tolerance no scan is close enough: the laser detector covers no cell in any frame.
     with BagSource(bag) as src:
         summary, results = Pipeline(replace(cfg, sync_tolerance_s=0.01)).run(src, None, keep=True)
-    assert all(r.detections[1] is None for r in results) and summary.no_data == {"laser-legs": 6}
+    assert all(r.detections[1] is None for r in results) and summary.no_data == {"laser_legs": 6}
 
 
 # -- bad input -------------------------------------------------------------------------------------------------
@@ -277,7 +277,7 @@ def test_nan_inf_and_empty_scans_and_non_monotonic_stamps(tmp_path: Path, caplog
         summary, results = Pipeline(config()).run(src, tmp_path / "run", keep=True)
     assert summary.frames == 19  # scan 8 skipped
     assert summary.sync["non_monotonic"] == {"/scan": 1}
-    assert summary.empty_scans == {"laser-legs": 1} and summary.no_data["laser-legs"] == 1
+    assert summary.empty_scans == {"laser_legs": 1} and summary.no_data["laser_legs"] == 1
     by_index = {r.frame.driver.index: r for r in results}
     assert 8 not in by_index
     assert by_index[5].detections[0] is None  # no data: covers no cell
@@ -285,7 +285,7 @@ def test_nan_inf_and_empty_scans_and_non_monotonic_stamps(tmp_path: Path, caplog
     assert legs3 is not None and np.all(_nearest(legs3, truth.people_laser[3]) < 0.1)
     assert "not after the previous one" in caplog.text and "empty LaserScan" in caplog.text
     run = load_run(tmp_path / "run")
-    assert run.frames["no_data"][list(run.frames["driver_index"]).index(5)] == "laser-legs"
+    assert run.frames["no_data"][list(run.frames["driver_index"]).index(5)] == "laser_legs"
     assert run.meta["stats"]["sync"]["non_monotonic"] == {"/scan": 1}
 
 
@@ -345,7 +345,7 @@ def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
     cfg_path = tmp_path / "cfg.toml"
     cfg_path.write_text(
         '[frames]\ndriver = "/scan"\n[odometry]\ntopic = "/odom"\n'
-        '[[detectors]]\nname = "laser-legs"\nkind = "leg"\ntopic = "/scan"\n'
+        '[[detectors]]\nname = "laser_legs"\nkind = "leg"\ntopic = "/scan"\n'
         # the two people stand still from the first scan and one detector sees them: the clutter map would take
         # them for furniture after ~0.6 s
         "[clutter]\nenabled = false\n"
@@ -385,21 +385,21 @@ def test_run_and_score_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
     rc = eval_main(["score", str(out), "--gt", str(gt), "--frame", "laser", "--json", str(tmp_path / "s.json")])
     assert rc == 0
     text = capsys.readouterr().out
-    assert "laser-legs" in text and "filter" in text
+    assert "laser_legs" in text and "filter" in text
     result = score_run(load_run(out), read_gt_csv(gt), frame="laser")
-    legs = result["scores"]["laser-legs"]
+    legs = result["scores"]["laser_legs"]
     assert (legs["tp"], legs["fn"], legs["fp"]) == (40, 0, 0) and legs["recall"] == 1.0
     # measured 0.50: the two people stand still for 2 s and are reported from 1 s on ([tracking] static_confirm_s)
     assert 0.45 <= result["scores"]["filter"]["recall"] <= 0.55
     # A sector from -90 to -20 deg keeps only the person at -39 .. -62 deg (the other is at -2 .. -14 deg).
     left = score_run(load_run(out), read_gt_csv(gt), frame="laser", sector=(-90.0, -20.0))
-    assert left["scores"]["laser-legs"]["tp"] + left["scores"]["laser-legs"]["fn"] == 20
+    assert left["scores"]["laser_legs"]["tp"] + left["scores"]["laser_legs"]["fn"] == 20
     # The detector's field of view and range come from its LaserScan when the config leaves them out.
     model0 = load_run(out).meta["detector_models"][0]
     assert model0["max_range"] == 10.0 and model0["fov_min"] == pytest.approx(-np.pi / 2, abs=1e-6)
     cal = tmp_path / "cal.json"
     assert eval_main(["calibrate", "--run", str(out), "--gt", str(gt), "--frame", "laser", "--json", str(cal)]) == 0
-    assert json.loads(cal.read_text())["matched"]["laser-legs"]["fnr"] == pytest.approx(0.0)
+    assert json.loads(cal.read_text())["matched"]["laser_legs"]["fnr"] == pytest.approx(0.0)
     capsys.readouterr()
     # Running again into the same directory is refused with a message, not a traceback.
     assert main(["run", str(bag), "--config", str(cfg_path), "--out", str(out), "--no-progress"]) == 2
@@ -437,16 +437,16 @@ def test_real_bag_recall_per_detector_and_filter(
     s = result["scores"]
     # Measured (gate 0.5 m): first 600 scans, grid filter: legs 0.466, boosted 0.682, filter 0.867;
     # first 300 scans, particle filter (5000 particles, seed 0): legs 0.416, boosted 0.735, filter 0.863.
-    assert s["laser-legs"]["recall"] > 0.35
-    assert s["laser-boosted"]["recall"] > 0.35
-    assert s["filter"]["recall"] > max(s["laser-legs"]["recall"], s["laser-boosted"]["recall"]) - 0.05
+    assert s["laser_legs"]["recall"] > 0.35
+    assert s["laser_boosted"]["recall"] > 0.35
+    assert s["filter"]["recall"] > max(s["laser_legs"]["recall"], s["laser_boosted"]["recall"]) - 0.05
     assert "precision" not in s["filter"]
     # Calibration from the same ground truth: FNR only (passers-by are not annotated), FNR = 1 - recall.
     cal_json = out.parent / "cal.json"
     args = ["calibrate", "--run", str(out), "--gt", str(gt_path), "--frame", "laser", "--recall-only"]
     assert eval_main([*args, "--json", str(cal_json)]) == 0
     cal = json.loads(cal_json.read_text())["matched"]
-    for name in ("laser-legs", "laser-boosted"):
+    for name in ("laser_legs", "laser_boosted"):
         assert cal[name]["ppv"] is None
         assert cal[name]["fnr"] == pytest.approx(1.0 - s[name]["recall"], abs=1e-9)
 

@@ -21,10 +21,10 @@ from gridbridge.params import DetectorModel
 from pfpeople.detect.adapters import LegAdapter
 from pfpeople.io.bag.reader import BagSource, MessageDataError
 from pfpeople.io.run_dir import load_run
-from pfpeople.io.sinks import RunInfo, RunOutcome
 from pfpeople.perception.odometry import OdometryIntegrator
 from pfpeople.pipeline.runner import FrameResult, Pipeline, RunSummary, build_detector, make_filter, odometry_between
 from pfpeople.pipeline.sensor_setup import SensorSetup, setup_sensors
+from pfpeople.pipeline.sinks import RunInfo, RunOutcome
 from pfpeople.run_state import FrameResult as StateFrameResult
 
 N_SCANS = 5

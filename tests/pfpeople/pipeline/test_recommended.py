@@ -21,13 +21,8 @@ from pfpeople import ParticleFilter, PersistentMotion
 from pfpeople.config import ClassifierConfig, FilterConfig, config_from_mapping
 from pfpeople.io.bag.reader import BagSource
 from pfpeople.io.run_dir import load_run
-from pfpeople.particle.components import (
-    PEOPLE_SAMPLERS,
-    PaperSampling,
-    PersistentSampling,
-    Resampling,
-    VelocityEgoSampling,
-)
+from pfpeople.particle.predictor import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling, VelocityEgoSampling
+from pfpeople.particle.resampler import Resampling
 from pfpeople.pipeline.assembly import (
     BELIEF_MIN,
     DEFAULT_MOTION_MODEL,
@@ -117,7 +112,7 @@ def test_build_filter_composes_the_modes() -> None:
 def test_paper_mode_warns_about_detectors_with_fnr_above_half(caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.WARNING, logger="pfpeople.pipeline.assembly"):
         build_filter(FilterConfig(mode="paper"), GridSpec(), CALIBRATED_LASER_DETECTORS)
-    assert "FNR >= 0.5" in caplog.text and "laser-legs" in caplog.text
+    assert "FNR >= 0.5" in caplog.text and "laser_legs" in caplog.text
 
 
 def test_config_tables_round_trip_and_name_wrong_keys() -> None:

@@ -86,7 +86,7 @@ def test_video_is_decoded_with_the_frame_count_and_the_known_cell(tmp_path: Path
     assert fps == pytest.approx(5.0) and len(frames) == 8 and frames[0].shape == (SIZE[1], SIZE[0], 3)
     renderer = RunFrameRenderer(load_run(run_dir), options=ViewOptions(width_px=480, height_px=320))
     r, c = renderer.cell_pixel(*CELL)
-    far = renderer.cell_pixel(2, 7)  # x = 1.25 m, y = +1.25 m: an empty cell
+    far = renderer.cell_pixel(2, 9)  # x = 1.25 m, y = +2.25 m: an empty cell
     for img in (frames[0], frames[-1]):
         assert img[r, c].astype(int).max() < 70  # belief 1: black (H.264 tolerance)
         assert img[far].astype(int).min() > 200  # belief 0: white

@@ -23,9 +23,9 @@ from pfpeople.cli import main
 from pfpeople.config import FilterConfig
 from pfpeople.io.bag.reader import BagSource
 from pfpeople.io.run_dir import MAX_PARTICLES_SAVED, RunWriter, load_run, scan_records
-from pfpeople.io.sinks import standard_sinks
 from pfpeople.perception.clutter_map import StaticClutterMap
 from pfpeople.pipeline.runner import Pipeline
+from pfpeople.pipeline.sinks import standard_sinks
 from pfpeople.viz.run_view import (
     RunFrameRenderer,
     ViewOptions,
@@ -33,8 +33,8 @@ from pfpeople.viz.run_view import (
     ego_sources,
     fit_size,
     layout,
-    render_summary,
 )
+from pfpeople.viz.summary import render_summary
 from pfpeople.viz.video import write_animation
 
 SPEC = GridSpec(nx=10, ny=10, resolution=0.5, x0=0.0, y0=-2.5)
@@ -194,10 +194,9 @@ def test_ego_motion_source_and_ground_truth_in_the_summary(tmp_path: Path) -> No
     run = load_run(write_run(tmp_path / "run"))
     assert list(ego_sources(run)) == ["none"] + ["scan matching"] * 5  # no odometry topic: scan matching
     renderer = RunFrameRenderer(run, options=OPTS)
-    renderer.render(1)
-    assert renderer.readout.get_text().startswith("ego   scan matching")
-    renderer.render(0)
-    assert renderer.readout.get_text().startswith("ego   none (standing)")
+    assert renderer.readout_lines(1)[0] == "ego    scan matching"
+    assert renderer.readout_lines(0)[0] == "ego    none (standing)"
+    assert not np.array_equal(renderer.render(1)[:, -170:], renderer.render(0)[:, -170:])  # the panel shows it
     truth = [np.array([[2.0, 1.0]])] * 6
     with_gt = iio.imread(render_summary(run, tmp_path / "gt.png", truth=truth, dpi=40))
     plain = iio.imread(render_summary(run, tmp_path / "plain.png", dpi=40))

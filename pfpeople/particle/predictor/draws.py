@@ -1,10 +1,11 @@
 """Random draws inside the compiled particle-filter step (:mod:`gridbridge.jit`): SplitMix64, a ziggurat normal,
 and the paper's walker velocity.
 
-With the paper's people motion the compiled step draws the people motion, the births and the sensor motion's noise
-inside the kernels instead of taking numpy ``Generator`` arrays from the caller: each kernel call gets 64-bit seeds
-from the filter's ``Generator`` (``rng.integers(2**64, dtype=np.uint64)``), so a seeded filter is still
-deterministic, but its draws are no longer the numpy path's (the distributions are the same;
+A people-motion model that draws inside its compiled pass (``draws_inside``: the paper's, the persistent one with
+``compiled_draws``; :class:`pfpeople.particle.predictor.compiled.DrawingPredictor`) makes the people motion, the
+births and the sensor motion's noise inside the kernels instead of taking numpy ``Generator`` arrays from the caller:
+each kernel call gets 64-bit seeds from the filter's ``Generator`` (``rng.integers(2**64, dtype=np.uint64)``), so a
+seeded filter is still deterministic, but its draws are not the reference form's (the distributions are the same;
 ``tests/pfpeople/particle/test_compiled_draws.py`` tests them).
 
 Generator: SplitMix64 (Steele, Lea & Flood 2014; Java's ``SplittableRandom``, the seeder of the xoshiro family):
@@ -37,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.jit import jit
+from gridbridge.params import PeopleMotion
 
 __all__ = [
     "GAMMA",
@@ -48,6 +50,7 @@ __all__ = [
     "speed_from",
     "standard_normal",
     "uniform",
+    "walk_of",
     "walk_params",
     "walker_velocity",
     "ziggurat_fast",
@@ -94,6 +97,11 @@ _ZIG_INV_R = 1.0 / _ZIG_R
 def walk_params(p_stationary: float, mu: float, sigma: float, v_max: float) -> WalkParams:
     """The kernels' :data:`WalkParams` of the paper's people motion (:class:`gridbridge.PeopleMotion`'s fields)."""
     return (float(p_stationary), float(mu), float(sigma), float(v_max), -mu / sigma, (v_max - mu) / sigma)
+
+
+def walk_of(motion: PeopleMotion) -> WalkParams:
+    """:func:`walk_params` of a :class:`gridbridge.PeopleMotion`."""
+    return walk_params(motion.p_stationary, motion.mu, motion.sigma, motion.v_max)
 
 
 @jit

@@ -9,8 +9,9 @@ is suppressed: the filter does not see it (it is still written, with ``static = 
 ``suppressed``), unless it *arrived*: one of the laser's scans of the last second saw through most of its returns
 (:mod:`pfpeople.perception.arrivals`; a person who stands sways, furniture does not), or a detector of PPV 0.9 or
 more arrived within 0.3 m in the last 2 s (the place is held), counted in ``arrived``.
-Without odometry, the driving laser's scan-matched motion is returned in the grid frame (``T E_laser T^-1``) for
-laser odometry (:mod:`pfpeople.perception.odometry`).
+Without odometry, a laser's map takes the laser's motion from scan matching: the driving laser's from the
+run's ego-motion stage (:mod:`pfpeople.pipeline.ego_stage`, which matched it before the detectors ran; a failed
+or skipped match forgets the map), the other lasers' from their maps' own scan matchers.
 The detectors' support positions (single legs, :class:`pfpeople.detect.adapters.Detections`) that are suppressed so
 are dropped as well (:attr:`ClutterStage.support_static`); they never enter the map or its moving-people sets.
 """
@@ -27,6 +28,7 @@ from gridbridge.geometry import Pose2D
 from pfpeople.config import BagConfig
 from pfpeople.detect.adapters import Detections, DetectorAdapter
 from pfpeople.perception.arrivals import HOLD_MIN_PPV, RecentScans
+from pfpeople.perception.scan_matching import EgoMatch
 from pfpeople.run_state import RunSummary, count
 
 __all__ = ["ClutterStage"]
@@ -97,7 +99,8 @@ class ClutterStage:
         ego_grid: Pose2D | None,
         dt: float,
         stamp_ns: int,
-    ) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None], Pose2D | None]:
+        driver_match: EgoMatch | None = None,
+    ) -> tuple[list[NDArray[np.float64] | None], list[NDArray[np.bool_] | None]]:
         """Update the maps with the frame's scans and suppress the static detections.
 
         Parameters
@@ -110,6 +113,9 @@ class ClutterStage:
             Time step (s).
         stamp_ns : int
             Frame stamp (ns).
+        driver_match : EgoMatch, optional
+            The driving laser's scan match of this frame (laser frame), given when ``ego_grid`` is None and the
+            driving laser's map steps in this frame.
 
         Returns
         -------
@@ -117,9 +123,12 @@ class ClutterStage:
             The grid-frame detections the filter sees (static ones removed).
         static : list of ndarray (M_k,) of bool or None
             Per detector, which of its detections were suppressed (None: not a suppressed laser detector).
-        driver_ego : Pose2D or None
-            The driving laser's scan-matched motion in the grid frame (None when unknown or when ``ego_grid``
-            was given).
+
+        Raises
+        ------
+        RuntimeError
+            If the driving laser's map steps without an ego-motion (``ego_grid`` and ``driver_match`` None): the
+            ego-motion stage and this stage disagree on whether it steps (a bug).
         """
         kept: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
@@ -130,11 +139,10 @@ class ClutterStage:
             for a, f in zip(self.adapters, found, strict=True)
             if f is not None and f.scan is not None
         }
-        driver_ego: Pose2D | None = None
         for topic, sup in self.suppressors.items():
-            ego = self._step_topic(topic, sup, scans.get(topic), found, ego_grid, dt, stamp_ns, kept, static)
-            driver_ego = ego if ego is not None else driver_ego
-        return kept, static, driver_ego
+            match = driver_match if topic == self.config.driver else None
+            self._step_topic(topic, sup, scans.get(topic), found, (ego_grid, match), dt, stamp_ns, kept, static)
+        return kept, static
 
     def _step_topic(
         self,
@@ -142,27 +150,35 @@ class ClutterStage:
         sup: Any,
         scan: Any,
         found: Sequence[Detections | None],
-        ego_grid: Pose2D | None,
+        egos: tuple[Pose2D | None, EgoMatch | None],
         dt: float,
         stamp_ns: int,
         kept: list[NDArray[np.float64] | None],
         static: list[NDArray[np.bool_] | None],
-    ) -> Pose2D | None:
+    ) -> None:
         """:meth:`step` for one laser ``topic``, its map ``sup``
         (:class:`pfpeople.perception.clutter_map.ClutterSuppressor`)
         and its scan (:class:`pfpeople.sensors.LaserScan`; None: none in the frame): fills ``kept`` and ``static``
-        of its detectors in place; returns the scan-matched motion (grid frame) when ``topic`` is the driver and
-        the match was used (``ego_grid`` None), else None."""
+        of its detectors in place. ``egos``: the grid frame's motion from odometry and the laser's scan match from
+        the ego-motion stage (None, None: the map matches the scan itself)."""
         idx = [k for k, a in enumerate(self.adapters) if a.config.topic == topic and found[k] is not None]
         if scan is None or not idx:
-            return None
+            return
         mount = self.adapters[idx[0]].mount  # the laser's pose in the grid frame
-        ego = None if ego_grid is None else mount.inverse().compose(ego_grid).compose(mount)
+        ego_grid, match = egos
+        ego, ego_ok = None, True
+        if ego_grid is not None:
+            ego = mount.inverse().compose(ego_grid).compose(mount)
+        elif topic == self.config.driver:
+            if match is None:
+                raise RuntimeError(f"the static-clutter map of the driving laser {topic!r} got no ego-motion")
+            ego, ego_ok = match.ego, match.ok
         points = scan.points()  # once: the map's update and its static returns
         st = sup.step(
             points,
             [f.sensor for k in idx if (f := found[k]) is not None],
             ego=ego,
+            ego_ok=ego_ok,
             stamp_ns=stamp_ns,
             dt=dt,
             free=scan.free_rays(sup.map.config.max_range),
@@ -180,9 +196,6 @@ class ClutterStage:
             support = [f.support_sensor if (f := found[k]) is not None and len(f.support) else _NONE for k in idx]
             for k, flags in zip(idx, sup.clutter_flags(support), strict=True):  # one query of them all
                 self.support_static[k] = flags
-        if topic == self.config.driver and st.ego_ok and ego is None:
-            return mount.compose(st.ego).compose(mount.inverse())
-        return None
 
     def _arrivals(
         self,

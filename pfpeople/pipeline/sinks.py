@@ -28,6 +28,7 @@ sinks that are open.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +38,8 @@ from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
 from pfpeople.config import BagConfig
 from pfpeople.io.bag.reader import BagSource
+from pfpeople.io.bag.tf import TfLink
+from pfpeople.pipeline.output_frame import positions_in, results_in, tracks_in
 from pfpeople.run_state import FrameResult, RunSummary
 from pfpeople.sensors import Pose2D
 from pfpeople.track import track_rows
@@ -76,6 +79,12 @@ class RunInfo:
         The frame limit of the run.
     metadata : mapping
         Extra provenance (e.g. the command).
+    mount_links : tuple of TfLink
+        The transforms the run took from the configuration's ``[mounts]`` because TF had none (parent: the base
+        frame): :meth:`pfpeople.io.bag.tf.TfBuffer.fallback_links` of the frames placed.
+    output_frame : str
+        The frame of the results besides the grid frame (``[output] frame``; ``""``: none). Each frame's
+        :attr:`FrameResult.output_pose` places them there.
     """
 
     config: BagConfig
@@ -87,6 +96,8 @@ class RunInfo:
     frame_mounts: dict[str, Pose2D]
     max_frames: int | None = None
     metadata: Mapping[str, Any] = field(default_factory=dict)
+    mount_links: tuple[TfLink, ...] = ()
+    output_frame: str = ""
 
 
 @dataclass(frozen=True)
@@ -145,6 +156,7 @@ class RunDirSink:
         self.scans = scans
         self.writer: Any = None
         self._driver = ""
+        self._output = False
 
     def open(self, run: RunInfo) -> None:
         from pfpeople.io.run_dir import RunWriter
@@ -160,12 +172,22 @@ class RunDirSink:
             meta["result_bag"] = self.result_bag.describe(run)
         self._driver = run.config.driver
         self.writer = RunWriter(
-            self.out_dir, spec=run.spec, detector_names=run.detector_names, metadata=meta, overwrite=self.overwrite
+            self.out_dir,
+            spec=run.spec,
+            detector_names=run.detector_names,
+            metadata=meta,
+            overwrite=self.overwrite,
+            output_frame=run.output_frame,
         )
+        self._output = bool(run.output_frame)
 
     def write(self, result: FrameResult) -> None:
         r, f = result, result.frame
         parts = getattr(r.step, "particles", None) if self.scans else None
+        tracks = None if r.tracks is None else track_rows(f.index, f.stamp_ns, r.tracks)
+        out: dict[str, Any] = {}
+        if self._output:
+            out, tracks = _output_columns(r, tracks)
         self.writer.write_frame(
             frame=f.index,
             driver_index=f.driver.index,
@@ -179,12 +201,13 @@ class RunDirSink:
             people_size=r.people_size,
             people_probability=r.people_probability,
             detections=r.detections,
-            tracks=None if r.tracks is None else track_rows(f.index, f.stamp_ns, r.tracks),
+            tracks=tracks,
             static=r.static,
             support=r.support,
             support_static=r.support_static,
             scans=r.scans if self.scans else None,
             particles=None if parts is None else (parts.x, parts.y),
+            **out,
         )
 
     def close(self, outcome: RunOutcome) -> None:
@@ -198,6 +221,26 @@ class RunDirSink:
             if (n := s.sync.get(reason, {}).get(self._driver, 0))
         }
         self.writer.close(status=outcome.status, error=outcome.error, stats=s.as_dict(), skipped_frames=skipped)
+
+
+def _output_columns(
+    r: FrameResult, tracks: list[tuple[Any, ...]] | None
+) -> tuple[dict[str, Any], list[tuple[Any, ...]] | None]:
+    """The output-frame values of a frame (:mod:`pfpeople.pipeline.output_frame`): the run writer's ``output_pose``
+    and ``people_out`` arguments, and the ``tracks.csv`` rows with their output-frame columns (NaN: no pose)."""
+    pose = r.output_pose
+    if pose is None:
+        nan = (math.nan,) * 7
+        return {}, None if tracks is None else [(*row, *nan) for row in tracks]
+    out = {"output_pose": (pose.x, pose.y, pose.yaw), "people_out": positions_in(pose, r.people)}
+    if tracks is None or r.tracks is None:
+        return out, tracks
+    moved = tracks_in(pose, r.tracks)
+    rows = [
+        (*row, t.x, t.y, t.vx, t.vy, float(t.covariance[0, 0]), float(t.covariance[0, 1]), float(t.covariance[1, 1]))
+        for row, t in zip(tracks, moved, strict=True)
+    ]
+    return out, rows
 
 
 def input_topics(run: RunInfo) -> dict[str, str]:
@@ -223,8 +266,11 @@ class ResultBagSink:
     Header stamps of the results are the source scan's header stamp (the driver message's, also with
     ``time_source = "bag"``, where the frame stamps are record times); record times are the driver's. With
     ``with_input`` the input topics (:func:`input_topics`) are copied from a second reader of the input bag,
-    each message up to the record time of the frame being written (so a run stopped early holds the input of
-    the frames it wrote).
+    each message up to the record time of the frame being written; when the run ends, a run that read the whole
+    bag copies the rest of the input (e.g. another laser's scans recorded after the driver's last one), a run
+    stopped early (``max_frames``, an interruption, a failure) the input of the frames it wrote (up to the
+    latest record time of the messages its last frame used). The ``[mounts]`` the run used for frames without
+    TF (:attr:`RunInfo.mount_links`) go on ``/tf_static``, so every laser is placed in the bag.
 
     Parameters
     ----------
@@ -250,9 +296,13 @@ class ResultBagSink:
         self.overwrite = overwrite
         self.with_input = with_input
         self.writer: Any = None
+        self._output = False
         self._source: Any = None
         self._inputs: Any = None
         self._next: Any = None
+        self._frames = 0
+        self._max_frames: int | None = None
+        self._used_until = -1  # latest record time (ns) of an input message of a frame written
 
     def describe(self, run: RunInfo) -> dict[str, Any]:
         """What the bag will hold (for ``run.json`` ``result_bag``): path, format, topics and types, renames."""
@@ -275,21 +325,25 @@ class ResultBagSink:
         from pfpeople.io.bag.writer import ResultBagWriter
 
         inputs = input_topics(run) if self.with_input else {}
+        self._output = bool(run.output_frame)
         self.writer = ResultBagWriter(
             self.path,
             spec=run.spec,
             frame_id=run.grid_frame,
+            results_frame_id=run.output_frame or None,
             detector_names=run.detector_names,
             bag_format=self.bag_format,
             overwrite=self.overwrite,
             input_topics=inputs,
+            static_transforms=run.mount_links,
         )
+        self._max_frames = run.max_frames
         if inputs:
             self._source = BagSource(run.bag.paths)
             self._inputs = self._source.messages(inputs)
             self._next = next(self._inputs, None)
 
-    def _copy_input(self, until_ns: int) -> None:
+    def _copy_input(self, until_ns: float) -> None:
         """Copy the input messages recorded at or before ``until_ns``."""
         while self._next is not None and self._next.bag_time_ns <= until_ns:
             m = self._next
@@ -302,21 +356,27 @@ class ResultBagSink:
         f = result.frame
         self._copy_input(f.bag_time_ns)
         stamp = header_stamp_ns(f.driver.msg) or f.stamp_ns
+        people, tracks = results_in(result, output=self._output)  # none where the output frame's pose is unknown
         self.writer.write(
             f.bag_time_ns,
             stamp,
             result.belief,
-            result.people,
+            people,
             result.detections,
-            result.tracks,
+            tracks,
             people_reliability=result.people_probability
             if len(result.people_probability) == len(result.people)
             else None,
         )
+        self._frames += 1
+        used = [m.bag_time_ns for msgs in f.inputs.values() for m in msgs]
+        self._used_until = max([self._used_until, f.bag_time_ns, *used])
 
     def close(self, outcome: RunOutcome) -> None:
         try:
             if self.writer is not None:
+                whole = outcome.status == "complete" and (self._max_frames is None or self._frames < self._max_frames)
+                self._copy_input(math.inf if whole else self._used_until)
                 self.writer.close()
         finally:
             if self._source is not None:
