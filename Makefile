@@ -60,10 +60,11 @@ model-boosted: setup  ## the boosted classifier (pfpeople/models/boosted_legs.*)
 
 model-learned: setup  ## the learned detector (pfpeople/models/learned_people.*, its fold models in evaluation/models/)
 	$(BIN)/pip install --quiet -e ".[train]"
-	$(BIN)/python -c "from evaluation.scenarios.scan.training_scenes import learned_training_bags as b; b('build/sim-learned')"
+	$(BIN)/python -c "from evaluation.scenarios.scan import training_scenes as t; \
+		t.learned_training_bags('build/sim-learned'); t.calibration_bags('build/sim-calibration')"
 	$(BIN)/pfpeople train-detector --kind learned --data-dir ../shared/data/leg_tracker --people-bags build/sim-learned \
-		--weak-bags ../shared/data/leg_tracker/demo_stationary_simple_environment.bag --out pfpeople/models/ \
-		--fold-dir evaluation/models/
+		--weak-bags ../shared/data/leg_tracker/demo_stationary_simple_environment.bag \
+		--calibration-bags build/sim-calibration --out pfpeople/models/ --fold-dir evaluation/models/
 
 clean:
 	rm -rf $(VENV) build *.egg-info

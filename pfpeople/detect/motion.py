@@ -44,7 +44,7 @@ from gridbridge.validation import check_int, check_positive
 from pfpeople.detect.motion_kernels import moved_flags
 from pfpeople.sensors import LaserScan
 
-__all__ = ["MotionDetector", "MotionParams", "moved_returns"]
+__all__ = ["MotionDetector", "MotionParams", "compose_pending", "moved_returns"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -215,22 +215,26 @@ class MotionDetector:
         self.model = model if model is not None else _default_model()
         self._past: deque[tuple[_Past, Pose2D]] = deque()
         self._motion: Pose2D | None = None
+        self._given = False
         self._seen_first = False
 
     def reset(self) -> None:
         """Forget every held scan."""
         self._past.clear()
         self._motion = None
+        self._given = False
         self._seen_first = False
 
     def observe_motion(self, motion: Pose2D | None) -> None:
         """The laser frame's motion since the previous scan (the new frame in the previous one), or None when
-        unknown; call before :meth:`detect` of the new scan."""
-        self._motion = motion
+        unknown; call before :meth:`detect` of the new scan. Motions given for frames whose scan never reached
+        :meth:`detect` (unusable data) are composed with the next one."""
+        self._motion = compose_pending(self._motion, motion, self._given)
+        self._given = True
 
     def _advance(self, scan: LaserScan) -> list[tuple[_Past, Pose2D]]:
         """Bring the held scans' poses to the new frame and return the views old enough to look at."""
-        motion, self._motion = self._motion, None
+        motion, self._motion, self._given = self._motion, None, False
         if motion is None and self._seen_first:
             self._past.clear()
         elif motion is not None:
@@ -291,6 +295,16 @@ class MotionDetector:
     def detect(self, scan: LaserScan) -> NDArray[np.float64]:
         """Person candidates ``(M, 2)`` (m, scan frame)."""
         return self.detect_scored(scan)[0]
+
+
+def compose_pending(pending: Pose2D | None, motion: Pose2D | None, given: bool) -> Pose2D | None:
+    """The motion since the last scan a detector saw: ``motion``, composed after a ``pending`` one given for a frame
+    whose scan it never saw (``given``); unknown (None) when either is."""
+    if not given:
+        return motion
+    if pending is None or motion is None:
+        return None
+    return pending.compose(motion)
 
 
 def _default_model() -> DetectorModel:

@@ -23,8 +23,10 @@ from evaluation.scenarios.scan.scene import SceneConfig, builtin_scan_scenes, lo
 
 __all__ = [
     "BOOSTED_TRAINING_SCENES",
+    "CALIBRATION_SEED",
     "LEARNED_TRAINING_SEEDS",
     "TRAINING_SEED",
+    "calibration_bags",
     "learned_training_bags",
     "randomized_scene",
     "training_people_bags",
@@ -37,6 +39,8 @@ BOOSTED_TRAINING_SCENES = ("corridor", "crowd", "lobby", "wheelchair")
 #: Seeds of the learned detector's simulated training bags: every built-in scene at each, randomised
 #: (:func:`randomized_scene`); the benchmark's seeds are 0-2.
 LEARNED_TRAINING_SEEDS = (100, 101, 102)
+#: Seed of the built-in scenes the learned detector's PPV and FNR are measured on (neither trained on nor benchmarked).
+CALIBRATION_SEED = 50
 
 
 def training_people_bags(folder: str | Path) -> list[tuple[Path, Path]]:
@@ -112,4 +116,17 @@ def learned_training_bags(
             if not (bag.is_file() and gt.is_file()):
                 write_scene_bag(cfg, d, overwrite=True)
             out.append((bag, gt))
+    return out
+
+
+def calibration_bags(folder: str | Path, seed: int = CALIBRATION_SEED) -> list[tuple[Path, Path]]:
+    """Write every built-in scene at ``seed`` (as the benchmark simulates them, other people and noise) into
+    ``folder/<scene>/`` (unless it is there already) and return the ``(bag, ground-truth CSV)`` pairs."""
+    out = []
+    for scene in builtin_scan_scenes():
+        d = Path(folder) / scene
+        bag, gt = d / f"{scene}.bag", d / f"{scene}_gt.csv"
+        if not (bag.is_file() and gt.is_file()):
+            write_scene_bag(scene, d, seed=seed, overwrite=True)
+        out.append((bag, gt))
     return out

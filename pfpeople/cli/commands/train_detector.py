@@ -86,8 +86,10 @@ def _learned_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--motion-input", action="store_true", help="the motion detector's moved returns as input")
     g.add_argument("--epochs", type=int, default=r.fit.epochs)
     g.add_argument("--fold-dir", type=Path, default=None, help="also write the six fold models here")
-    g.add_argument("--target-precision", type=float, default=r.target_precision,
-                   help="operating threshold: the lowest score with this held-out precision (default: %(default)s)")
+    g.add_argument("--threshold", type=float, default=r.threshold,
+                   help="operating threshold: detections scoring less are not reported (default: %(default)s)")
+    g.add_argument("--calibration-bags", type=Path, default=None, metavar="DIR",
+                   help="simulated bags (as --people-bags) to measure PPV / FNR on, not trained on")
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -143,7 +145,7 @@ def _run_learned(args: argparse.Namespace) -> int:
         architecture=args.architecture,
         past_scans=args.past_scans,
         motion_input=args.motion_input,
-        target_precision=args.target_precision,
+        threshold=args.threshold,
         fit=replace(r.fit, epochs=args.epochs, seed=args.seed),
     )
     out = Path(args.out) / f"{args.name or 'learned_people'}.npz"
@@ -152,6 +154,7 @@ def _run_learned(args: argparse.Namespace) -> int:
         out,
         people_bags=find_people_bags(args.people_bags) if args.people_bags is not None else (),
         weak_bags=[_weak_bag(b) for b in args.weak_bags],
+        calibration_bags=find_people_bags(args.calibration_bags) if args.calibration_bags is not None else (),
         recipe=recipe,
         leave_one_out=not args.no_leave_one_out,
         fold_dir=args.fold_dir,

@@ -21,8 +21,8 @@ from gridbridge.params import DetectorModel
 from pfpeople.detect.learned.detector import LearnedPeopleDetector
 from pfpeople.detect.learned.model_file import LearnedModel, save_model, sha256_of
 from pfpeople.detect.learned.recipe import LearnedRecipe, TrainingData, folds, load_training_data, train_model
-from pfpeople.detect.learned.samples import LabelledScan
-from pfpeople.detect.learned.scoring import detector_scores, operating_point, scored_frames
+from pfpeople.detect.learned.samples import LabelledScan, simulated_scans
+from pfpeople.detect.learned.scoring import calibration, detector_scores, scored_frames
 from pfpeople.detect.learned.weak_labels import weak_labels
 from pfpeople.detect.leg_tracker_bags import iter_scans
 from pfpeople.detect.precision_recall import ScoredFrame
@@ -116,6 +116,7 @@ def train_learned_from_directory(
     *,
     people_bags: Sequence[tuple[str | Path, str | Path]] = (),
     weak_bags: Sequence[tuple[str | Path, str]] = (),
+    calibration_bags: Sequence[tuple[str | Path, str | Path]] = (),
     recipe: LearnedRecipe | None = None,
     leave_one_out: bool = True,
     fold_dir: str | Path | None = None,
@@ -123,51 +124,62 @@ def train_learned_from_directory(
 ) -> dict[str, Any]:
     """Train the learned detector and write ``out`` (``.npz``) with its model card (``.json``); returns the card.
 
-    Without ``leave_one_out`` no threshold or calibration can be measured: the card then holds 0.5 as the
-    threshold and PPV / FNR of 0.5 / 0.5, said so under ``calibration.measured_on``. With ``fold_dir`` the six fold
-    models are written there too (``<stem>_without_positive_<k>.npz``, with the pooled threshold and calibration:
-    the benchmark scores each labelled bag with the model that did not see it).
+    The recipe's threshold is the operating threshold; its PPV and FNR are measured
+    (:func:`pfpeople.detect.learned.scoring.calibration`) on the held-out folds (``leave_one_out``) and the
+    ``calibration_bags`` (simulated bags neither trained on nor benchmarked); with neither, the card's calibration
+    holds placeholders (0.5 / 0.5), said so under ``calibration.measured_on``. With ``fold_dir`` the six fold models
+    are written there too (``<stem>_without_positive_<k>.npz``: the benchmark scores each labelled bag with the model
+    that did not see it).
     """
     r = recipe if recipe is not None else LearnedRecipe()
     weak, weak_report = load_weak_labels(weak_bags)
     say("loading the training data")
     data = load_training_data(data_dir, people_bags=people_bags, weak=weak, recipe=r)
-    rows: list[dict[str, Any]] = []
-    threshold, ppv, fnr, pooled = 0.5, 0.5, 0.5, {}
-    held: HeldOut | None = None
-    if leave_one_out:
-        held = _leave_one_out(data, r, say)
-        rows = held.rows
-        threshold, ppv, fnr = operating_point(held.positive + held.negative, r.target_precision)
-        s = detector_scores(held.positive)
-        pooled = {
-            "ap_03": s.ap_03,
-            "ap_05": s.ap_05,
-            "recall_at_p90": s.recall_at_p90,
-            "negative_2_false_per_scan": detector_scores(held.negative, threshold=threshold).false_per_scan,
-        }
+    held = _leave_one_out(data, r, say) if leave_one_out else None
     say("training the final model on all the data")
-    final = train_model(data, r, threshold=threshold)
-    card = _card(final, r, data, rows, pooled, (threshold, ppv, fnr, leave_one_out), weak_report)
-    card["data"] = _files(Path(data_dir), people_bags, [Path(b) for b, _ in weak_bags])
+    final = train_model(data, r, threshold=r.threshold)
+    calib = [
+        scored_frames(_detector(final), simulated_scans(bag, gt, source=f"calibration:{Path(bag).stem}"))
+        for bag, gt in calibration_bags
+    ]
+    card = _card(final, r, data, weak_report)
+    card.update(_measured(held, calib, r.threshold))
+    card["data"] = _files(Path(data_dir), [*people_bags, *calibration_bags], [Path(b) for b, _ in weak_bags])
     save_model(out, final.network, card)
     if fold_dir is not None and held is not None:
         for bag, model in held.models.items():
-            fold_card = {**card, "held_out": bag, "leave_one_bag_out": {"folds": rows, "pooled": pooled}}
-            save_model(Path(fold_dir) / f"{Path(out).stem}_without_{bag}.npz", model.network, fold_card)
+            save_model(Path(fold_dir) / f"{Path(out).stem}_without_{bag}.npz", model.network, {**card, "held_out": bag})
     return card
 
 
-def _card(
-    model: LearnedModel,
-    r: LearnedRecipe,
-    data: TrainingData,
-    rows: list[dict[str, Any]],
-    pooled: dict[str, Any],
-    op: tuple[float, float, float, bool],
-    weak_report: dict[str, Any],
-) -> dict[str, Any]:
-    threshold, ppv, fnr, measured = op
+def _measured(held: HeldOut | None, calib: list[list[ScoredFrame]], threshold: float) -> dict[str, Any]:
+    """The card's ``calibration`` and ``leave_one_bag_out`` entries."""
+    scenes = [*calib, *([held.positive] if held is not None else [])]
+    negatives = held.negative if held is not None else []
+    if not scenes:
+        ppv, fnr, on = 0.5, 0.5, "not measured (no held-out folds, no calibration bags): placeholders"
+    else:
+        ppv, fnr = calibration(scenes, negatives, threshold)
+        parts = ["the held-out folds of the labelled bags and negative_2"] if held is not None else []
+        parts += [f"{len(calib)} held-out simulated bag(s)"] if calib else []
+        on = " and ".join(parts) + " (0.5 m; PPV pooled, FNR the mean of the scenes' miss rates)"
+    lobo: dict[str, Any] = {"folds": [], "pooled": {}}
+    if held is not None:
+        s = detector_scores(held.positive)
+        lobo = {
+            "folds": held.rows,
+            "pooled": {
+                "ap_03": s.ap_03,
+                "ap_05": s.ap_05,
+                "recall_at_p90": s.recall_at_p90,
+                "negative_2_false_per_scan": detector_scores(held.negative, threshold=threshold).false_per_scan,
+            },
+        }
+    return {"calibration": {"ppv": ppv, "fnr": fnr, "measured_on": on}, "leave_one_bag_out": lobo}
+
+
+def _card(model: LearnedModel, r: LearnedRecipe, data: TrainingData, weak_report: dict[str, Any]) -> dict[str, Any]:
+    """The model card's description of the model and its data (the figures come from :func:`_measured`)."""
     return {
         "cutout": dataclasses.asdict(r.cutout),
         "past_scans": r.past_scans,
@@ -175,14 +187,7 @@ def _card(
         "motion_input": r.motion_input,
         "group_radius": r.group_radius,
         "min_vote": r.min_vote,
-        "threshold": threshold,
-        "calibration": {
-            "ppv": ppv,
-            "fnr": fnr,
-            "measured_on": "leave-one-bag-out held-out scans of the labelled bags and negative_2 (0.5 m)"
-            if measured
-            else "not measured (trained without --leave-one-out): placeholders",
-        },
+        "threshold": r.threshold,
         "recipe": r.card(),
         "scans": {
             "positive_bags": sum(len(v) for v in data.positives.values()),
@@ -194,5 +199,4 @@ def _card(
         "weak_labels": weak_report,
         "training_rows": model.card.get("rows"),
         "lasers": _lasers(data),
-        "leave_one_bag_out": {"folds": rows, "pooled": pooled},
     }

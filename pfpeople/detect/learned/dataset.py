@@ -92,6 +92,7 @@ def training_arrays(
     past_step: int = 1,
     motion: bool = False,
     negative_keep: float = 0.15,
+    row_step: int = 1,
     rng: np.random.Generator,
 ) -> TrainingArrays:
     """Training rows of ``scans`` (in their order: a source's scans consecutive, as recorded).
@@ -106,6 +107,9 @@ def training_arrays(
         Whether the motion detector's moved returns are an input.
     negative_keep : float
         Fraction of the far negatives kept (module docstring), in (0, 1].
+    row_step : int
+        Rows of every ``row_step``-th scan of a source only (every scan still passes through the memory, so the
+        temporal inputs are those of consecutive scans).
     rng : numpy.random.Generator
     """
     if not 0.0 < negative_keep <= 1.0:
@@ -121,6 +125,8 @@ def training_arrays(
             memory.clear()
         memory.advance(ls.scan, motion)
         previous = ls
+        if ls.index % row_step:
+            continue
         idx, x = memory.inputs(ls.scan, cut)
         t = beam_targets(ls, idx)
         far_negative = (t.label == 0) & ~_near_person(ls, idx)

@@ -29,11 +29,12 @@ from gridbridge.geometry import Pose2D
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_number
 from pfpeople.detect.learned.memory import ScanMemory
+from pfpeople.detect.motion import compose_pending
 from pfpeople.detect.learned.model_file import LearnedModel, load_model
 from pfpeople.detect.learned.votes import group_votes, vote_positions
 from pfpeople.sensors import LaserScan
 
-__all__ = ["DEFAULT_LEARNED_MODEL", "LearnedPeopleDetector", "default_learned_model_path"]
+__all__ = ["DEFAULT_LEARNED_MODEL", "LearnedPeopleDetector", "default_learned_model_path", "trained_resolutions"]
 
 DEFAULT_LEARNED_MODEL = "learned_people"
 
@@ -83,6 +84,7 @@ class LearnedPeopleDetector:
         self.model = model if model is not None else _card_model(self.learned)
         self.memory = ScanMemory(self.learned.past_scans, self.learned.past_step, motion=self.learned.motion_input)
         self._motion: Pose2D | None = None
+        self._given = False
 
     @property
     def uses_ego_motion(self) -> bool:
@@ -94,16 +96,19 @@ class LearnedPeopleDetector:
         """Forget the past scans (a new recording, or a jump in time)."""
         self.memory.clear()
         self._motion = None
+        self._given = False
 
     def observe_motion(self, motion: Pose2D | None) -> None:
         """The laser frame's motion since the previous scan (the new frame in the previous one; m, rad), or None
-        when unknown (the past scans are then forgotten). Call before :meth:`detect` of the new scan."""
-        self._motion = motion
+        when unknown (the past scans are then forgotten). Call before :meth:`detect` of the new scan; motions given
+        for frames whose scan never reached :meth:`detect` are composed with the next one."""
+        self._motion = compose_pending(self._motion, motion, self._given)
+        self._given = True
 
     def votes(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Every looked-at return's vote: centres ``(C, 2)`` (m, scan frame) and probabilities ``(C,)``."""
         self.memory.advance(scan, self._motion)
-        self._motion = None
+        self._motion, self._given = None, False
         idx, x = self.memory.inputs(scan, self.learned.cutout)
         if idx.size == 0:
             return np.zeros((0, 2)), np.zeros(0)
@@ -121,6 +126,16 @@ class LearnedPeopleDetector:
         """People ``(M, 2)`` (m, scan frame) scoring at least :attr:`threshold`."""
         centres, scores = self.detect_scored(scan)
         return centres[scores >= self.threshold]
+
+
+def trained_resolutions(path: str | Path | None = None) -> tuple[float, float]:
+    """The smallest and largest angle between beams (deg) of the lasers a model was trained on (its card's
+    ``lasers``; default the shipped model)."""
+    learned = load_model(default_learned_model_path() if path is None else path)
+    res = [float(entry["resolution_deg"]) for entry in learned.card.get("lasers", []) if "resolution_deg" in entry]
+    if not res:
+        raise ValueError(f"model card of {learned.path}: no 'lasers' with 'resolution_deg'")
+    return min(res), max(res)
 
 
 def _card_model(learned: LearnedModel) -> DetectorModel:

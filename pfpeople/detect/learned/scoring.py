@@ -27,7 +27,7 @@ from pfpeople.detect.precision_recall import (
     recall_at_precision,
 )
 
-__all__ = ["DetectorScores", "detector_scores", "operating_point", "scored_frames"]
+__all__ = ["Counts", "DetectorScores", "calibration", "counts_at", "detector_scores", "operating_point", "scored_frames"]
 
 
 def _motion(ls: LabelledScan, previous: LabelledScan | None) -> Pose2D | None:
@@ -95,6 +95,39 @@ def _false_at(curve: PrCurve, frames: Sequence[ScoredFrame], threshold: float) -
     tp = curve.recall[k] * curve.positives
     prec = curve.precision[k]
     return float(tp / prec - tp) if prec > 0 else 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Counts:
+    """True and false positives of the detections at or above a threshold, and the counted true people (0.5 m)."""
+
+    tp: float
+    fp: float
+    positives: int
+
+
+def counts_at(frames: Sequence[ScoredFrame], threshold: float) -> Counts:
+    """:class:`Counts` of ``frames`` at ``threshold``."""
+    c = pr_curve(frames, 0.5)
+    fp = _false_at(c, frames, threshold)
+    ok = c.thresholds >= threshold
+    tp = float(c.recall[np.flatnonzero(ok)[-1]] * c.positives) if (c.positives and ok.any()) else 0.0
+    return Counts(tp=tp, fp=fp, positives=c.positives)
+
+
+def calibration(scenes: Sequence[Sequence[ScoredFrame]], negatives: Sequence[ScoredFrame], threshold: float) -> tuple[
+    float, float
+]:
+    """PPV and FNR at ``threshold`` as the built-in detectors' are measured (:data:`gridbridge.params.
+    CALIBRATED_LASER_DETECTORS`): PPV the pooled true over all detections of the ``scenes`` (each a sequence of
+    frames with people) and of the people-free ``negatives``; FNR the mean of the scenes' miss rates."""
+    counts = [counts_at(f, threshold) for f in scenes]
+    fp_neg = counts_at(negatives, threshold).fp if negatives else 0.0
+    tp = sum(c.tp for c in counts)
+    fp = sum(c.fp for c in counts) + fp_neg
+    ppv = tp / (tp + fp) if tp + fp > 0 else float("nan")
+    misses = [1.0 - c.tp / c.positives for c in counts if c.positives]
+    return ppv, float(np.mean(misses)) if misses else float("nan")
 
 
 def operating_point(frames: Sequence[ScoredFrame], precision: float) -> tuple[float, float, float]:

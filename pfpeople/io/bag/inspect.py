@@ -28,8 +28,10 @@ radians where a configuration needs them.
 - ``[odometry] topic``: the ``nav_msgs/Odometry`` topic with the most messages, when one exists; then
   ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
   laser at the base origin (flagged in a comment and in the report's warnings: measure it).
-- on every LaserScan topic the three detectors of :data:`LASER_DETECTORS`: ``laser_legs`` (kind ``leg``),
-  ``laser_boosted`` (kind ``boosted``) and ``laser_single_legs`` (kind ``single-legs``), so named on the driver
+- on every LaserScan topic the detectors of :data:`LASER_DETECTORS`: ``laser_legs`` (kind ``leg``),
+  ``laser_boosted`` (kind ``boosted``), ``laser_single_legs`` (kind ``single-legs``) and, where the laser's beams are
+  spaced like those its model was trained on (:func:`laser_suits`), ``laser_learned`` (kind ``learned``), so named on
+  the driver
   and ``NAME_TOPIC`` on the others (:func:`laser_detector_name`: ``laser_legs_rear_scan``; valid ROS names, so a
   result bag's detection topics keep them), each with
   ``[detectors.model] fov_min, fov_max, max_range`` from its scan (radians, metres). The run places each laser
@@ -72,6 +74,7 @@ __all__ = [
     "inspect_bag",
     "inspect_path",
     "laser_detector_name",
+    "laser_suits",
     "starter_config",
 ]
 
@@ -638,6 +641,23 @@ LASER_DETECTORS: tuple[tuple[str, str, str], ...] = (
 )
 
 
+def laser_suits(kind: str, li: LaserInfo) -> str:
+    """Why a detector ``kind`` does not suit the laser ``li`` ("" when it does): the learned detector needs beams as
+    far apart as those its shipped model was trained on (its model card's ``lasers``, within a factor 1.5)."""
+    if kind != "learned":
+        return ""
+    from pfpeople.detect.learned.detector import trained_resolutions
+
+    lo, hi = trained_resolutions()
+    res = abs(li.angle_increment_deg)
+    if lo / 1.5 <= res <= hi * 1.5:
+        return ""
+    return (
+        f"its beams are {res:.3f} deg apart; the shipped model was trained on {lo:.2f}-{hi:.2f} deg "
+        "(pfpeople train-detector --kind learned trains one for this laser)"
+    )
+
+
 def starter_config(report: BagReport, *, driver: str | None = None) -> str:
     """TOML text of a starter run configuration for the inspected bag (see the module docstring).
 
@@ -883,6 +903,10 @@ def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: 
             ]
     model = _model_lines(li)
     for name, kind, what in LASER_DETECTORS:
+        why_not = laser_suits(kind, li)
+        if why_not:
+            out += [f"# {laser_detector_name(name, li.topic, drv.topic)} ({kind}) left out: {why_not}.", ""]
+            continue
         out += [
             "[[detectors]]",
             f"# Built-in {what} {where}.",
