@@ -42,7 +42,13 @@ PerSecond = Annotated[float, Unit("1/s")]
 Ratio = Annotated[float, Unit("1")]
 Cells = Annotated[int, Unit("cells")]
 CellsF = Annotated[float, Unit("cells")]
+#: A count of laser beams (returns).
+Beams = Annotated[int, Unit("beams")]
 Pixels = Annotated[float, Unit("px")]
+PixelCount = Annotated[int, Unit("px")]
+PerMetre = Annotated[float, Unit("1/m")]
+#: Spectral density of a white-noise acceleration.
+M2PerS3 = Annotated[float, Unit("m^2/s^3")]
 
 
 def unit_of(metadata: object) -> str:
