@@ -1,7 +1,7 @@
 """Units of the configuration's numbers, as type annotations: ``gate_distance: Metres = 1.0``.
 
 A :class:`Unit` in a field's ``typing.Annotated`` metadata names the field's unit; the configuration reference
-(``docs/configuration.md``, :mod:`pfpeople.config.reference`) shows it. The aliases are plain ``float`` (or
+(``docs/configuration.md``, :mod:`pfpeople.docs.reference`) shows it. The aliases are plain ``float`` (or
 ``int``) to Python and to type checkers. SI units throughout (the project's convention): metres, seconds,
 radians.
 """

@@ -13,7 +13,7 @@ A run is configured by a TOML file or the same keys given as a mapping; every ta
 
 Each table is a frozen, checked dataclass (:mod:`pfpeople.config.schema`, validated by pydantic): a wrong key or
 value is a one-line :class:`ConfigError` naming the table and the key. Every default is a field's own; the paper
-mode's differ where :mod:`pfpeople.config.modes` says. ``python -m pfpeople.config.reference`` writes the reference
+mode's differ where :mod:`pfpeople.config.modes` says. ``python -m pfpeople.docs.reference`` writes the reference
 page from the schema. Angles are radians, lengths metres, times seconds (REP-103 frames).
 """
 

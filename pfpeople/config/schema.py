@@ -25,17 +25,23 @@ from pydantic_core import ArgsKwargs
 from pfpeople.units import Unit
 
 __all__ = [
+    "CellsF",
     "ConfigError",
     "Count",
     "Flag",
     "Metres",
     "Number",
+    "PerSecond",
+    "Radians",
     "Ratio",
     "Seconds",
     "Table",
     "Text",
     "check_tree",
+    "class_in",
     "error_line",
+    "field_default",
+    "fill_defaults",
     "is_table",
     "table",
     "table_fields",
@@ -126,15 +132,34 @@ def table_fields(cls: type) -> dict[str, Any]:
     return {f.name: hints[f.name] for f in dataclasses.fields(cls)}
 
 
-def _nested_class(annotation: Any) -> type | None:
-    """The table class inside an annotation (``FilterConfig``, ``tuple[DetectorConfig, ...]``), else None."""
-    if isinstance(annotation, type) and is_table(annotation):
+def class_in(annotation: Any, accept: Callable[[type], bool]) -> type | None:
+    """The first class inside an annotation that ``accept`` takes (``FilterConfig`` in ``tuple[FilterConfig, ...]``,
+    ``LegDetectorParams`` in ``LegDetectorParams | None``), else None."""
+    if isinstance(annotation, type) and accept(annotation):
         return annotation
     for arg in typing.get_args(annotation):
-        inner = _nested_class(arg)
+        inner = class_in(arg, accept)
         if inner is not None:
             return inner
     return None
+
+
+def field_default(cls: type, name: str) -> Any:
+    """The default of field ``name`` of dataclass ``cls`` (``dataclasses.MISSING`` when required)."""
+    info = getattr(cls, "__pydantic_fields__", {}).get(name)
+    if info is not None:
+        if info.default_factory is not None:
+            return info.default_factory()
+        return dataclasses.MISSING if info.is_required() else info.default
+    f = next(f for f in dataclasses.fields(cls) if f.name == name)
+    if f.default_factory is not dataclasses.MISSING:
+        return f.default_factory()
+    return f.default
+
+
+def _nested_class(annotation: Any) -> type | None:
+    """The table class inside an annotation, else None."""
+    return class_in(annotation, is_table)
 
 
 def _where(cls: type, loc: Sequence[str | int]) -> tuple[str, type | None]:

@@ -22,7 +22,7 @@ from pfpeople.config import (
     config_from_mapping,
     load_config,
 )
-from pfpeople.config.reference import _default
+from pfpeople.config.schema import field_default
 
 BASE: dict[str, Any] = {"frames": {"driver": "/scan"}, "detectors": [{"name": "l", "kind": "leg", "topic": "/scan"}]}
 TABLES = {
@@ -49,7 +49,7 @@ def _cases() -> list[tuple[str, str, Any]]:
     out = []
     for table, cls in TABLES.items():
         for f in dataclasses.fields(cls):
-            out.append((table, f.name, _default(cls, f.name)))
+            out.append((table, f.name, field_default(cls, f.name)))
             other = OTHER[f.name] if f.name != "kind" else {"filter": "particle", "classifier": "threshold"}[table]
             out.append((table, f.name, other))
     return out

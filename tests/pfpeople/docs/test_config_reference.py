@@ -8,13 +8,13 @@ from pathlib import Path
 import pytest
 
 from pfpeople.config import KINDS
-from pfpeople.config.reference import REFERENCE_PATH, field_count, main, render, sections
 from pfpeople.detect.adapters import ADAPTERS
+from pfpeople.docs.reference import REFERENCE_PATH, field_count, main, render, sections
 
 
 def test_the_reference_page_in_the_repository_is_current() -> None:
     assert REFERENCE_PATH.read_text(encoding="utf-8") == render(), (
-        "docs/configuration.md is not current: run python -m pfpeople.config.reference --write"
+        "docs/configuration.md is not current: run python -m pfpeople.docs.reference --write"
     )
 
 

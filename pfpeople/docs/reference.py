@@ -3,8 +3,8 @@
 Every table of a run configuration with each field's type (and bounds), default (the paper mode's where it
 differs), unit and meaning (the classes' numpydoc). Run::
 
-    python -m pfpeople.config.reference --write   # writes docs/configuration.md
-    python -m pfpeople.config.reference --check   # exit 1 when docs/configuration.md is not current
+    python -m pfpeople.docs.reference --write   # writes docs/configuration.md
+    python -m pfpeople.docs.reference --check   # exit 1 when docs/configuration.md is not current
 
 ``tests/pfpeople/config/test_reference.py`` checks that the page in the repository is current.
 """
@@ -25,7 +25,8 @@ from typing import Annotated, Any, Literal
 
 from annotated_types import Ge, Gt, Le, Lt, MinLen
 
-from pfpeople.config.docstrings import field_meanings
+from pfpeople.config.schema import class_in, field_default
+from pfpeople.docs.docstrings import field_meanings
 from pfpeople.units import Unit
 
 __all__ = ["REFERENCE_PATH", "Row", "Section", "field_count", "main", "render", "sections"]
@@ -125,19 +126,6 @@ def value_text(value: Any) -> str:
     return f"`{value}`"
 
 
-def _default(cls: type, name: str) -> Any:
-    """The default of field ``name`` of dataclass ``cls`` (``dataclasses.MISSING`` when required)."""
-    info = getattr(cls, "__pydantic_fields__", {}).get(name)
-    if info is not None:
-        if info.default_factory is not None:
-            return info.default_factory()
-        return dataclasses.MISSING if info.is_required() else info.default
-    f = next(f for f in dataclasses.fields(cls) if f.name == name)
-    if f.default_factory is not dataclasses.MISSING:
-        return f.default_factory()
-    return f.default
-
-
 def class_rows(
     cls: type,
     *,
@@ -167,7 +155,7 @@ def class_rows(
             continue
         meta = getattr(pyd.get(f.name), "metadata", [])
         text, unit = type_text(ann, meta)
-        default = _default(cls, f.name)
+        default = field_default(cls, f.name)
         shown = "required" if default is dataclasses.MISSING else value_text(default)
         if notes and f.name in notes:
             shown = notes[f.name]
@@ -180,13 +168,7 @@ def class_rows(
 
 def _dataclass_in(annotation: Any) -> type | None:
     """The dataclass an annotation names (``LegDetectorParams | None`` too), else None."""
-    if isinstance(annotation, type) and dataclasses.is_dataclass(annotation):
-        return annotation
-    for arg in typing.get_args(annotation):
-        found = _dataclass_in(arg)
-        if found is not None:
-            return found
-    return None
+    return class_in(annotation, dataclasses.is_dataclass)
 
 
 # -- the tables ---------------------------------------------------------------------------------------------------
@@ -359,7 +341,7 @@ def sections() -> list[Section]:
 _HEAD = """\
 # Configuration reference
 
-<!-- Generated from the schema (pfpeople/config/) by `python -m pfpeople.config.reference --write`; do not edit.
+<!-- Generated from the schema (pfpeople/config/) by `python -m pfpeople.docs.reference --write`; do not edit.
      tests/pfpeople/config/test_reference.py checks that it is current. -->
 
 A run is configured by a TOML file (`pfpeople run BAG --config FILE`, `pfpeople node --config FILE`;
@@ -404,7 +386,7 @@ def render() -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``--write``: write the page; ``--check``: exit 1 when it is not current; else print it."""
-    parser = argparse.ArgumentParser(prog="python -m pfpeople.config.reference", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m pfpeople.docs.reference", description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help=f"write {REFERENCE_PATH.name}")
     parser.add_argument("--check", action="store_true", help="exit 1 when the page is not current")
     parser.add_argument("--out", type=Path, default=REFERENCE_PATH, help="the page (default: docs/configuration.md)")
@@ -413,7 +395,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.check:
         current = args.out.is_file() and args.out.read_text(encoding="utf-8") == text
         if not current:
-            print(f"{args.out} is not current: run python -m pfpeople.config.reference --write", file=sys.stderr)
+            print(f"{args.out} is not current: run python -m pfpeople.docs.reference --write", file=sys.stderr)
         return 0 if current else 1
     if args.write:
         args.out.write_text(text, encoding="utf-8")
