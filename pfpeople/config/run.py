@@ -222,8 +222,3 @@ def run_topics(config: BagConfig) -> list[str]:
     if config.odometry:
         topics.add(config.odometry)
     return sorted(topics)
-
-
-def detector_names(detectors: Sequence[DetectorConfig]) -> list[str]:
-    """The detectors' names."""
-    return [d.name for d in detectors]
