@@ -23,7 +23,8 @@ grids adds its bytes to the memory check):
   must fit in :func:`memory_budget_bytes`: half the physical memory, or ``$PFPEOPLE_MAX_MEMORY_BYTES``.
 
 Within these limits one step's memory is bounded by its inputs: about ``BYTES_PER_CELL * n_cells * (2 + detectors)``
-(the grids of the step) ``+ 200 B * particles`` (a particle filter's state and its copies: :mod:`pfpeople.particle.limits`)
+(the grids of the step) ``+ 200 B * particles`` (a particle filter's state and its copies:
+:mod:`pfpeople.particle.limits`)
 ``+ 8 B * (2 R + 1)^2`` per kernel array ``+ 0.3 MB * R`` while an integrated (linear) kernel is computed (its
 quadrature, about 3000 points per cell of radius), above the process's own (interpreter, numpy, numba: 150-200 MB).
 None of these arrays grows otherwise with ``dt``: the paper kernel's prediction keeps a table of ``q / (1 - q)`` per

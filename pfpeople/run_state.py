@@ -126,7 +126,7 @@ class RunSummary:
     of them the filter saw all the same, at the place a tracked person stopped
     (:mod:`pfpeople.track.stopped_people`). ``arrived`` counts the detections on places the map has seen occupied
     long enough to be static that it lets through all the same, because the laser saw through most of their returns
-    within the last second, or (a detector of PPV 0.9 or more) one of its detections arrived within 0.3 m in the
+    within the last second, or (a detector with ``hold_arrivals``) one of its detections arrived within 0.3 m in the
     last 2 s (:mod:`pfpeople.perception.arrivals`); they are not in ``suppressed``.
 
     ``blas_threads`` is the most threads a BLAS library of the run's process would use while the frames ran

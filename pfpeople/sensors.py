@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gridbridge.geometry import Pose2D  # re-exported: the one pose type
+from pfpeople.units import Metres, PixelCount, Pixels, Radians
 
 __all__ = ["CameraImage", "CameraIntrinsics", "LaserScan", "Pose2D"]
 
@@ -145,14 +146,14 @@ class CameraIntrinsics:
         Downward tilt of the optical axis (rad, positive looking down).
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
-    height_above_ground: float = 1.63
-    pitch: float = 0.0
+    fx: Pixels
+    fy: Pixels
+    cx: Pixels
+    cy: Pixels
+    width: PixelCount
+    height: PixelCount
+    height_above_ground: Metres = 1.63
+    pitch: Radians = 0.0
 
     def __post_init__(self) -> None:
         for name in ("fx", "fy"):

@@ -132,7 +132,7 @@ def time_inputs(grids: Sequence[NDArray[np.float64]], *, repeats: int) -> float:
     from pfpeople.pipeline.assembly import PEAK_THRESHOLD
     from pfpeople.track import tracker_inputs
 
-    pt = TrackingConfig().peak_threshold
+    pt = TrackingConfig().peaks_above
     high = PeakClassifier(threshold=PEAK_THRESHOLD)
     low = PeakClassifier(threshold=0.5 if pt is None else pt)
     people = [high.classify(b, GRID) for b in grids]

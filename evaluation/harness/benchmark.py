@@ -232,7 +232,7 @@ def mode_row(log: ReplayLog, mode: Mode, *, gate: float = 0.5) -> BenchRow:
         log = _paper_detectors(log)
     filt = mode.build(log.spec, log.models)
     classifier = copy.deepcopy(mode.classifier)  # a stateful one (hysteresis) starts afresh on every log
-    tracker = None if mode.tracking is None else build_people_tracker(mode.tracking, classifier, mode.filter.mode)
+    tracker = None if mode.tracking is None else build_people_tracker(mode.tracking, classifier)
     people, masks, times = [], [], []
     for k in range(len(log)):
         t0 = time.perf_counter()
@@ -277,7 +277,7 @@ def _pipeline_log(
         people[f] = np.asarray(pts, dtype=float)
     # the cells classified as people (FPCPF): the run's classifier over its grids in order (with hysteresis, the
     # grid's motion between frames is not in the run directory: taken as none), of the peaks the run reported
-    classifier = build_classifier(config.classifier, config.filter.mode)
+    classifier = build_classifier(config.classifier)
     masks = [_reported_cells(classifier, np.asarray(g), log.spec, people[k]) for k, g in enumerate(run.grids)]
     row = BenchRow(name, "recommended (pipeline)", n, **_score(log, people, masks, gate=0.5))
     row.ms_per_frame = 1e3 * summary.elapsed_s / max(summary.frames, 1)

@@ -34,7 +34,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -312,18 +312,18 @@ def _fused_tracks(
     from pfpeople.pipeline.assembly import build_classifier, build_filter
 
     spec = log.spec
-    filt = build_filter(FilterConfig(kind=kind, **dict(overrides or {})), spec, log.models)
+    filt = build_filter(FilterConfig(kind=cast(Any, kind), **dict(overrides or {})), spec, log.models)
     classifier = build_classifier(ClassifierConfig())
     tracking = TrackingConfig()
     tcfg = config
-    if tracking.peak_threshold is not None:  # tracks start only from people, as the pipeline's
+    if tracking.peaks_above is not None:  # tracks start only from people, as the pipeline's
         tcfg = replace(
             config, birth_min_score=max(config.birth_min_score, float(getattr(classifier, "threshold", 0.0)))
         )
     tracker = PeopleTracker(
         classifier,
         config=tcfg,
-        peak_threshold=tracking.peak_threshold,
+        peak_threshold=tracking.peaks_above,
         people="classified",
         snap_radius=tracking.snap_radius,
         observed_tracks_only=tracking.observed_tracks_only,

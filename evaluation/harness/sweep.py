@@ -276,7 +276,7 @@ def sweep_points(
 def _filter(point: SweepPoint, run: str) -> Any:
     """The :class:`evaluation.harness.ab.FilterSpec` of one filter run (``"<kind> <mode>"``) of ``point``."""
     from evaluation.harness.ab import FilterSpec, particles_label
-    from pfpeople.pipeline.assembly import DEFAULT_MOTION_MODEL
+    from pfpeople.config import FilterConfig
 
     kind, mode = run.split()
     if kind == "grid":
@@ -284,8 +284,9 @@ def _filter(point: SweepPoint, run: str) -> Any:
             return FilterSpec(name="recommended grid", mode="recommended")
         return FilterSpec(name=f"grid ({point.value('form')})", form=point.value("form"))
     n = point.value("particles")
-    model = point.value("motion_model") or DEFAULT_MOTION_MODEL[mode]
-    label = particles_label(n) + ("" if model == DEFAULT_MOTION_MODEL[mode] else f" {model}")
+    default = FilterConfig(mode=cast(Any, mode)).motion_model
+    model = point.value("motion_model") or default
+    label = particles_label(n) + ("" if model == default else f" {model}")
     if mode == "recommended":
         label = f"recommended {label}"
     return FilterSpec(name=label, kind="particle", n_particles=n, motion_model=cast(Any, model), mode=cast(Any, mode))

@@ -224,14 +224,7 @@ AdapterFactory = Callable[[DetectorConfig, Pose2D, Detector | None], DetectorAda
 def model_for(cfg: DetectorConfig, mount: Pose2D, base: DetectorModel | None) -> DetectorModel:
     """The model of ``cfg``: ``base`` (default :class:`DetectorModel`) overridden by ``cfg.model``, named after
     the detector and mounted at ``mount`` unless ``cfg.model`` gives the mount."""
-    over = dict(cfg.model)
-    over["name"] = cfg.name
-    over.setdefault("mount_x", mount.x)
-    over.setdefault("mount_y", mount.y)
-    over.setdefault("mount_yaw", mount.yaw)
-    if base is None:
-        return DetectorModel(**over)
-    return replace(base, **over)
+    return cfg.model.applied(base, name=cfg.name, mount=mount)
 
 
 def _import_detector_class(kind: str, cls_name: str) -> type:

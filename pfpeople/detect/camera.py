@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from gridbridge.params import PAPER_DETECTORS, DetectorModel
 from gridbridge.validation import check_int, check_positive, check_real
 from pfpeople.sensors import CameraImage, CameraIntrinsics, Pose2D
+from pfpeople.units import PixelCount
 
 __all__ = [
     "HogCameraDetector",
@@ -125,8 +126,8 @@ class HogParams:
     """
 
     hit_threshold: float = 0.0
-    win_stride: int = 8
-    padding: int = 8
+    win_stride: PixelCount = 8
+    padding: PixelCount = 8
     scale: float = 1.05
     group_threshold: float = 2.0
 

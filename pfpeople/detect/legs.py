@@ -50,6 +50,7 @@ from pfpeople.detect.segments import (
 )
 from pfpeople.perception.clutter_kernels import near_any
 from pfpeople.sensors import LaserScan
+from pfpeople.units import Beams, Metres, PerMetre, Radians
 
 __all__ = [
     "MIN_LEG_BEAMS",
@@ -87,9 +88,9 @@ class PairingParams:
         Whether an unpaired single leg is reported as a person.
     """
 
-    min_separation: float = 0.1
-    max_separation: float = 0.6
-    max_single_leg_width: float = 0.25
+    min_separation: Metres = 0.1
+    max_separation: Metres = 0.6
+    max_single_leg_width: Metres = 0.25
     count_single_legs: bool = False
 
     def __post_init__(self) -> None:
@@ -102,33 +103,60 @@ class PairingParams:
 
 @dataclass(frozen=True, kw_only=True)
 class LegDetectorParams:
-    """Thresholds of :class:`LegDetector` (lengths in m, angles in rad, curvature in 1/m).
+    """Thresholds of :class:`LegDetector` (lengths in m, angles in rad, curvature in 1/m; the shape tests are
+    described in the module docstring).
 
-    The shape tests are described in the module docstring. The far leg blobs (:func:`far_leg_blobs`,
-    :func:`far_people`) use ``far_from`` (m from the laser; ``inf``: off), ``far_max_points`` (returns),
-    ``far_max_width`` (m), ``far_min_jump`` (m in front of both neighbouring beams), ``far_isolation`` (radius, m,
-    within which only the pair's two small runs may lie; 0: no test) and ``far_leg_width`` (the least returns a
-    blob has is those of a leg this wide at its range, at least one).
+    Parameters
+    ----------
+    segmentation : SegmentationParams
+        How the scan is cut into segments.
+    pairing : PairingParams
+        How leg candidates become people.
+    min_points : int
+        Returns a leg candidate has at least (where a ``far_leg_width`` leg can give them; never below 3).
+    far_leg_width : float
+        Where a leg this wide gets fewer than ``min_points`` returns at its range, that count is the minimum.
+    min_width, max_width : float
+        Width of a candidate (one leg, or two legs together).
+    min_radius, max_radius : float
+        Radius of the circle fitted to a candidate.
+    max_linearity, max_circularity : float
+        Largest residuals of the line and circle fits (a leg is round, not straight).
+    max_mean_curvature : float
+        Largest mean curvature (negative: bulging towards the laser).
+    min_iav, max_iav : float
+        Range of the inscribed-angle mean (Xavier et al. 2005: an arc, not a corner or a line).
+    far_from : float
+        Beyond this range far leg blobs are looked for (:func:`far_people`); ``inf``: off.
+    far_max_points : int
+        A far leg blob has at most this many returns.
+    far_max_width : float
+        A far leg blob is at most this wide.
+    far_min_jump : float
+        A far leg blob stands this far in front of both neighbouring beams.
+    far_isolation : float
+        Two far blobs paired as legs are a person when no other small foreground run lies within this distance
+        of their midpoint (a chair or a table shows three or four legs); 0: no test.
     """
 
     segmentation: SegmentationParams = field(default_factory=SegmentationParams)
     pairing: PairingParams = field(default_factory=PairingParams)
-    min_points: int = 4
-    far_leg_width: float = 0.10
-    min_width: float = 0.05
-    max_width: float = 0.45
-    min_radius: float = 0.03
-    max_radius: float = 0.25
-    max_linearity: float = 0.03
-    max_circularity: float = 0.05
-    max_mean_curvature: float = -2.0
-    min_iav: float = 1.5
-    max_iav: float = 3.2
-    far_from: float = 5.0
-    far_max_points: int = 5
-    far_max_width: float = 0.2
-    far_min_jump: float = 0.3
-    far_isolation: float = 0.8
+    min_points: Beams = 4
+    far_leg_width: Metres = 0.10
+    min_width: Metres = 0.05
+    max_width: Metres = 0.45
+    min_radius: Metres = 0.03
+    max_radius: Metres = 0.25
+    max_linearity: Metres = 0.03
+    max_circularity: Metres = 0.05
+    max_mean_curvature: PerMetre = -2.0
+    min_iav: Radians = 1.5
+    max_iav: Radians = 3.2
+    far_from: Metres = 5.0
+    far_max_points: Beams = 5
+    far_max_width: Metres = 0.2
+    far_min_jump: Metres = 0.3
+    far_isolation: Metres = 0.8
 
     def __post_init__(self) -> None:
         check_int(self.far_max_points, "LegDetectorParams.far_max_points", minimum=1)

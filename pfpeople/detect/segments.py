@@ -69,6 +69,7 @@ from gridbridge import jit as _jit
 from gridbridge.validation import check_int, check_positive
 from pfpeople.detect import segment_kernels as _kernels
 from pfpeople.sensors import LaserScan
+from pfpeople.units import Beams, Metres
 
 __all__ = [
     "CONTEXT_CAP",
@@ -132,9 +133,9 @@ class SegmentationParams:
         Beams with a larger range (m) are treated as invalid; ``inf`` keeps all valid beams.
     """
 
-    jump_distance: float = 0.13
-    min_points: int = 3
-    max_range: float = math.inf
+    jump_distance: Metres = 0.13
+    min_points: Beams = 3
+    max_range: Metres = math.inf
 
     def __post_init__(self) -> None:
         check_positive(self.jump_distance, "SegmentationParams.jump_distance")

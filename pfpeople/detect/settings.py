@@ -16,7 +16,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["kwargs_from_table"]
+__all__ = ["RESERVED", "kwargs_from_table"]
+
+#: Constructor arguments a run sets itself, not ``[detectors.params]``: the model (``[detectors.model]``) and the
+#: mounting of a detector that places its positions itself (from TF, ``[mounts]`` or ``[detectors.model] mount_*``).
+RESERVED = ("model", "mounting")
 
 
 def _type_name(hint: Any) -> str:
@@ -100,8 +104,8 @@ def kwargs_from_table(cls: type, table: Mapping[str, Any]) -> dict[str, Any]:
     hints = typing.get_type_hints(cls.__init__)  # type: ignore[misc]
     kwargs: dict[str, Any] = {}
     for key, value in table.items():
-        if key not in sig.parameters or key == "model":
-            allowed = sorted(k for k in sig.parameters if k != "model")
+        if key not in sig.parameters or key in RESERVED:
+            allowed = sorted(k for k in sig.parameters if k not in RESERVED)
             raise ValueError(f"{cls.__name__} has no constructor argument {key!r}; it takes {allowed}")
         where = f"detectors.params.{key}"
         hint = hints.get(key)

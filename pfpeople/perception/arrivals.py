@@ -15,8 +15,9 @@ the odometry's drift lets the beams beside a chair leg "see through" it (on the 
 static-clutter map's frame, and says for each queried detection whether one of up to :data:`VIEWS` scans
 :data:`MIN_AGE_S` to :data:`WINDOW_S` old saw through at least :data:`FRACTION` of its returns (the current
 scan's end points within :data:`RADIUS_M` of it). A person who stands does not sway in every second, so the place
-where a detection of a precise detector (PPV :data:`HOLD_MIN_PPV` or more) arrived is *held* for :data:`HOLD_S`
-seconds: that detector's static detections within :data:`HOLD_RADIUS_M` of it count as arrived too. Only arrivals
+where a detection of a precise detector (the caller says which: ``[[detectors]] hold_arrivals``) arrived is *held*
+for :data:`HOLD_S` seconds: that detector's static detections within :data:`HOLD_RADIUS_M` of it count as arrived
+too. Only arrivals
 renew a place, so a false arrival (a chair's edge uncovered by a registration error) lapses.
 
 A scan sees through a point (m, that scan's frame) when the beam nearest the point's bearing and its
@@ -82,11 +83,6 @@ HOLD_S = 2.0
 #: A held place readmits the static detections within this distance (m): the benchmark's person radius, wider
 #: than a standing person's detection jitter (0.05-0.1 m), as :data:`pfpeople.track.stopped_people.ANCHOR_RADIUS`.
 HOLD_RADIUS_M = 0.3
-#: The PPV (precision) a detector needs for its arrivals to be held: a held detection reaches the filter for
-#: :data:`HOLD_S` seconds on one arrival's evidence, so only a detector that is right at least as often as the
-#: fused output must be (the precision target of 0.9) may be trusted that long; the others' detections still
-#: arrive scan by scan.
-HOLD_MIN_PPV = 0.9
 
 
 class RecentScans:

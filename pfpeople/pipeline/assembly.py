@@ -32,6 +32,7 @@ from gridbridge.grid import GridSpec
 from gridbridge.likelihoods import IndependentLikelihood
 from gridbridge.params import DetectorModel, PeopleMotion
 from pfpeople.config import ClassifierConfig, FilterConfig, TrackingConfig
+from pfpeople.config.people import KIND_THRESHOLD
 
 if TYPE_CHECKING:
     from pfpeople.particle.filter import ParticleFilter
@@ -41,8 +42,6 @@ log = logging.getLogger(__name__)
 
 __all__ = [
     "BELIEF_MIN",
-    "DEFAULT_GRID_RANGE_M",
-    "PEAK_KEEP",
     "PEAK_THRESHOLD",
     "build_classifier",
     "build_filter",
@@ -52,22 +51,8 @@ __all__ = [
 
 #: Lower bound of the belief in the recommended mode.
 BELIEF_MIN = 1e-4
-#: Default peak threshold of the recommended classifier (see ClassifierConfig).
-PEAK_THRESHOLD = 0.7
-#: Default hysteresis threshold of the recommended classifier: a person of the previous frame continues at a
-#: peak above it (see ClassifierConfig.keep).
-PEAK_KEEP = 0.5
-#: Default ``max_overflow`` of the particle filter per mode (see FilterConfig.max_overflow): in the recommended
-#: mode the births of a few steps accumulate before a resampling (pipeline benchmark: the filter step ~20 % faster,
-#: accuracy unchanged); the paper mode resamples whenever births overflow, as in round one.
-DEFAULT_OVERFLOW = {"recommended": 0.1, "paper": 0.0}
-#: Default people-motion sampler of the particle filter per mode (see FilterConfig.motion_model; the names of
-#: :data:`pfpeople.particle.predictor.PEOPLE_SAMPLERS`): in the recommended mode walkers keep heading and speed
-#: (precision and tracks on every scene, README "Recommended particles"); the paper mode samples the paper's memoryless
-#: model, the grid filter's prediction.
-DEFAULT_MOTION_MODEL = {"recommended": "persistent", "paper": "paper"}
-#: The default grid reaches this far from the driving laser (or its range_max when smaller), m.
-DEFAULT_GRID_RANGE_M = 10.0
+#: The peaks classifier's default threshold (:data:`pfpeople.config.people.KIND_THRESHOLD`).
+PEAK_THRESHOLD = KIND_THRESHOLD["peaks"]
 
 
 def grid_for_scan(
@@ -76,8 +61,8 @@ def grid_for_scan(
     range_max: float,
     *,
     mount: Pose2D | None = None,
-    resolution: float = 0.3,
-    reach: float = DEFAULT_GRID_RANGE_M,
+    resolution: float,
+    reach: float,
 ) -> GridSpec:
     """The grid covering a laser's field of view out to ``min(range_max, reach)``, in the grid frame.
 
@@ -90,7 +75,9 @@ def grid_for_scan(
     mount : Pose2D, optional
         The laser's pose in the grid frame (identity when the grid is the laser's frame).
     resolution : float
-        Cell side (m).
+        Cell side (m; ``[grid] resolution``).
+    reach : float
+        The grid reaches this far from the laser where its ``range_max`` is farther (m; ``[grid] max_range``).
 
     Returns
     -------
@@ -137,67 +124,66 @@ def build_filter(
     if not isinstance(config, FilterConfig):
         raise TypeError(f"config must be a FilterConfig, got {type(config).__name__}")
     models = recommended_models(config, detectors)
-    kwargs: dict[str, Any]
-    if config.kind == "particle" and config.form == "paper":
-        raise ValueError("the particle filter samples the linear (integrated-kernel) prediction: form must be 'linear'")
+    kwargs: dict[str, Any] = {"initial": config.initial_belief}
     if config.mode == "paper":
-        high = [m.name for m in models if m.fnr >= 0.5]
-        if high:
-            log.warning(
-                "paper mode with detectors %s of FNR >= 0.5: in the paper's update (P(D|np) = 1 - P(D|p)) a "
-                "non-detection then raises the belief; give them the paper's values or use the recommended mode",
-                high,
-            )
-        form = config.form or ("paper" if config.kind == "grid" else "linear")
-        initial = 0.5 if config.initial is None else config.initial
-        kwargs = {"initial": initial}
-        pred = (PaperPrediction if form == "paper" else LinearPrediction)(motion=PeopleMotion(), outside=0.5)
-        ego = VelocityEgoMotion(outside=0.5)
+        _warn_paper_fnr(models)
+        outside = 0.5
     else:
-        form = config.form or "linear"
-        base = config.base_rate
-        initial = base if config.initial is None else config.initial
-        pred = (PaperPrediction if form == "paper" else LinearPrediction)(motion=PeopleMotion(), outside=base)
-        ego = VelocityEgoMotion(outside=base)
-        kwargs = {
-            "initial": initial,
-            "outside": base,
+        outside = config.base_rate
+        kwargs |= {
+            "outside": outside,
             "appearance": Appearance(rate=config.appearance_rate),
             "bounds": BeliefBounds(low=BELIEF_MIN, high=config.belief_max),
-            "likelihood": IndependentLikelihood(base_rate=base),
+            "likelihood": IndependentLikelihood(base_rate=outside),
         }
     if config.kind == "grid":
+        pred = (PaperPrediction if config.form == "paper" else LinearPrediction)(motion=PeopleMotion(), outside=outside)
+        ego = VelocityEgoMotion(outside=outside)
         return GridFilter(spec, detectors=models, prediction=pred, ego_motion=ego, **kwargs)
+    return _particle_filter(config, spec, models, kwargs)
+
+
+def _warn_paper_fnr(models: Sequence[DetectorModel]) -> None:
+    high = [m.name for m in models if m.fnr >= 0.5]
+    if high:
+        log.warning(
+            "paper mode with detectors %s of FNR >= 0.5: in the paper's update (P(D|np) = 1 - P(D|p)) a "
+            "non-detection then raises the belief; give them the paper's values or use the recommended mode",
+            high,
+        )
+
+
+def _particle_filter(
+    config: FilterConfig, spec: GridSpec, models: Sequence[DetectorModel], kwargs: dict[str, Any]
+) -> ParticleFilter:
+    """The particle filter of ``config`` (it samples the integrated people-motion kernel whatever ``form``)."""
     from pfpeople.particle.filter import ParticleFilter
     from pfpeople.particle.predictor import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling
     from pfpeople.particle.resampler import Resampling
 
-    sampler = PEOPLE_SAMPLERS[config.motion_model or DEFAULT_MOTION_MODEL[config.mode]]
+    sampler = PEOPLE_SAMPLERS[config.motion_model]
     people: PaperSampling | PersistentSampling
     if sampler is PersistentSampling:
         people = PersistentSampling(motion=PeopleMotion(), compiled_draws=config.compiled_draws)
     else:
         people = sampler(motion=PeopleMotion())
-    overflow = config.max_overflow if config.max_overflow is not None else DEFAULT_OVERFLOW[config.mode]
     return ParticleFilter(
         spec,
         detectors=models,
         n_particles=config.particles_for(spec.n_cells),
         rng=np.random.default_rng(config.seed),
         people_motion=people,
-        resampling=Resampling(max_overflow=overflow),
+        resampling=Resampling(max_overflow=config.max_overflow),
         **kwargs,
     )
 
 
-def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = "recommended") -> PeopleTracker | None:
+def build_people_tracker(tracking: TrackingConfig, classifier: Any) -> PeopleTracker | None:
     """The multi-person tracker of ``tracking`` on ``classifier``'s people (a
     :class:`pfpeople.track.reported_people.PeopleTracker`), or None when tracking is off.
 
-    Tracks start only from the classifier's people (``birth_min_score`` = its threshold, unless
-    ``tracking.params`` sets it) when ``peak_threshold`` feeds the tracker weaker peaks. ``people`` defaults by
-    ``mode``: ``"confirmed"`` in the recommended mode, ``"classified"`` in the paper mode; ``snap_radius`` applies
-    in the recommended mode only (the paper mode reports its classified people where they were classified).
+    With ``peak_threshold`` feeding the tracker weaker peaks, tracks start only from the classifier's people:
+    ``birth_min_score`` is the classifier's threshold unless ``tracking.params`` gives it.
 
     Raises
     ------
@@ -211,7 +197,7 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
 
     params = dict(tracking.params)
     high = getattr(classifier, "threshold", None)
-    if tracking.peak_threshold is not None and high is not None:
+    if tracking.peaks_above is not None and high is not None:
         params.setdefault("birth_min_score", float(high))
     try:
         config = TrackerConfig(**params)
@@ -221,27 +207,26 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any, mode: str = 
     return PeopleTracker(
         classifier,
         config=config,
-        peak_threshold=tracking.peak_threshold,
-        people=tracking.people or ("classified" if mode == "paper" else "confirmed"),
+        peak_threshold=tracking.peaks_above,
+        people=tracking.people,
         coast_frames=tracking.coast_frames,
         min_separation=float(getattr(base, "min_separation", 0.6)),
         use_support=tracking.single_legs,
-        snap_radius=0.0 if mode == "paper" else float(tracking.snap_radius),
+        snap_radius=float(tracking.snap_radius),
         static_confirm_s=float(tracking.static_confirm_s),
-        observed_tracks_only=tracking.observed_tracks_only and mode != "paper",
-        see_through=tracking.see_through and mode != "paper",
+        observed_tracks_only=tracking.observed_tracks_only,
+        see_through=tracking.see_through,
     )
 
 
-def build_classifier(config: ClassifierConfig, mode: str = "recommended") -> Classifier | HysteresisPeaks:
-    """The classifier of ``config`` (its kind defaults by ``mode``: peaks, or the paper's blobs)."""
-    kind = config.kind or ("blobs" if mode == "paper" else "peaks")
-    if kind == "blobs":
+def build_classifier(config: ClassifierConfig) -> Classifier | HysteresisPeaks:
+    """The classifier of ``config``: peaks (with hysteresis where ``keep`` is below ``threshold``), the paper's
+    blobs, or a threshold."""
+    if config.kind == "blobs":
         return BlobClassifier()
-    if kind == "threshold":
-        return ThresholdClassifier(threshold=0.5 if config.threshold is None else config.threshold)
-    thr = PEAK_THRESHOLD if config.threshold is None else config.threshold
-    keep = min(PEAK_KEEP, thr) if config.keep is None else config.keep
-    if keep >= thr:
+    if config.kind == "threshold":
+        return ThresholdClassifier(threshold=config.threshold)
+    thr = config.threshold
+    if config.keep >= thr:
         return PeakClassifier(threshold=thr, min_separation=config.min_separation, smooth=config.smooth)
-    return HysteresisPeaks(threshold=thr, keep=keep, min_separation=config.min_separation, smooth=config.smooth)
+    return HysteresisPeaks(threshold=thr, keep=config.keep, min_separation=config.min_separation, smooth=config.smooth)

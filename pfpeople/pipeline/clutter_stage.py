@@ -7,8 +7,8 @@ the grid frame. Each map keeps the people its detectors saw moving out of itself
 A detection the map calls static, or whose nearest return is the robot's own (:mod:`pfpeople.perception.self_returns`),
 is suppressed: the filter does not see it (it is still written, with ``static = 1``, and counted in
 ``suppressed``), unless it *arrived*: one of the laser's scans of the last second saw through most of its returns
-(:mod:`pfpeople.perception.arrivals`; a person who stands sways, furniture does not), or a detector of PPV 0.9 or
-more arrived within 0.3 m in the last 2 s (the place is held), counted in ``arrived``.
+(:mod:`pfpeople.perception.arrivals`; a person who stands sways, furniture does not), or a detection of a detector
+with ``[[detectors]] hold_arrivals`` arrived within 0.3 m in the last 2 s (the place is held), counted in ``arrived``.
 Without odometry, a laser's map takes the laser's motion from scan matching: the driving laser's from the
 run's ego-motion stage (:mod:`pfpeople.pipeline.ego_stage`, which matched it before the detectors ran; a failed
 or skipped match forgets the map), the other lasers' from their maps' own scan matchers.
@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from gridbridge.geometry import Pose2D
 from pfpeople.config import BagConfig
 from pfpeople.detect.adapters import Detections, DetectorAdapter
-from pfpeople.perception.arrivals import HOLD_MIN_PPV, RecentScans
+from pfpeople.perception.arrivals import RecentScans
 from pfpeople.perception.scan_matching import EgoMatch
 from pfpeople.run_state import RunSummary, count
 
@@ -68,7 +68,7 @@ class ClutterStage:
         #: rows, NaN ones included) lie in a cell the map calls static (``StaticClutterMap.static_points``).
         self.scan_static: dict[str, NDArray[np.bool_]] = {}
         c = config
-        if c.clutter.on(c.filter.mode):
+        if c.clutter.enabled:
             from pfpeople.perception.clutter_map import ClutterConfig, ClutterSuppressor
 
             try:
@@ -215,7 +215,7 @@ class ClutterStage:
         if not any(sizes):
             return
         dets = [f.sensor[s] for k, s in zip(idx, static, strict=True) if (f := found[k]) is not None]
-        precise = [self.adapters[k].model.ppv >= HOLD_MIN_PPV for k in idx]  # their arrivals are held
+        precise = [self.adapters[k].config.hold_arrivals for k in idx]  # their arrivals are held
         holdable = np.concatenate([np.full(len(s), p) for s, p in zip(static, precise, strict=True)])
         came = recent.arrived(np.concatenate(dets), points, pose, stamp_ns, holdable)
         start = 0

@@ -74,9 +74,7 @@ class MountTracker:
             for a in adapters
         ]
         self.follower = MountFollower(tf, grid_frame, frames=self.frames)
-        self.fixed = [
-            bool(getattr(a, "self_mounted", False)) or any(k in a.config.model for k in _MOUNT_KEYS) for a in adapters
-        ]
+        self.fixed = [bool(getattr(a, "self_mounted", False)) or a.config.model.gives_mount for a in adapters]
 
     def add(self, msg: object, topic: str) -> None:
         """A TF message read during the run; its broken transforms (NaN, a zero quaternion) are left out, counted

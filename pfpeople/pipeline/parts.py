@@ -168,17 +168,17 @@ def build_parts(
     c = config
     adapters = build_adapters(c, setup, parts)
     models = [a.model for a in adapters]
-    check_grid_seen(setup.spec, models, configured=c.grid is not None)
+    check_grid_seen(setup.spec, models, configured=c.grid.fixed is not None)
     warn_coarse_lasers(adapters, setup.first)
     warn_dense_lasers(adapters, setup.first)
     filt = (parts.filter or (lambda spec, m: make_filter(c.filter, spec, m)))(setup.spec, models)
-    classifier = build_classifier(c.classifier, c.filter.mode)
+    classifier = build_classifier(c.classifier)
     if parts.filter is None:  # a caller's filter may share state with its copies: not warmed up
         warm_up_back_end(filt, classifier, setup.spec, models)  # copies: the run is unchanged
     clutter = ClutterStage(c, adapters, summary)
     mounts = MountTracker(setup.tf, setup.grid_frame, adapters, setup.first, summary, warn)
     front = _front(c, setup, parts, adapters, clutter, mounts, summary, warn)
-    tracker = build_people_tracker(c.tracking, classifier, c.filter.mode)
+    tracker = build_people_tracker(c.tracking, classifier)
     back = BackEnd(
         adapters,
         spec=setup.spec,

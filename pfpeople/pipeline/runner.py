@@ -166,7 +166,7 @@ class Pipeline:
         """The grid (the config's, or the default one before :meth:`prepare`)."""
         if self.stream is not None:
             return self.stream.spec
-        return self.config.grid if self.config.grid is not None else GridSpec()
+        return self.config.grid.fixed or GridSpec(resolution=self.config.grid.resolution)
 
     @property
     def grid_frame(self) -> str:

@@ -12,9 +12,9 @@ Before the first frame, :func:`setup_sensors` reads what is fixed for the whole 
   grid frame's mount on the base frame (needed by odometry, :mod:`pfpeople.perception.odometry`);
 - for a LaserScan detector, the field of view ``[fov_min, fov_max]`` (rad) and ``max_range`` (m) of its
   first scan where ``[detectors.model]`` leaves them out;
-- the grid: ``[grid]``, else the one covering the fields of view of the driving laser and of every laser with a
-  detector, each at its mount (:func:`pfpeople.pipeline.assembly.grid_for_scan`, the union of their boxes), else the
-  paper's 30 x 30 grid of 0.3 m.
+- the grid: ``[grid]``, where it leaves its extent ``"auto"`` the one covering the fields of view of the driving
+  laser and of every laser with a detector, each at its mount (:func:`pfpeople.pipeline.assembly.grid_for_scan`, the
+  union of their boxes), else the paper's 30 x 30 cells.
 
 Once the detectors' models are known (:meth:`pfpeople.pipeline.runner.Pipeline.prepare`), two checks of the setup as a
 whole: :func:`check_grid_seen` refuses a grid with no cell inside any detector's field of view (the run could
@@ -122,14 +122,15 @@ def with_scan_fov(d: DetectorConfig, msg: Any) -> DetectorConfig:
         lo, hi = scan_bearings(msg)
     except ValueError:
         return d  # the reader reports such scans; the model keeps its own field of view
-    model = dict(d.model)
-    model.setdefault("fov_min", lo)
-    model.setdefault("fov_max", hi)
+    m = d.model
     rmax = float(msg.range_max)
-    if "max_range" not in model and math.isfinite(rmax) and rmax > 0:
-        model["max_range"] = rmax
-    if model.get("min_range", 0.0) >= model.get("max_range", math.inf):
-        model.pop("min_range", None)
+    max_range = m.max_range if m.max_range is not None or not (math.isfinite(rmax) and rmax > 0) else rmax
+    min_range = m.min_range
+    if min_range is not None and min_range >= (math.inf if max_range is None else max_range):
+        min_range = None
+    fov_min = lo if m.fov_min is None else m.fov_min
+    fov_max = hi if m.fov_max is None else m.fov_max
+    model = replace(m, fov_min=fov_min, fov_max=fov_max, max_range=max_range, min_range=min_range)
     return replace(d, model=model)
 
 
@@ -271,7 +272,7 @@ def setup_sensors(
             frame_mounts[c.base_frame] = tf.lookup(grid_frame, c.base_frame)
         except TfLookupError:
             pass
-    spec = c.grid if c.grid is not None else _lasers_grid(c, tf, grid_frame, first, laser_kinds)
+    spec = c.grid.fixed or _lasers_grid(c, tf, grid_frame, first, laser_kinds)
     return SensorSetup(
         tf=tf,
         grid_frame=grid_frame,
@@ -287,9 +288,9 @@ def setup_sensors(
 def _lasers_grid(
     c: BagConfig, tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage], laser_kinds: Collection[str]
 ) -> GridSpec:
-    """The default grid (no ``[grid]`` configured): the one covering the lasers' fields of view
-    (:func:`default_grid`; the driver's and the laser detectors' first scans ``first``), checked against the
-    filter's limits.
+    """The grid of a ``[grid]`` whose extent is (partly) ``"auto"``: the one covering the lasers' fields of view
+    (:func:`default_grid`; the driver's and the laser detectors' first scans ``first``) with the given extent fields
+    in place, checked against the filter's limits.
 
     Raises
     ------
@@ -297,7 +298,8 @@ def _lasers_grid(
         If that grid is too large for the filter (:func:`check_run_limits`).
     """
     lasers = [c.driver, *(d.topic for d in c.detectors if d.kind in laser_kinds)]
-    spec = default_grid(tf, grid_frame, first, lasers)
+    auto = default_grid(tf, grid_frame, first, lasers, resolution=c.grid.resolution, reach=c.grid.max_range)
+    spec = c.grid.completed(auto)
     check_run_limits(spec, c.filter, len(c.detectors))
     log.info("grid from the lasers' fields of view: %s", spec)
     return spec
@@ -357,15 +359,22 @@ def _needed_lookups(c: BagConfig, grid_frame: str, ids: Mapping[str, str]) -> li
     return out + ([(c.base_frame, grid_frame)] if c.odometry else [])
 
 
-def default_grid(tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage], lasers: Sequence[str]) -> GridSpec:
-    """The grid covering every LaserScan topic of ``lasers`` with a first message (each laser's field of view by
-    :func:`pfpeople.pipeline.assembly.grid_for_scan` at its mount, the union of their boxes: several lasers fuse into
-    one
-    grid), or the paper's grid when there is none."""
+def default_grid(
+    tf: TfBuffer,
+    grid_frame: str,
+    first: Mapping[str, BagMessage],
+    lasers: Sequence[str],
+    *,
+    resolution: float,
+    reach: float,
+) -> GridSpec:
+    """The grid covering every LaserScan topic of ``lasers`` with a first message (each laser's field of view out to
+    ``min(range_max, reach)`` by :func:`pfpeople.pipeline.assembly.grid_for_scan` at its mount, at ``resolution``, the
+    union of their boxes: several lasers fuse into one grid), or the paper's grid when there is none."""
     topics = [t for t in dict.fromkeys(lasers) if t in first and first[t].msgtype in LASER_TYPES]
     if not topics:
-        log.info("no [grid] and no LaserScan to size it: the paper's 30 x 30 grid of 0.3 m")
-        return GridSpec()
+        log.info("no LaserScan to size the grid: the paper's 30 x 30 cells (x0 = 0, y0 = -4.5 m)")
+        return GridSpec(resolution=resolution)
     specs = []
     for topic in topics:
         m = first[topic]
@@ -374,7 +383,7 @@ def default_grid(tf: TfBuffer, grid_frame: str, first: Mapping[str, BagMessage],
         except TfLookupError as exc:
             raise ValueError(f"grid from the laser {topic!r}: {exc}") from None
         lo, hi = scan_bearings(m.msg)
-        specs.append(grid_for_scan(lo, hi, float(m.msg.range_max), mount=mount))
+        specs.append(grid_for_scan(lo, hi, float(m.msg.range_max), mount=mount, resolution=resolution, reach=reach))
     return _union(specs)
 
 

@@ -84,6 +84,7 @@ from scipy.optimize import linear_sum_assignment
 
 from gridbridge.validation import check_int, check_real, check_real_array
 from pfpeople.sensors import Pose2D
+from pfpeople.units import M2PerS3, Metres, MetresPerSecond, Ratio, Seconds
 
 __all__ = ["TRACK_COLUMNS", "MultiPersonTracker", "Track", "TrackerConfig", "track_rows"]
 
@@ -180,32 +181,32 @@ class TrackerConfig:
     defaults".
     """
 
-    process_noise: float = 0.3
-    measurement_sigma: float = 0.15
-    initial_velocity_sigma: float = 1.0
+    process_noise: M2PerS3 = 0.3
+    measurement_sigma: Metres = 0.15
+    initial_velocity_sigma: MetresPerSecond = 1.0
     gate_mahalanobis: float = 9.21
-    gate_distance: float = 1.0
+    gate_distance: Metres = 1.0
     confirm_hits: int = 3
     confirm_window: int = 5
     tentative_max_misses: int = 2
-    max_coast_s: float = 8.0
-    delete_score: float = 0.05
-    hit_gain: float = 0.4
-    score_tau: float = 2.0
-    birth_min_score: float = 0.0
-    region: tuple[float, float, float, float] | None = None
-    region_margin: float = 0.5
-    report_coast_s: float | None = 1.0
-    support_sigma: float = 0.2
-    support_exclusion: float = 0.4
-    support_confidence: float = 0.5
-    support_min_speed: float = 0.4
-    moved_distance: float = 0.3
-    reid_distance: float = 2.5
+    max_coast_s: Seconds = 8.0
+    delete_score: Ratio = 0.05
+    hit_gain: Ratio = 0.4
+    score_tau: Seconds = 2.0
+    birth_min_score: Ratio = 0.0
+    region: tuple[Metres, Metres, Metres, Metres] | None = None
+    region_margin: Metres = 0.5
+    report_coast_s: Seconds | None = 1.0
+    support_sigma: Metres = 0.2
+    support_exclusion: Metres = 0.4
+    support_confidence: Ratio = 0.5
+    support_min_speed: MetresPerSecond = 0.4
+    moved_distance: Metres = 0.3
+    reid_distance: Metres = 2.5
     prefer_confirmed: bool = True
-    revive_after_s: float | None = 2.5
-    contest_gate: float | None = 0.75
-    contest_radius: float = 0.5
+    revive_after_s: Seconds | None = 2.5
+    contest_gate: Metres | None = 0.75
+    contest_radius: Metres = 0.5
 
     def __post_init__(self) -> None:
         positive = (

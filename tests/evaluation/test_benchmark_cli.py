@@ -71,7 +71,7 @@ def test_particle_overrides_parse_filter_keys() -> None:
         ("=3", r"expected KEY=VALUE"),
         ("kind=grid", r"'kind' is not a \[filter\] key; keys: .*compiled_draws.*seed"),
         ("particles=5", r"'particles' is not a \[filter\] key"),
-        ("compiled_draws=yes", r"FilterConfig\.compiled_draws must be true or false, got 'yes'"),
+        ("compiled_draws=yes", r"\[filter\] compiled_draws: must be a valid boolean, got 'yes'"),
         ("motion_model=fast", r"motion_model"),
     ],
 )

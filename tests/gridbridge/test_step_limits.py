@@ -36,7 +36,7 @@ def test_a_grid_beyond_the_cell_limit_is_refused_by_gridspec_with_the_configs_me
             {
                 "frames": {"driver": "/scan"},
                 "detectors": [{"name": "l", "kind": "leg", "topic": "/scan"}],
-                "grid": {"nx": 10**5, "ny": 10**5},
+                "grid": {"nx": 10**5, "ny": 10**5, "x0": 0.0, "y0": 0.0},
             }
         )
 

@@ -73,5 +73,5 @@ def test_own_detectors_set_the_order_of_the_detections() -> None:
 
 
 def test_an_unknown_kind_is_refused() -> None:
-    with pytest.raises(ValueError, match=r"FilterConfig.kind must be 'grid' or 'particle'"):
+    with pytest.raises(ValueError, match=r"\[filter\] kind: must be 'grid' or 'particle', got 'kalman'"):
         pfpeople.recommended(kind="kalman")  # type: ignore[arg-type]

@@ -70,7 +70,7 @@ def _log_config(cfg: BagConfig) -> None:
         cfg.driver, cfg.time_source, cfg.sync_tolerance_s, cfg.odometry or "none", cfg.base_frame,
         cfg.grid_frame or "the driver's",
     )  # fmt: skip
-    log.debug("filter: %s, %s mode; grid: %s", cfg.filter.kind, cfg.filter.mode, cfg.grid or "from the lasers")
+    log.debug("filter: %s, %s mode; grid: %s", cfg.filter.kind, cfg.filter.mode, cfg.grid.fixed or "from the lasers")
     for d in cfg.detectors:
         log.debug("detector %s: kind %s on %s", d.name, d.kind, d.topic)
     for frame, (x, y, yaw) in cfg.mounts.items():

@@ -698,7 +698,7 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
     mounts = _assumed_mounts(report, order, tf)
     out = [
         f"# Starter configuration written by `pfpeople inspect` for {report.bag}",
-        "# (format: pfpeople/config.py). Use it with: pfpeople run BAG --config THIS_FILE",
+        "# (every key: docs/configuration.md). Use it with: pfpeople run BAG --config THIS_FILE",
         "# No [grid] and no [filter] table: the product's defaults apply (the grid covers every laser's view).",
         "",
         *_frames_lines(report, order, mounts),

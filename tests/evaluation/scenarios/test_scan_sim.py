@@ -334,8 +334,8 @@ def test_bag_round_trip(tmp_path: Path, fmt: str, storage: str) -> None:
         ("laser_boosted", "boosted", "/scan"),
         ("laser_single_legs", "single-legs", "/scan"),
     ]
-    assert cfg.detectors[0].model["fov_min"] == pytest.approx(las.angle_min)
-    assert cfg.detectors[1].model["max_range"] == 25.0
+    assert cfg.detectors[0].model.fov_min == pytest.approx(las.angle_min)
+    assert cfg.detectors[1].model.max_range == 25.0
     with pytest.raises(FileExistsError, match="already exists"):
         write_scene_bag("wheelchair", tmp_path, frames=2, fmt=fmt, storage=storage)
 

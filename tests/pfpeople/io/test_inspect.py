@@ -61,10 +61,10 @@ def test_synthetic_bag_report_and_config_that_runs(tmp_path: Path, ros2: bool, s
         ("laser_boosted", "boosted", "/scan"),
         ("laser_single_legs", "single-legs", "/scan"),
     ]
-    model = dict(cfg.detectors[0].model)
-    assert model == pytest.approx({"fov_min": -math.pi / 2, "fov_max": math.pi / 2, "max_range": 10}, abs=1e-5)
-    assert model["fov_min"] <= -math.pi / 2 + 1e-7 and model["fov_max"] >= math.pi / 2 - 1e-7  # outwards
-    assert cfg.grid is None and cfg.filter == FilterConfig() and dict(cfg.mounts) == {}
+    model = cfg.detectors[0].model
+    assert model.given() == pytest.approx({"fov_min": -math.pi / 2, "fov_max": math.pi / 2, "max_range": 10}, abs=1e-5)
+    assert model.fov_min <= -math.pi / 2 + 1e-7 and model.fov_max >= math.pi / 2 - 1e-7  # outwards
+    assert cfg.grid.fixed is None and cfg.filter == FilterConfig() and dict(cfg.mounts) == {}
     with BagSource(bag) as src:
         summary, results = Pipeline(cfg).run(src, None, max_frames=4, keep=True)
     assert summary.frames == 4 and all(r.detections[0] is not None for r in results)
@@ -164,8 +164,8 @@ def test_every_real_bag(shared_data: Path, tmp_path_factory: pytest.TempPathFact
     report, cfg, _ = configs["person_following_outdoor_1.bag.zip"]
     assert cfg.driver == "/scan_base2" and cfg.time_source == "bag" and cfg.odometry == ""
     model = cfg.detectors[1].model
-    assert (math.degrees(model["fov_min"]), math.degrees(model["fov_max"])) == pytest.approx((-34.45, 51.33), abs=0.01)
-    assert model["max_range"] == pytest.approx(5.6)
+    assert (math.degrees(model.fov_min), math.degrees(model.fov_max)) == pytest.approx((-34.45, 51.33), abs=0.01)
+    assert model.max_range == pytest.approx(5.6)
     report, cfg, cfg_path = configs["demo_stationary_simple_environment.bag"]
     assert cfg.driver == "/scan" and cfg.time_source == "header" and report.lasers[0].beams == 512
     for k in (1, 2, 3, 4, 6, 7):  # re-written training bags: record times within 0.5 s
@@ -199,4 +199,4 @@ def test_reversed_laser_is_flagged_and_its_fov_kept(tmp_path: Path) -> None:
     cfg_path = tmp_path / "rev.toml"
     cfg_path.write_text(starter_config(report))
     cfg = load_config(cfg_path)
-    assert cfg.odometry == "" and cfg.detectors[0].model["fov_min"] == pytest.approx(-math.pi / 4, abs=1e-5)
+    assert cfg.odometry == "" and cfg.detectors[0].model.fov_min == pytest.approx(-math.pi / 4, abs=1e-5)

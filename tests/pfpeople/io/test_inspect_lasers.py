@@ -77,7 +77,7 @@ def test_every_laser_gets_detectors_placed_by_tf_and_the_run_fuses_them(tmp_path
     assert expected[:3] == [(n, "/front_scan") for n in DETECTOR_NAMES]
     assert expected[3][0] == "laser_legs_rear_scan"
     for d in cfg.detectors:
-        assert dict(d.model) == pytest.approx(
+        assert d.model.given() == pytest.approx(
             {"fov_min": -math.pi / 2, "fov_max": math.pi / 2, "max_range": 10.0}, abs=1e-5
         )
     # pfpeople run: every laser's detectors have data in every frame and see people (the one behind the robot

@@ -213,10 +213,11 @@ def test_zip_cache_is_bounded_and_old_copies_are_evicted(tmp_path: Path, monkeyp
 @pytest.mark.parametrize(
     ("grid", "filt", "match"),
     [
-        ({"resolution": 1e-300}, {}, r"BagConfig\.grid: resolution 1e-300 m .*neighbourhood"),
-        ({"nx": 100000, "ny": 100000}, {}, r"GridSpec: 100000 x 100000 = 10000000000 cells"),
+        ({"resolution": 1e-300}, {}, r"\[grid\]: resolution 1e-300 m .*neighbourhood"),
+        ({"nx": 100000, "ny": 100000}, {}, r"\[grid\]: 100000 x 100000 = 10000000000 cells"),
+        ({"nx": 100000, "ny": 100000, "x0": 0.0, "y0": 0.0}, {}, r"GridSpec: 100000 x 100000 = 10000000000 cells"),
         ({"nx": 2000, "ny": 2000, "resolution": 0.01}, {}, r"operations per frame"),
-        ({"nx": 30}, {"kind": "particle", "n_particles": 10**9}, r"filter\.n_particles = 1000000000 is more"),
+        ({"nx": 30}, {"kind": "particle", "n_particles": 10**9}, r"\[filter\] n_particles = 1000000000 is more"),
     ],
 )
 def test_resource_limits_are_checked_before_allocation(grid: dict, filt: dict, match: str) -> None:

@@ -1,4 +1,4 @@
-"""A people-motion model a user writes (the extension example of docs/architecture.md) runs through the filter's one
+"""A people-motion model a user writes (the extension example of docs/library.md) runs through the filter's one
 loop: on the reference (numpy) filter its ``move``, on the compiled filter its ``move_compiled`` (the same particles,
 bit for bit), and without a ``move_compiled`` its ``move`` inside the compiled step, said once in the log."""
 

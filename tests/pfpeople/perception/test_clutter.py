@@ -17,7 +17,13 @@ import pytest
 from numpy.typing import NDArray
 
 from gridbridge import jit
-from pfpeople.perception.clutter_map import ClutterConfig, ClutterSuppressor, MovingPeople, StaticClutterMap
+from pfpeople.perception.clutter_map import (
+    FIRST_DT_S,
+    ClutterConfig,
+    ClutterSuppressor,
+    MovingPeople,
+    StaticClutterMap,
+)
 from pfpeople.perception.scan_matching import LaserEgoMotion
 from pfpeople.sensors import Pose2D
 
@@ -174,7 +180,7 @@ def test_evidence_bounds_and_forgetting() -> None:
     m2.update(ray_cast(Pose2D(), post()), stamp_ns=10_000_000_000)
     j = np.floor((POST_FACE - m2.origin) / cfg.resolution).astype(int)
     s = m2.evidence[j[0], j[1]]
-    first = cfg.unknown_evidence + cfg.default_dt
+    first = cfg.unknown_evidence + FIRST_DT_S
     assert s == pytest.approx(
         cfg.unknown_evidence + (first - cfg.unknown_evidence) * math.exp(-cfg.max_dt / cfg.forget_time) + cfg.max_dt
     )

@@ -19,35 +19,32 @@ from gridbridge.likelihoods import DeMorganLikelihood, IndependentLikelihood
 from gridbridge.params import CALIBRATED_LASER_DETECTORS, PAPER_DETECTORS, PeopleMotion, SensorMotionNoise
 from pfpeople import ParticleFilter, PersistentMotion
 from pfpeople.config import ClassifierConfig, FilterConfig, config_from_mapping
+from pfpeople.config.modes import PAPER_DEFAULTS
 from pfpeople.io.bag.reader import BagSource
 from pfpeople.io.run_dir import load_run
 from pfpeople.particle.predictor import PEOPLE_SAMPLERS, PaperSampling, PersistentSampling, VelocityEgoSampling
 from pfpeople.particle.resampler import Resampling
-from pfpeople.pipeline.assembly import (
-    BELIEF_MIN,
-    DEFAULT_MOTION_MODEL,
-    DEFAULT_OVERFLOW,
-    PEAK_THRESHOLD,
-    build_classifier,
-    build_filter,
-    grid_for_scan,
-)
+from pfpeople.pipeline.assembly import BELIEF_MIN, PEAK_THRESHOLD, build_classifier, build_filter, grid_for_scan
 from pfpeople.pipeline.runner import Pipeline
 from pfpeople.sensors import Pose2D
 from pfpeople.track import TRACK_COLUMNS
 
 
 def test_grid_for_scan_hand_values() -> None:
+    at = {"resolution": 0.3, "reach": 10.0}  # [grid]'s defaults
     # 180 deg, 5 m: x in [0, 5.1], y in [-5.1, 5.1] (17 x 34 cells of 0.3 m, snapped outwards)
-    assert grid_for_scan(-math.pi / 2, math.pi / 2, 5.0) == GridSpec(nx=17, ny=34, resolution=0.3, x0=0.0, y0=-5.1)
+    assert grid_for_scan(-math.pi / 2, math.pi / 2, 5.0, **at) == GridSpec(nx=17, ny=34, x0=0.0, y0=-5.1)
     # 270 deg, range_max 25 m: capped at 10 m; behind the laser to -7.07 m -> -7.2
-    g = grid_for_scan(-3 * math.pi / 4, 3 * math.pi / 4, 25.0)
+    g = grid_for_scan(-3 * math.pi / 4, 3 * math.pi / 4, 25.0, **at)
     assert (g.nx, g.ny, g.x0, g.y0) == (58, 68, -7.2, -10.2)
+    # capped at 4 m instead, at 0.5 m cells: x in [-3.0, 4.0] (-2.83 -> -3.0), y in [-4, 4]
+    g = grid_for_scan(-3 * math.pi / 4, 3 * math.pi / 4, 25.0, resolution=0.5, reach=4.0)
+    assert (g.nx, g.ny, g.x0, g.y0, g.resolution) == (14, 16, -3.0, -4.0, 0.5)
     # a laser at (1, 0) looking along +y: the half plane y >= 0 around it
-    g = grid_for_scan(-math.pi / 2, math.pi / 2, 5.0, mount=Pose2D(x=1.0, y=0.0, yaw=math.pi / 2))
+    g = grid_for_scan(-math.pi / 2, math.pi / 2, 5.0, mount=Pose2D(x=1.0, y=0.0, yaw=math.pi / 2), **at)
     assert (g.nx, g.ny, g.x0, g.y0) == (34, 17, -4.2, 0.0)
     with pytest.raises(ValueError, match="angle_min < angle_max"):
-        grid_for_scan(1.0, -1.0, 5.0)
+        grid_for_scan(1.0, -1.0, 5.0, **at)
 
 
 @pytest.mark.parametrize(
@@ -68,10 +65,10 @@ def test_particle_components_from_the_config_are_the_previous_defaults(
         )
     else:
         assert pf.people_motion == PaperSampling(motion=PeopleMotion(), redraw_in_cell=False)
-    assert pf.people_motion.name == motion_model == DEFAULT_MOTION_MODEL[mode]  # type: ignore[attr-defined]
+    assert pf.people_motion.name == motion_model == FilterConfig(mode=mode).motion_model  # type: ignore[attr-defined, arg-type]
     assert pf.ego_motion == VelocityEgoSampling(noise=SensorMotionNoise(), pool=4096)
     assert pf.resampling == Resampling(scheme="systematic", ess_threshold=0.5, max_overflow=max_overflow)
-    assert max_overflow == DEFAULT_OVERFLOW[mode] and pf.n_birth == 2
+    assert max_overflow == FilterConfig(mode=mode).max_overflow and pf.n_birth == 2  # type: ignore[arg-type]
     for name, cls in PEOPLE_SAMPLERS.items():
         cfg = FilterConfig(kind="particle", mode=mode, motion_model=name)  # type: ignore[arg-type]
         assert type(build_filter(cfg, GridSpec(), PAPER_DETECTORS).people_motion) is cls  # type: ignore[union-attr]
@@ -93,7 +90,7 @@ def test_build_filter_composes_the_modes() -> None:
     pf = build_filter(FilterConfig(kind="particle"), spec, CALIBRATED_LASER_DETECTORS)
     assert isinstance(pf, ParticleFilter) and isinstance(pf.likelihood, IndependentLikelihood)
     assert pf.n_particles == cfg.particles_for(spec.n_cells)
-    assert pf.resampling.max_overflow == DEFAULT_OVERFLOW["recommended"] > 0
+    assert pf.resampling.max_overflow == FilterConfig().max_overflow > 0
     assert isinstance(pf.people_motion, PersistentSampling)
     paper_pf = build_filter(FilterConfig(kind="particle", mode="paper"), spec, PAPER_DETECTORS)
     assert isinstance(paper_pf, ParticleFilter) and paper_pf.resampling.max_overflow == 0.0
@@ -105,8 +102,21 @@ def test_build_filter_composes_the_modes() -> None:
     assert pf.people_motion == PersistentSampling(compiled_draws=True)  # the default: drawn in the compiled step
     overflow = build_filter(FilterConfig(kind="particle", max_overflow=0.3), spec, PAPER_DETECTORS)
     assert overflow.resampling == Resampling(max_overflow=0.3)  # type: ignore[union-attr]
-    with pytest.raises(ValueError, match="form must be 'linear'"):
-        build_filter(FilterConfig(kind="particle", form="paper"), spec, CALIBRATED_LASER_DETECTORS)
+    # the particle filter samples the integrated kernel whatever ``form`` (a grid-filter field)
+    paper_form = build_filter(FilterConfig(kind="particle", form="paper"), spec, CALIBRATED_LASER_DETECTORS)
+    assert isinstance(paper_form, ParticleFilter)
+
+
+def test_the_paper_mode_gives_its_defaults_and_keeps_what_is_given() -> None:
+    """The paper mode's defaults are :data:`PAPER_DEFAULTS` (one table), each field given is kept."""
+    paper = FilterConfig(mode="paper")
+    assert {k: getattr(paper, k) for k in PAPER_DEFAULTS["filter"]} == PAPER_DEFAULTS["filter"]
+    assert FilterConfig(mode="paper", form="linear", max_overflow=0.2).max_overflow == 0.2
+    doc = {"frames": {"driver": "/s"}, "detectors": [{"name": "a", "kind": "leg", "topic": "/s"}]}
+    cfg = config_from_mapping({**doc, "filter": {"mode": "paper"}, "tracking": {"snap_radius": 0.4}})
+    assert cfg.classifier.kind == "blobs" and not cfg.clutter.enabled and cfg.tracking.people == "classified"
+    assert cfg.tracking.snap_radius == 0.4 and cfg.tracking.see_through is False  # given; the mode's
+    assert config_from_mapping(doc).tracking.snap_radius == 0.3 and config_from_mapping(doc).clutter.enabled
 
 
 def test_paper_mode_warns_about_detectors_with_fnr_above_half(caplog: pytest.LogCaptureFixture) -> None:
@@ -125,26 +135,24 @@ def test_config_tables_round_trip_and_name_wrong_keys() -> None:
         "detectors": [{"name": "a", "kind": "leg", "topic": "/scan"}],
     }
     cfg = config_from_mapping(doc)
-    assert cfg.grid is None and cfg.filter.n_particles == 9000 and cfg.classifier.threshold == 0.6
-    assert not cfg.tracking.enabled and cfg.clutter.on("paper") and not cfg.clutter.laser_odometry
+    assert cfg.grid.fixed is None and cfg.filter.n_particles == 9000 and cfg.classifier.threshold == 0.6
+    assert not cfg.tracking.enabled and cfg.clutter.enabled and not cfg.clutter.laser_odometry
     assert config_from_mapping(cfg.to_dict()) == cfg
-    with pytest.raises(ValueError, match=r"unknown keys \['thresh'\] in \[classifier\]"):
+    with pytest.raises(ValueError, match=r"^\[classifier\] thresh: unknown key; allowed: \['keep'"):
         config_from_mapping({**doc, "classifier": {"thresh": 0.6}})
-    with pytest.raises(ValueError, match=r"FilterConfig\.mode must be one of"):
-        FilterConfig(mode="fast")
-    with pytest.raises(ValueError, match=r"FilterConfig\.max_overflow must be a number in \[0, 10\]"):
+    with pytest.raises(ValueError, match=r"^\[filter\] mode: must be 'recommended' or 'paper', got 'fast'$"):
+        FilterConfig(mode="fast")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"^\[filter\] max_overflow: must be greater than or equal to 0, got -0\.5$"):
         FilterConfig(max_overflow=-0.5)
-    with pytest.raises(
-        ValueError, match=r"FilterConfig\.motion_model must be 'paper', 'persistent' or unset, got 'cv'"
-    ):
-        FilterConfig(motion_model="cv")
+    with pytest.raises(ValueError, match=r"^\[filter\] motion_model: must be 'persistent' or 'paper', got 'cv'$"):
+        FilterConfig(motion_model="cv")  # type: ignore[arg-type]
     assert config_from_mapping({**doc, "filter": {"motion_model": "paper"}}).filter.motion_model == "paper"
     assert config_from_mapping({**doc, "filter": {"compiled_draws": False}}).filter.compiled_draws is False
     assert config_from_mapping(doc).filter.compiled_draws is True  # the default
-    with pytest.raises(TypeError, match=r"FilterConfig\.compiled_draws must be true or false, got 'yes'"):
+    with pytest.raises(ValueError, match=r"\[filter\] compiled_draws: must be a valid boolean, got 'yes'"):
         config_from_mapping({**doc, "filter": {"compiled_draws": "yes"}})
-    with pytest.raises(ValueError, match=r"ClassifierConfig\.kind"):
-        ClassifierConfig(kind="cnn")
+    with pytest.raises(ValueError, match=r"\[classifier\] kind"):
+        ClassifierConfig(kind="cnn")  # type: ignore[arg-type]
     assert build_classifier(ClassifierConfig()).threshold == PEAK_THRESHOLD  # type: ignore[attr-defined]
     assert build_classifier(ClassifierConfig(kind="threshold")).threshold == 0.5  # type: ignore[attr-defined]
 

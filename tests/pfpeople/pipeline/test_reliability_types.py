@@ -74,11 +74,11 @@ def test_tracker_update_refuses_positions_scores_and_support_that_are_not_real(v
 @pytest.mark.parametrize(
     ("mount", "error", "match"),
     [
-        (["a", 0, 0], TypeError, r"\[mounts\] 'laser' x must be a number, got str"),
-        ([0, 0, True], TypeError, r"\[mounts\] 'laser' yaw must be a number, got bool"),
-        ([0, 0.1, float("nan")], ValueError, r"\[mounts\] 'laser' yaw must be finite"),
-        ("x", ValueError, r"\[mounts\] 'laser' must be three numbers \[x, y, yaw\]"),
-        ([0, 0], ValueError, r"\[mounts\] 'laser' must be three numbers \[x, y, yaw\]"),
+        (["a", 0, 0], ValueError, r"^\[mounts\]: 'laser' x must be a number, got str$"),
+        ([0, 0, True], ValueError, r"^\[mounts\]: 'laser' yaw must be a number, got bool$"),
+        ([0, 0.1, float("nan")], ValueError, r"^\[mounts\]: 'laser' yaw must be finite"),
+        ("x", ValueError, r"^\[mounts\]: 'laser' must be three numbers \[x, y, yaw\]"),
+        ([0, 0], ValueError, r"^\[mounts\]: 'laser' must be three numbers \[x, y, yaw\]"),
     ],
 )
 def test_a_bad_mount_value_in_the_config_names_its_key(mount: Any, error: type, match: str) -> None:

@@ -47,7 +47,7 @@ def test_warm_up_leaves_the_filter_as_it_was(kind: str) -> None:
     cfg = FilterConfig(kind=kind, n_particles=2000, seed=3) if kind == "particle" else FilterConfig(kind=kind)
     warmed, fresh = make_filter(cfg, spec, MODELS), make_filter(cfg, spec, MODELS)
     before = _state(warmed)
-    assert warm_up_back_end(warmed, build_classifier(ClassifierConfig(), cfg.mode), spec, MODELS)
+    assert warm_up_back_end(warmed, build_classifier(ClassifierConfig()), spec, MODELS)
     assert _state(warmed) == before
     dets = [np.array([[2.0, 0.5], [1.0, -1.0]])]
     for odometry in (None, Odometry(v=0.4, omega=0.1), Odometry(v=0.4, omega=-0.2)):
@@ -66,7 +66,7 @@ def test_warm_up_skips_a_filter_it_cannot_copy() -> None:
         def step(self, *args: object) -> None:
             raise AssertionError("the warm-up must not step the run's filter")
 
-    assert warm_up_back_end(Locked(), build_classifier(ClassifierConfig(), "paper"), GridSpec(), MODELS) is False
+    assert warm_up_back_end(Locked(), build_classifier(ClassifierConfig(kind="blobs")), GridSpec(), MODELS) is False
 
 
 def test_a_run_loads_no_kernel_in_its_frames(tmp_path: Path) -> None:
@@ -122,5 +122,5 @@ def test_warm_up_skips_a_filter_whose_step_is_wrapped() -> None:
         return step(*args)
 
     filt.step = wrapped  # type: ignore[method-assign]
-    assert warm_up_back_end(filt, build_classifier(ClassifierConfig(), "recommended"), spec, MODELS) is False
+    assert warm_up_back_end(filt, build_classifier(ClassifierConfig()), spec, MODELS) is False
     assert calls == []

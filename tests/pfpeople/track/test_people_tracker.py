@@ -8,7 +8,7 @@ import pytest
 
 from gridbridge.classifiers import HysteresisPeaks, PeakClassifier, People, people_cells
 from gridbridge.grid import GridSpec
-from pfpeople.config import TrackingConfig, config_from_mapping
+from pfpeople.config import TrackingConfig, config_from_mapping, for_mode
 from pfpeople.pipeline.assembly import build_people_tracker
 from pfpeople.track import MultiPersonTracker, PeopleTracker, TrackerConfig
 
@@ -153,9 +153,9 @@ def test_people_tracker_rejects_bad_settings(kw: dict[str, object], msg: str) ->
 
 
 def test_tracking_config_people_and_coast_frames() -> None:
-    with pytest.raises(ValueError, match='people must be "confirmed" or "classified"'):
-        TrackingConfig(people="tracks")
-    with pytest.raises(ValueError, match="coast_frames must be an integer >= 0"):
+    with pytest.raises(ValueError, match=r"\[tracking\] people: must be 'confirmed' or 'classified', got 'tracks'"):
+        TrackingConfig(people="tracks")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"\[tracking\] coast_frames: must be greater than or equal to 0, got -2"):
         TrackingConfig(coast_frames=-2)
     cfg = config_from_mapping(
         {
@@ -167,16 +167,23 @@ def test_tracking_config_people_and_coast_frames() -> None:
     assert cfg.tracking.people == "classified" and cfg.tracking.coast_frames == 3
 
 
+def paper_tracking(**given: object) -> TrackingConfig:
+    """``[tracking]`` with the paper mode's defaults (:data:`pfpeople.config.PAPER_DEFAULTS`)."""
+    return TrackingConfig(**for_mode("paper", "tracking", given))
+
+
 def test_build_people_tracker_defaults_by_mode() -> None:
     cl = PeakClassifier(threshold=0.7)
-    rec = build_people_tracker(TrackingConfig(), cl, "recommended")
-    assert rec.people == "confirmed" and rec.coast_frames == 1
+    rec = build_people_tracker(TrackingConfig(), cl)
+    assert rec is not None and rec.people == "confirmed" and rec.coast_frames == 1
     assert rec.tracker.config.birth_min_score == 0.7  # tracks start only from people
-    assert build_people_tracker(TrackingConfig(), cl, "paper").people == "classified"
-    assert build_people_tracker(TrackingConfig(people="confirmed"), cl, "paper").people == "confirmed"
+    paper = build_people_tracker(paper_tracking(), cl)
+    assert paper is not None and paper.people == "classified"
+    assert build_people_tracker(paper_tracking(people="confirmed"), cl).people == "confirmed"  # type: ignore[union-attr]
     assert build_people_tracker(TrackingConfig(enabled=False), cl) is None
-    # snapping: the recommended mode only (the paper mode reports people where they were classified)
-    assert rec.snap_radius == 0.3 and build_people_tracker(TrackingConfig(), cl, "paper").snap_radius == 0.0
+    # snapping: the recommended mode's default (the paper mode reports people where they were classified)
+    assert rec.snap_radius == 0.3 and paper.snap_radius == 0.0
+    assert build_people_tracker(paper_tracking(snap_radius=0.2), cl).snap_radius == 0.2  # type: ignore[union-attr]
     with pytest.raises(ValueError, match=r"\[tracking.params\]"):
         build_people_tracker(TrackingConfig(params={"no_such_field": 1}), cl)
 
@@ -283,8 +290,8 @@ def test_coasting_tracks_outside_the_observed_cells_are_not_reported(only: bool)
 
 
 def test_observed_tracks_only_setting() -> None:
-    rec = build_people_tracker(TrackingConfig(), PeakClassifier(threshold=0.7), "recommended")
-    paper = build_people_tracker(TrackingConfig(), PeakClassifier(threshold=0.7), "paper")
+    rec = build_people_tracker(TrackingConfig(), PeakClassifier(threshold=0.7))
+    paper = build_people_tracker(paper_tracking(), PeakClassifier(threshold=0.7))
     off = build_people_tracker(TrackingConfig(observed_tracks_only=False), PeakClassifier(threshold=0.7))
     assert rec.observed_tracks_only and not paper.observed_tracks_only and not off.observed_tracks_only
     cfg = config_from_mapping(
@@ -295,7 +302,7 @@ def test_observed_tracks_only_setting() -> None:
         }
     )
     assert cfg.tracking.observed_tracks_only is False and config_from_mapping(cfg.to_dict()) == cfg
-    with pytest.raises(ValueError, match="observed_tracks_only must be true or false"):
+    with pytest.raises(ValueError, match=r"\[tracking\] observed_tracks_only: must be a valid boolean"):
         TrackingConfig(observed_tracks_only="yes")  # type: ignore[arg-type]
 
 
