@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from evaluation.harness.benchmark import SCENES, format_rows, particle_overrides, run_benchmark
-from evaluation.harness.mot_eval import MotRow
 from evaluation.harness.detector_ap import ApRow, format_ap_rows
+from evaluation.harness.mot_eval import MotRow
 from evaluation.harness.mot_eval import format_rows as format_mot_rows
 from evaluation.scenarios.eth_ucy import default_data_root
 from pfpeople.cli.support import examples
@@ -64,7 +64,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="[filter] settings of every particle filter run: seed=3 (another Monte Carlo draw), compiled_draws=false",
     )
     p.add_argument("--no-mot", action="store_true", help="no multi-person tracking table (CLEAR-MOT: MOTA, IDSW, ...)")
-    p.add_argument("--no-ap", action="store_true", help="no detection table (each detector alone: AP, recall at P 0.90)")
+    p.add_argument(
+        "--no-ap", action="store_true", help="no detection table (each detector alone: AP, recall at P 0.90)"
+    )
     p.set_defaults(func=run)
 
 
@@ -116,7 +118,9 @@ def run(args: argparse.Namespace) -> int:
         if mot or ap:
             data_out = {"detection": data_out}
         if mot:
-            data_out["tracking"] = [{"scene": r.sequence, "source": r.source, **r.scores.as_dict(), **r.extra} for r in mot]
+            data_out["tracking"] = [
+                {"scene": r.sequence, "source": r.source, **r.scores.as_dict(), **r.extra} for r in mot
+            ]
         if ap:
             data_out["detectors"] = [asdict(r) for r in ap]
         args.json.write_text(dumps(data_out, default=str) + "\n")

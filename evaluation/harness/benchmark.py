@@ -639,8 +639,9 @@ def _ap_rows(scene: str, data: Path, work: Path) -> list[Any]:
     leg = data / "leg_tracker"
     if scene.startswith("scan:"):
         name = scene.split(":", 1)[1]
-        return benchmark_ap.scan_ap_rows(scene, work / name / f"{name}.bag", work / name / f"{name}_gt.csv",
-                                         work / f"{name}_run")
+        return benchmark_ap.scan_ap_rows(
+            scene, work / name / f"{name}.bag", work / name / f"{name}_gt.csv", work / f"{name}_run"
+        )
     if scene == "positive_bags":
         present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
         return benchmark_ap.positive_ap_rows(leg, work, present)

@@ -15,6 +15,7 @@ detectors (:mod:`evaluation.harness.detector_ap`), on the scenes ``pfpeople-eval
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Sequence
 from importlib import resources
@@ -60,7 +61,9 @@ def scan_ap_rows(scene: str, bag: Path, gt: Path, run_dir: Path) -> list[ApRow]:
     """A scan-level scene's rows (module docstring)."""
     box = grid_box(run_dir)
     scans = [dataclasses.replace(s, region=Region(box=box)) for s in simulated_scans(bag, gt, source=scene)]
-    rows = [ap_row(scene, name, make(), scans, threshold=_threshold(name)) for name, make in builtin_detectors().items()]
+    rows = [
+        ap_row(scene, name, make(), scans, threshold=_threshold(name)) for name, make in builtin_detectors().items()
+    ]
     rows.append(ap_row(scene, "laser_motion", MotionDetector(), scans))
     learned = _learned()
     rows.append(ap_row(scene, "laser_learned", learned, scans, threshold=learned.threshold))
@@ -68,7 +71,9 @@ def scan_ap_rows(scene: str, bag: Path, gt: Path, run_dir: Path) -> list[ApRow]:
     return rows
 
 
-def _pooled(scene: str, name: str, parts: Sequence[tuple[list[ScoredFrame], list[LabelledScan]]], threshold: float) -> ApRow:
+def _pooled(
+    scene: str, name: str, parts: Sequence[tuple[list[ScoredFrame], list[LabelledScan]]], threshold: float
+) -> ApRow:
     frames = [f for fr, _ in parts for f in fr]
     scans = [s for _, sc in parts for s in sc]
     return rows_from_frames(scene, name, frames, scans, threshold=threshold)
@@ -87,10 +92,12 @@ def positive_ap_rows(leg: Path, work: Path, present: Sequence[int]) -> list[ApRo
         makers["laser_motion"] = MotionDetector
         fold = fold_model_path(held)
         if fold.is_file():
-            makers["laser_learned"] = lambda fold=fold: _learned(fold)
+            makers["laser_learned"] = functools.partial(_learned, fold)
         for name, make in makers.items():
             det = make()
-            threshold[name] = getattr(det, "threshold", _threshold(name)) if name == "laser_learned" else _threshold(name)
+            threshold[name] = (
+                getattr(det, "threshold", _threshold(name)) if name == "laser_learned" else _threshold(name)
+            )
             parts.setdefault(name, []).append((scored_frames(det, scans), scans))
         run = work / f"{held}_run"
         if (run / "people.csv").is_file():

@@ -88,9 +88,9 @@ def builtin_detectors(boosted_model: Any = None) -> dict[str, Callable[[], Any]]
     """Factories of the segment-based detectors, scored (``boosted_model``: a model file for the boosted and
     single-legs detectors, e.g. one trained without a held-out bag)."""
     return {
-        "laser-legs": lambda: Scored(LegDetector()),
-        "laser-boosted": lambda: ScoredBoosted(BoostedSegmentDetector(boosted_model)),
-        "laser-single-legs": lambda: Scored(SingleLegDetector(model_path=boosted_model)),
+        "laser_legs": lambda: Scored(LegDetector()),
+        "laser_boosted": lambda: ScoredBoosted(BoostedSegmentDetector(boosted_model)),
+        "laser_single_legs": lambda: Scored(SingleLegDetector(model_path=boosted_model)),
     }
 
 
@@ -142,7 +142,10 @@ def _f(v: float) -> str:
 
 def format_ap_rows(rows: Sequence[ApRow]) -> str:
     """The table: scene, detector, frames, AP0.3, AP0.5, recall at P 0.90, standing / walking recall, FP/scan."""
-    head = f"{'scene':<26}{'detector':<22}{'frames':>7}{'AP0.3':>7}{'AP0.5':>7}{'R@P.9':>7}{'stand':>7}{'walk':>7}{'FP/scan':>8}"
+    head = (
+        f"{'scene':<26}{'detector':<22}{'frames':>7}{'AP0.3':>7}{'AP0.5':>7}{'R@P.9':>7}"
+        f"{'stand':>7}{'walk':>7}{'FP/scan':>8}"
+    )
     lines = [head]
     for r in rows:
         lines.append(

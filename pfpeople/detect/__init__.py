@@ -34,6 +34,7 @@ from pfpeople.detect.legs import (
     people_and_single_legs,
     people_from_legs,
 )
+from pfpeople.detect.motion import MotionDetector, MotionParams
 from pfpeople.detect.segments import (
     FEATURE_NAMES,
     SegmentationParams,
@@ -41,7 +42,6 @@ from pfpeople.detect.segments import (
     segment_features,
     segment_scan,
 )
-from pfpeople.detect.motion import MotionDetector, MotionParams
 from pfpeople.detect.single_legs import SingleLegDetector
 
 __all__ = [

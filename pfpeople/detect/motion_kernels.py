@@ -41,7 +41,7 @@ def moved_flags(  # pragma: no cover - compiled
         else:
             rel = -((angle_min - qb[i]) % two_pi)
         k = int(np.rint(rel / increment))
-        side = max(1, int(math.ceil((math.atan(tolerance / max(qr[i], 1e-6)) + turn) / abs(increment))))
+        side = max(1, math.ceil((math.atan(tolerance / max(qr[i], 1e-6)) + turn) / abs(increment)))
         if k - side < 0 or k + side >= n:
             continue
         need = qr[i] + margin

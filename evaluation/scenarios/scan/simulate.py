@@ -292,7 +292,9 @@ def simulate_scene(
             if las.range_at_10pct > 0:
                 circ_xyr = np.column_stack((local_c[ok], c_radius[ok]))
                 refl = (las.range_at_10pct, cfg.static_reflectivity)
-                true_r = _lost_returns(true_r, hit, person_of_beam, person_rho, circ_xyr, local_s, angles, refl, r_return)
+                true_r = _lost_returns(
+                    true_r, hit, person_of_beam, person_rho, circ_xyr, local_s, angles, refl, r_return
+                )
             meas = measure_ranges(
                 true_r,
                 range_min=las.range_min,

@@ -17,6 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from evaluation.scenarios.scan.bagfile import write_scene_bag
 from evaluation.scenarios.scan.scene import SceneConfig, builtin_scan_scenes, load_scene
@@ -24,10 +25,12 @@ from evaluation.scenarios.scan.scene import SceneConfig, builtin_scan_scenes, lo
 __all__ = [
     "BOOSTED_TRAINING_SCENES",
     "CALIBRATION_SEED",
+    "CLUTTER_CLEARANCE_M",
     "LEARNED_TRAINING_SEEDS",
     "TRAINING_SEED",
     "calibration_bags",
     "learned_training_bags",
+    "random_clutter",
     "randomized_scene",
     "training_people_bags",
 ]
@@ -65,7 +68,9 @@ def randomized_scene(scene: str, seed: int) -> SceneConfig:
       reflectance of 6-15 m in four scenes of five, off in the fifth;
     * the laser's yaw on the robot turned by up to 30 deg;
     * trousers of reflectivity 0.03-0.5, walls and furniture 0.3-0.8; chair legs 1.5-3.5 cm in radius;
-    * walking speeds scaled by 0.8-1.2.
+    * walking speeds scaled by 0.8-1.2;
+    * clutter of the kinds real rooms hold at knee height, scattered over the people's region at least
+      :data:`CLUTTER_CLEARANCE_M` from the robot's route (:func:`random_clutter`).
     """
     base = load_scene(scene)
     rng = np.random.default_rng(np.random.SeedSequence([seed, sum(map(ord, scene))]))
@@ -75,7 +80,7 @@ def randomized_scene(scene: str, seed: int) -> SceneConfig:
     mount = (las.mount[0], las.mount[1], las.mount[2] + math.radians(float(rng.uniform(-30.0, 30.0))))
     laser = replace(
         las,
-        n_beams=int(round(fov / step)) + 1,
+        n_beams=round(fov / step) + 1,
         rate_hz=float(rng.choice([7.5, 10.0, 12.5, 15.0])),
         noise_sd=float(rng.uniform(0.01, 0.03)),
         mixed_pixel=float(rng.uniform(0.1, 0.5)),
@@ -91,6 +96,7 @@ def randomized_scene(scene: str, seed: int) -> SceneConfig:
         speed_max=base.people.speed_max * speed,
         reflectivity=(0.03, 0.5),
     )
+    poles, boxes = random_clutter(base, rng)
     return replace(
         base,
         name=f"{scene}_r{seed}",
@@ -99,7 +105,55 @@ def randomized_scene(scene: str, seed: int) -> SceneConfig:
         people=people,
         static_reflectivity=float(rng.uniform(0.3, 0.8)),
         chair_leg_radius=float(rng.uniform(0.015, 0.035)),
+        poles=(*base.poles, *poles),
+        boxes=(*base.boxes, *boxes),
     )
+
+
+#: Random clutter keeps this far (m) from the robot's route: the robot drives through a room, not through its chairs.
+CLUTTER_CLEARANCE_M = 0.8
+
+
+def _clear_of_route(p: NDArray[np.float64], route: NDArray[np.float64]) -> bool:
+    """Whether point ``p`` is at least :data:`CLUTTER_CLEARANCE_M` from the closed polyline ``route``."""
+    a, b = route, np.roll(route, -1, axis=0)
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0.0, 1.0)
+    d = np.linalg.norm(a + t[:, None] * ab - p, axis=1)
+    return bool(d.min() >= CLUTTER_CLEARANCE_M)
+
+
+def random_clutter(
+    base: SceneConfig, rng: np.random.Generator
+) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
+    """Poles ``(x, y, radius)`` and boxes ``(cx, cy, length, width, yaw)`` (m, rad, world) of 8-20 random objects in
+    the scene's people region: stools (three or four legs of 1-3 cm on a 0.3-0.45 m square), posts and coat stands
+    (2-5 cm), bins (10-20 cm), plant pots (15-30 cm) and small boxes (0.2-0.6 m)."""
+    x0, x1, y0, y1 = base.people.region
+    route = np.asarray(base.robot.waypoints, dtype=float).reshape(-1, 2)
+    poles: list[tuple[float, ...]] = []
+    boxes: list[tuple[float, ...]] = []
+    wanted, placed = int(rng.integers(8, 21)), 0
+    for _ in range(50 * wanted):
+        if placed == wanted:
+            break
+        p = np.array([rng.uniform(x0, x1), rng.uniform(y0, y1)])
+        if len(route) > 1 and not _clear_of_route(p, route):
+            continue
+        placed += 1
+        kind = rng.choice(["stool", "post", "bin", "pot", "box"])
+        if kind == "stool":
+            half, rad, yaw = rng.uniform(0.15, 0.225), rng.uniform(0.01, 0.03), rng.uniform(0, math.pi)
+            n = int(rng.integers(3, 5))
+            for k in range(n):
+                a = yaw + 2 * math.pi * k / n
+                poles.append((float(p[0] + half * math.cos(a)), float(p[1] + half * math.sin(a)), float(rad)))
+        elif kind == "box":
+            boxes.append((float(p[0]), float(p[1]), *rng.uniform(0.2, 0.6, 2).tolist(), float(rng.uniform(0, math.pi))))
+        else:
+            lo, hi = {"post": (0.02, 0.05), "bin": (0.1, 0.2), "pot": (0.15, 0.3)}[str(kind)]
+            poles.append((float(p[0]), float(p[1]), float(rng.uniform(lo, hi))))
+    return poles, boxes
 
 
 def learned_training_bags(

@@ -19,7 +19,6 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "train-detector",
         epilog=examples(
-            "pfpeople train-detector --data-dir ../shared/data/leg_tracker --out pfpeople/models/",
             "pfpeople train-detector --data-dir ../shared/data/leg_tracker --people-bags sim-train --out models/",
             "pfpeople train-detector --kind learned --data-dir ../shared/data/leg_tracker --people-bags sim-learned "
             "--weak-bags ../shared/data/leg_tracker/demo_stationary_simple_environment.bag --out pfpeople/models/",
@@ -40,7 +39,9 @@ def register(subparsers: Any) -> None:
             "card: data, folds, figures, lasers). docs/learned_detector.md says how to adapt it to your laser."
         ),
     )
-    p.add_argument("--kind", choices=["boosted", "learned"], default="boosted", help="which detector (default: %(default)s)")
+    p.add_argument(
+        "--kind", choices=["boosted", "learned"], default="boosted", help="which detector (default: %(default)s)"
+    )
     p.add_argument("--data-dir", required=True, help="folder with the leg_tracker bags")
     p.add_argument("--out", required=True, help="output folder (e.g. pfpeople/models/)")
     p.add_argument("--name", default=None, help="model file stem (default: boosted_legs / learned_people)")
@@ -79,17 +80,39 @@ def _learned_arguments(p: argparse.ArgumentParser) -> None:
 
     r = LearnedRecipe()
     g = p.add_argument_group("--kind learned")
-    g.add_argument("--weak-bags", nargs="*", default=[], metavar="BAG[:TOPIC]",
-                   help="recordings of a standing laser to weakly label (topic default /scan)")
+    g.add_argument(
+        "--weak-bags",
+        nargs="*",
+        default=[],
+        metavar="BAG[:TOPIC]",
+        help="recordings of a standing laser to weakly label (topic default /scan)",
+    )
+    g.add_argument(
+        "--negative-bags",
+        nargs="*",
+        default=[],
+        metavar="BAG[:TOPIC]",
+        help="people-free drives through your own rooms (topic default /scan): their clutter is what the "
+        "model must learn to say no to",
+    )
     g.add_argument("--architecture", choices=sorted(ARCHITECTURES), default=r.architecture)
     g.add_argument("--past-scans", type=int, default=r.past_scans, help="past scans as input (default: %(default)s)")
     g.add_argument("--motion-input", action="store_true", help="the motion detector's moved returns as input")
     g.add_argument("--epochs", type=int, default=r.fit.epochs)
     g.add_argument("--fold-dir", type=Path, default=None, help="also write the six fold models here")
-    g.add_argument("--threshold", type=float, default=r.threshold,
-                   help="operating threshold: detections scoring less are not reported (default: %(default)s)")
-    g.add_argument("--calibration-bags", type=Path, default=None, metavar="DIR",
-                   help="simulated bags (as --people-bags) to measure PPV / FNR on, not trained on")
+    g.add_argument(
+        "--threshold",
+        type=float,
+        default=r.threshold,
+        help="operating threshold: detections scoring less are not reported (default: %(default)s)",
+    )
+    g.add_argument(
+        "--calibration-bags",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="simulated bags (as --people-bags) to measure PPV / FNR on, not trained on",
+    )
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -126,7 +149,7 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _weak_bag(spec: str) -> tuple[Path, str]:
+def _bag_topic(spec: str) -> tuple[Path, str]:
     bag, _, topic = spec.partition(":")
     return Path(bag), topic or "/scan"
 
@@ -153,7 +176,8 @@ def _run_learned(args: argparse.Namespace) -> int:
         args.data_dir,
         out,
         people_bags=find_people_bags(args.people_bags) if args.people_bags is not None else (),
-        weak_bags=[_weak_bag(b) for b in args.weak_bags],
+        weak_bags=[_bag_topic(b) for b in args.weak_bags],
+        negative_bags=[_bag_topic(b) for b in args.negative_bags],
         calibration_bags=find_people_bags(args.calibration_bags) if args.calibration_bags is not None else (),
         recipe=recipe,
         leave_one_out=not args.no_leave_one_out,
@@ -176,7 +200,9 @@ def format_learned(card: Mapping[str, Any]) -> str:
         lines.append(f"{'pooled':<44}{_f(p['ap_03']):>7}{_f(p['ap_05']):>7}{_f(p['recall_at_p90']):>8}")
         lines.append(f"negative_2 false people per scan at the threshold: {_f(p['negative_2_false_per_scan'])}")
     cal = card["calibration"]
-    lines.append(f"threshold {card['threshold']:.3f}: PPV {cal['ppv']:.3f}, FNR {cal['fnr']:.3f} ({cal['measured_on']})")
+    lines.append(
+        f"threshold {card['threshold']:.3f}: PPV {cal['ppv']:.3f}, FNR {cal['fnr']:.3f} ({cal['measured_on']})"
+    )
     return "\n".join(lines)
 
 

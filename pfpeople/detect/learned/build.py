@@ -43,7 +43,7 @@ def load_weak_labels(bags: Sequence[tuple[str | Path, str]]) -> tuple[list[Label
 
 
 def _detector(model: LearnedModel) -> LearnedPeopleDetector:
-    return LearnedPeopleDetector(model, model=DetectorModel(name="laser_learned", ppv=0.5, fnr=0.5))
+    return LearnedPeopleDetector.from_model(model, model=DetectorModel(name="laser_learned", ppv=0.5, fnr=0.5))
 
 
 def _fold_row(name: str, pos: list[ScoredFrame], neg: list[ScoredFrame]) -> dict[str, Any]:
@@ -87,7 +87,14 @@ def _leave_one_out(data: TrainingData, recipe: LearnedRecipe, say: Callable[[str
 def _lasers(data: TrainingData) -> list[dict[str, Any]]:
     """The laser geometries (beams, field of view, resolution) of the training sources."""
     seen: dict[tuple[int, float, float], set[str]] = {}
-    groups = [*data.positives.values(), *data.negatives.values(), data.followed, data.weak, data.simulated]
+    groups = [
+        *data.positives.values(),
+        *data.negatives.values(),
+        data.followed,
+        data.weak,
+        data.simulated,
+        data.extra_negatives,
+    ]
     for scans in groups:
         for ls in scans:
             s = ls.scan
@@ -116,6 +123,7 @@ def train_learned_from_directory(
     *,
     people_bags: Sequence[tuple[str | Path, str | Path]] = (),
     weak_bags: Sequence[tuple[str | Path, str]] = (),
+    negative_bags: Sequence[tuple[str | Path, str]] = (),
     calibration_bags: Sequence[tuple[str | Path, str | Path]] = (),
     recipe: LearnedRecipe | None = None,
     leave_one_out: bool = True,
@@ -134,7 +142,7 @@ def train_learned_from_directory(
     r = recipe if recipe is not None else LearnedRecipe()
     weak, weak_report = load_weak_labels(weak_bags)
     say("loading the training data")
-    data = load_training_data(data_dir, people_bags=people_bags, weak=weak, recipe=r)
+    data = load_training_data(data_dir, people_bags=people_bags, weak=weak, negative_bags=negative_bags)
     held = _leave_one_out(data, r, say) if leave_one_out else None
     say("training the final model on all the data")
     final = train_model(data, r, threshold=r.threshold)
@@ -144,7 +152,8 @@ def train_learned_from_directory(
     ]
     card = _card(final, r, data, weak_report)
     card.update(_measured(held, calib, r.threshold))
-    card["data"] = _files(Path(data_dir), [*people_bags, *calibration_bags], [Path(b) for b, _ in weak_bags])
+    own = [Path(b) for b, _ in (*weak_bags, *negative_bags)]
+    card["data"] = _files(Path(data_dir), [*people_bags, *calibration_bags], own)
     save_model(out, final.network, card)
     if fold_dir is not None and held is not None:
         for bag, model in held.models.items():
@@ -195,6 +204,7 @@ def _card(model: LearnedModel, r: LearnedRecipe, data: TrainingData, weak_report
             "followed": len(data.followed),
             "weak": len(data.weak),
             "simulated": len(data.simulated),
+            "own_negatives": len(data.extra_negatives),
         },
         "weak_labels": weak_report,
         "training_rows": model.card.get("rows"),

@@ -120,10 +120,10 @@ def training_arrays(
     parts: list[tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32], NDArray[np.float32], int]] = []
     previous: LabelledScan | None = None
     for ls in scans:
-        motion = _motion(ls, previous)
-        if motion is None:
+        step = _motion(ls, previous)
+        if step is None:
             memory.clear()
-        memory.advance(ls.scan, motion)
+        memory.advance(ls.scan, step)
         previous = ls
         if ls.index % row_step:
             continue

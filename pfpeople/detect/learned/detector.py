@@ -29,12 +29,12 @@ from gridbridge.geometry import Pose2D
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_number
 from pfpeople.detect.learned.memory import ScanMemory
-from pfpeople.detect.motion import compose_pending
 from pfpeople.detect.learned.model_file import LearnedModel, load_model
 from pfpeople.detect.learned.votes import group_votes, vote_positions
+from pfpeople.detect.motion import compose_pending
 from pfpeople.sensors import LaserScan
 
-__all__ = ["DEFAULT_LEARNED_MODEL", "LearnedPeopleDetector", "default_learned_model_path", "trained_resolutions"]
+__all__ = ["DEFAULT_LEARNED_MODEL", "LearnedPeopleDetector", "default_learned_model_path"]
 
 DEFAULT_LEARNED_MODEL = "learned_people"
 
@@ -53,9 +53,9 @@ class LearnedPeopleDetector:
 
     Parameters
     ----------
-    model_path : str or Path or LearnedModel, optional
-        A model written by ``pfpeople train-detector --kind learned`` (``.npz`` with its ``.json`` card beside it),
-        or one already loaded. Default: the shipped model.
+    model_path : str or Path, optional
+        A model written by ``pfpeople train-detector --kind learned`` (``.npz`` with its ``.json`` card beside it).
+        Default: the shipped model (:meth:`from_model` takes one already loaded).
     threshold : float, optional
         Report people scoring at least this (0-1); default the model card's operating threshold.
     model : DetectorModel, optional
@@ -65,16 +65,25 @@ class LearnedPeopleDetector:
 
     def __init__(
         self,
-        model_path: str | Path | LearnedModel | None = None,
+        model_path: str | Path | None = None,
         *,
         threshold: float | None = None,
         model: DetectorModel | None = None,
     ) -> None:
-        if model_path is not None and not isinstance(model_path, str | Path | LearnedModel):
+        if model_path is not None and not isinstance(model_path, str | Path):
             raise TypeError(f"model_path must be a path, got {model_path!r} ({type(model_path).__name__})")
-        learned = model_path if isinstance(model_path, LearnedModel) else None
-        if learned is None:
-            learned = load_model(default_learned_model_path() if model_path is None else model_path)
+        self._setup(load_model(default_learned_model_path() if model_path is None else model_path), threshold, model)
+
+    @classmethod
+    def from_model(
+        cls, learned: LearnedModel, *, threshold: float | None = None, model: DetectorModel | None = None
+    ) -> LearnedPeopleDetector:
+        """A detector of a model already loaded or just trained (arguments as the constructor's)."""
+        det = cls.__new__(cls)
+        det._setup(learned, threshold, model)
+        return det
+
+    def _setup(self, learned: LearnedModel, threshold: float | None, model: DetectorModel | None) -> None:
         self.learned: LearnedModel = learned
         if threshold is not None:
             threshold = check_number(threshold, "threshold")
@@ -126,16 +135,6 @@ class LearnedPeopleDetector:
         """People ``(M, 2)`` (m, scan frame) scoring at least :attr:`threshold`."""
         centres, scores = self.detect_scored(scan)
         return centres[scores >= self.threshold]
-
-
-def trained_resolutions(path: str | Path | None = None) -> tuple[float, float]:
-    """The smallest and largest angle between beams (deg) of the lasers a model was trained on (its card's
-    ``lasers``; default the shipped model)."""
-    learned = load_model(default_learned_model_path() if path is None else path)
-    res = [float(entry["resolution_deg"]) for entry in learned.card.get("lasers", []) if "resolution_deg" in entry]
-    if not res:
-        raise ValueError(f"model card of {learned.path}: no 'lasers' with 'resolution_deg'")
-    return min(res), max(res)
 
 
 def _card_model(learned: LearnedModel) -> DetectorModel:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,7 +34,7 @@ def read_odometry(bag: str | Path, topic: str) -> tuple[NDArray[np.int64], NDArr
         if not conns:
             raise KeyError(f"topic {topic!r} not in {bag}")
         for conn, _t, raw in reader.messages(connections=conns):
-            msg = reader.deserialize(raw, conn.msgtype)
+            msg: Any = reader.deserialize(raw, conn.msgtype)
             p, q = msg.pose.pose.position, msg.pose.pose.orientation
             stamps.append(int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec))
             poses.append((p.x, p.y, yaw_from_quaternion(q.x, q.y, q.z, q.w)))
@@ -83,7 +84,8 @@ def static_mount(bag: str | Path, child: str) -> Pose2D:
     with AnyReader([Path(bag)]) as reader:
         conns = [c for c in reader.connections if c.topic == "/tf_static"]
         for conn, _t, raw in reader.messages(connections=conns):
-            for tf in reader.deserialize(raw, conn.msgtype).transforms:
+            tfs: Any = reader.deserialize(raw, conn.msgtype)
+            for tf in tfs.transforms:
                 if tf.child_frame_id.lstrip("/") == child.lstrip("/"):
                     tr, q = tf.transform.translation, tf.transform.rotation
                     return Pose2D(x=tr.x, y=tr.y, yaw=yaw_from_quaternion(q.x, q.y, q.z, q.w))

@@ -153,7 +153,7 @@ def save_model(path: str | Path, network: Network, card: Mapping[str, Any]) -> N
     """Write ``network``'s arrays to ``path`` (``.npz``) and ``card`` (with ``format`` and ``layers`` set) beside
     it; the written files are read back and checked."""
     path = Path(path)
-    arrays = {}
+    arrays: dict[str, Any] = {}
     for k, layer in enumerate(network.layers):
         if layer.type in ("conv", "linear"):
             arrays[f"layer{k}.weight"] = layer.weight

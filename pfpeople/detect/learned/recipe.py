@@ -78,13 +78,13 @@ class LearnedRecipe:
     past_step: int = 2
     motion_input: bool = False
     negative_keep: float = 0.15
-    real_negative_weight: float = 4.0
-    scan_step: int = 1
+    real_negative_weight: float = 16.0
+    scan_step: int = 3
     followed_step: int = 4
     fit: FitParams = field(default_factory=FitParams)
     group_radius: float = 0.4
     min_vote: float = 0.05
-    threshold: float = 0.8
+    threshold: float = 0.5
 
     def card(self) -> dict[str, Any]:
         """The recipe as the model card records it."""
@@ -108,6 +108,8 @@ class TrainingData:
     followed: list[LabelledScan] = field(default_factory=list)
     weak: list[LabelledScan] = field(default_factory=list)
     simulated: list[LabelledScan] = field(default_factory=list)
+    #: People-free recordings of the user's own (``--negative-bags``): trained on in every fold, never tested on.
+    extra_negatives: list[LabelledScan] = field(default_factory=list)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -124,7 +126,9 @@ class Fold:
 
 def _with_scan_matching(scans: list[LabelledScan]) -> list[LabelledScan]:
     ego = scan_matched_motions([s.scan for s in scans])
-    return [dataclasses.replace(s, ego=tuple(float(v) for v in e)) for s, e in zip(scans, ego, strict=True)]
+    return [
+        dataclasses.replace(s, ego=(float(e[0]), float(e[1]), float(e[2]))) for s, e in zip(scans, ego, strict=True)
+    ]
 
 
 def _followed(data_dir: Path) -> list[LabelledScan]:
@@ -146,17 +150,17 @@ def load_training_data(
     *,
     people_bags: Sequence[tuple[str | Path, str | Path]] = (),
     weak: Sequence[LabelledScan] = (),
-    recipe: LearnedRecipe | None = None,
+    negative_bags: Sequence[tuple[str | Path, str]] = (),
 ) -> TrainingData:
-    """Every source (module docstring) from leg_tracker's folder ``data_dir``, simulated ``people_bags`` and
-    already made ``weak`` labels.
+    """Every source (module docstring) from leg_tracker's folder ``data_dir``, simulated ``people_bags``, already
+    made ``weak`` labels and people-free recordings ``negative_bags`` ``(bag, LaserScan topic)`` of the user's own
+    (their ego-motion by scan matching).
 
     Raises
     ------
     FileNotFoundError
         If a labelled bag or ``negative_2.bag`` is missing from ``data_dir`` (named).
     """
-    r = recipe if recipe is not None else LearnedRecipe()
     d = Path(data_dir)
     for name in (*(f"{p}_extracted.bag" for p in POSITIVE_BAGS), "negative_2.bag"):
         if not (d / name).is_file():
@@ -166,12 +170,18 @@ def load_training_data(
         t: _with_scan_matching(negative_scans(d / "negative_2.bag", [t], source="negative_2")) for t in NEGATIVE_TOPICS
     }
     sims = [s for bag, gt in people_bags for s in simulated_scans(bag, gt, source=f"sim:{Path(bag).stem}")]
+    extra = [
+        s
+        for bag, topic in negative_bags
+        for s in _with_scan_matching(negative_scans(bag, [topic], source=f"own:{Path(bag).stem}"))
+    ]
     return TrainingData(
         positives=positives,
         negatives=negatives,
         followed=_followed(d),
         weak=list(weak),
         simulated=sims,
+        extra_negatives=extra,
     )
 
 
@@ -207,6 +217,7 @@ def _arrays(data: TrainingData, r: LearnedRecipe, rng: np.random.Generator) -> T
     groups: list[tuple[list[LabelledScan], float, float, int]] = [
         ([s for v in data.positives.values() for s in v], 1.0, 1.0, 1),
         ([s for v in data.negatives.values() for s in v], 1.0, r.real_negative_weight, 1),
+        (data.extra_negatives, 1.0, r.real_negative_weight, 1),
         (data.followed, 1.0, 1.0, r.followed_step),
         (data.weak, 0.5, 1.0, 1),
         (data.simulated, r.negative_keep, 1.0, r.scan_step),

@@ -117,6 +117,9 @@ class LabelledScan:
     known : ndarray, shape (B,), bool, optional
         Per beam, whether its return's label is known (weak labels: :mod:`pfpeople.detect.learned.weak_labels`);
         None: wherever ``region`` says.
+    background : ndarray, shape (B,), bool, optional
+        Per beam, a return of the static background outside ``region`` (a standing laser's recording, weakly
+        labelled): a known negative for training; the scores keep to ``region``.
     speed : ndarray, shape (K,), optional
         Each person's speed (m/s; NaN unknown): the standing / walking split of the scores.
     """
@@ -129,6 +132,7 @@ class LabelledScan:
     index: int
     ego: tuple[float, float, float] = field(default=(float("nan"),) * 3)
     known: NDArray[np.bool_] | None = None
+    background: NDArray[np.bool_] | None = None
     speed: NDArray[np.float64] | None = None
 
     @property
@@ -166,10 +170,16 @@ def pair_legs_into_people(legs: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def positive_bag_scans(path: str | Path, source: str | None = None) -> list[LabelledScan]:
-    """The labelled scans of a leg_tracker ``positive_*_extracted.bag`` (stationary laser: zero ego-motion)."""
+    """The labelled scans of a leg_tracker ``positive_*_extracted.bag`` (stationary laser: zero ego-motion); the
+    returns of the static background outside the labelling box are known negatives for training
+    (:func:`pfpeople.detect.learned.weak_labels.static_background`)."""
+    from pfpeople.detect.learned.weak_labels import static_background
+
     path = Path(path)
     out = []
-    for k, ls in enumerate(load_labelled_scans(path)):
+    labelled = load_labelled_scans(path)
+    background = static_background([ls.scan for ls in labelled])
+    for k, ls in enumerate(labelled):
         people = pair_legs_into_people(ls.legs)
         out.append(
             LabelledScan(
@@ -180,6 +190,7 @@ def positive_bag_scans(path: str | Path, source: str | None = None) -> list[Labe
                 source=source or path.stem.replace("_extracted", ""),
                 index=k,
                 ego=(0.0, 0.0, 0.0),
+                background=background[k],
             )
         )
     return out

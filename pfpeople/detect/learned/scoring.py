@@ -27,7 +27,15 @@ from pfpeople.detect.precision_recall import (
     recall_at_precision,
 )
 
-__all__ = ["Counts", "DetectorScores", "calibration", "counts_at", "detector_scores", "operating_point", "scored_frames"]
+__all__ = [
+    "Counts",
+    "DetectorScores",
+    "calibration",
+    "counts_at",
+    "detector_scores",
+    "operating_point",
+    "scored_frames",
+]
 
 
 def _motion(ls: LabelledScan, previous: LabelledScan | None) -> Pose2D | None:
@@ -115,9 +123,9 @@ def counts_at(frames: Sequence[ScoredFrame], threshold: float) -> Counts:
     return Counts(tp=tp, fp=fp, positives=c.positives)
 
 
-def calibration(scenes: Sequence[Sequence[ScoredFrame]], negatives: Sequence[ScoredFrame], threshold: float) -> tuple[
-    float, float
-]:
+def calibration(
+    scenes: Sequence[Sequence[ScoredFrame]], negatives: Sequence[ScoredFrame], threshold: float
+) -> tuple[float, float]:
     """PPV and FNR at ``threshold`` as the built-in detectors' are measured (:data:`gridbridge.params.
     CALIBRATED_LASER_DETECTORS`): PPV the pooled true over all detections of the ``scenes`` (each a sequence of
     frames with people) and of the people-free ``negatives``; FNR the mean of the scenes' miss rates."""

@@ -8,7 +8,8 @@ with ``d`` its distance to the nearest annotated centre ``c``:
   canonical offset, :func:`pfpeople.detect.learned.votes.canonical_offsets`);
 * inside the region and ``d >`` :data:`~pfpeople.detect.learned.samples.IGNORE_RADIUS`: class 0;
 * otherwise weight 0 (neither a person's nor known background: out of the loss). A scan with a per-beam ``known``
-  mask (weak labels) has its unknown returns masked too.
+  mask (weak labels) has its unknown returns masked too; the static ``background`` outside the region (a standing
+  laser's recording) is class 0.
 
 A person's return outside the region (a labelled leg just outside leg_tracker's box) still counts as a person's:
 the label is known there.
@@ -48,6 +49,8 @@ def beam_targets(ls: LabelledScan, idx: NDArray[np.intp]) -> BeamTargets:
     known = ls.region.contains(pts, ls.people)
     if ls.known is not None:
         known &= ls.known[idx]
+    if ls.background is not None:
+        known |= ls.background[idx]
     weight = known.astype(np.float32)
     if ls.people.shape[0] and n:
         d = np.linalg.norm(pts[:, None, :] - ls.people[None, :, :], axis=-1)

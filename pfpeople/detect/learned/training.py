@@ -64,7 +64,7 @@ def architecture(name: str) -> list[dict[str, Any]]:
 class FitParams:
     """Optimisation settings (module docstring)."""
 
-    epochs: int = 12
+    epochs: int = 10
     batch: int = 512
     max_lr: float = 3e-3
     noise_m: float = 0.01

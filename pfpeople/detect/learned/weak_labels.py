@@ -33,7 +33,7 @@ from gridbridge.validation import check_positive
 from pfpeople.detect.learned.samples import POSITIVE_RADIUS, LabelledScan, Region, count_returns
 from pfpeople.sensors import LaserScan
 
-__all__ = ["WeakLabelParams", "WeakLabelReport", "weak_labels"]
+__all__ = ["WeakLabelParams", "WeakLabelReport", "static_background", "weak_labels"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -76,6 +76,20 @@ def _background(scans: Sequence[LaserScan], q: float) -> NDArray[np.float64]:
     r = np.stack([np.where(s.no_return, np.inf, np.where(s.valid, s.ranges, np.nan)) for s in scans])
     with np.errstate(invalid="ignore"):
         return np.nanquantile(np.where(np.isnan(r), -np.inf, r), q, axis=0)
+
+
+def static_background(scans: Sequence[LaserScan], params: WeakLabelParams | None = None) -> NDArray[np.bool_]:
+    """Per scan and beam ``(S, B)``, whether the return is the standing laser's static background (module docstring,
+    step 1: within ``static_band`` of its beam's background range); all False for a recording whose beams change."""
+    p = params if params is not None else WeakLabelParams()
+    if not scans:
+        return np.zeros((0, 0), dtype=bool)
+    if len({(s.ranges.size, s.angle_min, s.angle_increment) for s in scans}) != 1:
+        return np.zeros((len(scans), scans[0].ranges.size), dtype=bool)
+    bg = _background(scans, p.background_quantile)
+    r = np.stack([np.where(s.valid, s.ranges, np.nan) for s in scans])
+    with np.errstate(invalid="ignore"):
+        return np.abs(r - bg[None, :]) <= p.static_band
 
 
 def _candidates(scan: LaserScan, fg: NDArray[np.bool_], p: WeakLabelParams) -> list[NDArray[np.float64]]:
@@ -136,6 +150,28 @@ def _is_person(
     return duration >= p.min_duration and path >= p.min_path
 
 
+def _labelled(
+    scan: LaserScan, k: int, centres_list: list[NDArray[np.float64]], static: NDArray[np.bool_], source: str
+) -> LabelledScan:
+    """Scan ``k`` with its labelled people: the background and the people's returns known, the rest masked."""
+    centres = np.array(centres_list, dtype=float).reshape(-1, 2)
+    known = static.copy()
+    if centres.shape[0]:
+        pts = scan.points()
+        with np.errstate(invalid="ignore"):
+            known |= np.linalg.norm(pts[:, None, :] - centres[None, :, :], axis=-1).min(axis=1) <= POSITIVE_RADIUS
+    return LabelledScan(
+        scan=scan,
+        people=centres,
+        returns=count_returns(scan, centres),
+        region=Region(),
+        source=source,
+        index=k,
+        ego=(0.0, 0.0, 0.0),
+        known=known,
+    )
+
+
 def weak_labels(
     scans: Sequence[LaserScan], *, source: str, params: WeakLabelParams | None = None
 ) -> tuple[list[LabelledScan], WeakLabelReport]:
@@ -170,27 +206,7 @@ def weak_labels(
             n_people += 1
             for k, i in tr:
                 people.setdefault(k, []).append(frames[k][i])
-    out = []
-    for k, s in enumerate(scans):
-        centres = np.array(people.get(k, []), dtype=float).reshape(-1, 2)
-        known = static_all[k].copy()
-        if centres.shape[0]:
-            pts = s.points()
-            with np.errstate(invalid="ignore"):
-                d = np.linalg.norm(pts[:, None, :] - centres[None, :, :], axis=-1).min(axis=1)
-                known |= d <= POSITIVE_RADIUS
-        out.append(
-            LabelledScan(
-                scan=s,
-                people=centres,
-                returns=count_returns(s, centres),
-                region=Region(),
-                source=source,
-                index=k,
-                ego=(0.0, 0.0, 0.0),
-                known=known,
-            )
-        )
+    out = [_labelled(s, k, people.get(k, []), static_all[k], source) for k, s in enumerate(scans)]
     report = WeakLabelReport(
         scans=len(scans),
         candidates=sum(len(f) for f in frames),

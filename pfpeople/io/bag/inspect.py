@@ -52,6 +52,7 @@ import statistics
 import textwrap
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -565,55 +566,69 @@ def _fmt(v: float | None, spec: str = ".2f") -> str:
     return "-" if v is None else format(v, spec)
 
 
-def format_report(report: BagReport) -> str:
-    """The report as human-readable text (tables)."""
-    lines = [
-        f"bag: {report.bag} ({report.storage})",
-        f"time span: {report.duration_s:.3f} s (record times {report.start_ns} .. {report.end_ns} ns)",
-        "",
-    ]
-    # the name and type columns as wide as their longest entry (at least the usual 32 and 36), so rows align
+def _topic_lines(report: BagReport) -> list[str]:
+    """The topic table, its name and type columns as wide as their longest entry (at least 32 and 36)."""
     wt = max([32, *(len(t.topic) for t in report.topics)])
     wy = max([36, *(len(t.msgtype) for t in report.topics)])
     head = f"{'count':>7} {'rate Hz':>8} {'hdr Hz':>8} {'hdr-rec s':>10}  frame ids"
-    lines.append(f"{'topic':<{wt}} {'type':<{wy}} {head}")
+    lines = [f"{'topic':<{wt}} {'type':<{wy}} {head}"]
     for t in report.topics:
         ids = ", ".join(t.frame_ids) if t.frame_ids else "(no header)"
         lines.append(
             f"{t.topic:<{wt}} {t.msgtype:<{wy}} {t.count:>7} {_fmt(t.rate_hz):>8} {_fmt(t.header_rate_hz):>8} "
             f"{_fmt(t.header_offset_s, '.3f'):>10}  {ids}"
         )
-    lines.append("")
-    if report.tf:
-        lines.append("TF tree (2-D: x, y in m, yaw in deg; latest transform per edge):")
-        for e in report.tf:
-            kind = "static" if e.static else f"dynamic, {e.count} msgs"
-            lines.append(f"  {e.parent} -> {e.child}: x={e.x:.3f} y={e.y:.3f} yaw={math.degrees(e.yaw):.1f} ({kind})")
-    else:
-        lines.append("TF: none (no /tf or /tf_static messages)")
-    lines.append("")
-    for li in report.lasers:
-        sign = {1: "+ (CCW)", -1: "- (CW: reversed or upside down)", 0: "0"}[li.increment_sign]
-        mount = (
-            f"; in base: x={li.mount_in_base[0]:.3f} y={li.mount_in_base[1]:.3f} "
-            f"yaw={math.degrees(li.mount_in_base[2]):.1f} deg"
-            if li.mount_in_base is not None
-            else ""
-        )
-        if li.topic != report.driver and li.mount_in_driver is not None:
-            x, y, yaw = li.mount_in_driver
-            mount += f"; in the driver's frame: x={x:.3f} y={y:.3f} yaw={math.degrees(yaw):.1f} deg"
-        elif li.topic != report.driver:
-            mount += "; NO TF to the driver's frame"
-        if li.sync_gap_s is not None:
-            mount += f"; {li.sync_gap_s:.3f} s from the driver's scans (95th percentile)"
-        lines.append(
-            f"LaserScan {li.topic} (frame {li.frame_id or '?'}): FOV {li.angle_min_deg:.1f} .. "
-            f"{li.angle_max_deg:.1f} deg, {li.beams} beams, increment {li.angle_increment_deg:.4f} deg "
-            f"[sign {sign}], range {li.range_min_m:g} .. {li.range_max_m:g} m"
-            + (" [geometry varies]" if li.varies else "")
-            + mount
-        )
+    return lines
+
+
+def _tf_lines(report: BagReport) -> list[str]:
+    """The TF tree, an edge a line."""
+    if not report.tf:
+        return ["TF: none (no /tf or /tf_static messages)"]
+    lines = ["TF tree (2-D: x, y in m, yaw in deg; latest transform per edge):"]
+    for e in report.tf:
+        kind = "static" if e.static else f"dynamic, {e.count} msgs"
+        lines.append(f"  {e.parent} -> {e.child}: x={e.x:.3f} y={e.y:.3f} yaw={math.degrees(e.yaw):.1f} ({kind})")
+    return lines
+
+
+def _laser_line(li: LaserInfo, driver: str | None) -> str:
+    """One LaserScan topic's geometry and placement."""
+    sign = {1: "+ (CCW)", -1: "- (CW: reversed or upside down)", 0: "0"}[li.increment_sign]
+    mount = (
+        f"; in base: x={li.mount_in_base[0]:.3f} y={li.mount_in_base[1]:.3f} "
+        f"yaw={math.degrees(li.mount_in_base[2]):.1f} deg"
+        if li.mount_in_base is not None
+        else ""
+    )
+    if li.topic != driver and li.mount_in_driver is not None:
+        x, y, yaw = li.mount_in_driver
+        mount += f"; in the driver's frame: x={x:.3f} y={y:.3f} yaw={math.degrees(yaw):.1f} deg"
+    elif li.topic != driver:
+        mount += "; NO TF to the driver's frame"
+    if li.sync_gap_s is not None:
+        mount += f"; {li.sync_gap_s:.3f} s from the driver's scans (95th percentile)"
+    return (
+        f"LaserScan {li.topic} (frame {li.frame_id or '?'}): FOV {li.angle_min_deg:.1f} .. "
+        f"{li.angle_max_deg:.1f} deg, {li.beams} beams, increment {li.angle_increment_deg:.4f} deg "
+        f"[sign {sign}], range {li.range_min_m:g} .. {li.range_max_m:g} m"
+        + (" [geometry varies]" if li.varies else "")
+        + mount
+    )
+
+
+def format_report(report: BagReport) -> str:
+    """The report as human-readable text (tables)."""
+    lines = [
+        f"bag: {report.bag} ({report.storage})",
+        f"time span: {report.duration_s:.3f} s (record times {report.start_ns} .. {report.end_ns} ns)",
+        "",
+        *_topic_lines(report),
+        "",
+        *_tf_lines(report),
+        "",
+        *(_laser_line(li, report.driver) for li in report.lasers),
+    ]
     if not report.lasers:
         lines.append("LaserScan: none")
     for o in report.odometry:
@@ -641,14 +656,22 @@ LASER_DETECTORS: tuple[tuple[str, str, str], ...] = (
 )
 
 
+def _trained_resolutions() -> tuple[float, float]:
+    """The smallest and largest angle between beams (deg) of the lasers the shipped learned model was trained on
+    (its model card's ``lasers``, read as a file: the detectors are not imported here)."""
+    card = json.loads(resources.files("pfpeople.models").joinpath("learned_people.json").read_text(encoding="utf-8"))
+    res = [float(e["resolution_deg"]) for e in card.get("lasers", []) if "resolution_deg" in e]
+    if not res:
+        raise ValueError("the shipped learned model's card lists no lasers (resolution_deg)")
+    return min(res), max(res)
+
+
 def laser_suits(kind: str, li: LaserInfo) -> str:
     """Why a detector ``kind`` does not suit the laser ``li`` ("" when it does): the learned detector needs beams as
     far apart as those its shipped model was trained on (its model card's ``lasers``, within a factor 1.5)."""
     if kind != "learned":
         return ""
-    from pfpeople.detect.learned.detector import trained_resolutions
-
-    lo, hi = trained_resolutions()
+    lo, hi = _trained_resolutions()
     res = abs(li.angle_increment_deg)
     if lo / 1.5 <= res <= hi * 1.5:
         return ""

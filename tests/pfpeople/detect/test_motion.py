@@ -43,7 +43,10 @@ def _scan(k: int, person: tuple[float, float] | None, *, posts: bool = True) -> 
     )
 
 
-def _run(det: MotionDetector, frames: list[LaserScan], motion: Pose2D | None = Pose2D()) -> list[np.ndarray]:
+_STILL = Pose2D()
+
+
+def _run(det: MotionDetector, frames: list[LaserScan], motion: Pose2D | None = _STILL) -> list[np.ndarray]:
     out = []
     for k, s in enumerate(frames):
         det.observe_motion(None if k == 0 else motion)

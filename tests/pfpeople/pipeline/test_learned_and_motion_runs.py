@@ -83,10 +83,21 @@ def test_temporal_adapters_pass_the_motion_and_forget_on_restarts(tmp_path: Path
 
 
 def _laser(res_deg: float) -> LaserInfo:
-    n = int(round(270 / res_deg)) + 1
-    return LaserInfo(topic="/scan", frame_id="laser", beams=n, angle_min_deg=-135.0, angle_max_deg=135.0,
-                     angle_increment_deg=res_deg, increment_sign=1, fov_min_rad=-2.356, fov_max_rad=2.356,
-                     range_min_m=0.05, range_max_m=20.0, varies=False)
+    n = round(270 / res_deg) + 1
+    return LaserInfo(
+        topic="/scan",
+        frame_id="laser",
+        beams=n,
+        angle_min_deg=-135.0,
+        angle_max_deg=135.0,
+        angle_increment_deg=res_deg,
+        increment_sign=1,
+        fov_min_rad=-2.356,
+        fov_max_rad=2.356,
+        range_min_m=0.05,
+        range_max_m=20.0,
+        varies=False,
+    )
 
 
 @pytest.mark.parametrize(("res", "suits"), [(0.35, True), (0.25, True), (2.0, False)])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -71,7 +72,7 @@ def test_weak_labels_need_one_laser() -> None:
 
 
 def test_targets_mask_outside_the_region_and_the_ring() -> None:
-    scan = _scan(_person(2.0, 0.0) + [(2.0, 0.55, 0.05)] + [(4.0, 1.0, 0.05)])
+    scan = _scan([*_person(2.0, 0.0), (2.0, 0.55, 0.05), (4.0, 1.0, 0.05)])
     ls = LabelledScan(
         scan=scan,
         people=np.array([[2.0, 0.0]]),
@@ -135,3 +136,39 @@ def test_training_rows_keep_positives_and_weight_sampled_negatives(rng: np.rando
     assert set(np.unique(a.weight[a.label == 0])) <= {1.0, 2.0}  # far negatives weigh 1 / keep
     with pytest.raises(ValueError, match="negative_keep"):
         training_arrays(scans, CutoutParams(), negative_keep=0.0, rng=rng)
+
+
+def test_static_background_of_a_standing_laser() -> None:
+    from pfpeople.detect.learned.weak_labels import static_background
+
+    post = [(2.0, 1.0, 0.04)]
+    scans = [_scan(post + (_person(3.0, -2.0 + 0.12 * k) if 10 <= k < 45 else []), k) for k in range(60)]
+    bg = static_background(scans)
+    assert bg.shape == (60, N)
+    pts = scans[20].points()
+    near_person = np.linalg.norm(np.nan_to_num(pts, nan=1e9) - [3.0, -2.0 + 0.12 * 20], axis=1) < 0.3
+    near_post = np.linalg.norm(np.nan_to_num(pts, nan=1e9) - [2.0, 1.0], axis=1) < 0.1
+    assert near_person.any() and not bg[20][near_person].any()  # the walker is not background
+    assert near_post.any() and bg[20][near_post].all()  # the post is
+    moved = LaserScan(ranges=np.ones(5), angle_min=0.0, angle_increment=0.1)
+    assert not static_background([scans[0], moved]).any()  # beams that change: not a standing laser
+
+
+def test_background_outside_the_region_is_a_known_negative() -> None:
+    scan = _scan([*_person(2.0, 0.0), (4.0, 1.0, 0.05)])
+    idx = np.flatnonzero(scan.valid)
+    pts = scan.points()[idx]
+    far_post = np.linalg.norm(pts - [4.0, 1.0], axis=1) < 0.1
+    base = LabelledScan(
+        scan=scan,
+        people=np.array([[2.0, 0.0]]),
+        returns=np.array([9]),
+        region=Region(box=(0.0, 3.0, -1.0, 1.0)),
+        source="t",
+        index=0,
+    )
+    assert (beam_targets(base, idx).weight[far_post] == 0).all()
+    bg = np.zeros(scan.ranges.size, dtype=bool)
+    bg[idx[far_post]] = True
+    t = beam_targets(dataclasses.replace(base, background=bg), idx)
+    assert (t.weight[far_post] == 1).all() and (t.label[far_post] == 0).all()

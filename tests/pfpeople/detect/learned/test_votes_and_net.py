@@ -120,7 +120,7 @@ def test_network_shapes_are_checked(rng: np.random.Generator) -> None:
             points=8,
             channels=1,
         )
-    with pytest.raises(ValueError, match="no layer0.bias"):
+    with pytest.raises(ValueError, match=r"no layer0\.bias"):
         layers_from_spec([{"type": "conv", "out": 3, "kernel": 3}], {"layer0.weight": np.zeros((3, 1, 3))})
 
 
@@ -163,7 +163,7 @@ def test_bad_model_files_are_named(tmp_path: Path, rng: np.random.Generator) -> 
         load_model(tmp_path / "m.npz")
     (tmp_path / "x.npz").write_bytes(b"not a zip")
     (tmp_path / "x.json").write_text(json.dumps(card))
-    with pytest.raises(ValueError, match="not a NumPy .npz"):
+    with pytest.raises(ValueError, match=r"not a NumPy \.npz"):
         load_model(tmp_path / "x.npz")
     with pytest.raises(FileNotFoundError):
         load_model(tmp_path / "missing.npz")
