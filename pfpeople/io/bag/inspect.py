@@ -29,16 +29,16 @@ radians where a configuration needs them.
   ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
   laser at the base origin (flagged in a comment and in the report's warnings: measure it).
 - on every LaserScan topic the detectors of :data:`LASER_DETECTORS`: ``laser_legs`` (kind ``leg``),
-  ``laser_boosted`` (kind ``boosted``), ``laser_single_legs`` (kind ``single-legs``) and, where the laser's beams are
-  spaced like those its model was trained on (:func:`laser_suits`), ``laser_learned`` (kind ``learned``), so named on
-  the driver
+  ``laser_boosted`` (kind ``boosted``), ``laser_single_legs`` (kind ``single-legs``), so named on the driver
   and ``NAME_TOPIC`` on the others (:func:`laser_detector_name`: ``laser_legs_rear_scan``; valid ROS names, so a
   result bag's detection topics keep them), each with
   ``[detectors.model] fov_min, fov_max, max_range`` from its scan (radians, metres). The run places each laser
   by TF (its mount in the grid frame, :mod:`pfpeople.pipeline.sensor_setup`); a laser that TF does not connect to the
   driver's frame gets a ``[mounts]`` entry at the base origin, facing forward (on the root of its TF tree, and
   the driver's too unless TF connects that to the base frame), flagged "NO TF connects ...: measure it" in a
-  comment and in the report's warnings (leg_tracker's negative_2: three lasers, no TF).
+  comment and in the report's warnings (leg_tracker's negative_2: three lasers, no TF). After them, commented out,
+  the :data:`OPT_IN_DETECTORS` (``laser_learned``, kind ``learned``) where the laser's beams are spaced like those
+  its model was trained on (:func:`laser_suits`), else a comment saying why not.
 - no ``[filter]`` and no ``[grid]`` table: the product's defaults apply.
 """
 
@@ -63,6 +63,7 @@ from pfpeople.io.jsonio import json_safe
 
 __all__ = [
     "LASER_DETECTORS",
+    "OPT_IN_DETECTORS",
     "RECORD_BURST_RATIO",
     "SYNC_TOLERANCE_S",
     "TIME_SOURCE_THRESHOLD_S",
@@ -655,6 +656,11 @@ LASER_DETECTORS: tuple[tuple[str, str, str], ...] = (
     ("laser_single_legs", "single-legs", "single legs the boosted classifier cannot pair, a detector of their own"),
 )
 
+#: Detectors a starter configuration offers commented out (opt-in), where the laser suits them
+#: (:func:`laser_suits`): the learned detector finds more of the people with few returns on them but, in clutter
+#: unlike its training data, false people the default must not have (docs/learned_detector.md).
+OPT_IN_DETECTORS: tuple[tuple[str, str, str], ...] = (("laser_learned", "learned", "learned whole-scan detector"),)
+
 
 def _trained_resolutions() -> tuple[float, float]:
     """The smallest and largest angle between beams (deg) of the lasers the shipped learned model was trained on
@@ -926,20 +932,29 @@ def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: 
             ]
     model = _model_lines(li)
     for name, kind, what in LASER_DETECTORS:
+        out += [*_detector_block(name, kind, f"# Built-in {what} {where}.", li, drv.topic, model), ""]
+    for name, kind, what in OPT_IN_DETECTORS:
+        full = laser_detector_name(name, li.topic, drv.topic)
         why_not = laser_suits(kind, li)
         if why_not:
-            out += [f"# {laser_detector_name(name, li.topic, drv.topic)} ({kind}) left out: {why_not}.", ""]
+            out += [f"# {full} ({kind}, opt-in) does not suit this laser: {why_not}.", ""]
             continue
-        out += [
-            "[[detectors]]",
-            f"# Built-in {what} {where}.",
-            f"name = {_q(laser_detector_name(name, li.topic, drv.topic))}",
-            f"kind = {_q(kind)}",
-            f"topic = {_q(li.topic)}",
-            *model,
-            "",
-        ]
+        note = f"# Opt-in, uncomment to fuse it: the {what} {where} (docs/learned_detector.md)."
+        block = _detector_block(name, kind, note, li, drv.topic, model)
+        out += [block[1], *(f"# {line}" for line in block[:1] + block[2:]), ""]
     return out[:-1]
+
+
+def _detector_block(name: str, kind: str, note: str, li: LaserInfo, driver: str, model: list[str]) -> list[str]:
+    """The ``[[detectors]]`` table of a detector ``kind`` on the laser ``li``, after its comment line ``note``."""
+    return [
+        "[[detectors]]",
+        note,
+        f"name = {_q(laser_detector_name(name, li.topic, driver))}",
+        f"kind = {_q(kind)}",
+        f"topic = {_q(li.topic)}",
+        *model,
+    ]
 
 
 def inspect_path(path: str | Path | Sequence[str | Path], *, sample: int = 200) -> BagReport:

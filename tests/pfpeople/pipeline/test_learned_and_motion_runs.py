@@ -1,5 +1,5 @@
 """The learned and the motion detector in a bag run: configured by kind, given the ego-motion, the same run in one
-and two processes; a starter configuration names the learned detector only where the laser suits it."""
+and two processes; a starter configuration offers the learned detector (commented out) only where the laser suits it."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import pytest
 from bag_fixtures import config, write_bag
 
 from gridbridge.geometry import Pose2D
-from pfpeople.config import DetectorConfig
+from pfpeople.config import DetectorConfig, load_config
 from pfpeople.detect.adapters import LearnedAdapter, MotionAdapter, SensorMotion
-from pfpeople.io.bag.inspect import LaserInfo, laser_suits
+from pfpeople.io.bag.inspect import LASER_DETECTORS, LaserInfo, inspect_path, laser_suits, starter_config
 from pfpeople.io.bag.reader import BagSource
 from pfpeople.pipeline.runner import Pipeline
 
@@ -107,3 +107,30 @@ def test_the_learned_detector_goes_where_the_laser_suits_it(res: float, suits: b
     if not suits:
         assert "trained on" in why and "train-detector --kind learned" in why
     assert laser_suits("leg", _laser(res)) == ""
+
+
+def _uncommented(text: str) -> str:
+    """A starter configuration with its opt-in ``[[detectors]]`` blocks uncommented (what a user does)."""
+    out, in_block = [], False
+    for line in text.splitlines():
+        if line.startswith("# [[detectors]]"):
+            in_block = True
+        elif not line.startswith("# "):
+            in_block = False
+        out.append(line[2:] if in_block else line)
+    return "\n".join(out) + "\n"
+
+
+def test_the_starter_config_offers_the_learned_detector_commented_out(tmp_path: Path) -> None:
+    bag = tmp_path / "b.bag"
+    write_bag(bag, n_scans=3)
+    text = starter_config(inspect_path(bag))
+    default = tmp_path / "default.toml"
+    default.write_text(text)
+    assert [d.kind for d in load_config(default).detectors] == [k for _, k, _ in LASER_DETECTORS]
+    assert "# Opt-in, uncomment to fuse it: the learned whole-scan detector" in text
+    chosen = tmp_path / "chosen.toml"
+    chosen.write_text(_uncommented(text))
+    got = load_config(chosen).detectors
+    assert [(d.name, d.kind, d.topic) for d in got][-1] == ("laser_learned", "learned", "/scan")
+    assert got[-1].model == got[0].model  # the laser's field of view and range, like the others'
