@@ -60,6 +60,7 @@ __all__ = [
     "SCENES",
     "BenchRow",
     "Mode",
+    "boosted_model_without",
     "format_rows",
     "particle_overrides",
     "pooled_rows",
@@ -362,28 +363,37 @@ def write_labelled_people_csv(bag: Path, out: Path) -> int:
     return n
 
 
+def boosted_model_without(leg: Path, work: Path, held: int, present: Sequence[int]) -> Path:
+    """The boosted model trained as the shipped one (the labelled bags, ``negative_2`` and the simulated training
+    scenes, ``make model``) but without the labelled bag ``positive_<held>``: ``work/models/without_positive_<held>
+    .yml`` (the simulated scenes in ``work/sim-train``)."""
+    from evaluation.scenarios.scan.training_scenes import training_people_bags
+    from pfpeople.detect.training import train_from_directory
+
+    model = work / "models" / f"without_positive_{held}.yml"
+    others = [f"positive_{j}_extracted.bag" for j in present if j != held]
+    people = training_people_bags(work / "sim-train")
+    train_from_directory(
+        leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False, people_bags=people
+    )
+    return model
+
+
 def _positive_bags_logs(leg: Path, work: Path, frames: int | None) -> tuple[list[ReplayLog], list[BenchRow], str]:
     """Scene ``positive_bags``: each labelled leg_tracker bag run as the README says, with a boosted model trained
     without it (and with the simulated training scenes, as the shipped model)."""
-    from evaluation.scenarios.scan.training_scenes import training_people_bags
     from pfpeople.config import load_config
-    from pfpeople.detect.training import train_from_directory
     from pfpeople.io.bag.inspect import inspect_path, starter_config
 
     logs, rows = [], []
     present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
     work.mkdir(parents=True, exist_ok=True)
-    people = training_people_bags(work / "sim-train")  # as the shipped model (make model)
     for k in present:
         bag = leg / f"positive_{k}_extracted.bag"
         nm = f"positive_{k}"
         gt = work / f"{nm}_gt.csv"
         write_labelled_people_csv(bag, gt)
-        others = [f"positive_{j}_extracted.bag" for j in present if j != k]
-        model = work / "models" / f"without_{nm}.yml"
-        train_from_directory(
-            leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False, people_bags=people
-        )
+        model = boosted_model_without(leg, work, k, present)
         cfg_path = work / f"{nm}.toml"  # as the README: pfpeople inspect BAG --write-config
         cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
         cfg = load_config(cfg_path)

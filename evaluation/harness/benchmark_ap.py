@@ -34,7 +34,14 @@ from gridbridge.params import DetectorModel
 from pfpeople.detect import LearnedPeopleDetector, MotionDetector
 from pfpeople.detect.learned.model_file import load_model
 from pfpeople.detect.learned.recipe import NEGATIVE_TOPICS, POSITIVE_BAGS, folds
-from pfpeople.detect.learned.samples import LabelledScan, Region, negative_scans, positive_bag_scans, simulated_scans
+from pfpeople.detect.learned.samples import (
+    LabelledScan,
+    Region,
+    negative_scans,
+    positive_bag_scans,
+    simulated_scans,
+    with_scan_matched_motion,
+)
 from pfpeople.detect.learned.scoring import scored_frames
 from pfpeople.detect.precision_recall import ScoredFrame
 
@@ -110,7 +117,7 @@ def negative_ap_rows(leg: Path, work: Path) -> list[ApRow]:
     """``negative_2``'s false people per scan on each laser (module docstring)."""
     bag = leg / "negative_2.bag"
     rows: list[ApRow] = []
-    by_topic = {t: negative_scans(bag, [t], source="negative_2") for t in NEGATIVE_TOPICS}
+    by_topic = {t: with_scan_matched_motion(negative_scans(bag, [t], source="negative_2")) for t in NEGATIVE_TOPICS}
     held_halves = _held_halves(by_topic)
     for topic, scans in by_topic.items():
         scene = f"negative_2{topic.replace('/', ':').replace('_scan', '')}"

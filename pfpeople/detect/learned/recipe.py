@@ -37,7 +37,6 @@ import numpy as np
 
 from pfpeople.detect.learned.cutouts import CutoutParams
 from pfpeople.detect.learned.dataset import TrainingArrays, training_arrays
-from pfpeople.detect.learned.ego import scan_matched_motions
 from pfpeople.detect.learned.model_file import LearnedModel
 from pfpeople.detect.learned.samples import (
     LabelledScan,
@@ -46,6 +45,7 @@ from pfpeople.detect.learned.samples import (
     people_bag_scans,
     positive_bag_scans,
     simulated_scans,
+    with_scan_matched_motion,
 )
 from pfpeople.detect.learned.training import FitParams, architecture, fit_network
 
@@ -56,6 +56,7 @@ __all__ = [
     "LearnedRecipe",
     "TrainingData",
     "folds",
+    "followed_person_scans",
     "load_training_data",
     "train_model",
 ]
@@ -124,14 +125,9 @@ class Fold:
     test_negative: list[LabelledScan]
 
 
-def _with_scan_matching(scans: list[LabelledScan]) -> list[LabelledScan]:
-    ego = scan_matched_motions([s.scan for s in scans])
-    return [
-        dataclasses.replace(s, ego=(float(e[0]), float(e[1]), float(e[2]))) for s, e in zip(scans, ego, strict=True)
-    ]
-
-
-def _followed(data_dir: Path) -> list[LabelledScan]:
+def followed_person_scans(data_dir: Path) -> list[LabelledScan]:
+    """person_following_outdoor_1's scans labelled near its followed person (within :data:`FOLLOWED_RADIUS`; the
+    rest masked), their ego-motion by scan matching; none when the bag or its ground truth is not in ``data_dir``."""
     from pfpeople.io.bag.reader import open_bag_paths
 
     zipped = data_dir / "person_following_outdoor_1.bag.zip"
@@ -142,7 +138,7 @@ def _followed(data_dir: Path) -> list[LabelledScan]:
     scans = people_bag_scans(
         bag, gt, topic="/scan_base2", region=Region(near_people=FOLLOWED_RADIUS), source="person_following_outdoor_1"
     )
-    return _with_scan_matching(scans)
+    return with_scan_matched_motion(scans)
 
 
 def load_training_data(
@@ -167,18 +163,19 @@ def load_training_data(
             raise FileNotFoundError(f"training needs {d / name} (leg_tracker's labelled bags)")
     positives = {p: positive_bag_scans(d / f"{p}_extracted.bag", source=p) for p in POSITIVE_BAGS}
     negatives = {
-        t: _with_scan_matching(negative_scans(d / "negative_2.bag", [t], source="negative_2")) for t in NEGATIVE_TOPICS
+        t: with_scan_matched_motion(negative_scans(d / "negative_2.bag", [t], source="negative_2"))
+        for t in NEGATIVE_TOPICS
     }
     sims = [s for bag, gt in people_bags for s in simulated_scans(bag, gt, source=f"sim:{Path(bag).stem}")]
     extra = [
         s
         for bag, topic in negative_bags
-        for s in _with_scan_matching(negative_scans(bag, [topic], source=f"own:{Path(bag).stem}"))
+        for s in with_scan_matched_motion(negative_scans(bag, [topic], source=f"own:{Path(bag).stem}"))
     ]
     return TrainingData(
         positives=positives,
         negatives=negatives,
-        followed=_followed(d),
+        followed=followed_person_scans(d),
         weak=list(weak),
         simulated=sims,
         extra_negatives=extra,

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import csv
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +49,7 @@ __all__ = [
     "people_bag_scans",
     "positive_bag_scans",
     "simulated_scans",
+    "with_scan_matched_motion",
 ]
 
 #: A return within this distance (m) of a person's centre is the person's: both legs in mid-stride (the labelled leg
@@ -288,3 +289,13 @@ def simulated_scans(
     stamps, poses = read_odometry(bag, odometry)
     ego = odometry_motions([s.stamp_ns for s in scans], stamps, poses, static_mount(bag, scans[0].frame_id))
     return people_bag_scans(bag, gt_csv, topic=topic, source=source, ego=ego)
+
+
+def with_scan_matched_motion(scans: Sequence[LabelledScan]) -> list[LabelledScan]:
+    """One laser's scans, in order, with their ego-motion from scan matching
+    (:func:`pfpeople.detect.learned.ego.scan_matched_motions`; NaN for the first scan and failed matches): for
+    recordings without odometry, as a run matches their scans too."""
+    from pfpeople.detect.learned.ego import scan_matched_motions
+
+    ego = scan_matched_motions([s.scan for s in scans])
+    return [replace(s, ego=(float(e[0]), float(e[1]), float(e[2]))) for s, e in zip(scans, ego, strict=True)]

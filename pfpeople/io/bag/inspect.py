@@ -36,9 +36,9 @@ radians where a configuration needs them.
   by TF (its mount in the grid frame, :mod:`pfpeople.pipeline.sensor_setup`); a laser that TF does not connect to the
   driver's frame gets a ``[mounts]`` entry at the base origin, facing forward (on the root of its TF tree, and
   the driver's too unless TF connects that to the base frame), flagged "NO TF connects ...: measure it" in a
-  comment and in the report's warnings (leg_tracker's negative_2: three lasers, no TF). After them, commented out,
-  the :data:`OPT_IN_DETECTORS` (``laser_learned``, kind ``learned``) where the laser's beams are spaced like those
-  its model was trained on (:func:`laser_suits`), else a comment saying why not.
+  comment and in the report's warnings (leg_tracker's negative_2: three lasers, no TF). After them, commented out
+  (active with ``opt_in``), the :data:`OPT_IN_DETECTORS` (``laser_learned``, kind ``learned``) where the laser's
+  beams are spaced like those its model was trained on (:func:`laser_suits`), else a comment saying why not.
 - no ``[filter]`` and no ``[grid]`` table: the product's defaults apply.
 """
 
@@ -687,7 +687,7 @@ def laser_suits(kind: str, li: LaserInfo) -> str:
     )
 
 
-def starter_config(report: BagReport, *, driver: str | None = None) -> str:
+def starter_config(report: BagReport, *, driver: str | None = None, opt_in: bool = False) -> str:
     """TOML text of a starter run configuration for the inspected bag (see the module docstring).
 
     Every LaserScan topic gets the detectors of :data:`LASER_DETECTORS`: the driver's named as listed, each
@@ -701,6 +701,8 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
         From :func:`inspect_bag`.
     driver : str, optional
         LaserScan topic to drive the frames (default: ``report.driver``).
+    opt_in : bool
+        Write the :data:`OPT_IN_DETECTORS` that suit a laser active rather than commented out.
 
     Returns
     -------
@@ -735,7 +737,7 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
         *_mounts_lines(report, mounts),
     ]
     for li in order:
-        out += _laser_detector_lines(report, li, order[0], tf, li.frame_id in mounts)
+        out += _laser_detector_lines(report, li, order[0], tf, li.frame_id in mounts, opt_in)
     if report.warnings:
         out += ["", "# Warnings from inspect:"] + [f"#   {w}" for w in report.warnings]
     return "\n".join(out) + "\n"
@@ -910,8 +912,11 @@ def laser_detector_name(name: str, topic: str, driver: str) -> str:
     return name if topic == driver else f"{name}_{re.sub(r'[^A-Za-z0-9_]', '_', topic.lstrip('/'))}"
 
 
-def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: TfBuffer, assumed: bool) -> list[str]:
-    """The :data:`LASER_DETECTORS` of one laser, after a comment on where the run places it."""
+def _laser_detector_lines(
+    report: BagReport, li: LaserInfo, drv: LaserInfo, tf: TfBuffer, assumed: bool, opt_in: bool
+) -> list[str]:
+    """The :data:`LASER_DETECTORS` of one laser, after a comment on where the run places it, and its
+    :data:`OPT_IN_DETECTORS` (commented out unless ``opt_in``)."""
     out = [""]
     if li.topic == drv.topic:
         where = "on the driving scan"
@@ -938,6 +943,10 @@ def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: 
         why_not = laser_suits(kind, li)
         if why_not:
             out += [f"# {full} ({kind}, opt-in) does not suit this laser: {why_not}.", ""]
+            continue
+        if opt_in:
+            note = f"# Opt-in (written by --opt-in): the {what} {where} (docs/learned_detector.md)."
+            out += [*_detector_block(name, kind, note, li, drv.topic, model), ""]
             continue
         note = f"# Opt-in, uncomment to fuse it: the {what} {where} (docs/learned_detector.md)."
         block = _detector_block(name, kind, note, li, drv.topic, model)

@@ -134,3 +134,6 @@ def test_the_starter_config_offers_the_learned_detector_commented_out(tmp_path: 
     got = load_config(chosen).detectors
     assert [(d.name, d.kind, d.topic) for d in got][-1] == ("laser_learned", "learned", "/scan")
     assert got[-1].model == got[0].model  # the laser's field of view and range, like the others'
+    active = tmp_path / "active.toml"  # pfpeople inspect --write-config --opt-in
+    active.write_text(starter_config(inspect_path(bag), opt_in=True))
+    assert load_config(active).detectors == got
