@@ -3,7 +3,7 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: setup ros demo test lint bench model clean
+.PHONY: setup ros demo test lint bench model model-boosted model-learned clean
 
 # ROS 1 from Debian's packages: `pfpeople node` and its end-to-end test (pfpeople.ros1.system.APT_PACKAGES)
 ROS_APT := ros-core python3-rospy python3-rosbag python3-tf2-ros python3-std-msgs python3-sensor-msgs \
@@ -50,11 +50,21 @@ bench: setup
 	$(BIN)/python -m evaluation.bench.grid
 	$(BIN)/python -m evaluation.bench.particles
 
-model: setup  ## retrain the shipped boosted classifier (pfpeople/models/boosted_legs.*); needs ../shared/data
+model: model-boosted model-learned  ## retrain the shipped laser detectors; needs ../shared/data
+
+model-boosted: setup  ## the boosted classifier (pfpeople/models/boosted_legs.*)
 	for s in corridor crowd lobby wheelchair; do \
 		$(BIN)/pfpeople-eval simulate-bag $$s --seed 100 --out build/sim-train/$$s --overwrite --no-progress; done
 	$(BIN)/pfpeople train-detector --data-dir ../shared/data/leg_tracker --people-bags build/sim-train \
 		--out pfpeople/models/
+
+model-learned: setup  ## the learned detector (pfpeople/models/learned_people.*, its fold models in evaluation/models/)
+	$(BIN)/pip install --quiet -e ".[train]"
+	$(BIN)/python -c "from evaluation.scenarios.scan import training_scenes as t; \
+		t.learned_training_bags('build/sim-learned'); t.calibration_bags('build/sim-calibration')"
+	$(BIN)/pfpeople train-detector --kind learned --data-dir ../shared/data/leg_tracker --people-bags build/sim-learned \
+		--weak-bags ../shared/data/leg_tracker/demo_stationary_simple_environment.bag \
+		--calibration-bags build/sim-calibration --out pfpeople/models/ --fold-dir evaluation/models/
 
 clean:
 	rm -rf $(VENV) build *.egg-info

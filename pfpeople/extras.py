@@ -1,7 +1,9 @@
 """Optional dependencies: the parts of pfpeople that need an extra say which one when it is missing.
 
 ``pip install 'pfpeople[batch]'`` adds Dask (``pfpeople batch``, ``pfpeople-eval sweep``); ``pip install
-'pfpeople[eval]'`` adds py-motmetrics (the CLEAR-MOT scores of ``pfpeople-eval``). ``make setup`` installs both.
+'pfpeople[eval]'`` adds py-motmetrics (the CLEAR-MOT scores of ``pfpeople-eval``); ``make setup`` installs both.
+``pip install 'pfpeople[train]'`` adds PyTorch (training the learned detector: ``pfpeople train-detector --kind
+learned``); running a trained model needs none of them.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from types import ModuleType
 __all__ = ["EXTRAS", "MissingExtraError", "require"]
 
 #: The module each extra provides, by the extra's name.
-EXTRAS: dict[str, str] = {"batch": "distributed", "eval": "motmetrics"}
+EXTRAS: dict[str, str] = {"batch": "distributed", "eval": "motmetrics", "train": "torch"}
 
 
 class MissingExtraError(ImportError):

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from evaluation.harness.benchmark import SCENES, format_rows, particle_overrides, run_benchmark
+from evaluation.harness.detector_ap import ApRow, format_ap_rows
 from evaluation.harness.mot_eval import MotRow
 from evaluation.harness.mot_eval import format_rows as format_mot_rows
 from evaluation.scenarios.eth_ucy import default_data_root
@@ -63,6 +64,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="[filter] settings of every particle filter run: seed=3 (another Monte Carlo draw), compiled_draws=false",
     )
     p.add_argument("--no-mot", action="store_true", help="no multi-person tracking table (CLEAR-MOT: MOTA, IDSW, ...)")
+    p.add_argument(
+        "--no-ap", action="store_true", help="no detection table (each detector alone: AP, recall at P 0.90)"
+    )
     p.set_defaults(func=run)
 
 
@@ -80,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
     if args.work is not None:
         args.work.mkdir(parents=True, exist_ok=True)
     mot: list[MotRow] | None = None if args.no_mot else []
+    ap: list[ApRow] | None = None if args.no_ap else []
     rows = run_benchmark(
         scenes,
         data=data,
@@ -89,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
         mot=mot,
         scan_seed=args.seed,
         particle=particle,
+        ap=ap,
     )
     if args.seed is not None:
         print(f"scan-level scenes simulated with seed {args.seed}")
@@ -100,12 +106,22 @@ def run(args: argparse.Namespace) -> int:
             "\nMulti-person tracking (CLEAR-MOT, gate 0.75 m; tracker on the recommended output vs on raw detections):"
         )
         print(format_mot_rows(mot))
+    if ap:
+        print(
+            "\nEach detector alone and the fused output (AP at 0.3 / 0.5 m, recall at precision 0.90, standing / "
+            "walking recall at the operating threshold, false people per scan; people with fewer than 3 returns "
+            "ignored):"
+        )
+        print(format_ap_rows(ap))
     if args.json is not None:
         data_out: Any = [asdict(r) for r in rows]
+        if mot or ap:
+            data_out = {"detection": data_out}
         if mot:
-            data_out = {
-                "detection": data_out,
-                "tracking": [{"scene": r.sequence, "source": r.source, **r.scores.as_dict(), **r.extra} for r in mot],
-            }
+            data_out["tracking"] = [
+                {"scene": r.sequence, "source": r.source, **r.scores.as_dict(), **r.extra} for r in mot
+            ]
+        if ap:
+            data_out["detectors"] = [asdict(r) for r in ap]
         args.json.write_text(dumps(data_out, default=str) + "\n")
     return 0

@@ -60,6 +60,7 @@ __all__ = [
     "SCENES",
     "BenchRow",
     "Mode",
+    "boosted_model_without",
     "format_rows",
     "particle_overrides",
     "pooled_rows",
@@ -68,7 +69,7 @@ __all__ = [
 ]
 
 REPLAY_SCENES = ("eth", "hotel", "zara01")
-SCAN_SCENES = ("wheelchair", "corridor", "crowd", "lobby")
+SCAN_SCENES = ("wheelchair", "corridor", "crowd", "lobby", "hall")
 SCENES = (
     *REPLAY_SCENES,
     *(f"scan:{s}" for s in SCAN_SCENES),
@@ -362,28 +363,37 @@ def write_labelled_people_csv(bag: Path, out: Path) -> int:
     return n
 
 
+def boosted_model_without(leg: Path, work: Path, held: int, present: Sequence[int]) -> Path:
+    """The boosted model trained as the shipped one (the labelled bags, ``negative_2`` and the simulated training
+    scenes, ``make model``) but without the labelled bag ``positive_<held>``: ``work/models/without_positive_<held>
+    .yml`` (the simulated scenes in ``work/sim-train``)."""
+    from evaluation.scenarios.scan.training_scenes import training_people_bags
+    from pfpeople.detect.training import train_from_directory
+
+    model = work / "models" / f"without_positive_{held}.yml"
+    others = [f"positive_{j}_extracted.bag" for j in present if j != held]
+    people = training_people_bags(work / "sim-train")
+    train_from_directory(
+        leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False, people_bags=people
+    )
+    return model
+
+
 def _positive_bags_logs(leg: Path, work: Path, frames: int | None) -> tuple[list[ReplayLog], list[BenchRow], str]:
     """Scene ``positive_bags``: each labelled leg_tracker bag run as the README says, with a boosted model trained
     without it (and with the simulated training scenes, as the shipped model)."""
-    from evaluation.scenarios.scan.training_scenes import training_people_bags
     from pfpeople.config import load_config
-    from pfpeople.detect.training import train_from_directory
     from pfpeople.io.bag.inspect import inspect_path, starter_config
 
     logs, rows = [], []
     present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
     work.mkdir(parents=True, exist_ok=True)
-    people = training_people_bags(work / "sim-train")  # as the shipped model (make model)
     for k in present:
         bag = leg / f"positive_{k}_extracted.bag"
         nm = f"positive_{k}"
         gt = work / f"{nm}_gt.csv"
         write_labelled_people_csv(bag, gt)
-        others = [f"positive_{j}_extracted.bag" for j in present if j != k]
-        model = work / "models" / f"without_{nm}.yml"
-        train_from_directory(
-            leg, model.parent, train_positive=others, name=model.stem, leave_one_out=False, people_bags=people
-        )
+        model = boosted_model_without(leg, work, k, present)
         cfg_path = work / f"{nm}.toml"  # as the README: pfpeople inspect BAG --write-config
         cfg_path.write_text(starter_config(inspect_path(bag)), encoding="utf-8")
         cfg = load_config(cfg_path)
@@ -589,6 +599,7 @@ def run_benchmark(
     mot: list[Any] | None = None,
     scan_seed: int | None = None,
     particle: Mapping[str, Any] | None = None,
+    ap: list[Any] | None = None,
 ) -> list[BenchRow]:
     """Every scene x (each detector, each mode, the pipeline's own run). See the module docstring.
 
@@ -598,7 +609,10 @@ def run_benchmark(
     that figures tuned on the default seed carry over. ``particle``: :class:`~pfpeople.config.FilterConfig` fields
     that replace the defaults of every particle filter run (the modes of kind ``"particle"``, the tracking rows,
     the bags' particle runs), e.g. ``{"seed": 3}``: a particle row is one Monte Carlo draw, other seeds give its
-    spread (:func:`particle_overrides` checks them)."""
+    spread (:func:`particle_overrides` checks them). ``ap``: when a list, the detection rows of every detector alone
+    and of the fused output (AP, recall at precision 0.90, standing / walking recall, false people per scan;
+    :mod:`evaluation.harness.benchmark_ap`) of the scan-level scenes, ``positive_bags`` and ``negative_2`` are
+    appended to it."""
     if particle:
         modes = [replace(m, filter=replace(m.filter, **particle)) if m.filter.kind == "particle" else m for m in modes]
     rows: list[BenchRow] = []
@@ -621,9 +635,29 @@ def run_benchmark(
                     rows.append(prow)
             if scene == "positive_bags" and len(logs) > 1:
                 rows.extend(pooled_rows(rows[first:], "positive_bags (all)"))
+            if ap is not None:
+                ap.extend(_ap_rows(scene, data, base))
             if mot is not None:
                 mot.extend(mot_rows(scene, data=data, work=base, frames=frames, particle=particle))
     return rows
+
+
+def _ap_rows(scene: str, data: Path, work: Path) -> list[Any]:
+    """The detection table's rows of ``scene`` (none for the detection-level replays and the recall-only bag)."""
+    from evaluation.harness import benchmark_ap
+
+    leg = data / "leg_tracker"
+    if scene.startswith("scan:"):
+        name = scene.split(":", 1)[1]
+        return benchmark_ap.scan_ap_rows(
+            scene, work / name / f"{name}.bag", work / name / f"{name}_gt.csv", work / f"{name}_run"
+        )
+    if scene == "positive_bags":
+        present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
+        return benchmark_ap.positive_ap_rows(leg, work, present)
+    if scene == "negative_2":
+        return benchmark_ap.negative_ap_rows(leg, work)
+    return []
 
 
 def _f(v: float, nd: int = 2) -> str:

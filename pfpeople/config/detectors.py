@@ -50,6 +50,8 @@ KINDS: dict[str, DetectorKind] = {
     "leg": DetectorKind(input="LaserScan"),
     "boosted": DetectorKind(input="LaserScan", hold_arrivals=True),
     "single-legs": DetectorKind(input="LaserScan"),
+    "learned": DetectorKind(input="LaserScan"),
+    "motion": DetectorKind(input="LaserScan"),
     "hog": DetectorKind(input="Image"),
     "topic": DetectorKind(input="detections", model_requires=("ppv", "fnr")),
 }

@@ -10,6 +10,8 @@ kind      adapter                          input
 ========  ===============================  ===================================================================
 leg       :class:`LegAdapter`              ``sensor_msgs/LaserScan`` -> :class:`pfpeople.detect.LegDetector`
 boosted   :class:`BoostedAdapter`          ``sensor_msgs/LaserScan`` -> ``BoostedSegmentDetector``
+learned   :class:`LearnedAdapter`          ``sensor_msgs/LaserScan`` -> ``LearnedPeopleDetector`` (needs the ego-motion)
+motion    :class:`MotionAdapter`           ``sensor_msgs/LaserScan`` -> ``MotionDetector`` (needs the ego-motion)
 hog       :class:`HogAdapter`              ``sensor_msgs/(Compressed)Image`` -> ``HogCameraDetector`` (which
                                            places its positions in the grid frame itself, given ``mounting``)
 topic     :class:`TopicAdapter`            positions read from detection messages (PoseArray, ...)
@@ -72,7 +74,9 @@ __all__ = [
     "DetectorAdapter",
     "EmptyInputError",
     "HogAdapter",
+    "LearnedAdapter",
     "LegAdapter",
+    "MotionAdapter",
     "SensorMotion",
     "TopicAdapter",
     "build_detector",
@@ -418,6 +422,31 @@ class SingleLegAdapter(LaserAdapter):
     detector_class = "SingleLegDetector"
 
 
+class TemporalLaserAdapter(LaserAdapter):
+    """A LaserScan detector with a memory of earlier scans (``observe_motion``, ``reset``): each frame it is told
+    its laser's motion since the previous frame (:class:`SensorMotion`; forgotten on a restart) before it runs."""
+
+    uses_ego_motion = True
+
+    def detect(self, msgs: Sequence[BagMessage], *, motion: SensorMotion | None = None) -> Detections:
+        """:meth:`LaserAdapter.detect` after giving the detector ``motion`` (None or a restart: unknown)."""
+        known = None if motion is None or motion.restarted else motion.ego
+        self.detector.observe_motion(known)  # type: ignore[union-attr]
+        return super().detect(msgs)
+
+
+class LearnedAdapter(TemporalLaserAdapter):
+    """``kind = "learned"``: :class:`pfpeople.detect.LearnedPeopleDetector` (a learned whole-scan detector)."""
+
+    detector_class = "LearnedPeopleDetector"
+
+
+class MotionAdapter(TemporalLaserAdapter):
+    """``kind = "motion"``: :class:`pfpeople.detect.MotionDetector` (returns in space seen free before)."""
+
+    detector_class = "MotionDetector"
+
+
 class HogAdapter(BuiltinAdapter):
     """``kind = "hog"``: :class:`pfpeople.detect.HogCameraDetector` on a (compressed) image.
 
@@ -488,6 +517,8 @@ ADAPTERS: dict[str, AdapterFactory] = {
     "leg": LegAdapter,
     "boosted": BoostedAdapter,
     "single-legs": SingleLegAdapter,
+    "learned": LearnedAdapter,
+    "motion": MotionAdapter,
     "hog": HogAdapter,
     "topic": TopicAdapter,
 }

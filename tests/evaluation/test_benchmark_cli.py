@@ -21,7 +21,19 @@ def _bench(tmp_path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> t
 
 
 def test_benchmark_rows_and_seed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    text, rows, work = _bench(tmp_path / "a", capsys, "--no-mot")
+    text, data, work = _bench(tmp_path / "a", capsys, "--no-mot")
+    rows, ap = data["detection"], data["detectors"]
+    assert [r["detector"] for r in ap] == [
+        "laser_legs",
+        "laser_boosted",
+        "laser_single_legs",
+        "laser_motion",
+        "laser_learned",
+        "fused (pipeline)",
+    ]
+    assert all(r["scene"] == "scan:corridor" and r["frames"] == 24 for r in ap)
+    assert all(r["ap_05"] is None or 0.0 <= r["ap_05"] <= 1.0 for r in ap)
+    assert "Each detector alone and the fused output" in text
     sources = [r["source"] for r in rows]
     assert sources[:2] == ["detector laser_legs", "detector laser_boosted"]
     assert "recommended (pipeline)" in sources and "paper grid + blobs" in sources
@@ -29,7 +41,7 @@ def test_benchmark_rows_and_seed(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert all(0.0 <= r["recall"] <= 1.0 for r in rows if r["recall"] is not None)
     assert "seed" not in text
     gt0 = read_gt_csv(work / "corridor" / "corridor_gt.csv")
-    text1, _, work1 = _bench(tmp_path / "b", capsys, "--no-mot", "--seed", "1")
+    text1, _, work1 = _bench(tmp_path / "b", capsys, "--no-mot", "--no-ap", "--seed", "1")
     assert text1.startswith("scan-level scenes simulated with seed 1")
     gt1 = read_gt_csv(work1 / "corridor" / "corridor_gt.csv")
     # another seed: other people in the same corridor (the ground-truth positions differ)

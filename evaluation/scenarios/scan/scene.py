@@ -106,6 +106,10 @@ class LaserConfig:
         so) instead of all at the stamp.
     sweep_blocks : int
         Angular blocks a swept scan is simulated in (each at its mean time).
+    range_at_10pct : float
+        Range (m) at which a 10 %-reflectance surface at normal incidence returns half the beams (the data sheet's
+        "range at 10 % reflectivity"): whether a hit returns depends on the surface's reflectivity, the range and
+        the angle of incidence (:mod:`evaluation.scenarios.scan.returns`). 0 (default): every hit returns.
     """
 
     topic: str = "/scan"
@@ -123,6 +127,7 @@ class LaserConfig:
     no_return: str = "inf"
     sweep: bool = False
     sweep_blocks: int = 16
+    range_at_10pct: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.topic, str) or not self.topic.startswith("/"):
@@ -157,6 +162,7 @@ class LaserConfig:
             raise TypeError(f"LaserConfig.sweep must be a boolean, got {self.sweep!r}")
         if _int(self.sweep_blocks, "LaserConfig.sweep_blocks", minimum=1) > self.n_beams:
             raise ValueError("LaserConfig.sweep_blocks must not exceed n_beams")
+        check_positive(self.range_at_10pct, "LaserConfig.range_at_10pct", allow_zero=True)
 
     @property
     def angle_increment(self) -> float:
@@ -297,6 +303,10 @@ class PeopleConfig:
         :mod:`evaluation.scenarios.scan.standing`).
     queues : rows (x, y, yaw, n, t_start, t_end)
         People standing in a line (a queue, people waiting at a door).
+    reflectivity : (low, high)
+        Reflectivity of a person's trousers at the laser's height, drawn per person log-uniformly in ``[low,
+        high]`` (black cloth about 0.03-0.08, jeans 0.1-0.2, light trousers 0.3-0.5); it matters only to a laser
+        with ``range_at_10pct`` (:mod:`evaluation.scenarios.scan.returns`).
     shuffle_sd, shuffle_rate : float
         Standing people sway around their spot (sd, m) and shift it by 0.1-0.4 m ``shuffle_rate`` times a second.
     gait : GaitParams
@@ -332,6 +342,7 @@ class PeopleConfig:
     queues: tuple[tuple[float, ...], ...] = ()
     shuffle_sd: float = 0.08
     shuffle_rate: float = 0.25
+    reflectivity: tuple[float, float] = (0.03, 0.5)
     gait: GaitParams = field(default_factory=GaitParams)
 
     def __post_init__(self) -> None:
@@ -370,6 +381,12 @@ class PeopleConfig:
         object.__setattr__(self, "offset", tuple(check_number(v, "PeopleConfig.offset") for v in self.offset))
         if not isinstance(self.gait, GaitParams):
             raise TypeError("PeopleConfig.gait must be a GaitParams")
+        if len(self.reflectivity) != 2:
+            raise ValueError("PeopleConfig.reflectivity must be [low, high]")
+        lo_r, hi_r = (check_number(v, "PeopleConfig.reflectivity") for v in self.reflectivity)
+        if not 0.0 < lo_r <= hi_r <= 1.0:
+            raise ValueError(f"PeopleConfig.reflectivity must satisfy 0 < low <= high <= 1, got {self.reflectivity}")
+        object.__setattr__(self, "reflectivity", (lo_r, hi_r))
         object.__setattr__(self, "groups", _rows(self.groups, 5, "PeopleConfig.groups"))
         object.__setattr__(self, "queues", _rows(self.queues, 6, "PeopleConfig.queues"))
         for name, rows, n_col in (("groups", self.groups, 2), ("queues", self.queues, 3)):
@@ -414,6 +431,8 @@ class SceneConfig:
         Table leg rectangle (m); ``table_leg_radius`` its legs' radius (m).
     robot, odometry, lasers, people
         See :class:`RobotRoute`, :class:`OdometryNoise`, :class:`LaserConfig`, :class:`PeopleConfig`.
+    static_reflectivity : float
+        Reflectivity of the walls and furniture (0-1; :mod:`evaluation.scenarios.scan.returns`).
     base_frame, odom_frame : str
         Frame names of the robot body and the odometry origin.
     start_ns : int
@@ -438,6 +457,7 @@ class SceneConfig:
     odometry: OdometryNoise = field(default_factory=OdometryNoise)
     lasers: tuple[LaserConfig, ...] = (LaserConfig(),)
     people: PeopleConfig = field(default_factory=PeopleConfig)
+    static_reflectivity: float = 0.5
     base_frame: str = "base_link"
     odom_frame: str = "odom"
     start_ns: int = 1_600_000_000 * 10**9
@@ -464,6 +484,8 @@ class SceneConfig:
             raise ValueError("SceneConfig.table_size must be [length, width]")
         for v in self.table_size:
             check_positive(v, "SceneConfig.table_size")
+        if not 0.0 < check_number(self.static_reflectivity, "SceneConfig.static_reflectivity") <= 1.0:
+            raise ValueError(f"SceneConfig.static_reflectivity must be in (0, 1], got {self.static_reflectivity!r}")
         if not self.lasers:
             raise ValueError("SceneConfig.lasers must hold at least one laser")
         for name, cls in (("robot", RobotRoute), ("odometry", OdometryNoise), ("people", PeopleConfig)):

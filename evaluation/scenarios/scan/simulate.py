@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from evaluation.scenarios.scan.gait import leg_positions
 from evaluation.scenarios.scan.people import scene_tracks
 from evaluation.scenarios.scan.raycast import beam_angles, cast_rays, measure_ranges
+from evaluation.scenarios.scan.returns import incidence_cosines, return_probability
 from evaluation.scenarios.scan.route import drive_route, interpolate_poses, odometry_from_controls
 from evaluation.scenarios.scan.scene import LaserConfig, SceneConfig, load_scene
 from evaluation.scenarios.tracks import sample_tracks
@@ -137,6 +138,27 @@ class SceneSim:
         return int(self.lasers[0].times.size)
 
 
+def _lost_returns(
+    true_r: NDArray[np.float64],
+    hit: NDArray[np.int64],
+    person_of_beam: NDArray[np.int64],
+    person_rho: NDArray[np.float64],
+    circles: NDArray[np.float64],
+    segments: NDArray[np.float64],
+    angles: NDArray[np.float64],
+    reflectivity: tuple[float, float],
+    rng: np.random.Generator,
+) -> NDArray[np.float64]:
+    """The true ranges with the hits that return no echo set to ``inf`` (:mod:`evaluation.scenarios.scan.returns`:
+    each person's reflectivity, the walls' and furniture's, the range and the angle of incidence);
+    ``reflectivity`` is ``(the laser's range_at_10pct, the static surfaces' reflectivity)``."""
+    r10, static_rho = reflectivity
+    rho = np.where(person_of_beam >= 0, person_rho[np.maximum(person_of_beam, 0)], static_rho)
+    cos_inc = incidence_cosines(np.cos(angles), np.sin(angles), true_r, hit, circles, segments)
+    p = return_probability(rho, cos_inc, true_r, r10)
+    return np.where(rng.random(true_r.size) < p, true_r, np.inf)
+
+
 def _legs_at_many(legs: NDArray[np.float64], dt: float, t: NDArray[np.float64]) -> NDArray[np.float64]:
     """Legs ``(T, P, 2, 2)`` at times ``t`` ``(T,)`` by linear interpolation of the step grid ``legs``."""
     u = np.asarray(t, dtype=float) / dt
@@ -182,8 +204,9 @@ def simulate_scene(
     if frames is not None:
         cfg = replace(cfg, frames=frames)
     seed = cfg.seed if seed is None else seed
-    r_robot, r_odom, r_people, r_gait, r_laser = (
-        np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(5)
+    # a sixth stream for the returns model: the five others draw as in scenes without it
+    r_robot, r_odom, r_people, r_gait, r_laser, r_return = (
+        np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(6)
     )
     las0 = cfg.lasers[0]
     n_frames = cfg.n_frames
@@ -198,6 +221,8 @@ def simulate_scene(
     n_people = ids.size
     legs = np.full((n_steps, n_people, 2, 2), np.nan)
     radii = np.zeros(n_people)
+    lo_r, hi_r = cfg.people.reflectivity
+    person_rho = np.exp(r_return.uniform(math.log(lo_r), math.log(hi_r), size=n_people))
     for p, tr in enumerate(tracks):
         radius, width, phase = cfg.people.gait.draw_person(r_gait)
         radii[p] = radius
@@ -264,6 +289,12 @@ def simulate_scene(
             n_circ = int(ok.sum())
             owners = np.append(c_owner[ok], -1)  # index n_circ: no circle
             person_of_beam = owners[np.where((hit >= 0) & (hit < n_circ), hit, n_circ)]
+            if las.range_at_10pct > 0:
+                circ_xyr = np.column_stack((local_c[ok], c_radius[ok]))
+                refl = (las.range_at_10pct, cfg.static_reflectivity)
+                true_r = _lost_returns(
+                    true_r, hit, person_of_beam, person_rho, circ_xyr, local_s, angles, refl, r_return
+                )
             meas = measure_ranges(
                 true_r,
                 range_min=las.range_min,

@@ -5,6 +5,7 @@ Examples::
     pfpeople inspect my.bag                              # topics, rates, TF tree, lasers, odometry
     pfpeople inspect my_ros2_bag/ --json                 # the same as JSON
     pfpeople inspect my.bag --write-config my.toml       # then: pfpeople run my.bag --config my.toml
+    pfpeople inspect my.bag --write-config my.toml --opt-in   # with the learned detector active
 
 See :mod:`pfpeople.io.bag.inspect` for what is measured and how the configuration is chosen.
 """
@@ -38,7 +39,7 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(format_report(report))
     if path is not None:
-        path.write_text(starter_config(report, driver=args.driver))
+        path.write_text(starter_config(report, driver=args.driver, opt_in=args.opt_in))
         bag_arg, cfg_arg = shlex.quote(str(args.bag)), shlex.quote(str(path))  # a command to paste into a shell
         print(f"wrote {path}: run it with  pfpeople run {bag_arg} --config {cfg_arg}", file=sys.stderr)
     return 0
@@ -61,6 +62,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.add_argument("--write-config", metavar="FILE", help="write a starter TOML run config for 'pfpeople run'")
     p.add_argument("--driver", help="LaserScan topic for the config (default: the one with the most messages)")
+    p.add_argument(
+        "--opt-in",
+        action="store_true",
+        help="write the opt-in detectors (the learned detector) active, not commented out, where they suit a laser",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace an existing --write-config file")
     p.add_argument("--sample", type=int, default=200, help="messages decoded per topic (default: %(default)s)")
     p.set_defaults(func=_run)

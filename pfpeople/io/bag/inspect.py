@@ -28,15 +28,17 @@ radians where a configuration needs them.
 - ``[odometry] topic``: the ``nav_msgs/Odometry`` topic with the most messages, when one exists; then
   ``base_frame`` is its child frame, and when no TF connects it to the laser a ``[mounts]`` entry places the
   laser at the base origin (flagged in a comment and in the report's warnings: measure it).
-- on every LaserScan topic the three detectors of :data:`LASER_DETECTORS`: ``laser_legs`` (kind ``leg``),
-  ``laser_boosted`` (kind ``boosted``) and ``laser_single_legs`` (kind ``single-legs``), so named on the driver
+- on every LaserScan topic the detectors of :data:`LASER_DETECTORS`: ``laser_legs`` (kind ``leg``),
+  ``laser_boosted`` (kind ``boosted``), ``laser_single_legs`` (kind ``single-legs``), so named on the driver
   and ``NAME_TOPIC`` on the others (:func:`laser_detector_name`: ``laser_legs_rear_scan``; valid ROS names, so a
   result bag's detection topics keep them), each with
   ``[detectors.model] fov_min, fov_max, max_range`` from its scan (radians, metres). The run places each laser
   by TF (its mount in the grid frame, :mod:`pfpeople.pipeline.sensor_setup`); a laser that TF does not connect to the
   driver's frame gets a ``[mounts]`` entry at the base origin, facing forward (on the root of its TF tree, and
   the driver's too unless TF connects that to the base frame), flagged "NO TF connects ...: measure it" in a
-  comment and in the report's warnings (leg_tracker's negative_2: three lasers, no TF).
+  comment and in the report's warnings (leg_tracker's negative_2: three lasers, no TF). After them, commented out
+  (active with ``opt_in``), the :data:`OPT_IN_DETECTORS` (``laser_learned``, kind ``learned``) where the laser's
+  beams are spaced like those its model was trained on (:func:`laser_suits`), else a comment saying why not.
 - no ``[filter]`` and no ``[grid]`` table: the product's defaults apply.
 """
 
@@ -50,6 +52,7 @@ import statistics
 import textwrap
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +63,7 @@ from pfpeople.io.jsonio import json_safe
 
 __all__ = [
     "LASER_DETECTORS",
+    "OPT_IN_DETECTORS",
     "RECORD_BURST_RATIO",
     "SYNC_TOLERANCE_S",
     "TIME_SOURCE_THRESHOLD_S",
@@ -72,6 +76,7 @@ __all__ = [
     "inspect_bag",
     "inspect_path",
     "laser_detector_name",
+    "laser_suits",
     "starter_config",
 ]
 
@@ -562,55 +567,69 @@ def _fmt(v: float | None, spec: str = ".2f") -> str:
     return "-" if v is None else format(v, spec)
 
 
-def format_report(report: BagReport) -> str:
-    """The report as human-readable text (tables)."""
-    lines = [
-        f"bag: {report.bag} ({report.storage})",
-        f"time span: {report.duration_s:.3f} s (record times {report.start_ns} .. {report.end_ns} ns)",
-        "",
-    ]
-    # the name and type columns as wide as their longest entry (at least the usual 32 and 36), so rows align
+def _topic_lines(report: BagReport) -> list[str]:
+    """The topic table, its name and type columns as wide as their longest entry (at least 32 and 36)."""
     wt = max([32, *(len(t.topic) for t in report.topics)])
     wy = max([36, *(len(t.msgtype) for t in report.topics)])
     head = f"{'count':>7} {'rate Hz':>8} {'hdr Hz':>8} {'hdr-rec s':>10}  frame ids"
-    lines.append(f"{'topic':<{wt}} {'type':<{wy}} {head}")
+    lines = [f"{'topic':<{wt}} {'type':<{wy}} {head}"]
     for t in report.topics:
         ids = ", ".join(t.frame_ids) if t.frame_ids else "(no header)"
         lines.append(
             f"{t.topic:<{wt}} {t.msgtype:<{wy}} {t.count:>7} {_fmt(t.rate_hz):>8} {_fmt(t.header_rate_hz):>8} "
             f"{_fmt(t.header_offset_s, '.3f'):>10}  {ids}"
         )
-    lines.append("")
-    if report.tf:
-        lines.append("TF tree (2-D: x, y in m, yaw in deg; latest transform per edge):")
-        for e in report.tf:
-            kind = "static" if e.static else f"dynamic, {e.count} msgs"
-            lines.append(f"  {e.parent} -> {e.child}: x={e.x:.3f} y={e.y:.3f} yaw={math.degrees(e.yaw):.1f} ({kind})")
-    else:
-        lines.append("TF: none (no /tf or /tf_static messages)")
-    lines.append("")
-    for li in report.lasers:
-        sign = {1: "+ (CCW)", -1: "- (CW: reversed or upside down)", 0: "0"}[li.increment_sign]
-        mount = (
-            f"; in base: x={li.mount_in_base[0]:.3f} y={li.mount_in_base[1]:.3f} "
-            f"yaw={math.degrees(li.mount_in_base[2]):.1f} deg"
-            if li.mount_in_base is not None
-            else ""
-        )
-        if li.topic != report.driver and li.mount_in_driver is not None:
-            x, y, yaw = li.mount_in_driver
-            mount += f"; in the driver's frame: x={x:.3f} y={y:.3f} yaw={math.degrees(yaw):.1f} deg"
-        elif li.topic != report.driver:
-            mount += "; NO TF to the driver's frame"
-        if li.sync_gap_s is not None:
-            mount += f"; {li.sync_gap_s:.3f} s from the driver's scans (95th percentile)"
-        lines.append(
-            f"LaserScan {li.topic} (frame {li.frame_id or '?'}): FOV {li.angle_min_deg:.1f} .. "
-            f"{li.angle_max_deg:.1f} deg, {li.beams} beams, increment {li.angle_increment_deg:.4f} deg "
-            f"[sign {sign}], range {li.range_min_m:g} .. {li.range_max_m:g} m"
-            + (" [geometry varies]" if li.varies else "")
-            + mount
-        )
+    return lines
+
+
+def _tf_lines(report: BagReport) -> list[str]:
+    """The TF tree, an edge a line."""
+    if not report.tf:
+        return ["TF: none (no /tf or /tf_static messages)"]
+    lines = ["TF tree (2-D: x, y in m, yaw in deg; latest transform per edge):"]
+    for e in report.tf:
+        kind = "static" if e.static else f"dynamic, {e.count} msgs"
+        lines.append(f"  {e.parent} -> {e.child}: x={e.x:.3f} y={e.y:.3f} yaw={math.degrees(e.yaw):.1f} ({kind})")
+    return lines
+
+
+def _laser_line(li: LaserInfo, driver: str | None) -> str:
+    """One LaserScan topic's geometry and placement."""
+    sign = {1: "+ (CCW)", -1: "- (CW: reversed or upside down)", 0: "0"}[li.increment_sign]
+    mount = (
+        f"; in base: x={li.mount_in_base[0]:.3f} y={li.mount_in_base[1]:.3f} "
+        f"yaw={math.degrees(li.mount_in_base[2]):.1f} deg"
+        if li.mount_in_base is not None
+        else ""
+    )
+    if li.topic != driver and li.mount_in_driver is not None:
+        x, y, yaw = li.mount_in_driver
+        mount += f"; in the driver's frame: x={x:.3f} y={y:.3f} yaw={math.degrees(yaw):.1f} deg"
+    elif li.topic != driver:
+        mount += "; NO TF to the driver's frame"
+    if li.sync_gap_s is not None:
+        mount += f"; {li.sync_gap_s:.3f} s from the driver's scans (95th percentile)"
+    return (
+        f"LaserScan {li.topic} (frame {li.frame_id or '?'}): FOV {li.angle_min_deg:.1f} .. "
+        f"{li.angle_max_deg:.1f} deg, {li.beams} beams, increment {li.angle_increment_deg:.4f} deg "
+        f"[sign {sign}], range {li.range_min_m:g} .. {li.range_max_m:g} m"
+        + (" [geometry varies]" if li.varies else "")
+        + mount
+    )
+
+
+def format_report(report: BagReport) -> str:
+    """The report as human-readable text (tables)."""
+    lines = [
+        f"bag: {report.bag} ({report.storage})",
+        f"time span: {report.duration_s:.3f} s (record times {report.start_ns} .. {report.end_ns} ns)",
+        "",
+        *_topic_lines(report),
+        "",
+        *_tf_lines(report),
+        "",
+        *(_laser_line(li, report.driver) for li in report.lasers),
+    ]
     if not report.lasers:
         lines.append("LaserScan: none")
     for o in report.odometry:
@@ -637,8 +656,38 @@ LASER_DETECTORS: tuple[tuple[str, str, str], ...] = (
     ("laser_single_legs", "single-legs", "single legs the boosted classifier cannot pair, a detector of their own"),
 )
 
+#: Detectors a starter configuration offers commented out (opt-in), where the laser suits them
+#: (:func:`laser_suits`): the learned detector finds more of the people with few returns on them but, in clutter
+#: unlike its training data, false people the default must not have (docs/learned_detector.md).
+OPT_IN_DETECTORS: tuple[tuple[str, str, str], ...] = (("laser_learned", "learned", "learned whole-scan detector"),)
 
-def starter_config(report: BagReport, *, driver: str | None = None) -> str:
+
+def _trained_resolutions() -> tuple[float, float]:
+    """The smallest and largest angle between beams (deg) of the lasers the shipped learned model was trained on
+    (its model card's ``lasers``, read as a file: the detectors are not imported here)."""
+    card = json.loads(resources.files("pfpeople.models").joinpath("learned_people.json").read_text(encoding="utf-8"))
+    res = [float(e["resolution_deg"]) for e in card.get("lasers", []) if "resolution_deg" in e]
+    if not res:
+        raise ValueError("the shipped learned model's card lists no lasers (resolution_deg)")
+    return min(res), max(res)
+
+
+def laser_suits(kind: str, li: LaserInfo) -> str:
+    """Why a detector ``kind`` does not suit the laser ``li`` ("" when it does): the learned detector needs beams as
+    far apart as those its shipped model was trained on (its model card's ``lasers``, within a factor 1.5)."""
+    if kind != "learned":
+        return ""
+    lo, hi = _trained_resolutions()
+    res = abs(li.angle_increment_deg)
+    if lo / 1.5 <= res <= hi * 1.5:
+        return ""
+    return (
+        f"its beams are {res:.3f} deg apart; the shipped model was trained on {lo:.2f}-{hi:.2f} deg "
+        "(pfpeople train-detector --kind learned trains one for this laser)"
+    )
+
+
+def starter_config(report: BagReport, *, driver: str | None = None, opt_in: bool = False) -> str:
     """TOML text of a starter run configuration for the inspected bag (see the module docstring).
 
     Every LaserScan topic gets the detectors of :data:`LASER_DETECTORS`: the driver's named as listed, each
@@ -652,6 +701,8 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
         From :func:`inspect_bag`.
     driver : str, optional
         LaserScan topic to drive the frames (default: ``report.driver``).
+    opt_in : bool
+        Write the :data:`OPT_IN_DETECTORS` that suit a laser active rather than commented out.
 
     Returns
     -------
@@ -686,7 +737,7 @@ def starter_config(report: BagReport, *, driver: str | None = None) -> str:
         *_mounts_lines(report, mounts),
     ]
     for li in order:
-        out += _laser_detector_lines(report, li, order[0], tf, li.frame_id in mounts)
+        out += _laser_detector_lines(report, li, order[0], tf, li.frame_id in mounts, opt_in)
     if report.warnings:
         out += ["", "# Warnings from inspect:"] + [f"#   {w}" for w in report.warnings]
     return "\n".join(out) + "\n"
@@ -861,8 +912,11 @@ def laser_detector_name(name: str, topic: str, driver: str) -> str:
     return name if topic == driver else f"{name}_{re.sub(r'[^A-Za-z0-9_]', '_', topic.lstrip('/'))}"
 
 
-def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: TfBuffer, assumed: bool) -> list[str]:
-    """The :data:`LASER_DETECTORS` of one laser, after a comment on where the run places it."""
+def _laser_detector_lines(
+    report: BagReport, li: LaserInfo, drv: LaserInfo, tf: TfBuffer, assumed: bool, opt_in: bool
+) -> list[str]:
+    """The :data:`LASER_DETECTORS` of one laser, after a comment on where the run places it, and its
+    :data:`OPT_IN_DETECTORS` (commented out unless ``opt_in``)."""
     out = [""]
     if li.topic == drv.topic:
         where = "on the driving scan"
@@ -883,16 +937,33 @@ def _laser_detector_lines(report: BagReport, li: LaserInfo, drv: LaserInfo, tf: 
             ]
     model = _model_lines(li)
     for name, kind, what in LASER_DETECTORS:
-        out += [
-            "[[detectors]]",
-            f"# Built-in {what} {where}.",
-            f"name = {_q(laser_detector_name(name, li.topic, drv.topic))}",
-            f"kind = {_q(kind)}",
-            f"topic = {_q(li.topic)}",
-            *model,
-            "",
-        ]
+        out += [*_detector_block(name, kind, f"# Built-in {what} {where}.", li, drv.topic, model), ""]
+    for name, kind, what in OPT_IN_DETECTORS:
+        full = laser_detector_name(name, li.topic, drv.topic)
+        why_not = laser_suits(kind, li)
+        if why_not:
+            out += [f"# {full} ({kind}, opt-in) does not suit this laser: {why_not}.", ""]
+            continue
+        if opt_in:
+            note = f"# Opt-in (written by --opt-in): the {what} {where} (docs/learned_detector.md)."
+            out += [*_detector_block(name, kind, note, li, drv.topic, model), ""]
+            continue
+        note = f"# Opt-in, uncomment to fuse it: the {what} {where} (docs/learned_detector.md)."
+        block = _detector_block(name, kind, note, li, drv.topic, model)
+        out += [block[1], *(f"# {line}" for line in block[:1] + block[2:]), ""]
     return out[:-1]
+
+
+def _detector_block(name: str, kind: str, note: str, li: LaserInfo, driver: str, model: list[str]) -> list[str]:
+    """The ``[[detectors]]`` table of a detector ``kind`` on the laser ``li``, after its comment line ``note``."""
+    return [
+        "[[detectors]]",
+        note,
+        f"name = {_q(laser_detector_name(name, li.topic, driver))}",
+        f"kind = {_q(kind)}",
+        f"topic = {_q(li.topic)}",
+        *model,
+    ]
 
 
 def inspect_path(path: str | Path | Sequence[str | Path], *, sample: int = 200) -> BagReport:

@@ -22,7 +22,9 @@ from pfpeople.detect.adapters import (
     BoostedAdapter,
     EmptyInputError,
     HogAdapter,
+    LearnedAdapter,
     LegAdapter,
+    MotionAdapter,
     SingleLegAdapter,
     TopicAdapter,
     adapter_factory,
@@ -81,13 +83,15 @@ def test_registry_has_one_adapter_per_builtin_kind() -> None:
         "leg": LegAdapter,
         "boosted": BoostedAdapter,
         "single-legs": SingleLegAdapter,
+        "learned": LearnedAdapter,
+        "motion": MotionAdapter,
         "hog": HogAdapter,
         "topic": TopicAdapter,
     }
-    lasers = (LegAdapter.laser, BoostedAdapter.laser, SingleLegAdapter.laser, HogAdapter.laser, TopicAdapter.laser)
-    assert lasers == (True, True, True, False, False)
+    lasers = tuple(a.laser for a in ADAPTERS.values())
+    assert lasers == (True, True, True, True, True, False, False)
     assert adapter_factory("leg", {"leg": TopicAdapter}) is TopicAdapter
-    registered = r"\['boosted', 'hog', 'leg', 'single-legs', 'topic'\]"
+    registered = r"\['boosted', 'hog', 'learned', 'leg', 'motion', 'single-legs', 'topic'\]"
     with pytest.raises(ValueError, match=r"no detector adapter for kind 'radar'; registered: " + registered):
         adapter_factory("radar")
 

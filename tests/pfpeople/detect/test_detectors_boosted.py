@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from evaluation.scenarios.scan.scene import builtin_scan_scenes
+from evaluation.scenarios.scan.training_scenes import BOOSTED_TRAINING_SCENES
 from gridbridge.params import CALIBRATED_LASER_DETECTORS
 from pfpeople.cli import main as pfpeople_main
 from pfpeople.detect.boosted import BoostedSegmentDetector, default_model_path
@@ -56,7 +56,7 @@ def test_shipped_model_loads_with_sidecar() -> None:
     assert 0.5 < pooled["recall"] < 0.9 and 0.3 < pooled["f1"] < 0.7
     assert det.model == CALIBRATED_LASER_DETECTORS[1]
     # and the simulated scenes of `make model`, weighed as much as the labelled legs with their noisy copies
-    assert [d["file"] for d in side["people_data"][::2]] == [f"{s}/{s}.bag" for s in sorted(builtin_scan_scenes())]
+    assert [d["file"] for d in side["people_data"][::2]] == [f"{s}/{s}.bag" for s in BOOSTED_TRAINING_SCENES]
     people = side["counts"]["people_bags"]
     n_real = side["counts"]["train"]["positives"] * (1 + len(side["params"]["augment_noise"]))
     assert abs(people["kept_positives"] - n_real) <= 0.05 * n_real < people["positives"]

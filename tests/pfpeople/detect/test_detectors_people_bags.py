@@ -91,10 +91,10 @@ def test_train_detector_with_people_bags(shared_data: Path, sim_bags: Path, tmp_
 
 
 def test_the_makefile_trains_on_the_training_scenes() -> None:
-    """``make model`` simulates the scenes and seed that the benchmark's held-out models are trained on."""
-    from evaluation.scenarios.scan.scene import builtin_scan_scenes
+    """``make model`` simulates the scenes and seed that the benchmark's held-out boosted models are trained on."""
+    from evaluation.scenarios.scan.training_scenes import BOOSTED_TRAINING_SCENES
 
     text = (Path(__file__).resolve().parents[3] / "Makefile").read_text(encoding="utf-8")
-    recipe = text[text.index("\nmodel:") : text.index("\nclean:")]
-    assert f"for s in {' '.join(sorted(builtin_scan_scenes()))};" in recipe
+    recipe = text[text.index("\nmodel-boosted:") : text.index("\nmodel-learned:")]
+    assert f"for s in {' '.join(BOOSTED_TRAINING_SCENES)};" in recipe
     assert f"--seed {TRAINING_SEED} " in recipe and "--people-bags build/sim-train" in recipe

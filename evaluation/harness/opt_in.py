@@ -1,0 +1,222 @@
+"""What the opt-in detectors add to a run: each scene run twice, as ``pfpeople inspect --write-config`` configures
+it and as ``pfpeople inspect --write-config --opt-in`` does (the learned detector fused too), and the two runs'
+reported people scored against the same ground truth.
+
+Scenes: the scan-level scenes (simulated at a seed; their people with three or more returns on them, the "seen"
+people, in the run's grid: :func:`evaluation.harness.detector_ap.run_frames`), ``positive_bags`` (leg_tracker's six
+labelled bags, leave one bag out, pooled: :func:`positive_rows`) and ``negative_2:all`` (leg_tracker's bag with
+nobody in it, its three lasers in one run: false people per scan; the shipped learned model was trained on it).
+
+Usage::
+
+    python -m evaluation.harness.opt_in --seed 0    # every scan-level scene, the labelled bags and negative_2
+    python -m evaluation.harness.opt_in --scenes scan:lobby --seed 1  # one scene
+
+A row's recall and precision count every person the run reported; AP0.5 ranks them by their belief.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from evaluation.harness.detector_ap import grid_box, rows_from_frames, run_frames
+from pfpeople.detect.learned.samples import LabelledScan, Region, simulated_scans
+from pfpeople.detect.precision_recall import ScoredFrame, pr_curve
+
+__all__ = ["CONFIGS", "OptInRow", "format_opt_in_rows", "negative_row", "opt_in_rows", "positive_rows", "scan_rows"]
+
+#: The two configurations compared: the starter config and the starter config with its opt-in detectors active.
+CONFIGS = ("starter", "starter --opt-in")
+#: The scan-level scenes compared by default.
+SCAN_SCENES = ("scan:lobby", "scan:wheelchair", "scan:hall", "scan:corridor", "scan:crowd")
+
+
+@dataclass(frozen=True)
+class OptInRow:
+    """One run's reported people scored: ``recall`` / ``precision`` of every reported person (matched within 0.5 m;
+    NaN without people), ``ap_05`` ranked by belief, ``recall_standing`` / ``recall_walking`` (below / above
+    0.3 m/s), ``false_per_scan`` (reported people matched to nobody, per scan)."""
+
+    scene: str
+    config: str
+    frames: int
+    ap_05: float
+    recall: float
+    precision: float
+    recall_standing: float
+    recall_walking: float
+    false_per_scan: float
+
+
+def _config_text(bag: Path, opt_in: bool) -> str:
+    from pfpeople.io.bag.inspect import inspect_path, starter_config
+
+    return starter_config(inspect_path(bag), opt_in=opt_in)
+
+
+def _run(bag: Path, text: str, out: Path, frames: int | None = None) -> Path:
+    """Run ``bag`` with the configuration ``text`` (written beside ``out``) into the run directory ``out``."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    cfg = out.with_suffix(".toml")
+    cfg.write_text(text, encoding="utf-8")
+    return _run_config(bag, cfg, out, frames)
+
+
+def _run_config(bag: Path, config: Any, out: Path, frames: int | None) -> Path:
+    """Run ``bag`` with ``config`` (a :class:`~pfpeople.config.BagConfig` or its file) into ``out``."""
+    from pfpeople.pipeline.bag_run import run_bag
+
+    run_bag(bag, config, out_dir=out, overwrite=True, max_frames=frames)
+    return out
+
+
+def _row(scene: str, config: str, scored: Sequence[ScoredFrame], scans: Sequence[LabelledScan]) -> OptInRow:
+    """A run's reported people ``scored`` against the people of ``scans`` (module docstring)."""
+    ap = rows_from_frames(scene, config, scored, scans, threshold=-math.inf)
+    curve = pr_curve(scored, 0.5)
+    last = curve.recall.size > 0
+    return OptInRow(
+        scene=scene,
+        config=config,
+        frames=len(scans),
+        ap_05=ap.ap_05,
+        recall=float(curve.recall[-1]) if last else math.nan,
+        precision=float(curve.precision[-1]) if last else math.nan,
+        recall_standing=ap.recall_standing,
+        recall_walking=ap.recall_walking,
+        false_per_scan=ap.false_per_scan,
+    )
+
+
+def scan_rows(scene: str, work: Path, *, seed: int, frames: int | None = None) -> list[OptInRow]:
+    """The two rows (:data:`CONFIGS`) of a scan-level scene (``scan:NAME``) simulated at ``seed`` into ``work``."""
+    from evaluation.scenarios.scan import write_scene_bag
+
+    name = scene.split(":", 1)[1]
+    sb = write_scene_bag(name, work / f"{name}_{seed}", seed=seed, frames=frames, overwrite=True)
+    rows = []
+    for config in CONFIGS:
+        run = _run(sb.bag, _config_text(sb.bag, config != CONFIGS[0]), work / f"{name}_{seed}_{_slug(config)}")
+        box = grid_box(run)
+        scans = [dataclasses.replace(s, region=Region(box=box)) for s in simulated_scans(sb.bag, sb.gt_csv)]
+        rows.append(_row(scene, config, run_frames(run, scans), scans))
+    return rows
+
+
+def negative_row(bag: Path, work: Path, config: str) -> OptInRow:
+    """``negative_2:all`` (nobody there) run with ``config`` (one of :data:`CONFIGS`): false people per scan."""
+    run = _run(bag, _config_text(bag, config != CONFIGS[0]), work / f"negative_2_{_slug(config)}")
+    with (run / "people.csv").open(newline="", encoding="utf-8") as fh:
+        people = sum(1 for _ in csv.DictReader(fh))
+    with (run / "frames.csv").open(newline="", encoding="utf-8") as fh:
+        frames = sum(1 for _ in csv.DictReader(fh))
+    nan = math.nan
+    return OptInRow("negative_2:all", config, frames, nan, nan, nan, nan, nan, people / max(frames, 1))
+
+
+def positive_rows(leg: Path, work: Path, *, frames: int | None = None) -> list[OptInRow]:
+    """The two rows of leg_tracker's labelled bags (``positive_bags``), leave one bag out and pooled, as the
+    benchmark scores them: each bag run with the boosted model trained without it
+    (:func:`evaluation.harness.benchmark.boosted_model_without`) and, opted in, the learned detector's fold model
+    that did not see it (:func:`evaluation.harness.benchmark_ap.fold_model_path`); scored in the labelling box."""
+    from evaluation.harness.benchmark import POSITIVE_BAGS, boosted_model_without
+    from evaluation.harness.benchmark_ap import fold_model_path
+    from pfpeople.config import load_config
+    from pfpeople.detect.learned.samples import positive_bag_scans
+
+    present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
+    if not present:
+        raise FileNotFoundError(f"scene positive_bags: no positive_<k>_extracted.bag in {leg}")
+    models = {k: boosted_model_without(leg, work, k, present) for k in present}
+    rows = []
+    for config in CONFIGS:
+        frames_all, scans_all = [], []
+        for k in present:
+            bag, held = leg / f"positive_{k}_extracted.bag", f"positive_{k}"
+            cfg = work / f"{held}_{_slug(config)}.toml"
+            cfg.write_text(_config_text(bag, config != CONFIGS[0]), encoding="utf-8")
+            held_out = {"boosted": models[k], "single-legs": models[k], "learned": fold_model_path(held)}
+            loaded = load_config(cfg)
+            dets = tuple(
+                dataclasses.replace(d, params={**dict(d.params), "model_path": str(held_out[d.kind])})
+                if d.kind in held_out
+                else d
+                for d in loaded.detectors
+            )
+            run = _run_config(bag, dataclasses.replace(loaded, detectors=dets), cfg.with_suffix(""), frames)
+            scans = positive_bag_scans(bag, source=held)[:frames]
+            frames_all += run_frames(run, scans)
+            scans_all += scans
+        rows.append(_row("positive_bags (all)", config, frames_all, scans_all))
+    return rows
+
+
+def opt_in_rows(
+    scenes: Sequence[str], work: Path, *, seed: int, data: Path, frames: int | None = None
+) -> list[OptInRow]:
+    """The rows of every scene (``scan:NAME`` or ``negative_2``; ``data`` holds ``leg_tracker/negative_2.bag``)."""
+    rows: list[OptInRow] = []
+    for scene in scenes:
+        if scene.startswith("scan:"):
+            rows += scan_rows(scene, work, seed=seed, frames=frames)
+        elif scene == "positive_bags":
+            rows += positive_rows(data / "leg_tracker", work, frames=frames)
+        elif scene == "negative_2":
+            bag = data / "leg_tracker" / "negative_2.bag"
+            if not bag.is_file():
+                raise FileNotFoundError(f"scene negative_2: {bag} is absent (--data names the folder of leg_tracker/)")
+            rows += [negative_row(bag, work, c) for c in CONFIGS]
+        else:
+            raise ValueError(f"scene {scene!r}: not a scan-level scene (scan:NAME), positive_bags nor negative_2")
+    return rows
+
+
+def _slug(config: str) -> str:
+    return "opt_in" if config != CONFIGS[0] else "starter"
+
+
+def _f(v: float) -> str:
+    return "-" if math.isnan(v) else f"{v:.3f}"
+
+
+def format_opt_in_rows(rows: Sequence[OptInRow]) -> str:
+    """The table: scene, configuration, frames, AP0.5, recall, precision, standing / walking recall, FP/scan."""
+    head = (
+        f"{'scene':<21}{'config':<19}{'frames':>7}{'AP0.5':>7}{'recall':>8}{'prec.':>7}"
+        f"{'stand':>7}{'walk':>7}{'FP/scan':>8}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r.scene:<21}{r.config:<19}{r.frames:>7}{_f(r.ap_05):>7}{_f(r.recall):>8}{_f(r.precision):>7}"
+            f"{_f(r.recall_standing):>7}{_f(r.recall_walking):>7}{_f(r.false_per_scan):>8}"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m evaluation.harness.opt_in", description=__doc__.split("\n\n")[0])
+    p.add_argument(
+        "--scenes",
+        nargs="+",
+        default=[*SCAN_SCENES, "positive_bags", "negative_2"],
+        help="scan:NAME, positive_bags or negative_2",
+    )
+    p.add_argument("--seed", type=int, default=0, help="simulation seed of the scan-level scenes")
+    p.add_argument("--frames", type=int, default=None, help="simulate only this many frames")
+    p.add_argument("--data", type=Path, default=Path("../shared/data"), help="folder of leg_tracker/")
+    p.add_argument("--work", type=Path, default=Path("/tmp/pfpeople-opt-in"), help="bags and runs go here")
+    args = p.parse_args(argv)
+    print(format_opt_in_rows(opt_in_rows(args.scenes, args.work, seed=args.seed, data=args.data, frames=args.frames)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,212 @@
+"""``pfpeople train-detector --kind learned``: train, evaluate leave-one-bag-out, calibrate and write a model.
+
+:func:`train_learned_from_directory` runs the recipe of :mod:`pfpeople.detect.learned.recipe`: the six folds
+trained and scored on what they hold out, the operating threshold and the PPV / FNR chosen on the pooled held-out
+detections, the final model trained on everything, and the model card (data with SHA-256, folds, figures, the
+lasers it was trained for) written beside its weights (:mod:`pfpeople.detect.learned.model_file`). The same data
+and seed give the same files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gridbridge.params import DetectorModel
+from pfpeople.detect.learned.detector import LearnedPeopleDetector
+from pfpeople.detect.learned.model_file import LearnedModel, save_model, sha256_of
+from pfpeople.detect.learned.recipe import LearnedRecipe, TrainingData, folds, load_training_data, train_model
+from pfpeople.detect.learned.samples import LabelledScan, simulated_scans
+from pfpeople.detect.learned.scoring import calibration, detector_scores, scored_frames
+from pfpeople.detect.learned.weak_labels import weak_labels
+from pfpeople.detect.leg_tracker_bags import iter_scans
+from pfpeople.detect.precision_recall import ScoredFrame
+
+__all__ = ["load_weak_labels", "train_learned_from_directory"]
+
+
+def load_weak_labels(bags: Sequence[tuple[str | Path, str]]) -> tuple[list[LabelledScan], dict[str, Any]]:
+    """Weak labels (:mod:`pfpeople.detect.learned.weak_labels`) of standing lasers' recordings ``(bag, topic)``,
+    and per bag what was found."""
+    scans, report = [], {}
+    for bag, topic in bags:
+        raw = [s for _, s in iter_scans(Path(bag), [topic])]
+        labelled, rep = weak_labels(raw, source=f"weak:{Path(bag).stem}")
+        scans.extend(labelled)
+        report[Path(bag).name] = dataclasses.asdict(rep)
+    return scans, report
+
+
+def _detector(model: LearnedModel) -> LearnedPeopleDetector:
+    return LearnedPeopleDetector.from_model(model, model=DetectorModel(name="laser_learned", ppv=0.5, fnr=0.5))
+
+
+def _fold_row(name: str, pos: list[ScoredFrame], neg: list[ScoredFrame]) -> dict[str, Any]:
+    s = detector_scores(pos)
+    return {
+        "fold": name,
+        "frames": len(pos),
+        "ap_03": s.ap_03,
+        "ap_05": s.ap_05,
+        "recall_at_p90": s.recall_at_p90,
+        "negative_frames": len(neg),
+    }
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class HeldOut:
+    """The leave-one-bag-out folds' results: per-fold rows, their models (by held-out bag), and the pooled
+    held-out frames of the labelled bags and of negative_2."""
+
+    rows: list[dict[str, Any]]
+    models: dict[str, LearnedModel]
+    positive: list[ScoredFrame]
+    negative: list[ScoredFrame]
+
+
+def _leave_one_out(data: TrainingData, recipe: LearnedRecipe, say: Callable[[str], object]) -> HeldOut:
+    """Train and score every fold."""
+    rows, models, pos_all, neg_all = [], {}, [], []
+    for fold in folds(data):
+        say(f"fold {fold.name}: training")
+        model = train_model(fold.train, recipe)
+        pos = scored_frames(_detector(model), fold.test)
+        neg = scored_frames(_detector(model), fold.test_negative)
+        rows.append(_fold_row(fold.name, pos, neg))
+        models[fold.held_out] = model
+        pos_all += pos
+        neg_all += neg
+    return HeldOut(rows=rows, models=models, positive=pos_all, negative=neg_all)
+
+
+def _lasers(data: TrainingData) -> list[dict[str, Any]]:
+    """The laser geometries (beams, field of view, resolution) of the training sources."""
+    seen: dict[tuple[int, float, float], set[str]] = {}
+    groups = [
+        *data.positives.values(),
+        *data.negatives.values(),
+        data.followed,
+        data.weak,
+        data.simulated,
+        data.extra_negatives,
+    ]
+    for scans in groups:
+        for ls in scans:
+            s = ls.scan
+            key = (
+                s.ranges.size,
+                round(float(np.degrees(abs(s.angle_increment)) * (s.ranges.size - 1)), 1),
+                round(float(np.degrees(abs(s.angle_increment))), 3),
+            )
+            seen.setdefault(key, set()).add(ls.source.split(":")[0])
+    return [
+        {"beams": k[0], "fov_deg": k[1], "resolution_deg": k[2], "sources": sorted(v)} for k, v in sorted(seen.items())
+    ]
+
+
+def _files(
+    data_dir: Path, people_bags: Sequence[tuple[str | Path, str | Path]], weak_bags: Sequence[Path]
+) -> list[dict[str, Any]]:
+    paths = sorted(p for p in data_dir.glob("*") if p.suffix in (".bag", ".zip", ".csv"))
+    paths += [Path(b) for pair in people_bags for b in pair] + list(weak_bags)
+    return [{"file": p.name, "bytes": p.stat().st_size, "sha256": sha256_of(p)} for p in paths if p.is_file()]
+
+
+def train_learned_from_directory(
+    data_dir: str | Path,
+    out: str | Path,
+    *,
+    people_bags: Sequence[tuple[str | Path, str | Path]] = (),
+    weak_bags: Sequence[tuple[str | Path, str]] = (),
+    negative_bags: Sequence[tuple[str | Path, str]] = (),
+    calibration_bags: Sequence[tuple[str | Path, str | Path]] = (),
+    recipe: LearnedRecipe | None = None,
+    leave_one_out: bool = True,
+    fold_dir: str | Path | None = None,
+    say: Callable[[str], object] = lambda _m: None,
+) -> dict[str, Any]:
+    """Train the learned detector and write ``out`` (``.npz``) with its model card (``.json``); returns the card.
+
+    The recipe's threshold is the operating threshold; its PPV and FNR are measured
+    (:func:`pfpeople.detect.learned.scoring.calibration`) on the held-out folds (``leave_one_out``) and the
+    ``calibration_bags`` (simulated bags neither trained on nor benchmarked); with neither, the card's calibration
+    holds placeholders (0.5 / 0.5), said so under ``calibration.measured_on``. With ``fold_dir`` the six fold models
+    are written there too (``<stem>_without_positive_<k>.npz``: the benchmark scores each labelled bag with the model
+    that did not see it).
+    """
+    r = recipe if recipe is not None else LearnedRecipe()
+    weak, weak_report = load_weak_labels(weak_bags)
+    say("loading the training data")
+    data = load_training_data(data_dir, people_bags=people_bags, weak=weak, negative_bags=negative_bags)
+    held = _leave_one_out(data, r, say) if leave_one_out else None
+    say("training the final model on all the data")
+    final = train_model(data, r, threshold=r.threshold)
+    calib = [
+        scored_frames(_detector(final), simulated_scans(bag, gt, source=f"calibration:{Path(bag).stem}"))
+        for bag, gt in calibration_bags
+    ]
+    card = _card(final, r, data, weak_report)
+    card.update(_measured(held, calib, r.threshold))
+    own = [Path(b) for b, _ in (*weak_bags, *negative_bags)]
+    card["data"] = _files(Path(data_dir), [*people_bags, *calibration_bags], own)
+    save_model(out, final.network, card)
+    if fold_dir is not None and held is not None:
+        for bag, model in held.models.items():
+            save_model(Path(fold_dir) / f"{Path(out).stem}_without_{bag}.npz", model.network, {**card, "held_out": bag})
+    return card
+
+
+def _measured(held: HeldOut | None, calib: list[list[ScoredFrame]], threshold: float) -> dict[str, Any]:
+    """The card's ``calibration`` and ``leave_one_bag_out`` entries."""
+    scenes = [*calib, *([held.positive] if held is not None else [])]
+    negatives = held.negative if held is not None else []
+    if not scenes:
+        ppv, fnr, on = 0.5, 0.5, "not measured (no held-out folds, no calibration bags): placeholders"
+    else:
+        ppv, fnr = calibration(scenes, negatives, threshold)
+        parts = ["the held-out folds of the labelled bags and negative_2"] if held is not None else []
+        parts += [f"{len(calib)} held-out simulated bag(s)"] if calib else []
+        on = " and ".join(parts) + " (0.5 m; PPV pooled, FNR the mean of the scenes' miss rates)"
+    lobo: dict[str, Any] = {"folds": [], "pooled": {}}
+    if held is not None:
+        s = detector_scores(held.positive)
+        lobo = {
+            "folds": held.rows,
+            "pooled": {
+                "ap_03": s.ap_03,
+                "ap_05": s.ap_05,
+                "recall_at_p90": s.recall_at_p90,
+                "negative_2_false_per_scan": detector_scores(held.negative, threshold=threshold).false_per_scan,
+            },
+        }
+    return {"calibration": {"ppv": ppv, "fnr": fnr, "measured_on": on}, "leave_one_bag_out": lobo}
+
+
+def _card(model: LearnedModel, r: LearnedRecipe, data: TrainingData, weak_report: dict[str, Any]) -> dict[str, Any]:
+    """The model card's description of the model and its data (the figures come from :func:`_measured`)."""
+    return {
+        "cutout": dataclasses.asdict(r.cutout),
+        "past_scans": r.past_scans,
+        "past_step": r.past_step,
+        "motion_input": r.motion_input,
+        "group_radius": r.group_radius,
+        "min_vote": r.min_vote,
+        "threshold": r.threshold,
+        "recipe": r.card(),
+        "scans": {
+            "positive_bags": sum(len(v) for v in data.positives.values()),
+            "negative_2": sum(len(v) for v in data.negatives.values()),
+            "followed": len(data.followed),
+            "weak": len(data.weak),
+            "simulated": len(data.simulated),
+            "own_negatives": len(data.extra_negatives),
+        },
+        "weak_labels": weak_report,
+        "training_rows": model.card.get("rows"),
+        "lasers": _lasers(data),
+    }
