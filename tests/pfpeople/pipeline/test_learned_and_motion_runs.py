@@ -12,6 +12,7 @@ import pytest
 from bag_fixtures import config, write_bag
 
 from gridbridge.geometry import Pose2D
+from pfpeople.cli import main
 from pfpeople.config import DetectorConfig, load_config
 from pfpeople.detect.adapters import LearnedAdapter, MotionAdapter, SensorMotion
 from pfpeople.io.bag.inspect import LASER_DETECTORS, LaserInfo, inspect_path, laser_suits, starter_config
@@ -135,5 +136,6 @@ def test_the_starter_config_offers_the_learned_detector_commented_out(tmp_path: 
     assert [(d.name, d.kind, d.topic) for d in got][-1] == ("laser_learned", "learned", "/scan")
     assert got[-1].model == got[0].model  # the laser's field of view and range, like the others'
     active = tmp_path / "active.toml"  # pfpeople inspect --write-config --opt-in
-    active.write_text(starter_config(inspect_path(bag), opt_in=True))
+    assert main(["inspect", str(bag), "--write-config", str(active), "--opt-in"]) == 0
     assert load_config(active).detectors == got
+    assert "# Opt-in (written by --opt-in): the learned whole-scan detector" in active.read_text()
