@@ -30,7 +30,7 @@ from evaluation.harness.detector_ap import grid_box, rows_from_frames, run_frame
 from pfpeople.detect.learned.samples import LabelledScan, Region, simulated_scans
 from pfpeople.detect.precision_recall import ScoredFrame, pr_curve
 
-__all__ = ["CONFIGS", "OptInRow", "format_opt_in_rows", "negative_row", "opt_in_rows", "positive_rows", "scan_rows"]
+__all__ = ["CONFIGS", "OptInRow", "format_opt_in_rows", "negative_rows", "opt_in_rows", "positive_rows", "scan_rows"]
 
 #: The two configurations compared: the starter config and the starter config with its opt-in detectors active.
 CONFIGS = ("starter", "starter --opt-in")
@@ -55,10 +55,12 @@ class OptInRow:
     false_per_scan: float
 
 
-def _config_text(bag: Path, opt_in: bool) -> str:
+def _config_texts(bag: Path) -> dict[str, str]:
+    """Each configuration of :data:`CONFIGS` for ``bag`` (TOML), from one inspection of it."""
     from pfpeople.io.bag.inspect import inspect_path, starter_config
 
-    return starter_config(inspect_path(bag), opt_in=opt_in)
+    report = inspect_path(bag)
+    return {c: starter_config(report, opt_in=c != CONFIGS[0]) for c in CONFIGS}
 
 
 def _run(bag: Path, text: str, out: Path, frames: int | None = None) -> Path:
@@ -101,24 +103,28 @@ def scan_rows(scene: str, work: Path, *, seed: int, frames: int | None = None) -
 
     name = scene.split(":", 1)[1]
     sb = write_scene_bag(name, work / f"{name}_{seed}", seed=seed, frames=frames, overwrite=True)
+    texts, labelled = _config_texts(sb.bag), simulated_scans(sb.bag, sb.gt_csv)
     rows = []
     for config in CONFIGS:
-        run = _run(sb.bag, _config_text(sb.bag, config != CONFIGS[0]), work / f"{name}_{seed}_{_slug(config)}")
+        run = _run(sb.bag, texts[config], work / f"{name}_{seed}_{_slug(config)}")
         box = grid_box(run)
-        scans = [dataclasses.replace(s, region=Region(box=box)) for s in simulated_scans(sb.bag, sb.gt_csv)]
+        scans = [dataclasses.replace(s, region=Region(box=box)) for s in labelled]
         rows.append(_row(scene, config, run_frames(run, scans), scans))
     return rows
 
 
-def negative_row(bag: Path, work: Path, config: str) -> OptInRow:
-    """``negative_2:all`` (nobody there) run with ``config`` (one of :data:`CONFIGS`): false people per scan."""
-    run = _run(bag, _config_text(bag, config != CONFIGS[0]), work / f"negative_2_{_slug(config)}")
-    with (run / "people.csv").open(newline="", encoding="utf-8") as fh:
-        people = sum(1 for _ in csv.DictReader(fh))
-    with (run / "frames.csv").open(newline="", encoding="utf-8") as fh:
-        frames = sum(1 for _ in csv.DictReader(fh))
-    nan = math.nan
-    return OptInRow("negative_2:all", config, frames, nan, nan, nan, nan, nan, people / max(frames, 1))
+def negative_rows(bag: Path, work: Path) -> list[OptInRow]:
+    """``negative_2:all`` (nobody there) run with each configuration of :data:`CONFIGS`: false people per scan."""
+    rows = []
+    for config, text in _config_texts(bag).items():
+        run = _run(bag, text, work / f"negative_2_{_slug(config)}")
+        with (run / "people.csv").open(newline="", encoding="utf-8") as fh:
+            people = sum(1 for _ in csv.DictReader(fh))
+        with (run / "frames.csv").open(newline="", encoding="utf-8") as fh:
+            frames = sum(1 for _ in csv.DictReader(fh))
+        nan = math.nan
+        rows.append(OptInRow("negative_2:all", config, frames, nan, nan, nan, nan, nan, people / max(frames, 1)))
+    return rows
 
 
 def positive_rows(leg: Path, work: Path, *, frames: int | None = None) -> list[OptInRow]:
@@ -134,15 +140,16 @@ def positive_rows(leg: Path, work: Path, *, frames: int | None = None) -> list[O
     present = [k for k in POSITIVE_BAGS if (leg / f"positive_{k}_extracted.bag").is_file()]
     if not present:
         raise FileNotFoundError(f"scene positive_bags: no positive_<k>_extracted.bag in {leg}")
-    models = {k: boosted_model_without(leg, work, k, present) for k in present}
-    rows = []
-    for config in CONFIGS:
-        frames_all, scans_all = [], []
-        for k in present:
-            bag, held = leg / f"positive_{k}_extracted.bag", f"positive_{k}"
+    frames_by: dict[str, list[ScoredFrame]] = {c: [] for c in CONFIGS}
+    scans_by: dict[str, list[LabelledScan]] = {c: [] for c in CONFIGS}
+    for k in present:
+        bag, held = leg / f"positive_{k}_extracted.bag", f"positive_{k}"
+        boosted = boosted_model_without(leg, work, k, present)
+        held_out = {"boosted": boosted, "single-legs": boosted, "learned": fold_model_path(held)}
+        scans = positive_bag_scans(bag, source=held)[:frames]
+        for config, text in _config_texts(bag).items():
             cfg = work / f"{held}_{_slug(config)}.toml"
-            cfg.write_text(_config_text(bag, config != CONFIGS[0]), encoding="utf-8")
-            held_out = {"boosted": models[k], "single-legs": models[k], "learned": fold_model_path(held)}
+            cfg.write_text(text, encoding="utf-8")
             loaded = load_config(cfg)
             dets = tuple(
                 dataclasses.replace(d, params={**dict(d.params), "model_path": str(held_out[d.kind])})
@@ -151,11 +158,9 @@ def positive_rows(leg: Path, work: Path, *, frames: int | None = None) -> list[O
                 for d in loaded.detectors
             )
             run = _run_config(bag, dataclasses.replace(loaded, detectors=dets), cfg.with_suffix(""), frames)
-            scans = positive_bag_scans(bag, source=held)[:frames]
-            frames_all += run_frames(run, scans)
-            scans_all += scans
-        rows.append(_row("positive_bags (all)", config, frames_all, scans_all))
-    return rows
+            frames_by[config] += run_frames(run, scans)
+            scans_by[config] += scans
+    return [_row("positive_bags (all)", c, frames_by[c], scans_by[c]) for c in CONFIGS]
 
 
 def opt_in_rows(
@@ -172,7 +177,7 @@ def opt_in_rows(
             bag = data / "leg_tracker" / "negative_2.bag"
             if not bag.is_file():
                 raise FileNotFoundError(f"scene negative_2: {bag} is absent (--data names the folder of leg_tracker/)")
-            rows += [negative_row(bag, work, c) for c in CONFIGS]
+            rows += negative_rows(bag, work)
         else:
             raise ValueError(f"scene {scene!r}: not a scan-level scene (scan:NAME), positive_bags nor negative_2")
     return rows

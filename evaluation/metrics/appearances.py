@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from evaluation.metrics.standing_walking import _by_frame, _matched
+from evaluation.metrics.standing_walking import matched_people, run_rows_by_frame
 
-__all__ = ["BINS_S", "AppearanceRow", "appearance_rows", "appearances", "format_appearance_rows"]
+__all__ = ["BINS_S", "Appearance", "AppearanceRow", "appearance_rows", "appearances", "format_appearance_rows"]
 
 #: Duration bins (s): shorter than 1 s, 1-3 s (the short appearances a robot must still report), 3 s and longer.
 BINS_S: tuple[tuple[float, float], ...] = ((0.0, 1.0), (1.0, 3.0), (3.0, float("inf")))
@@ -123,12 +123,12 @@ def appearances(
     run_dir, gt_csv = Path(run_dir), Path(gt_csv)
     grid = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))["grid"]
     truth, stamps = _truth(gt_csv, grid)
-    people = _by_frame(run_dir / "people.csv", ("x_m", "y_m"))
+    people = run_rows_by_frame(run_dir / "people.csv", ("x_m", "y_m"))
     period_s = float(np.median(np.diff(sorted(stamps.values())))) / 1e9 if len(stamps) > 1 else 0.0
     seen_in: dict[int, list[tuple[int, bool]]] = {}  # person -> [(scan, found)]
     for k in sorted(truth):
         t = truth[k]
-        hit = _matched(people.get(k, np.zeros((0, 2))), t, gate)
+        hit = matched_people(people.get(k, np.zeros((0, 2))), t, gate)
         for j in np.flatnonzero(t[:, 3] >= seen_beams):
             seen_in.setdefault(int(t[j, 2]), []).append((k, bool(hit[j])))
     out = []

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["STANDING_MPS", "SUPPRESS_GATE_M", "MotionSplit", "motion_split"]
+__all__ = ["STANDING_MPS", "SUPPRESS_GATE_M", "MotionSplit", "matched_people", "motion_split", "run_rows_by_frame"]
 
 STANDING_MPS = 0.3
 SUPPRESS_GATE_M = 0.3
@@ -56,7 +56,7 @@ class MotionSplit:
     n_true_detections: int
 
 
-def _by_frame(path: Path, cols: tuple[str, ...]) -> dict[int, NDArray[np.float64]]:
+def run_rows_by_frame(path: Path, cols: tuple[str, ...]) -> dict[int, NDArray[np.float64]]:
     """Rows of a run CSV grouped by ``driver_index``: ``{index: (N, len(cols))}``."""
     out: dict[int, list[list[float]]] = {}
     with path.open(newline="", encoding="utf-8") as fh:
@@ -87,7 +87,7 @@ def _truth(gt_csv: Path, grid: dict[str, float]) -> dict[int, NDArray[np.float64
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
-def _matched(found: NDArray[np.float64], truth: NDArray[np.float64], gate: float) -> NDArray[np.bool_]:
+def matched_people(found: NDArray[np.float64], truth: NDArray[np.float64], gate: float) -> NDArray[np.bool_]:
     """Which true people ``(P, >=2)`` are matched one to one by ``found`` ``(M, >=2)`` within ``gate`` (m)."""
     hit = np.zeros(truth.shape[0], dtype=bool)
     if not found.shape[0] or not truth.shape[0]:
@@ -130,12 +130,12 @@ def motion_split(run_dir: str | Path, gt_csv: str | Path, *, gate: float = 0.5, 
     run_dir, gt_csv = Path(run_dir), Path(gt_csv)
     grid = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))["grid"]
     truth = _truth(gt_csv, grid)
-    people = _by_frame(run_dir / "people.csv", ("x_m", "y_m"))
-    dets = _by_frame(run_dir / "detections.csv", ("x_m", "y_m", "static"))
+    people = run_rows_by_frame(run_dir / "people.csv", ("x_m", "y_m"))
+    dets = run_rows_by_frame(run_dir / "detections.csv", ("x_m", "y_m", "static"))
     hits = {k: [0, 0] for k in ("standing", "walking", "standing_seen", "walking_seen")}
     near, suppressed = 0, 0
     for k, t in truth.items():
-        _count_recalls(hits, _matched(people.get(k, np.zeros((0, 2))), t, gate), t, seen_beams)
+        _count_recalls(hits, matched_people(people.get(k, np.zeros((0, 2))), t, gate), t, seen_beams)
         d = dets.get(k)
         if d is not None and d.shape[0]:
             close = (

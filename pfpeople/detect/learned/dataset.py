@@ -10,17 +10,15 @@ the hard ones) and weighted ``1 / negative_keep``, so the kept set estimates the
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from gridbridge.geometry import Pose2D
 from pfpeople.detect.learned.cutouts import CutoutParams
 from pfpeople.detect.learned.memory import ScanMemory
-from pfpeople.detect.learned.samples import LabelledScan
+from pfpeople.detect.learned.samples import LabelledScan, motion_since_previous
 from pfpeople.detect.learned.targets import beam_targets
 
 __all__ = ["NEAR_PERSON_M", "TrainingArrays", "training_arrays"]
@@ -67,15 +65,6 @@ class TrainingArrays:
         )
 
 
-def _motion(ls: LabelledScan, previous: LabelledScan | None) -> Pose2D | None:
-    """The laser's motion since ``previous`` when ``ls`` directly follows it in its source and the motion is known."""
-    if previous is None or previous.source != ls.source or previous.index != ls.index - 1:
-        return None
-    if not all(math.isfinite(v) for v in ls.ego):
-        return None
-    return Pose2D(x=ls.ego[0], y=ls.ego[1], yaw=ls.ego[2])
-
-
 def _near_person(ls: LabelledScan, idx: NDArray[np.intp]) -> NDArray[np.bool_]:
     if ls.people.shape[0] == 0:
         return np.zeros(idx.size, dtype=bool)
@@ -120,7 +109,7 @@ def training_arrays(
     parts: list[tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32], NDArray[np.float32], int]] = []
     previous: LabelledScan | None = None
     for ls in scans:
-        step = _motion(ls, previous)
+        step = motion_since_previous(ls, previous)
         if step is None:
             memory.clear()
         memory.advance(ls.scan, step)

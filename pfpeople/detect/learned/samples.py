@@ -26,6 +26,7 @@ centre (the simulator's ``hit_beams`` where it gives them): the scores count the
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,6 +34,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from gridbridge.geometry import Pose2D
 from pfpeople.detect.leg_tracker_bags import iter_scans, load_labelled_scans
 from pfpeople.sensors import LaserScan
 
@@ -44,6 +46,7 @@ __all__ = [
     "LabelledScan",
     "Region",
     "count_returns",
+    "motion_since_previous",
     "negative_scans",
     "pair_legs_into_people",
     "people_bag_scans",
@@ -299,3 +302,13 @@ def with_scan_matched_motion(scans: Sequence[LabelledScan]) -> list[LabelledScan
 
     ego = scan_matched_motions([s.scan for s in scans])
     return [replace(s, ego=(float(e[0]), float(e[1]), float(e[2]))) for s, e in zip(scans, ego, strict=True)]
+
+
+def motion_since_previous(ls: LabelledScan, previous: LabelledScan | None) -> Pose2D | None:
+    """The laser's motion since ``previous`` (``ls.ego``, metres and radians in ``previous``'s laser frame) when
+    ``ls`` directly follows it in its source and the motion is known; else None."""
+    if previous is None or previous.source != ls.source or previous.index != ls.index - 1:
+        return None
+    if not all(math.isfinite(v) for v in ls.ego):
+        return None
+    return Pose2D(x=ls.ego[0], y=ls.ego[1], yaw=ls.ego[2])

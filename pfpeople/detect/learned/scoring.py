@@ -17,8 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from gridbridge.geometry import Pose2D
-from pfpeople.detect.learned.samples import LabelledScan
+from pfpeople.detect.learned.samples import LabelledScan, motion_since_previous
 from pfpeople.detect.precision_recall import (
     PrCurve,
     ScoredFrame,
@@ -38,14 +37,6 @@ __all__ = [
 ]
 
 
-def _motion(ls: LabelledScan, previous: LabelledScan | None) -> Pose2D | None:
-    if previous is None or previous.source != ls.source or previous.index != ls.index - 1:
-        return None
-    if not all(math.isfinite(v) for v in ls.ego):
-        return None
-    return Pose2D(x=ls.ego[0], y=ls.ego[1], yaw=ls.ego[2])
-
-
 def scored_frames(detector: Any, scans: Sequence[LabelledScan]) -> list[ScoredFrame]:
     """Run ``detector`` over ``scans`` (in order) and pair its detections with each scan's people (module
     docstring)."""
@@ -54,7 +45,7 @@ def scored_frames(detector: Any, scans: Sequence[LabelledScan]) -> list[ScoredFr
     temporal = hasattr(detector, "observe_motion")
     for ls in scans:
         if temporal:
-            motion = _motion(ls, previous)
+            motion = motion_since_previous(ls, previous)
             if motion is None and hasattr(detector, "reset"):
                 detector.reset()
             detector.observe_motion(motion)
