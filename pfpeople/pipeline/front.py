@@ -107,7 +107,7 @@ class FrontEnd:
         if motion.restarted:
             self.clutter.reset()
         found = self.detection.detect(frame, motion)
-        dets: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
+        dets: list[NDArray[np.float64] | None] = [None if f is None else f.fused for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
         sup_static: list[NDArray[np.bool_] | None] = [None] * len(found)
         scan_static: dict[str, NDArray[np.bool_]] = {}

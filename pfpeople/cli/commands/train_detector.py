@@ -113,6 +113,13 @@ def _learned_arguments(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="simulated bags (as --people-bags) to measure PPV / FNR on, not trained on",
     )
+    g.add_argument(
+        "--recalibrate",
+        action="store_true",
+        help="do not train: measure the model in --out and its fold models in --fold-dir again on what each holds "
+        "out and --calibration-bags (PPV, FNR, PPV by score, the leave-one-bag-out table) and rewrite their cards "
+        "(no PyTorch needed)",
+    )
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -161,6 +168,8 @@ def _run_learned(args: argparse.Namespace) -> int:
     from pfpeople.detect.learned.recipe import LearnedRecipe
     from pfpeople.extras import require
 
+    if args.recalibrate:
+        return _recalibrate_learned(args)
     require("train", "pfpeople train-detector --kind learned")  # before minutes of loading
     r = LearnedRecipe()
     recipe = replace(
@@ -185,6 +194,24 @@ def _run_learned(args: argparse.Namespace) -> int:
         say=lambda m: print(m, flush=True),
     )
     print(f"wrote {out} and {out.with_suffix('.json')}")
+    print(format_learned(card))
+    return 0
+
+
+def _recalibrate_learned(args: argparse.Namespace) -> int:
+    from pfpeople.detect.learned.build import recalibrate_learned
+
+    if args.fold_dir is None:
+        raise SystemExit("pfpeople train-detector --recalibrate: give --fold-dir (the fold models to score)")
+    out = Path(args.out) / f"{args.name or 'learned_people'}.npz"
+    card = recalibrate_learned(
+        args.data_dir,
+        out,
+        fold_dir=args.fold_dir,
+        calibration_bags=find_people_bags(args.calibration_bags) if args.calibration_bags is not None else (),
+        say=lambda m: print(m, flush=True),
+    )
+    print(f"rewrote {out.with_suffix('.json')} and the fold cards in {args.fold_dir}")
     print(format_learned(card))
     return 0
 
