@@ -183,7 +183,8 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any) -> PeopleTra
     :class:`pfpeople.track.reported_people.PeopleTracker`), or None when tracking is off.
 
     With ``peak_threshold`` feeding the tracker weaker peaks, tracks start only from the classifier's people:
-    ``birth_min_score`` is the classifier's threshold unless ``tracking.params`` gives it.
+    ``birth_min_score`` is the classifier's threshold unless ``tracking.params`` gives it. Tracks are confirmed by
+    their evidence (``tracking.confirm_score``) unless ``tracking.params`` gives ``confirm_score`` or it is ``"off"``.
 
     Raises
     ------
@@ -196,6 +197,8 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any) -> PeopleTra
     from pfpeople.track.reported_people import PeopleTracker
 
     params = dict(tracking.params)
+    if tracking.confirm_score != "off":
+        params.setdefault("confirm_score", float(tracking.confirm_score))
     high = getattr(classifier, "threshold", None)
     if tracking.peaks_above is not None and high is not None:
         params.setdefault("birth_min_score", float(high))

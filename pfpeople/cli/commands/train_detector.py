@@ -103,8 +103,9 @@ def _learned_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--threshold",
         type=float,
-        default=r.threshold,
-        help="operating threshold: detections scoring less are not reported (default: %(default)s)",
+        default=None,
+        help=f"operating threshold: detections scoring less are not reported nor fused (default: {r.threshold}; "
+        "with --recalibrate: the card's)",
     )
     g.add_argument(
         "--calibration-bags",
@@ -177,7 +178,7 @@ def _run_learned(args: argparse.Namespace) -> int:
         architecture=args.architecture,
         past_scans=args.past_scans,
         motion_input=args.motion_input,
-        threshold=args.threshold,
+        threshold=r.threshold if args.threshold is None else args.threshold,
         fit=replace(r.fit, epochs=args.epochs, seed=args.seed),
     )
     out = Path(args.out) / f"{args.name or 'learned_people'}.npz"
@@ -209,6 +210,7 @@ def _recalibrate_learned(args: argparse.Namespace) -> int:
         out,
         fold_dir=args.fold_dir,
         calibration_bags=find_people_bags(args.calibration_bags) if args.calibration_bags is not None else (),
+        threshold=args.threshold,
         say=lambda m: print(m, flush=True),
     )
     print(f"rewrote {out.with_suffix('.json')} and the fold cards in {args.fold_dir}")

@@ -182,12 +182,13 @@ def recalibrate_learned(
     *,
     fold_dir: str | Path,
     calibration_bags: Sequence[tuple[str | Path, str | Path]] = (),
+    threshold: float | None = None,
     say: Callable[[str], object] = lambda _m: None,
 ) -> dict[str, Any]:
     """Measure a trained model's calibration (PPV, FNR, ``PPV(score)``) and leave-one-bag-out figures again, from
     its fold models in ``fold_dir`` (as :func:`train_learned_from_directory` wrote them) and the
-    ``calibration_bags``, without training (no PyTorch); the cards of the model and its folds are rewritten, the
-    weights are not. Returns the card.
+    ``calibration_bags``, without training (no PyTorch), at the card's operating threshold or a new ``threshold``
+    (in [0, 1]); the cards of the model and its folds are rewritten, the weights are not. Returns the card.
 
     Raises
     ------
@@ -195,6 +196,9 @@ def recalibrate_learned(
         If the model, a fold model or a labelled bag is missing (named).
     """
     final = load_model(model_path)
+    if threshold is not None and not 0.0 <= threshold <= 1.0:
+        raise ValueError(f"threshold must be in [0, 1], got {threshold}")
+    operating = final.threshold if threshold is None else float(threshold)
     say("loading the labelled bags and negative_2")
     data = load_training_data(data_dir)
     models = {fold.held_out: load_model(_fold_path(model_path, fold_dir, fold.held_out)) for fold in folds(data)}
@@ -205,7 +209,8 @@ def recalibrate_learned(
         for bag, gt in calibration_bags
     ]
     card = {k: v for k, v in final.card.items() if k not in ("format", "layers")}
-    card.update(_measured(held, calib, final.threshold))
+    card["threshold"] = operating
+    card.update(_measured(held, calib, operating))
     save_model(model_path, final.network, card)
     _save_folds(model_path, fold_dir, models, card)
     return card

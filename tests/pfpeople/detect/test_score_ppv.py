@@ -86,3 +86,15 @@ def test_the_shipped_model_fuses_each_person_by_its_score() -> None:
     assert LearnedPeopleDetector(score_ppv=False).score_ppv is None
     with pytest.raises(TypeError, match="score_ppv"):
         LearnedPeopleDetector(score_ppv="yes")  # type: ignore[arg-type]
+
+
+def test_a_model_card_measures_ppv_by_score_when_it_can() -> None:
+    from pfpeople.detect.learned.build import _measured
+
+    rng = np.random.default_rng(1)
+    scenes = [[_frame(rng, 2) for _ in range(100)]]
+    cal = _measured(None, scenes, 0.5)["calibration"]
+    curve = ScorePpv.from_card(cal["ppv_by_score"], "test")
+    assert curve.detections.sum() == 500 and (np.diff(curve.ppv) >= 0).all()
+    few = _measured(None, [[_frame(rng, 1) for _ in range(10)]], 0.5)["calibration"]
+    assert "ppv_by_score" not in few and 0 < few["ppv"] < 1
