@@ -184,7 +184,8 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any) -> PeopleTra
 
     With ``peak_threshold`` feeding the tracker weaker peaks, tracks start only from the classifier's people:
     ``birth_min_score`` is the classifier's threshold unless ``tracking.params`` gives it. Tracks are confirmed by
-    their evidence (``tracking.confirm_score``) unless ``tracking.params`` gives ``confirm_score`` or it is ``"off"``.
+    their evidence (``tracking.confirm_evidence``) unless ``tracking.params`` gives ``confirm_evidence`` or it is
+    ``"off"``.
 
     Raises
     ------
@@ -197,8 +198,8 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any) -> PeopleTra
     from pfpeople.track.reported_people import PeopleTracker
 
     params = dict(tracking.params)
-    if tracking.confirm_score != "off":
-        params.setdefault("confirm_score", float(tracking.confirm_score))
+    if tracking.confirm_evidence != "off":
+        params.setdefault("confirm_evidence", float(tracking.confirm_evidence))
     high = getattr(classifier, "threshold", None)
     if tracking.peaks_above is not None and high is not None:
         params.setdefault("birth_min_score", float(high))

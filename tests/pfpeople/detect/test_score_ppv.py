@@ -69,7 +69,9 @@ def _frame(rng: np.random.Generator, n_people: int) -> ScoredFrame:
 def test_ppv_by_score_averages_to_the_pooled_ppv() -> None:
     rng = np.random.default_rng(0)
     scenes = [[_frame(rng, 2) for _ in range(150)], [_frame(rng, 1) for _ in range(150)]]
-    negatives = [ScoredFrame.of(rng.uniform(-5, 5, (1, 2)), rng.uniform(0, 0.6, 1), np.zeros((0, 2))) for _ in range(99)]
+    negatives = [
+        ScoredFrame.of(rng.uniform(-5, 5, (1, 2)), rng.uniform(0, 0.6, 1), np.zeros((0, 2))) for _ in range(99)
+    ]
     ppv, _ = calibration(scenes, negatives, 0.5)
     curve = ppv_by_score(scenes, negatives, min_count=100)
     assert curve is not None

@@ -160,7 +160,7 @@ def test_learned_detections_carry_the_ppv_of_their_score_unless_a_ppv_is_configu
     seen = 0
     for m in msgs:
         got = by_score.detect([m], motion=motion)
-        centres, scores = by_score.detector.detect_scored(by_score.detector_input(got.scan))  # type: ignore[union-attr]
+        _, scores = by_score.detector.detect_scored(by_score.detector_input(got.scan))  # type: ignore[union-attr]
         keep = scores >= by_score.detector.threshold  # type: ignore[union-attr]
         assert got.ppv is not None and curve is not None
         np.testing.assert_array_equal(got.ppv, curve(scores[keep]))

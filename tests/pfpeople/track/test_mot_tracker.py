@@ -409,10 +409,10 @@ def _confirmed_at(cfg: TrackerConfig, hits: list[float | None]) -> int | None:
 
 
 def test_confirmation_by_evidence_hand_values() -> None:
-    """With ``confirm_score`` a track is confirmed when its existence score ``r`` (step 5: ``r0 = g c``, a hit
+    """With ``confirm_evidence`` a track is confirmed when its existence score ``r`` (step 5: ``r0 = g c``, a hit
     ``r += g c (1 - r)``, a miss ``r *= exp(-dt / tau)``) reaches it: two confident hits, three ordinary ones, and a
     person detected every other scan, whom M of N (3 of 5) confirms two frames later."""
-    by_score = TrackerConfig(confirm_score=0.6)
+    by_score = TrackerConfig(confirm_evidence=0.6)
     m_of_n = TrackerConfig()
     g, decay = by_score.hit_gain, math.exp(-DT / by_score.score_tau)
     r2 = g * 0.99 + g * 0.99 * (1 - g * 0.99)
@@ -434,11 +434,11 @@ def test_confirmation_by_evidence_hand_values() -> None:
     assert _confirmed_at(by_score, weak) == 3
 
 
-def test_confirm_score_validation() -> None:
-    with pytest.raises(ValueError, match="confirm_score.*exceed hit_gain"):
-        TrackerConfig(confirm_score=0.4)
-    with pytest.raises(ValueError, match="confirm_score"):
-        TrackerConfig(confirm_score=1.0)
-    assert TrackerConfig(confirm_score=0.6, confirm_hits=1, confirm_window=1).confirm_score == 0.6
-    tracker = MultiPersonTracker(TrackerConfig(confirm_score=0.6, confirm_hits=1, confirm_window=1))
+def test_confirm_evidence_validation() -> None:
+    with pytest.raises(ValueError, match=r"confirm_evidence.*exceed hit_gain"):
+        TrackerConfig(confirm_evidence=0.4)
+    with pytest.raises(ValueError, match="confirm_evidence"):
+        TrackerConfig(confirm_evidence=1.0)
+    assert TrackerConfig(confirm_evidence=0.6, confirm_hits=1, confirm_window=1).confirm_evidence == 0.6
+    tracker = MultiPersonTracker(TrackerConfig(confirm_evidence=0.6, confirm_hits=1, confirm_window=1))
     assert tracker.update(np.array([[2.0, 0.0]]), DT) == []  # M of N is not used: one hit is not enough
