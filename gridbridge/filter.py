@@ -362,8 +362,9 @@ class GridFilter:
         Parameters
         ----------
         detections : sequence, one entry per detector
-            ``(M_i, 2)`` person positions (x, y) in the grid's sensor frame (m), or ``None`` when detector i
-            has no data this frame.
+            ``(M_i, 2)`` person positions (x, y) in the grid's sensor frame (m), ``(M_i, 3)`` with each detection's
+            own PPV in the third column (:func:`gridbridge.measurement.split_detections`), or ``None`` when
+            detector i has no data this frame.
         odometry : Odometry, (v, omega) or None
             Robot controls over the step (m/s, rad/s); None: standing.
         dt : float

@@ -23,6 +23,11 @@ fused ``L = LR / (1 + LR)``, ``LR = prod_i LR_i``; a cell no detector covers get
 
 Compared with eq. 13, a detector that does not fire counts against a person (eq. 13 counts its FNR in favour),
 two detectors that agree multiply their evidence, and a detector with PPV 0.5 adds none on its own.
+
+Scored detections (an ``(M, 3)`` entry: positions and each detection's own PPV, such as the learned laser
+detector's ``PPV(score)``): both likelihoods take ``PPV_i`` per cell from the detection that fired there
+(:func:`gridbridge.measurement.detection_ppv_map`), so ``LR_fire_i`` is that detection's. A confident detection
+is stronger evidence than a doubtful one of the same detector; the mean over its detections is the detector's PPV.
 """
 
 from __future__ import annotations
@@ -37,7 +42,14 @@ from numpy.typing import ArrayLike, NDArray
 from gridbridge import jit, kernels
 from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
-from gridbridge.measurement import Likelihood, _likelihood, detection_map, fov_mask
+from gridbridge.measurement import (
+    Likelihood,
+    _likelihood,
+    detection_map,
+    detection_ppv_map,
+    fov_mask,
+    split_detections,
+)
 from gridbridge.params import DetectorModel
 from gridbridge.validation import check_probability
 
@@ -127,16 +139,21 @@ class IndependentLikelihood:
         for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
             if det is None:
                 continue
-            q = detection_map(spec, model, det)
+            pts, own = split_detections(det, f"detections of {model.name}")
+            ppv: float | NDArray[np.float64] = model.ppv
+            if own is None:
+                q = detection_map(spec, model, pts)
+            else:
+                q, ppv = detection_ppv_map(spec, model, pts, own)
             if model.uncertainty == "gaussian":  # the detection's probability mass per cell, not a peak of 1
                 q = q * min(1.0, spec.resolution**2 / (2.0 * np.pi * model.sigma_lateral * model.sigma_range))
             fired[i] = q
-            odds = (model.ppv / (1.0 - model.ppv) / prior_odds, model.fnr**self.miss_weight)
-            if compiled:
-                lr = kernels.independent_terms(q, fovs[i], odds, covered[i], per_det[i])
+            lr_fire, miss = ppv / (1.0 - ppv) / prior_odds, model.fnr**self.miss_weight
+            if compiled and isinstance(lr_fire, float):
+                lr = kernels.independent_terms(q, fovs[i], (lr_fire, miss), covered[i], per_det[i])
                 kernels.add_where(log_lr, np.log(lr), covered[i])
-            else:
-                self._terms_numpy(q, fovs[i], odds, covered[i], per_det[i], log_lr)
+            else:  # numpy, and LR_fire per cell (scored detections: the compiled pass takes one number)
+                self._terms_numpy(q, fovs[i], (lr_fire, miss), covered[i], per_det[i], log_lr)
         fused = 1.0 / (1.0 + np.exp(-log_lr))
         return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
 
@@ -144,13 +161,14 @@ class IndependentLikelihood:
     def _terms_numpy(
         q: NDArray[np.float64],
         fov: NDArray[np.bool_],
-        odds: tuple[float, float],
+        odds: tuple[float | NDArray[np.float64], float],
         covered: NDArray[np.bool_],
         per_det: NDArray[np.float64],
         log_lr: NDArray[np.float64],
     ) -> None:
         """One detector's terms (:func:`gridbridge.kernels.independent_terms`' numpy twin): its field of view,
-        likelihood and log likelihood ratio written into ``covered``, ``per_det`` and ``log_lr``."""
+        likelihood and log likelihood ratio written into ``covered``, ``per_det`` and ``log_lr``. ``odds`` is
+        ``(LR_fire, LR_miss)``; ``LR_fire`` may be per cell ``(nx, ny)`` (scored detections)."""
         lr_fire, miss = odds
         cov = fov | (q > 0.0)
         lr = q * lr_fire + (1.0 - q) * miss

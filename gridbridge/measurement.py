@@ -28,6 +28,11 @@ Decisions the paper leaves open (tested in ``tests/gridbridge/test_measurement.p
   them). A cell covered by no detector gets ``L = 0.5``, which leaves its belief unchanged (odds x 1): nothing
   observed it. A cell where a point detection lands counts as covered by that detector.
 * ``L = 1`` with prior 0 (or ``L = 0`` with prior 1) makes eq. 12 0/0; the prior is kept there.
+* Scored detections. A detector's entry may be ``(M, 3)``: positions with each detection's own PPV in the third
+  column (a detector calibrated by score, ``PPV(score)``, such as the learned laser detector). ``PPV_i`` is then
+  per cell: the PPV of the detection whose footprint weighs most in the cell (ties: the larger PPV), the same
+  detection whose weight is the cell's ``q`` (:func:`detection_ppv_map`). With every detection's PPV equal to the
+  detector's, this is the constant-PPV fusion.
 """
 
 from __future__ import annotations
@@ -44,18 +49,20 @@ from gridbridge import jit, kernels
 from gridbridge.geometry import to_frame_xy
 from gridbridge.grid import GridSpec
 from gridbridge.params import DetectorModel
-from gridbridge.validation import check_grid_array, check_positions
+from gridbridge.validation import check_grid_array, check_positions, check_real_array
 
 __all__ = [
     "Likelihood",
     "bayes_update",
     "detection_map",
+    "detection_ppv_map",
     "detector_likelihood",
     "fov_mask",
     "fuse_detectors",
     "in_field_of_view",
     "likelihood_from_detections",
     "rasterise",
+    "split_detections",
 ]
 
 #: Gaussian firing weights below exp(-3^2 / 2) (beyond 3 standard deviations) count as not firing.
@@ -168,6 +175,60 @@ def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) ->
     return fired
 
 
+def split_detections(detections: ArrayLike, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """One detector's entry of a frame, checked: positions ``(M, 2)`` (m), and each detection's own PPV ``(M,)`` when
+    the entry is ``(M, 3)`` (None for ``(M, 2)``: the detector's PPV holds for all).
+
+    Raises ``ValueError`` naming ``name`` for another shape, non-finite positions or a PPV outside (0, 1), and
+    ``TypeError`` for values that are not real numbers.
+    """
+    arr = check_real_array(detections, name)
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] == 0:
+        return check_positions(arr, name), None
+    pts = check_positions(arr[:, :2], name)
+    ppv = np.ascontiguousarray(arr[:, 2])
+    if not (np.isfinite(ppv).all() and (ppv > 0.0).all() and (ppv < 1.0).all()):
+        raise ValueError(f"{name}: the third column (each detection's PPV) must lie in (0, 1), got {ppv.tolist()}")
+    return pts, ppv
+
+
+def detection_ppv_map(
+    spec: GridSpec, model: DetectorModel, positions: ArrayLike, ppv: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where a scored detector fired, and each cell's PPV: that of the detection that fired there.
+
+    Parameters
+    ----------
+    spec : GridSpec
+    model : DetectorModel
+        Sets point or Gaussian uncertainty and the footprint; ``model.ppv`` is the PPV of cells no detection reaches.
+    positions : array_like, shape (M, 2)
+        Detected person positions (x, y) in the grid's sensor frame (m).
+    ppv : array_like, shape (M,)
+        Each detection's PPV, in (0, 1).
+
+    Returns
+    -------
+    fired : ndarray, shape (nx, ny)
+        :func:`detection_map` of all the detections (the largest weight of any detection in each cell).
+    ppv_map : ndarray, shape (nx, ny)
+        The PPV of the detection whose weight is ``fired`` in each cell (ties: the larger PPV); ``model.ppv`` where
+        ``fired`` is 0.
+    """
+    pts = check_positions(positions, f"detections of {model.name}")
+    own = np.asarray(ppv, dtype=float).reshape(-1)
+    if own.shape != (len(pts),):
+        raise ValueError(f"ppv must have one value per detection of {model.name} ({len(pts)}), got {own.shape}")
+    fired = np.zeros(spec.shape)
+    ppv_map = np.full(spec.shape, float(model.ppv))
+    for j in np.argsort(own, kind="stable"):  # ascending PPV: a tie in weight goes to the later, larger PPV
+        w = detection_map(spec, model, pts[j : j + 1])
+        wins = (w > 0.0) & (w >= fired)
+        fired[wins] = w[wins]
+        ppv_map[wins] = own[j]
+    return fired, ppv_map
+
+
 def detector_likelihood(fired: ArrayLike, ppv: ArrayLike, fnr: ArrayLike) -> NDArray[np.float64]:
     """P(D_i | p) per cell: PPV where the detector fired, FNR where not (expectation for soft firing).
 
@@ -190,8 +251,10 @@ def fuse_detectors(
     ----------
     fired : array_like, shape (D, nx, ny)
         Bool (fired or not) or per-cell firing probabilities in [0, 1].
-    ppv, fnr : array_like, shape (D,)
-        Each detector's precision and false-negative rate.
+    ppv : array_like, shape (D,) or (D, nx, ny)
+        Each detector's precision, or per cell (scored detections, :func:`detection_ppv_map`).
+    fnr : array_like, shape (D,)
+        Each detector's false-negative rate.
     covered : array_like of bool, shape (D, nx, ny), optional
         Field-of-view masks: detector i takes part in cell c only where ``covered[i, c]``. All True by default.
 
@@ -202,7 +265,12 @@ def fuse_detectors(
     """
     q = check_grid_array(fired, "fired", ndim=3)
     d = q.shape[0]
-    ppv_ = check_grid_array(ppv, "ppv", ndim=1, shape=(d,))
+    per_cell = np.ndim(ppv) == 3
+    ppv_ = (
+        check_grid_array(ppv, "ppv", ndim=3, shape=q.shape)
+        if per_cell
+        else check_grid_array(ppv, "ppv", ndim=1, shape=(d,))
+    )
     fnr_ = check_grid_array(fnr, "fnr", ndim=1, shape=(d,))
     if covered is None:
         cov = np.ones(q.shape, dtype=bool)
@@ -212,9 +280,9 @@ def fuse_detectors(
             raise ValueError(f"covered must be a bool array, got dtype {cov.dtype}")
         if cov.shape != q.shape:
             raise ValueError(f"covered must have the shape of fired {q.shape}, got {cov.shape}")
-    if jit.enabled():
+    if jit.enabled() and not per_cell:
         return kernels.fuse_update(np.ascontiguousarray(q), np.ascontiguousarray(cov), ppv_, fnr_)[1]
-    ppv3, fnr3 = ppv_[:, None, None], fnr_[:, None, None]
+    ppv3, fnr3 = (ppv_ if per_cell else ppv_[:, None, None]), fnr_[:, None, None]
     q = np.where(cov, q, 0.0)
     factor_a = np.where(cov, q * (1.0 - ppv3) + (1.0 - q) * (1.0 - fnr3), 1.0)
     a = factor_a.prod(axis=0)
@@ -310,8 +378,9 @@ def likelihood_from_detections(
     spec : GridSpec
     detectors : sequence of DetectorModel, length D
     detections : sequence, length D
-        Entry i is an ``(M_i, 2)`` array of positions (m, grid's sensor frame), or ``None`` when detector i
-        has no data this frame (it then covers no cell).
+        Entry i is an ``(M_i, 2)`` array of positions (m, grid's sensor frame), or ``(M_i, 3)`` with each
+        detection's own PPV in the third column (module docstring), or ``None`` when detector i has no data this
+        frame (it then covers no cell).
     """
     return _likelihood(spec, detectors, detections, None)
 
@@ -330,14 +399,25 @@ def _likelihood(
     d = len(detectors)
     fired = np.zeros((d, *spec.shape))
     covered = np.zeros((d, *spec.shape), dtype=bool)
+    ppv, fnr = (np.array([m.ppv for m in detectors]), np.array([m.fnr for m in detectors])) if rates is None else rates
+    ppv_cells: NDArray[np.float64] | None = None  # per cell, once a detector gives its detections' own PPV
     for i, (model, det) in enumerate(zip(detectors, detections, strict=True)):
         if det is None:
             continue
-        fired[i] = detection_map(spec, model, det)
+        pts, own = split_detections(det, f"detections of {model.name}")
+        if own is None:
+            fired[i] = detection_map(spec, model, pts)
+        else:
+            if ppv_cells is None:
+                ppv_cells = np.repeat(np.asarray(ppv, dtype=float)[:, None, None], spec.nx, axis=1).repeat(spec.ny, 2)
+            fired[i], ppv_cells[i] = detection_ppv_map(spec, model, pts, own)
         covered[i] = fov_mask(spec, model) if fovs is None else fovs[i]
         if model.uncertainty == "point":
             covered[i] |= fired[i] > 0.0
-    ppv, fnr = (np.array([m.ppv for m in detectors]), np.array([m.fnr for m in detectors])) if rates is None else rates
+    if ppv_cells is not None:
+        per_det = np.where(covered, detector_likelihood(fired, ppv_cells, fnr[:, None, None]), 0.5)
+        fused = fuse_detectors(fired, ppv_cells, fnr, covered=covered)
+        return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)
     if jit.enabled():
         per_det, fused = kernels.fuse_update(fired, covered, ppv, fnr)
         return Likelihood(fired=fired, covered=covered, detector_likelihoods=per_det, likelihood=fused)

@@ -11,6 +11,11 @@ Usage::
 
     python -m evaluation.harness.opt_in --seed 0    # every scan-level scene, the labelled bags and negative_2
     python -m evaluation.harness.opt_in --scenes scan:lobby --seed 1  # one scene
+    python -m evaluation.harness.opt_in --seed 3 --set tracking.confirm_evidence=off learned.params.threshold=0.4
+
+``--set KEY=VALUE`` changes both configurations before they run (an ablation): a key of the run's TOML
+(``tracking.confirm_evidence``, ``tracking.params.hit_gain``) or of every detector of one kind
+(``learned.params.threshold``, ``learned.model.fnr``); VALUE is JSON, else a string.
 
 A row's recall and precision count every person the run reported; AP0.5 ranks them by their belief.
 """
@@ -20,6 +25,7 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
+import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -30,7 +36,16 @@ from evaluation.harness.detector_ap import grid_box, rows_from_frames, run_frame
 from pfpeople.detect.learned.samples import LabelledScan, Region, simulated_scans
 from pfpeople.detect.precision_recall import ScoredFrame, pr_curve
 
-__all__ = ["CONFIGS", "OptInRow", "format_opt_in_rows", "negative_rows", "opt_in_rows", "positive_rows", "scan_rows"]
+__all__ = [
+    "CONFIGS",
+    "OptInRow",
+    "apply_settings",
+    "format_opt_in_rows",
+    "negative_rows",
+    "opt_in_rows",
+    "positive_rows",
+    "scan_rows",
+]
 
 #: The two configurations compared: the starter config and the starter config with its opt-in detectors active.
 CONFIGS = ("starter", "starter --opt-in")
@@ -63,12 +78,42 @@ def _config_texts(bag: Path) -> dict[str, str]:
     return {c: starter_config(report, opt_in=c != CONFIGS[0]) for c in CONFIGS}
 
 
-def _run(bag: Path, text: str, out: Path, frames: int | None = None) -> Path:
-    """Run ``bag`` with the configuration ``text`` (written beside ``out``) into the run directory ``out``."""
+def apply_settings(config: Any, settings: Sequence[str]) -> Any:
+    """``config`` (a :class:`~pfpeople.config.BagConfig`) with each ``KEY=VALUE`` of ``settings`` set (module
+    docstring); a detector key applies to every detector of that kind (none: nothing to set). Raises
+    ``ValueError`` for a setting without ``=`` and :class:`~pfpeople.config.ConfigError` for a bad key or value."""
+    from pfpeople.config import KINDS, config_from_mapping
+
+    if not settings:
+        return config
+    data = config.to_dict()
+    for setting in settings:
+        key, eq, raw = setting.partition("=")
+        if not eq or not key:
+            raise ValueError(f"--set {setting!r}: expected KEY=VALUE")
+        try:
+            value = json.loads(raw)
+        except json.JSONDecodeError:
+            value = raw
+        path = key.split(".")
+        targets = [d for d in data["detectors"] if d["kind"] == path[0]] if path[0] in KINDS else [data]
+        for target in targets:
+            node = target
+            for part in path[1 if path[0] in KINDS else 0 : -1]:
+                node = node.setdefault(part, {})
+            node[path[-1]] = value
+    return config_from_mapping(data)
+
+
+def _run(bag: Path, text: str, out: Path, frames: int | None = None, settings: Sequence[str] = ()) -> Path:
+    """Run ``bag`` with the configuration ``text`` (written beside ``out``) and ``settings``
+    (:func:`apply_settings`) into the run directory ``out``."""
+    from pfpeople.config import load_config
+
     out.parent.mkdir(parents=True, exist_ok=True)
     cfg = out.with_suffix(".toml")
     cfg.write_text(text, encoding="utf-8")
-    return _run_config(bag, cfg, out, frames)
+    return _run_config(bag, apply_settings(load_config(cfg), settings) if settings else cfg, out, frames)
 
 
 def _run_config(bag: Path, config: Any, out: Path, frames: int | None) -> Path:
@@ -97,8 +142,11 @@ def _row(scene: str, config: str, scored: Sequence[ScoredFrame], scans: Sequence
     )
 
 
-def scan_rows(scene: str, work: Path, *, seed: int, frames: int | None = None) -> list[OptInRow]:
-    """The two rows (:data:`CONFIGS`) of a scan-level scene (``scan:NAME``) simulated at ``seed`` into ``work``."""
+def scan_rows(
+    scene: str, work: Path, *, seed: int, frames: int | None = None, settings: Sequence[str] = ()
+) -> list[OptInRow]:
+    """The two rows (:data:`CONFIGS`) of a scan-level scene (``scan:NAME``) simulated at ``seed`` into ``work``
+    (both configurations with ``settings``, :func:`apply_settings`)."""
     from evaluation.scenarios.scan import write_scene_bag
 
     name = scene.split(":", 1)[1]
@@ -106,18 +154,19 @@ def scan_rows(scene: str, work: Path, *, seed: int, frames: int | None = None) -
     texts, labelled = _config_texts(sb.bag), simulated_scans(sb.bag, sb.gt_csv)
     rows = []
     for config in CONFIGS:
-        run = _run(sb.bag, texts[config], work / f"{name}_{seed}_{_slug(config)}")
+        run = _run(sb.bag, texts[config], work / f"{name}_{seed}_{_slug(config)}", settings=settings)
         box = grid_box(run)
         scans = [dataclasses.replace(s, region=Region(box=box)) for s in labelled]
         rows.append(_row(scene, config, run_frames(run, scans), scans))
     return rows
 
 
-def negative_rows(bag: Path, work: Path) -> list[OptInRow]:
-    """``negative_2:all`` (nobody there) run with each configuration of :data:`CONFIGS`: false people per scan."""
+def negative_rows(bag: Path, work: Path, settings: Sequence[str] = ()) -> list[OptInRow]:
+    """``negative_2:all`` (nobody there) run with each configuration of :data:`CONFIGS` (and ``settings``): false
+    people per scan."""
     rows = []
     for config, text in _config_texts(bag).items():
-        run = _run(bag, text, work / f"negative_2_{_slug(config)}")
+        run = _run(bag, text, work / f"negative_2_{_slug(config)}", settings=settings)
         with (run / "people.csv").open(newline="", encoding="utf-8") as fh:
             people = sum(1 for _ in csv.DictReader(fh))
         with (run / "frames.csv").open(newline="", encoding="utf-8") as fh:
@@ -127,11 +176,12 @@ def negative_rows(bag: Path, work: Path) -> list[OptInRow]:
     return rows
 
 
-def positive_rows(leg: Path, work: Path, *, frames: int | None = None) -> list[OptInRow]:
+def positive_rows(leg: Path, work: Path, *, frames: int | None = None, settings: Sequence[str] = ()) -> list[OptInRow]:
     """The two rows of leg_tracker's labelled bags (``positive_bags``), leave one bag out and pooled, as the
     benchmark scores them: each bag run with the boosted model trained without it
     (:func:`evaluation.harness.benchmark.boosted_model_without`) and, opted in, the learned detector's fold model
-    that did not see it (:func:`evaluation.harness.benchmark_ap.fold_model_path`); scored in the labelling box."""
+    that did not see it (:func:`evaluation.harness.benchmark_ap.fold_model_path`); scored in the labelling box.
+    ``settings``: :func:`apply_settings`, before the held-out models are put in."""
     from evaluation.harness.benchmark import POSITIVE_BAGS, boosted_model_without
     from evaluation.harness.benchmark_ap import fold_model_path
     from pfpeople.config import load_config
@@ -150,7 +200,7 @@ def positive_rows(leg: Path, work: Path, *, frames: int | None = None) -> list[O
         for config, text in _config_texts(bag).items():
             cfg = work / f"{held}_{_slug(config)}.toml"
             cfg.write_text(text, encoding="utf-8")
-            loaded = load_config(cfg)
+            loaded = apply_settings(load_config(cfg), settings)
             dets = tuple(
                 dataclasses.replace(d, params={**dict(d.params), "model_path": str(held_out[d.kind])})
                 if d.kind in held_out
@@ -164,20 +214,27 @@ def positive_rows(leg: Path, work: Path, *, frames: int | None = None) -> list[O
 
 
 def opt_in_rows(
-    scenes: Sequence[str], work: Path, *, seed: int, data: Path, frames: int | None = None
+    scenes: Sequence[str],
+    work: Path,
+    *,
+    seed: int,
+    data: Path,
+    frames: int | None = None,
+    settings: Sequence[str] = (),
 ) -> list[OptInRow]:
-    """The rows of every scene (``scan:NAME`` or ``negative_2``; ``data`` holds ``leg_tracker/negative_2.bag``)."""
+    """The rows of every scene (``scan:NAME`` or ``negative_2``; ``data`` holds ``leg_tracker/negative_2.bag``),
+    each configuration with ``settings`` (:func:`apply_settings`)."""
     rows: list[OptInRow] = []
     for scene in scenes:
         if scene.startswith("scan:"):
-            rows += scan_rows(scene, work, seed=seed, frames=frames)
+            rows += scan_rows(scene, work, seed=seed, frames=frames, settings=settings)
         elif scene == "positive_bags":
-            rows += positive_rows(data / "leg_tracker", work, frames=frames)
+            rows += positive_rows(data / "leg_tracker", work, frames=frames, settings=settings)
         elif scene == "negative_2":
             bag = data / "leg_tracker" / "negative_2.bag"
             if not bag.is_file():
                 raise FileNotFoundError(f"scene negative_2: {bag} is absent (--data names the folder of leg_tracker/)")
-            rows += negative_rows(bag, work)
+            rows += negative_rows(bag, work, settings)
         else:
             raise ValueError(f"scene {scene!r}: not a scan-level scene (scan:NAME), positive_bags nor negative_2")
     return rows
@@ -218,8 +275,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--frames", type=int, default=None, help="simulate only this many frames")
     p.add_argument("--data", type=Path, default=Path("../shared/data"), help="folder of leg_tracker/")
     p.add_argument("--work", type=Path, default=Path("/tmp/pfpeople-opt-in"), help="bags and runs go here")
+    p.add_argument(
+        "--set",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help="change both configurations (tracking.confirm_evidence=off, learned.params.threshold=0.4)",
+    )
     args = p.parse_args(argv)
-    print(format_opt_in_rows(opt_in_rows(args.scenes, args.work, seed=args.seed, data=args.data, frames=args.frames)))
+    rows = opt_in_rows(args.scenes, args.work, seed=args.seed, data=args.data, frames=args.frames, settings=args.set)
+    print(format_opt_in_rows(rows))
     return 0
 
 

@@ -93,6 +93,11 @@ class TrackingConfig(Table):
     snap_radius : float
         People and weaker peaks with laser detections (static clutter removed) within this distance are moved to
         their mean before tracking and reporting; 0: never.
+    confirm_evidence : float or "off"
+        A tentative track is confirmed once its existence score reaches this (:class:`pfpeople.track.TrackerConfig`
+        ``confirm_evidence``: the evidence of its hits, each weighed by the belief at the person, which carries the
+        detectors' PPV and a scored detector's PPV of its score); ``"off"``: M of N (``[tracking.params]``
+        ``confirm_hits`` of ``confirm_window``). ``[tracking.params] confirm_evidence`` takes precedence.
     static_confirm_s : float
         With ``people = "confirmed"``: a track that has not moved 0.3 m from where it started is reported only from
         this age on; a walker as soon as it is confirmed. 0: any confirmed track.
@@ -114,6 +119,7 @@ class TrackingConfig(Table):
     coast_frames: Count = Field(default=1, ge=0)
     single_legs: Flag = True
     snap_radius: Metres = Field(default=0.3, ge=0.0)
+    confirm_evidence: Annotated[Ratio, Field(gt=0.0, lt=1.0)] | Literal["off"] = 0.6
     static_confirm_s: Seconds = Field(default=1.0, ge=0.0)
     observed_tracks_only: Flag = True
     see_through: Flag = True

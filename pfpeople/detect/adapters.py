@@ -132,6 +132,9 @@ class Detections:
         ``(fov_min, fov_max)`` (rad, detector frame) the detector covered in this frame: a laser detector's configured
         field of view, or the part of it its scan covered (:func:`pfpeople.detect.coverage.frame_view`); None for
         detectors whose view does not follow their input.
+    ppv : ndarray, shape (M,), or None
+        Each detection's own PPV, from its score (a detector calibrated by score, :mod:`pfpeople.detect.score_ppv`);
+        None: the detector model's PPV holds for every detection.
     """
 
     sensor: NDArray[np.float64]
@@ -140,6 +143,13 @@ class Detections:
     support_sensor: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     support: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     field_of_view: tuple[float, float] | None = None
+    ppv: NDArray[np.float64] | None = None
+
+    @property
+    def fused(self) -> NDArray[np.float64]:
+        """The filters' entry (grid frame): ``grid`` ``(M, 2)``, or ``(M, 3)`` with each detection's :attr:`ppv`
+        (:func:`gridbridge.measurement.split_detections`)."""
+        return self.grid if self.ppv is None else np.column_stack([self.grid, self.ppv])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -293,11 +303,19 @@ class BuiltinAdapter:
         raise NotImplementedError
 
     def detect(self, msgs: Sequence[BagMessage]) -> Detections:
-        """Run the detector on the frame's (first) message; see :meth:`DetectorAdapter.detect`."""
+        """Run the detector on the frame's (first) message; see :meth:`DetectorAdapter.detect`.
+
+        A detector with ``detect_with_ppv(data) -> (positions, ppv or None)`` (calibrated by score) gives each
+        detection its own PPV, unless ``[detectors.model] ppv`` is configured (then that one PPV holds for all).
+        """
         data = self.read(msgs[0])
         assert self.detector is not None
         scan = data if isinstance(data, LaserScan) else None
         given = self.detector_input(data)
+        with_ppv = getattr(self.detector, "detect_with_ppv", None) if self.config.model.ppv is None else None
+        if with_ppv is not None:
+            people, ppv = with_ppv(given)
+            return replace(self.located(people, scan=scan), ppv=ppv)
         with_singles = getattr(self.detector, "detect_with_singles", None)
         if with_singles is None:
             return self.located(self.detector.detect(given), scan=scan)

@@ -183,7 +183,9 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any) -> PeopleTra
     :class:`pfpeople.track.reported_people.PeopleTracker`), or None when tracking is off.
 
     With ``peak_threshold`` feeding the tracker weaker peaks, tracks start only from the classifier's people:
-    ``birth_min_score`` is the classifier's threshold unless ``tracking.params`` gives it.
+    ``birth_min_score`` is the classifier's threshold unless ``tracking.params`` gives it. Tracks are confirmed by
+    their evidence (``tracking.confirm_evidence``) unless ``tracking.params`` gives ``confirm_evidence`` or it is
+    ``"off"``.
 
     Raises
     ------
@@ -196,6 +198,8 @@ def build_people_tracker(tracking: TrackingConfig, classifier: Any) -> PeopleTra
     from pfpeople.track.reported_people import PeopleTracker
 
     params = dict(tracking.params)
+    if tracking.confirm_evidence != "off":
+        params.setdefault("confirm_evidence", float(tracking.confirm_evidence))
     high = getattr(classifier, "threshold", None)
     if tracking.peaks_above is not None and high is not None:
         params.setdefault("birth_min_score", float(high))

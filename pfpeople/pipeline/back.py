@@ -143,11 +143,11 @@ class BackEnd:
             observed=observed,
             ego=motion.motion,
             support=kept_support,
-            detections=support_positions([d for d, m in zip(dets, models, strict=True) if point_like(m)]),
+            detections=support_positions([_xy(d) for d, m in zip(dets, models, strict=True) if point_like(m)]),
             views=self._laser_views(found) if self.tracker.see_through else None,
         )
         if self.stopped is not None:
-            let_through = [d for d, m in zip(front.dets, models, strict=True) if point_like(m)]
+            let_through = [_xy(d) for d, m in zip(front.dets, models, strict=True) if point_like(m)]
             self.stopped.update(tracked.live, support_positions(let_through))
         return tracked.people, tracked.tracks, support
 
@@ -170,7 +170,7 @@ class BackEnd:
                 continue
             flags = st.copy()
             flags[np.flatnonzero(st)[back]] = False
-            static[k], dets[k] = flags, f.grid[~flags]
+            static[k], dets[k] = flags, f.fused[~flags]
             count(self.summary.readmitted, self.adapters[k].config.name, int(np.count_nonzero(back)))
         return dets, static
 
@@ -194,3 +194,8 @@ class BackEnd:
             if f is not None and f.scan is not None and not getattr(a, "self_mounted", False):
                 views.setdefault(id(f.scan), (f.scan, a.mount))
         return list(views.values())
+
+
+def _xy(detections: NDArray[np.float64] | None) -> NDArray[np.float64] | None:
+    """The positions ``(M, 2)`` of a filter entry (``(M, 2)``, or ``(M, 3)`` with each detection's PPV)."""
+    return None if detections is None else detections[:, :2]

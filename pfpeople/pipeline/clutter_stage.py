@@ -119,8 +119,8 @@ class ClutterStage:
 
         Returns
         -------
-        detections : list of ndarray (M_k, 2) or None
-            The grid-frame detections the filter sees (static ones removed).
+        detections : list of ndarray (M_k, 2) or (M_k, 3), or None
+            The grid-frame detections the filter sees (static ones removed; :attr:`Detections.fused`).
         static : list of ndarray (M_k,) of bool or None
             Per detector, which of its detections were suppressed (None: not a suppressed laser detector).
 
@@ -130,7 +130,7 @@ class ClutterStage:
             If the driving laser's map steps without an ego-motion (``ego_grid`` and ``driver_match`` None): the
             ego-motion stage and this stage disagree on whether it steps (a bug).
         """
-        kept: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
+        kept: list[NDArray[np.float64] | None] = [None if f is None else f.fused for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
         self.support_static = [None] * len(found)
         self.scan_static = {}

@@ -43,8 +43,9 @@ class FrontResult:
         Time step and ego-motion into the frame (the scan-matched motion when it gave the controls).
     found : list of Detections or None
         Per detector (configuration order), its output; None: no data in the frame.
-    dets : list of ndarray (M_k, 2) or None
-        Per detector, the detections the filter gets (static clutter removed).
+    dets : list of ndarray (M_k, 2) or (M_k, 3), or None
+        Per detector, the detections the filter gets (static clutter removed; with each one's PPV for a detector
+        calibrated by score, :attr:`Detections.fused`).
     static : list of ndarray (M_k,) of bool or None
         Per detector, the detections the static-clutter map suppressed (None: no suppression).
     support_static : list of ndarray (S_k,) of bool or None
@@ -107,7 +108,7 @@ class FrontEnd:
         if motion.restarted:
             self.clutter.reset()
         found = self.detection.detect(frame, motion)
-        dets: list[NDArray[np.float64] | None] = [None if f is None else f.grid for f in found]
+        dets: list[NDArray[np.float64] | None] = [None if f is None else f.fused for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
         sup_static: list[NDArray[np.bool_] | None] = [None] * len(found)
         scan_static: dict[str, NDArray[np.bool_]] = {}

@@ -44,8 +44,13 @@ tracking-by-detection baseline). One call of :meth:`MultiPersonTracker.update` p
    without a hit gives ``r <- r exp(-dt / score_tau)``. A new track starts at ``r = hit_gain c``.
 6. **Confirmation and deletion.** A tentative track is confirmed when it has ``confirm_hits`` hits within
    its first ``confirm_window`` frames (M of N); it is deleted when that has become impossible or after
-   ``tentative_max_misses`` consecutive misses. A confirmed track is deleted after coasting longer than
-   ``max_coast_s`` seconds without a hit, or when its score falls below ``delete_score``, or (with
+   ``tentative_max_misses`` consecutive misses. With ``confirm_evidence`` the evidence decides instead of the count:
+   a tentative track is confirmed once its existence score (step 5) reaches ``confirm_evidence``, and deleted after
+   ``tentative_max_misses`` consecutive misses or below ``delete_score``. The score adds each hit's confidence (the
+   fused belief at the person, which carries the detectors' PPV, and a scored detector's PPV of its score), so two
+   confident hits confirm a person seen for a fraction of a second, weak hits take more, and a person detected every
+   other scan is confirmed as the misses' decay is slower than the hits' gain. A confirmed track is deleted after
+   coasting longer than ``max_coast_s`` seconds without a hit, or when its score falls below ``delete_score``, or (with
    ``region``) when its position leaves the region by more than ``region_margin``. The output (the confirmed
    tracks) leaves out tracks coasting longer than ``report_coast_s``: they stay alive to keep their id. A
    confirmed track that has coasted longer than ``revive_after_s`` is *lost*: it is reported again only after
@@ -118,7 +123,11 @@ class TrackerConfig:
     gate_distance : float
         Largest Euclidean distance (m) between a prediction and an allowed measurement.
     confirm_hits, confirm_window : int
-        M of N: a tentative track needs ``confirm_hits`` hits within its first ``confirm_window`` frames.
+        M of N: a tentative track needs ``confirm_hits`` hits within its first ``confirm_window`` frames (unless
+        ``confirm_evidence`` is given).
+    confirm_evidence : float or None
+        Confirm a tentative track once its existence score reaches this, in (``hit_gain``, 1) (at least two hits),
+        instead of M of N (step 6); None: M of N.
     tentative_max_misses : int
         Consecutive misses that delete a tentative track.
     max_coast_s : float
@@ -188,6 +197,7 @@ class TrackerConfig:
     gate_distance: Metres = 1.0
     confirm_hits: int = 3
     confirm_window: int = 5
+    confirm_evidence: Ratio | None = None
     tentative_max_misses: int = 2
     max_coast_s: Seconds = 8.0
     delete_score: Ratio = 0.05
@@ -242,6 +252,14 @@ class TrackerConfig:
             raise TypeError(f"TrackerConfig.prefer_confirmed must be a bool, got {self.prefer_confirmed!r}")
         for name in ("confirm_hits", "confirm_window", "tentative_max_misses"):
             object.__setattr__(self, name, check_int(getattr(self, name), f"TrackerConfig.{name}", minimum=1))
+        if self.confirm_evidence is not None:
+            v = check_real(self.confirm_evidence, "TrackerConfig.confirm_evidence", low=0.0, high=1.0, high_open=True)
+            if not v > self.hit_gain:
+                raise ValueError(
+                    f"TrackerConfig.confirm_evidence ({v}) must exceed hit_gain ({self.hit_gain}): "
+                    "one hit never confirms"
+                )
+            object.__setattr__(self, "confirm_evidence", v)
         if self.confirm_hits > self.confirm_window:
             raise ValueError(
                 f"TrackerConfig.confirm_hits ({self.confirm_hits}) must not exceed confirm_window "
@@ -335,6 +353,13 @@ class _State:
     age_s: float = 0.0
     moved: bool = False
     lost: bool = False
+
+
+def _confirms(cfg: TrackerConfig, m: _State) -> bool:
+    """Whether a tentative track's evidence confirms it (step 6): its score reaches ``confirm_evidence``, or M of N."""
+    if cfg.confirm_evidence is not None:
+        return m.score >= cfg.confirm_evidence
+    return m.age <= cfg.confirm_window and m.hits >= cfg.confirm_hits
 
 
 def _check_ego(ego: object) -> None:
@@ -616,7 +641,7 @@ class MultiPersonTracker:
                 m.coast_s += dt
                 m.score *= decay
                 m.lost = m.lost or (m.confirmed and m.coast_s > lose_after)
-            if not m.confirmed and m.age <= cfg.confirm_window and m.hits >= cfg.confirm_hits:
+            if not m.confirmed and _confirms(cfg, m):
                 m.confirmed = True
 
     def _reidentify(self, new: list[int]) -> None:
@@ -809,7 +834,9 @@ class MultiPersonTracker:
                     e = cfg.region_margin
                     gone = not (reg[0] - e <= x <= reg[1] + e and reg[2] - e <= y <= reg[3] + e)
             else:
-                can_confirm = m.hits + max(0, cfg.confirm_window - m.age) >= cfg.confirm_hits
+                can_confirm = cfg.confirm_evidence is not None or (
+                    m.hits + max(0, cfg.confirm_window - m.age) >= cfg.confirm_hits
+                )
                 gone = m.misses >= cfg.tentative_max_misses or not can_confirm or m.score < cfg.delete_score
             keep[i] = not gone
         self._drop((~keep).nonzero()[0])
@@ -830,7 +857,7 @@ class MultiPersonTracker:
         self._origin = np.concatenate([self._origin, z[new]])
         for j in new:
             st = _State(id=self._next_id, score=cfg.hit_gain * float(c[j]), measurement=int(j))
-            st.confirmed = cfg.confirm_hits <= 1
+            st.confirmed = cfg.confirm_evidence is None and cfg.confirm_hits <= 1
             self._meta.append(st)
             self._next_id += 1
 

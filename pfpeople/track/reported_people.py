@@ -15,7 +15,8 @@ One :meth:`PeopleTracker.step` per frame, after the classifier:
 
    - a classified person is reported when the position assigned to a *confirmed* track in this frame is that
      person (:attr:`Track.measurement <pfpeople.track.multi_person.Track.measurement>`): a person appears once the
-     tracker has confirmed it (3 hits within 5 frames by default), so clutter that peaks for one or two frames
+     tracker has confirmed it (a run's default: by the evidence of its hits, ``[tracking] confirm_evidence``; else 3
+     hits within 5 frames), so clutter that peaks for one or two frames
      is never reported;
    - a confirmed track that missed the last ``1 .. coast_frames`` frames is reported at its predicted position
      (constant velocity) when that lies in an observed cell of the grid and farther than ``min_separation``

@@ -29,3 +29,32 @@ def test_bad_scenes_are_named(tmp_path: Path) -> None:
         opt_in_rows(["eth"], tmp_path, seed=0, data=tmp_path)
     with pytest.raises(FileNotFoundError, match=r"negative_2\.bag"):
         opt_in_rows(["negative_2"], tmp_path, seed=0, data=tmp_path)
+
+
+def test_settings_change_both_configurations_by_key_or_detector_kind(tmp_path: Path) -> None:
+    from evaluation.harness.opt_in import apply_settings
+    from pfpeople.config import ConfigError, config_from_mapping
+
+    base = config_from_mapping(
+        {
+            "frames": {"driver": "/scan"},
+            "detectors": [
+                {"name": "legs", "kind": "leg", "topic": "/scan"},
+                {"name": "learned", "kind": "learned", "topic": "/scan"},
+            ],
+        }
+    )
+    got = apply_settings(
+        base, ["tracking.confirm_evidence=off", "learned.params.threshold=0.4", "learned.model.fnr=0.45"]
+    )
+    assert got.tracking.confirm_evidence == "off" and base.tracking.confirm_evidence == 0.6
+    learned = next(d for d in got.detectors if d.kind == "learned")
+    legs = next(d for d in got.detectors if d.kind == "leg")
+    assert learned.params["threshold"] == 0.4 and learned.model.fnr == 0.45
+    assert legs.params == {} and legs.model.fnr is None
+    assert apply_settings(base, ["motion.params.x=1"]) == base  # no detector of that kind: nothing set
+    assert apply_settings(base, []) is base
+    with pytest.raises(ValueError, match="KEY=VALUE"):
+        apply_settings(base, ["tracking.confirm_evidence"])
+    with pytest.raises(ConfigError, match="confirm_evidence"):
+        apply_settings(base, ["tracking.confirm_evidence=2"])

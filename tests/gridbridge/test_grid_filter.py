@@ -76,7 +76,8 @@ def test_reset_and_initial() -> None:
         (([EMPTY, EMPTY, EMPTY], None, -0.1), "dt"),
         (([EMPTY, EMPTY], None, 0.1), "one entry per detector"),
         (([[[np.nan, 1.0]], EMPTY, EMPTY], None, 0.1), "NaN"),
-        (([np.zeros((2, 3)), EMPTY, EMPTY], None, 0.1), "shape"),
+        (([np.zeros((2, 4)), EMPTY, EMPTY], None, 0.1), "shape"),
+        (([np.zeros((2, 3)), EMPTY, EMPTY], None, 0.1), "third column"),  # (M, 3): a PPV per detection, in (0, 1)
         (([EMPTY, EMPTY, EMPTY], "fast", 0.1), "odometry"),
         (([EMPTY, EMPTY, EMPTY], "ab", 0.1), "odometry"),  # a pair that is not numbers
     ],

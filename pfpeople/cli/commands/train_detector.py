@@ -103,8 +103,9 @@ def _learned_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--threshold",
         type=float,
-        default=r.threshold,
-        help="operating threshold: detections scoring less are not reported (default: %(default)s)",
+        default=None,
+        help=f"operating threshold: detections scoring less are not reported nor fused (default: {r.threshold}; "
+        "with --recalibrate: the card's)",
     )
     g.add_argument(
         "--calibration-bags",
@@ -112,6 +113,13 @@ def _learned_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="DIR",
         help="simulated bags (as --people-bags) to measure PPV / FNR on, not trained on",
+    )
+    g.add_argument(
+        "--recalibrate",
+        action="store_true",
+        help="do not train: measure the model in --out and its fold models in --fold-dir again on what each holds "
+        "out and --calibration-bags (PPV, FNR, PPV by score, the leave-one-bag-out table) and rewrite their cards "
+        "(no PyTorch needed)",
     )
 
 
@@ -161,6 +169,8 @@ def _run_learned(args: argparse.Namespace) -> int:
     from pfpeople.detect.learned.recipe import LearnedRecipe
     from pfpeople.extras import require
 
+    if args.recalibrate:
+        return _recalibrate_learned(args)
     require("train", "pfpeople train-detector --kind learned")  # before minutes of loading
     r = LearnedRecipe()
     recipe = replace(
@@ -168,7 +178,7 @@ def _run_learned(args: argparse.Namespace) -> int:
         architecture=args.architecture,
         past_scans=args.past_scans,
         motion_input=args.motion_input,
-        threshold=args.threshold,
+        threshold=r.threshold if args.threshold is None else args.threshold,
         fit=replace(r.fit, epochs=args.epochs, seed=args.seed),
     )
     out = Path(args.out) / f"{args.name or 'learned_people'}.npz"
@@ -185,6 +195,25 @@ def _run_learned(args: argparse.Namespace) -> int:
         say=lambda m: print(m, flush=True),
     )
     print(f"wrote {out} and {out.with_suffix('.json')}")
+    print(format_learned(card))
+    return 0
+
+
+def _recalibrate_learned(args: argparse.Namespace) -> int:
+    from pfpeople.detect.learned.build import recalibrate_learned
+
+    if args.fold_dir is None:
+        raise SystemExit("pfpeople train-detector --recalibrate: give --fold-dir (the fold models to score)")
+    out = Path(args.out) / f"{args.name or 'learned_people'}.npz"
+    card = recalibrate_learned(
+        args.data_dir,
+        out,
+        fold_dir=args.fold_dir,
+        calibration_bags=find_people_bags(args.calibration_bags) if args.calibration_bags is not None else (),
+        threshold=args.threshold,
+        say=lambda m: print(m, flush=True),
+    )
+    print(f"rewrote {out.with_suffix('.json')} and the fold cards in {args.fold_dir}")
     print(format_learned(card))
     return 0
 

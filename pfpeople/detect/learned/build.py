@@ -19,15 +19,15 @@ import numpy as np
 
 from gridbridge.params import DetectorModel
 from pfpeople.detect.learned.detector import LearnedPeopleDetector
-from pfpeople.detect.learned.model_file import LearnedModel, save_model, sha256_of
+from pfpeople.detect.learned.model_file import LearnedModel, load_model, save_model, sha256_of
 from pfpeople.detect.learned.recipe import LearnedRecipe, TrainingData, folds, load_training_data, train_model
 from pfpeople.detect.learned.samples import LabelledScan, simulated_scans
-from pfpeople.detect.learned.scoring import calibration, detector_scores, scored_frames
+from pfpeople.detect.learned.scoring import calibration, detector_scores, ppv_by_score, scored_frames
 from pfpeople.detect.learned.weak_labels import weak_labels
 from pfpeople.detect.leg_tracker_bags import iter_scans
 from pfpeople.detect.precision_recall import ScoredFrame
 
-__all__ = ["load_weak_labels", "train_learned_from_directory"]
+__all__ = ["load_weak_labels", "recalibrate_learned", "train_learned_from_directory"]
 
 
 def load_weak_labels(bags: Sequence[tuple[str | Path, str]]) -> tuple[list[LabelledScan], dict[str, Any]]:
@@ -71,14 +71,21 @@ class HeldOut:
 
 def _leave_one_out(data: TrainingData, recipe: LearnedRecipe, say: Callable[[str], object]) -> HeldOut:
     """Train and score every fold."""
-    rows, models, pos_all, neg_all = [], {}, [], []
+    models = {}
     for fold in folds(data):
         say(f"fold {fold.name}: training")
-        model = train_model(fold.train, recipe)
+        models[fold.held_out] = train_model(fold.train, recipe)
+    return _scored_folds(data, models)
+
+
+def _scored_folds(data: TrainingData, models: dict[str, LearnedModel]) -> HeldOut:
+    """Every fold scored on what it holds out by its model (``models``: by held-out bag)."""
+    rows, pos_all, neg_all = [], [], []
+    for fold in folds(data):
+        model = models[fold.held_out]
         pos = scored_frames(_detector(model), fold.test)
         neg = scored_frames(_detector(model), fold.test_negative)
         rows.append(_fold_row(fold.name, pos, neg))
-        models[fold.held_out] = model
         pos_all += pos
         neg_all += neg
     return HeldOut(rows=rows, models=models, positive=pos_all, negative=neg_all)
@@ -156,8 +163,56 @@ def train_learned_from_directory(
     card["data"] = _files(Path(data_dir), [*people_bags, *calibration_bags], own)
     save_model(out, final.network, card)
     if fold_dir is not None and held is not None:
-        for bag, model in held.models.items():
-            save_model(Path(fold_dir) / f"{Path(out).stem}_without_{bag}.npz", model.network, {**card, "held_out": bag})
+        _save_folds(out, fold_dir, held.models, card)
+    return card
+
+
+def _fold_path(out: str | Path, fold_dir: str | Path, bag: str) -> Path:
+    return Path(fold_dir) / f"{Path(out).stem}_without_{bag}.npz"
+
+
+def _save_folds(out: str | Path, fold_dir: str | Path, models: dict[str, LearnedModel], card: dict[str, Any]) -> None:
+    for bag, model in models.items():
+        save_model(_fold_path(out, fold_dir, bag), model.network, {**card, "held_out": bag})
+
+
+def recalibrate_learned(
+    data_dir: str | Path,
+    model_path: str | Path,
+    *,
+    fold_dir: str | Path,
+    calibration_bags: Sequence[tuple[str | Path, str | Path]] = (),
+    threshold: float | None = None,
+    say: Callable[[str], object] = lambda _m: None,
+) -> dict[str, Any]:
+    """Measure a trained model's calibration (PPV, FNR, ``PPV(score)``) and leave-one-bag-out figures again, from
+    its fold models in ``fold_dir`` (as :func:`train_learned_from_directory` wrote them) and the
+    ``calibration_bags``, without training (no PyTorch), at the card's operating threshold or a new ``threshold``
+    (in [0, 1]); the cards of the model and its folds are rewritten, the weights are not. Returns the card.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the model, a fold model or a labelled bag is missing (named).
+    """
+    final = load_model(model_path)
+    if threshold is not None and not 0.0 <= threshold <= 1.0:
+        raise ValueError(f"threshold must be in [0, 1], got {threshold}")
+    operating = final.threshold if threshold is None else float(threshold)
+    say("loading the labelled bags and negative_2")
+    data = load_training_data(data_dir)
+    models = {fold.held_out: load_model(_fold_path(model_path, fold_dir, fold.held_out)) for fold in folds(data)}
+    say("scoring the folds on what they hold out")
+    held = _scored_folds(data, models)
+    calib = [
+        scored_frames(_detector(final), simulated_scans(bag, gt, source=f"calibration:{Path(bag).stem}"))
+        for bag, gt in calibration_bags
+    ]
+    card = {k: v for k, v in final.card.items() if k not in ("format", "layers")}
+    card["threshold"] = operating
+    card.update(_measured(held, calib, operating))
+    save_model(model_path, final.network, card)
+    _save_folds(model_path, fold_dir, models, card)
     return card
 
 
@@ -165,6 +220,7 @@ def _measured(held: HeldOut | None, calib: list[list[ScoredFrame]], threshold: f
     """The card's ``calibration`` and ``leave_one_bag_out`` entries."""
     scenes = [*calib, *([held.positive] if held is not None else [])]
     negatives = held.negative if held is not None else []
+    by_score: dict[str, Any] | None = None
     if not scenes:
         ppv, fnr, on = 0.5, 0.5, "not measured (no held-out folds, no calibration bags): placeholders"
     else:
@@ -172,6 +228,8 @@ def _measured(held: HeldOut | None, calib: list[list[ScoredFrame]], threshold: f
         parts = ["the held-out folds of the labelled bags and negative_2"] if held is not None else []
         parts += [f"{len(calib)} held-out simulated bag(s)"] if calib else []
         on = " and ".join(parts) + " (0.5 m; PPV pooled, FNR the mean of the scenes' miss rates)"
+        curve = ppv_by_score(scenes, negatives)
+        by_score = None if curve is None else curve.to_card()
     lobo: dict[str, Any] = {"folds": [], "pooled": {}}
     if held is not None:
         s = detector_scores(held.positive)
@@ -184,7 +242,10 @@ def _measured(held: HeldOut | None, calib: list[list[ScoredFrame]], threshold: f
                 "negative_2_false_per_scan": detector_scores(held.negative, threshold=threshold).false_per_scan,
             },
         }
-    return {"calibration": {"ppv": ppv, "fnr": fnr, "measured_on": on}, "leave_one_bag_out": lobo}
+    cal: dict[str, Any] = {"ppv": ppv, "fnr": fnr, "measured_on": on}
+    if by_score is not None:
+        cal["ppv_by_score"] = by_score
+    return {"calibration": cal, "leave_one_bag_out": lobo}
 
 
 def _card(model: LearnedModel, r: LearnedRecipe, data: TrainingData, weak_report: dict[str, Any]) -> dict[str, Any]:

@@ -6,7 +6,9 @@ the no-return beams as free space), and, for a temporal model, cuts each of the 
 moved into that scan's frame by the ego-motion. The network (:mod:`pfpeople.detect.learned.net`) gives each return
 a person probability ``s = sigmoid(logit)`` and a vote for the person's centre; the votes are grouped into people
 (:func:`pfpeople.detect.learned.votes.group_votes`), each with the score of its best vote. People scoring at least
-the operating threshold are reported (centres, not legs).
+the operating threshold are reported (centres, not legs). Where the model card holds ``calibration.ppv_by_score``
+(:mod:`pfpeople.detect.score_ppv`, measured on the held-out folds), each reported person also carries the PPV its
+score earned there (:meth:`LearnedPeopleDetector.detect_with_ppv`), which the filters fuse instead of the one PPV.
 
 Temporal models need the laser frame's motion between scans (:meth:`LearnedPeopleDetector.observe_motion`): without
 it (the first scan, an odometry gap, a failed scan match) the past scans are forgotten and the current scan stands in
@@ -32,6 +34,7 @@ from pfpeople.detect.learned.memory import ScanMemory
 from pfpeople.detect.learned.model_file import LearnedModel, load_model
 from pfpeople.detect.learned.votes import group_votes, vote_positions
 from pfpeople.detect.motion import compose_pending
+from pfpeople.detect.score_ppv import ScorePpv
 from pfpeople.sensors import LaserScan
 
 __all__ = ["DEFAULT_LEARNED_MODEL", "LearnedPeopleDetector", "default_learned_model_path"]
@@ -61,6 +64,9 @@ class LearnedPeopleDetector:
     model : DetectorModel, optional
         PPV / FNR and field of view for the filters; default the values in the model card (measured on held-out
         folds), 180 deg.
+    score_ppv : bool
+        Each reported person carries the PPV of its score (the card's ``calibration.ppv_by_score``) for the filters
+        to fuse (:meth:`detect_with_ppv`); False, or a card without it: the model's one PPV holds for all.
     """
 
     def __init__(
@@ -69,21 +75,32 @@ class LearnedPeopleDetector:
         *,
         threshold: float | None = None,
         model: DetectorModel | None = None,
+        score_ppv: bool = True,
     ) -> None:
         if model_path is not None and not isinstance(model_path, str | Path):
             raise TypeError(f"model_path must be a path, got {model_path!r} ({type(model_path).__name__})")
-        self._setup(load_model(default_learned_model_path() if model_path is None else model_path), threshold, model)
+        learned = load_model(default_learned_model_path() if model_path is None else model_path)
+        self._setup(learned, threshold, model, score_ppv)
 
     @classmethod
     def from_model(
-        cls, learned: LearnedModel, *, threshold: float | None = None, model: DetectorModel | None = None
+        cls,
+        learned: LearnedModel,
+        *,
+        threshold: float | None = None,
+        model: DetectorModel | None = None,
+        score_ppv: bool = True,
     ) -> LearnedPeopleDetector:
         """A detector of a model already loaded or just trained (arguments as the constructor's)."""
         det = cls.__new__(cls)
-        det._setup(learned, threshold, model)
+        det._setup(learned, threshold, model, score_ppv)
         return det
 
-    def _setup(self, learned: LearnedModel, threshold: float | None, model: DetectorModel | None) -> None:
+    def _setup(
+        self, learned: LearnedModel, threshold: float | None, model: DetectorModel | None, score_ppv: bool
+    ) -> None:
+        if not isinstance(score_ppv, bool):
+            raise TypeError(f"score_ppv must be True or False, got {score_ppv!r}")
         self.learned: LearnedModel = learned
         if threshold is not None:
             threshold = check_number(threshold, "threshold")
@@ -91,6 +108,8 @@ class LearnedPeopleDetector:
                 raise ValueError(f"threshold must be in [0, 1], got {threshold}")
         self.threshold = float(self.learned.threshold if threshold is None else threshold)
         self.model = model if model is not None else _card_model(self.learned)
+        #: ``PPV(score)`` of the card (None: not measured, or ``score_ppv`` off).
+        self.score_ppv: ScorePpv | None = _card_score_ppv(self.learned) if score_ppv else None
         self.memory = ScanMemory(self.learned.past_scans, self.learned.past_step, motion=self.learned.motion_input)
         self._motion: Pose2D | None = None
         self._given = False
@@ -136,6 +155,13 @@ class LearnedPeopleDetector:
         centres, scores = self.detect_scored(scan)
         return centres[scores >= self.threshold]
 
+    def detect_with_ppv(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """:meth:`detect`'s people ``(M, 2)`` (m, scan frame) and the PPV of each one's score ``(M,)``
+        (:attr:`score_ppv`; None without it)."""
+        centres, scores = self.detect_scored(scan)
+        keep = scores >= self.threshold
+        return centres[keep], None if self.score_ppv is None else self.score_ppv(scores[keep])
+
 
 def _card_model(learned: LearnedModel) -> DetectorModel:
     """The detector model of the card's ``calibration`` (PPV / FNR measured on held-out folds)."""
@@ -143,3 +169,9 @@ def _card_model(learned: LearnedModel) -> DetectorModel:
     if not isinstance(cal, dict) or "ppv" not in cal or "fnr" not in cal:
         raise ValueError(f"model card of {learned.path}: no calibration (ppv, fnr) measured on held-out data")
     return DetectorModel(name="laser_learned", ppv=float(cal["ppv"]), fnr=float(cal["fnr"]))
+
+
+def _card_score_ppv(learned: LearnedModel) -> ScorePpv | None:
+    """The card's ``calibration.ppv_by_score`` (None when the card has none)."""
+    entry = learned.card.get("calibration", {}).get("ppv_by_score")
+    return None if entry is None else ScorePpv.from_card(entry, f"model card of {learned.path}")

@@ -22,9 +22,11 @@ from pfpeople.detect.precision_recall import (
     PrCurve,
     ScoredFrame,
     average_precision,
+    frame_gains,
     pr_curve,
     recall_at_precision,
 )
+from pfpeople.detect.score_ppv import ScorePpv
 
 __all__ = [
     "Counts",
@@ -33,6 +35,7 @@ __all__ = [
     "counts_at",
     "detector_scores",
     "operating_point",
+    "ppv_by_score",
     "scored_frames",
 ]
 
@@ -140,3 +143,21 @@ def operating_point(frames: Sequence[ScoredFrame], precision: float) -> tuple[fl
     ok = np.flatnonzero(prec >= precision)
     k = int(ok[-1]) if ok.size else int(np.argmax(prec))
     return float(c.thresholds[k]), float(prec[k]), float(1.0 - c.recall[k])
+
+
+def ppv_by_score(
+    scenes: Sequence[Sequence[ScoredFrame]], negatives: Sequence[ScoredFrame], *, min_count: int = 200
+) -> ScorePpv | None:
+    """``PPV(score)`` (:class:`pfpeople.detect.score_ppv.ScorePpv`) of every detection of the ``scenes`` and the
+    people-free ``negatives``: true when matched to a counted person within 0.5 m (one-to-one, in descending score),
+    false when unmatched; a detection matched to an ignored person is left out, as in the PPV of
+    :func:`calibration`, whose pooled value this step function averages to over the detections at its threshold.
+    None with fewer than ``min_count`` such detections (too few to measure a curve)."""
+    scores, true = [], []
+    for frame in [f for frames in scenes for f in frames] + list(negatives):
+        tp, ig = frame_gains(frame, 0.5)
+        judged = ig == 0
+        scores.append(frame.scores[judged])
+        true.append(tp[judged])
+    s, y = np.concatenate(scores), np.concatenate(true)
+    return ScorePpv.fit(s, y, min_count=min_count) if s.size >= min_count else None

@@ -40,7 +40,7 @@ OTHER: dict[str, Any] = {
     "motion_model": "paper", "compiled_draws": False, "max_overflow": 0.2, "base_rate": 0.05,
     "appearance_rate": 0.1, "belief_max": 0.95, "laser_footprint": 0.2, "threshold": 0.6, "min_separation": 0.5,
     "keep": 0.4, "smooth": 1.0, "enabled": False, "peak_threshold": "off", "people": "classified",
-    "coast_frames": 2, "single_legs": False, "snap_radius": 0.0, "static_confirm_s": 0.5,
+    "coast_frames": 2, "single_legs": False, "snap_radius": 0.0, "static_confirm_s": 0.5, "confirm_evidence": "off",
     "observed_tracks_only": False, "see_through": False, "params": {}, "laser_odometry": False, "frame": "odom",
 }  # fmt: skip
 

@@ -139,3 +139,35 @@ def test_the_starter_config_offers_the_learned_detector_commented_out(tmp_path: 
     assert main(["inspect", str(bag), "--write-config", str(active), "--opt-in"]) == 0
     assert load_config(active).detectors == got
     assert "# Opt-in (written by --opt-in): the learned whole-scan detector" in active.read_text()
+
+
+def test_learned_detections_carry_the_ppv_of_their_score_unless_a_ppv_is_configured(tmp_path: Path) -> None:
+    from pfpeople.config.detectors import DetectorModelConfig
+
+    bag = tmp_path / "b.bag"
+    write_bag(bag, n_scans=12)
+    with BagSource(bag) as src:
+        msgs = [m for m in src.messages(["/scan"])]
+    motion = SensorMotion(ego=None, dt=0.1, stamp_ns=0, restarted=True)
+    by_score = LearnedAdapter(DetectorConfig(name="l", kind="learned", topic="/scan"), Pose2D(x=0.2))
+    fixed = LearnedAdapter(
+        DetectorConfig(name="l", kind="learned", topic="/scan", model=DetectorModelConfig(ppv=0.8)), Pose2D(x=0.2)
+    )
+    off = LearnedAdapter(
+        DetectorConfig(name="l", kind="learned", topic="/scan", params={"score_ppv": False}), Pose2D(x=0.2)
+    )
+    curve = by_score.detector.score_ppv  # type: ignore[union-attr]
+    seen = 0
+    for m in msgs:
+        got = by_score.detect([m], motion=motion)
+        _, scores = by_score.detector.detect_scored(by_score.detector_input(got.scan))  # type: ignore[union-attr]
+        keep = scores >= by_score.detector.threshold  # type: ignore[union-attr]
+        assert got.ppv is not None and curve is not None
+        np.testing.assert_array_equal(got.ppv, curve(scores[keep]))
+        np.testing.assert_array_equal(got.fused, np.column_stack([got.grid, got.ppv]))
+        for plain in (fixed.detect([m], motion=motion), off.detect([m], motion=motion)):
+            assert plain.ppv is None and plain.fused is plain.grid
+            np.testing.assert_array_equal(plain.grid, got.grid)
+        seen += len(got.grid)
+    assert seen > 0
+    assert fixed.model.ppv == 0.8

@@ -186,3 +186,18 @@ def test_tracker_inputs_weak_peaks_bit_for_bit_the_maximum_filter_ones(numba: bo
         assert pos[n:].tobytes() == want_pos.reshape(-1, 2).tobytes() and sc[n:].tobytes() == want_sc.tobytes()
         n_weak += len(want_sc)
     assert n_weak > 20
+
+
+def test_a_run_confirms_by_evidence_unless_told_otherwise() -> None:
+    def evidence(tracking: TrackingConfig) -> float | None:
+        built = build_people_tracker(tracking, PeakClassifier(threshold=0.7))
+        assert built is not None
+        return built.tracker.config.confirm_evidence
+
+    assert evidence(TrackingConfig()) == 0.6
+    assert evidence(TrackingConfig(confirm_evidence="off")) is None
+    assert evidence(TrackingConfig(params={"confirm_evidence": 0.7})) == 0.7
+    base = {"frames": {"driver": "/scan"}, "detectors": [{"name": "legs", "kind": "leg", "topic": "/scan"}]}
+    assert config_from_mapping({**base, "tracking": {"confirm_evidence": "off"}}).tracking.confirm_evidence == "off"
+    with pytest.raises(ValueError, match="confirm_evidence"):
+        config_from_mapping({**base, "tracking": {"confirm_evidence": 1.5}})

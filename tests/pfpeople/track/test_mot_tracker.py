@@ -394,3 +394,51 @@ def test_advance_and_one_snapshot_give_update_and_tracks() -> None:
             ]
             assert all(np.array_equal(s.covariance, t.covariance) for s, t in zip(x, y, strict=True))
         assert all(any(t is u for u in got_live) for t in got)
+
+
+def _confirmed_at(cfg: TrackerConfig, hits: list[float | None]) -> int | None:
+    """The frame (from 0) at which one standing person's track is first confirmed, given each frame's confidence of
+    a detection at (2, 0) (None: no detection); None if never."""
+    tracker = MultiPersonTracker(cfg)
+    for k, c in enumerate(hits):
+        z = np.zeros((0, 2)) if c is None else np.array([[2.0, 0.0]])
+        out = tracker.update(z, DT, scores=None if c is None else [c])
+        if out:
+            return k
+    return None
+
+
+def test_confirmation_by_evidence_hand_values() -> None:
+    """With ``confirm_evidence`` a track is confirmed when its existence score ``r`` (step 5: ``r0 = g c``, a hit
+    ``r += g c (1 - r)``, a miss ``r *= exp(-dt / tau)``) reaches it: two confident hits, three ordinary ones, and a
+    person detected every other scan, whom M of N (3 of 5) confirms two frames later."""
+    by_score = TrackerConfig(confirm_evidence=0.6)
+    m_of_n = TrackerConfig()
+    g, decay = by_score.hit_gain, math.exp(-DT / by_score.score_tau)
+    r2 = g * 0.99 + g * 0.99 * (1 - g * 0.99)
+    assert r2 >= 0.6
+    assert _confirmed_at(by_score, [0.99, 0.99, 0.99]) == 1
+    assert _confirmed_at(m_of_n, [0.99, 0.99, 0.99]) == 2
+    r = g * 0.7
+    r += g * 0.7 * (1 - r)
+    assert r < 0.6 and r + g * 0.7 * (1 - r) >= 0.6
+    assert _confirmed_at(by_score, [0.7, 0.7, 0.7]) == 2
+    r = g * 0.99 * decay
+    assert r + g * 0.99 * (1 - r) >= 0.6
+    every_other = [0.99, None, 0.99, None, 0.99, None, 0.99]
+    assert _confirmed_at(by_score, every_other) == 2
+    assert _confirmed_at(m_of_n, every_other) == 4
+    assert _confirmed_at(by_score, [0.99, None, None, 0.99]) is None  # two misses in a row end a tentative track
+    assert _confirmed_at(by_score, [0.99]) is None  # one hit never confirms
+    weak = [0.55] * 12  # sustained weak evidence confirms, later than strong
+    assert _confirmed_at(by_score, weak) == 3
+
+
+def test_confirm_evidence_validation() -> None:
+    with pytest.raises(ValueError, match=r"confirm_evidence.*exceed hit_gain"):
+        TrackerConfig(confirm_evidence=0.4)
+    with pytest.raises(ValueError, match="confirm_evidence"):
+        TrackerConfig(confirm_evidence=1.0)
+    assert TrackerConfig(confirm_evidence=0.6, confirm_hits=1, confirm_window=1).confirm_evidence == 0.6
+    tracker = MultiPersonTracker(TrackerConfig(confirm_evidence=0.6, confirm_hits=1, confirm_window=1))
+    assert tracker.update(np.array([[2.0, 0.0]]), DT) == []  # M of N is not used: one hit is not enough
