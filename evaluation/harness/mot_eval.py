@@ -262,8 +262,10 @@ def evaluate_log(
     particles (tracker)"``: the same with the recommended particle filter (``FilterConfig(kind="particle")``, its
     seed 0). ``fused``: which of these rows (:data:`FUSED_SOURCES`). Ego-motion: the log's odometry controls.
     Detector rows as :func:`evaluate_scenario`. Truth and hypotheses inside the grid only. ``config``: tracker
-    parameters (default ``TrackerConfig()``, the pipeline's). ``particle``: :class:`~pfpeople.config.FilterConfig`
-    fields that replace the particle row's defaults (e.g. ``{"seed": 3}``).
+    parameters (default ``TrackerConfig()``; the recommended rows confirm by evidence as a run does,
+    ``TrackingConfig.confirm_evidence``, unless ``config`` sets ``confirm_evidence``; the detector rows by M of N).
+    ``particle``: :class:`~pfpeople.config.FilterConfig` fields that replace the particle row's defaults (e.g.
+    ``{"seed": 3}``).
     """
     if log.truth_ids is None:
         raise ValueError(f"log {log.name!r} has no person ids (truth_ids): CLEAR-MOT needs them")
@@ -316,10 +318,10 @@ def _fused_tracks(
     classifier = build_classifier(ClassifierConfig())
     tracking = TrackingConfig()
     tcfg = config
+    if tcfg.confirm_evidence is None and tracking.confirm_evidence != "off":  # confirmed by evidence, as a run's
+        tcfg = replace(tcfg, confirm_evidence=float(tracking.confirm_evidence))
     if tracking.peaks_above is not None:  # tracks start only from people, as the pipeline's
-        tcfg = replace(
-            config, birth_min_score=max(config.birth_min_score, float(getattr(classifier, "threshold", 0.0)))
-        )
+        tcfg = replace(tcfg, birth_min_score=max(tcfg.birth_min_score, float(getattr(classifier, "threshold", 0.0))))
     tracker = PeopleTracker(
         classifier,
         config=tcfg,

@@ -60,13 +60,20 @@ def _fold_row(name: str, pos: list[ScoredFrame], neg: list[ScoredFrame]) -> dict
 
 @dataclass(frozen=True, kw_only=True, eq=False)
 class HeldOut:
-    """The leave-one-bag-out folds' results: per-fold rows, their models (by held-out bag), and the pooled
-    held-out frames of the labelled bags and of negative_2."""
+    """The leave-one-bag-out folds' results: per-fold rows, their models (by held-out bag), the pooled
+    held-out frames of the labelled bags and of negative_2, and each fold's own (by held-out bag)."""
 
     rows: list[dict[str, Any]]
     models: dict[str, LearnedModel]
     positive: list[ScoredFrame]
     negative: list[ScoredFrame]
+    by_fold: dict[str, tuple[list[ScoredFrame], list[ScoredFrame]]]
+
+    def without(self, bag: str) -> tuple[list[ScoredFrame], list[ScoredFrame]]:
+        """The held-out frames (labelled bags, negative_2) of every fold but the one that holds ``bag`` out."""
+        pos = [f for b, (p, _) in self.by_fold.items() if b != bag for f in p]
+        neg = [f for b, (_, n) in self.by_fold.items() if b != bag for f in n]
+        return pos, neg
 
 
 def _leave_one_out(data: TrainingData, recipe: LearnedRecipe, say: Callable[[str], object]) -> HeldOut:
@@ -80,15 +87,16 @@ def _leave_one_out(data: TrainingData, recipe: LearnedRecipe, say: Callable[[str
 
 def _scored_folds(data: TrainingData, models: dict[str, LearnedModel]) -> HeldOut:
     """Every fold scored on what it holds out by its model (``models``: by held-out bag)."""
-    rows, pos_all, neg_all = [], [], []
+    rows, pos_all, neg_all, by_fold = [], [], [], {}
     for fold in folds(data):
         model = models[fold.held_out]
         pos = scored_frames(_detector(model), fold.test)
         neg = scored_frames(_detector(model), fold.test_negative)
         rows.append(_fold_row(fold.name, pos, neg))
+        by_fold[fold.held_out] = (pos, neg)
         pos_all += pos
         neg_all += neg
-    return HeldOut(rows=rows, models=models, positive=pos_all, negative=neg_all)
+    return HeldOut(rows=rows, models=models, positive=pos_all, negative=neg_all, by_fold=by_fold)
 
 
 def _lasers(data: TrainingData) -> list[dict[str, Any]]:
@@ -163,7 +171,7 @@ def train_learned_from_directory(
     card["data"] = _files(Path(data_dir), [*people_bags, *calibration_bags], own)
     save_model(out, final.network, card)
     if fold_dir is not None and held is not None:
-        _save_folds(out, fold_dir, held.models, card)
+        _save_folds(out, fold_dir, held, calib, card)
     return card
 
 
@@ -171,9 +179,18 @@ def _fold_path(out: str | Path, fold_dir: str | Path, bag: str) -> Path:
     return Path(fold_dir) / f"{Path(out).stem}_without_{bag}.npz"
 
 
-def _save_folds(out: str | Path, fold_dir: str | Path, models: dict[str, LearnedModel], card: dict[str, Any]) -> None:
-    for bag, model in models.items():
-        save_model(_fold_path(out, fold_dir, bag), model.network, {**card, "held_out": bag})
+def _save_folds(
+    out: str | Path, fold_dir: str | Path, held: HeldOut, calib: list[list[ScoredFrame]], card: dict[str, Any]
+) -> None:
+    """Write each fold model with the final ``card``, its ``held_out`` bag and its own calibration: measured as the
+    card's, less the frames its fold holds out (the benchmark scores those with it)."""
+    threshold = float(card["threshold"])
+    for bag, model in held.models.items():
+        pos, neg = held.without(bag)
+        cal = _calibration(
+            [*calib, pos], neg, threshold, f"the held-out folds but {bag}'s and {len(calib)} held-out simulated bag(s)"
+        )
+        save_model(_fold_path(out, fold_dir, bag), model.network, {**card, "held_out": bag, "calibration": cal})
 
 
 def recalibrate_learned(
@@ -212,24 +229,38 @@ def recalibrate_learned(
     card["threshold"] = operating
     card.update(_measured(held, calib, operating))
     save_model(model_path, final.network, card)
-    _save_folds(model_path, fold_dir, models, card)
+    _save_folds(model_path, fold_dir, held, calib, card)
     return card
+
+
+def _calibration(
+    scenes: list[list[ScoredFrame]], negatives: list[ScoredFrame], threshold: float, source: str
+) -> dict[str, Any]:
+    """A card's ``calibration``: PPV, FNR and PPV by score of held-out ``scenes`` (frames with people) and people-free
+    ``negatives`` at ``threshold``, said to be measured on ``source``."""
+    ppv, fnr = calibration(scenes, negatives, threshold)
+    cal: dict[str, Any] = {
+        "ppv": ppv,
+        "fnr": fnr,
+        "measured_on": source + " (0.5 m; PPV pooled, FNR the mean of the scenes' miss rates)",
+    }
+    curve = ppv_by_score(scenes, negatives)
+    if curve is not None:
+        cal["ppv_by_score"] = curve.to_card()
+    return cal
 
 
 def _measured(held: HeldOut | None, calib: list[list[ScoredFrame]], threshold: float) -> dict[str, Any]:
     """The card's ``calibration`` and ``leave_one_bag_out`` entries."""
     scenes = [*calib, *([held.positive] if held is not None else [])]
     negatives = held.negative if held is not None else []
-    by_score: dict[str, Any] | None = None
     if not scenes:
-        ppv, fnr, on = 0.5, 0.5, "not measured (no held-out folds, no calibration bags): placeholders"
+        on = "not measured (no held-out folds, no calibration bags): placeholders"
+        cal: dict[str, Any] = {"ppv": 0.5, "fnr": 0.5, "measured_on": on}
     else:
-        ppv, fnr = calibration(scenes, negatives, threshold)
         parts = ["the held-out folds of the labelled bags and negative_2"] if held is not None else []
         parts += [f"{len(calib)} held-out simulated bag(s)"] if calib else []
-        on = " and ".join(parts) + " (0.5 m; PPV pooled, FNR the mean of the scenes' miss rates)"
-        curve = ppv_by_score(scenes, negatives)
-        by_score = None if curve is None else curve.to_card()
+        cal = _calibration(scenes, negatives, threshold, " and ".join(parts))
     lobo: dict[str, Any] = {"folds": [], "pooled": {}}
     if held is not None:
         s = detector_scores(held.positive)
@@ -242,9 +273,6 @@ def _measured(held: HeldOut | None, calib: list[list[ScoredFrame]], threshold: f
                 "negative_2_false_per_scan": detector_scores(held.negative, threshold=threshold).false_per_scan,
             },
         }
-    cal: dict[str, Any] = {"ppv": ppv, "fnr": fnr, "measured_on": on}
-    if by_score is not None:
-        cal["ppv_by_score"] = by_score
     return {"calibration": cal, "leave_one_bag_out": lobo}
 
 

@@ -100,3 +100,22 @@ def test_a_model_card_measures_ppv_by_score_when_it_can() -> None:
     assert curve.detections.sum() == 500 and (np.diff(curve.ppv) >= 0).all()
     few = _measured(None, [[_frame(rng, 1) for _ in range(10)]], 0.5)["calibration"]
     assert "ppv_by_score" not in few and 0 < few["ppv"] < 1
+
+
+def test_a_fold_is_calibrated_without_what_it_holds_out() -> None:
+    from pfpeople.detect.learned.build import HeldOut, _calibration
+
+    rng = np.random.default_rng(2)
+    by_fold = {b: ([_frame(rng, 2) for _ in range(60)], [_frame(rng, 0) for _ in range(5)]) for b in ("a", "b", "c")}
+    held = HeldOut(
+        rows=[],
+        models={},
+        positive=[f for p, _ in by_fold.values() for f in p],
+        negative=[f for _, n in by_fold.values() for f in n],
+        by_fold=by_fold,
+    )
+    pos, neg = held.without("b")
+    assert pos == [*by_fold["a"][0], *by_fold["c"][0]] and neg == [*by_fold["a"][1], *by_fold["c"][1]]
+    cal = _calibration([pos], neg, 0.5, "folds a and c")
+    assert (cal["ppv"], cal["fnr"]) == calibration([pos], neg, 0.5)
+    assert cal["measured_on"].startswith("folds a and c") and "ppv_by_score" in cal
