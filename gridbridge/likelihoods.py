@@ -44,8 +44,8 @@ from gridbridge.components import Appearance, BeliefBounds
 from gridbridge.grid import GridSpec
 from gridbridge.measurement import (
     Likelihood,
+    _detection_map,
     _likelihood,
-    detection_map,
     detection_ppv_map,
     fov_mask,
     split_detections,
@@ -142,7 +142,7 @@ class IndependentLikelihood:
             pts, own = split_detections(det, f"detections of {model.name}")
             ppv: float | NDArray[np.float64] = model.ppv
             if own is None:
-                q = detection_map(spec, model, pts)
+                q = _detection_map(spec, model, pts)  # split_detections checked them
             else:
                 q, ppv = detection_ppv_map(spec, model, pts, own)
             if model.uncertainty == "gaussian":  # the detection's probability mass per cell, not a peak of 1

@@ -131,7 +131,11 @@ def detection_map(spec: GridSpec, model: DetectorModel, positions: ArrayLike) ->
     positions : array_like, shape (M, 2)
         Detected person positions (x, y) in the grid's sensor frame (m). M may be 0.
     """
-    pts = check_positions(positions, f"detections of {model.name}")
+    return _detection_map(spec, model, check_positions(positions, f"detections of {model.name}"))
+
+
+def _detection_map(spec: GridSpec, model: DetectorModel, pts: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`detection_map` of positions already checked (``(M, 2)`` finite floats)."""
     fired = np.zeros(spec.shape)
     if len(pts) == 0:
         return fired
@@ -222,7 +226,7 @@ def detection_ppv_map(
     fired = np.zeros(spec.shape)
     ppv_map = np.full(spec.shape, float(model.ppv))
     for j in np.argsort(own, kind="stable"):  # ascending PPV: a tie in weight goes to the later, larger PPV
-        w = detection_map(spec, model, pts[j : j + 1])
+        w = _detection_map(spec, model, pts[j : j + 1])
         wins = (w > 0.0) & (w >= fired)
         fired[wins] = w[wins]
         ppv_map[wins] = own[j]
@@ -406,7 +410,7 @@ def _likelihood(
             continue
         pts, own = split_detections(det, f"detections of {model.name}")
         if own is None:
-            fired[i] = detection_map(spec, model, pts)
+            fired[i] = _detection_map(spec, model, pts)
         else:
             if ppv_cells is None:
                 ppv_cells = np.repeat(np.asarray(ppv, dtype=float)[:, None, None], spec.nx, axis=1).repeat(spec.ny, 2)

@@ -108,14 +108,15 @@ class FrontEnd:
         if motion.restarted:
             self.clutter.reset()
         found = self.detection.detect(frame, motion)
-        dets: list[NDArray[np.float64] | None] = [None if f is None else f.fused for f in found]
         static: list[NDArray[np.bool_] | None] = [None] * len(found)
         sup_static: list[NDArray[np.bool_] | None] = [None] * len(found)
         scan_static: dict[str, NDArray[np.bool_]] = {}
-        if self.clutter.active:
+        if self.clutter.active:  # the filter's entries less the static detections
             dets, static = self.clutter.step(found, motion.ego, motion.dt, frame.stamp_ns, match)
             sup_static = list(self.clutter.support_static)
             scan_static = dict(self.clutter.scan_static)
+        else:
+            dets = [None if f is None else f.fused for f in found]
         return FrontResult(
             motion=motion,
             found=found,

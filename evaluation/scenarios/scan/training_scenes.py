@@ -13,6 +13,7 @@ and the benchmark's held-out models (scene ``positive_bags``) are trained on the
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -49,12 +50,18 @@ CALIBRATION_SEED = 50
 def training_people_bags(folder: str | Path) -> list[tuple[Path, Path]]:
     """Write the scenes of :data:`BOOSTED_TRAINING_SCENES` at :data:`TRAINING_SEED` into ``folder/<scene>/`` (unless
     it is there already) and return the ``(bag, ground-truth CSV)`` pairs, sorted by scene name."""
+    return _scene_bags(folder, BOOSTED_TRAINING_SCENES, TRAINING_SEED)
+
+
+def _scene_bags(folder: str | Path, scenes: Sequence[str], seed: int) -> list[tuple[Path, Path]]:
+    """Each built-in scene of ``scenes`` at ``seed`` written into ``folder/<scene>/`` (unless it is there already):
+    the ``(bag, ground-truth CSV)`` pairs, in the order of ``scenes``."""
     out = []
-    for scene in BOOSTED_TRAINING_SCENES:
+    for scene in scenes:
         d = Path(folder) / scene
         bag, gt = d / f"{scene}.bag", d / f"{scene}_gt.csv"
         if not (bag.is_file() and gt.is_file()):
-            write_scene_bag(scene, d, seed=TRAINING_SEED, overwrite=True)
+            write_scene_bag(scene, d, seed=seed, overwrite=True)
         out.append((bag, gt))
     return out
 
@@ -176,11 +183,4 @@ def learned_training_bags(
 def calibration_bags(folder: str | Path, seed: int = CALIBRATION_SEED) -> list[tuple[Path, Path]]:
     """Write every built-in scene at ``seed`` (as the benchmark simulates them, other people and noise) into
     ``folder/<scene>/`` (unless it is there already) and return the ``(bag, ground-truth CSV)`` pairs."""
-    out = []
-    for scene in builtin_scan_scenes():
-        d = Path(folder) / scene
-        bag, gt = d / f"{scene}.bag", d / f"{scene}_gt.csv"
-        if not (bag.is_file() and gt.is_file()):
-            write_scene_bag(scene, d, seed=seed, overwrite=True)
-        out.append((bag, gt))
-    return out
+    return _scene_bags(folder, builtin_scan_scenes(), seed)

@@ -161,10 +161,7 @@ def train_learned_from_directory(
     held = _leave_one_out(data, r, say) if leave_one_out else None
     say("training the final model on all the data")
     final = train_model(data, r, threshold=r.threshold)
-    calib = [
-        scored_frames(_detector(final), simulated_scans(bag, gt, source=f"calibration:{Path(bag).stem}"))
-        for bag, gt in calibration_bags
-    ]
+    calib = _calibration_frames(final, calibration_bags)
     card = _card(final, r, data, weak_report)
     card.update(_measured(held, calib, r.threshold))
     own = [Path(b) for b, _ in (*weak_bags, *negative_bags)]
@@ -173,6 +170,16 @@ def train_learned_from_directory(
     if fold_dir is not None and held is not None:
         _save_folds(out, fold_dir, held, calib, card)
     return card
+
+
+def _calibration_frames(
+    model: LearnedModel, calibration_bags: Sequence[tuple[str | Path, str | Path]]
+) -> list[list[ScoredFrame]]:
+    """``model``'s scored frames on each simulated ``(bag, ground truth)`` it was neither trained nor benchmarked on."""
+    return [
+        scored_frames(_detector(model), simulated_scans(bag, gt, source=f"calibration:{Path(bag).stem}"))
+        for bag, gt in calibration_bags
+    ]
 
 
 def _fold_path(out: str | Path, fold_dir: str | Path, bag: str) -> Path:
@@ -221,10 +228,7 @@ def recalibrate_learned(
     models = {fold.held_out: load_model(_fold_path(model_path, fold_dir, fold.held_out)) for fold in folds(data)}
     say("scoring the folds on what they hold out")
     held = _scored_folds(data, models)
-    calib = [
-        scored_frames(_detector(final), simulated_scans(bag, gt, source=f"calibration:{Path(bag).stem}"))
-        for bag, gt in calibration_bags
-    ]
+    calib = _calibration_frames(final, calibration_bags)
     card = {k: v for k, v in final.card.items() if k not in ("format", "layers")}
     card["threshold"] = operating
     card.update(_measured(held, calib, operating))

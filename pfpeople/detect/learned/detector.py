@@ -150,17 +150,21 @@ class LearnedPeopleDetector:
         pos, prob = self.votes(scan)
         return group_votes(pos, prob, radius=self.learned.group_radius, min_score=self.learned.min_vote)
 
+    def _reported(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The people scoring at least :attr:`threshold`: centres ``(M, 2)`` and scores ``(M,)``."""
+        centres, scores = self.detect_scored(scan)
+        keep = scores >= self.threshold
+        return centres[keep], scores[keep]
+
     def detect(self, scan: LaserScan) -> NDArray[np.float64]:
         """People ``(M, 2)`` (m, scan frame) scoring at least :attr:`threshold`."""
-        centres, scores = self.detect_scored(scan)
-        return centres[scores >= self.threshold]
+        return self._reported(scan)[0]
 
     def detect_with_ppv(self, scan: LaserScan) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """:meth:`detect`'s people ``(M, 2)`` (m, scan frame) and the PPV of each one's score ``(M,)``
         (:attr:`score_ppv`; None without it)."""
-        centres, scores = self.detect_scored(scan)
-        keep = scores >= self.threshold
-        return centres[keep], None if self.score_ppv is None else self.score_ppv(scores[keep])
+        centres, scores = self._reported(scan)
+        return centres, None if self.score_ppv is None else self.score_ppv(scores)
 
 
 def _card_model(learned: LearnedModel) -> DetectorModel:

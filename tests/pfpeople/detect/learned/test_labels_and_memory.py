@@ -46,6 +46,18 @@ def _person(x: float, y: float) -> list[tuple[float, float, float]]:
     return [(x, y - 0.12, 0.06), (x, y + 0.12, 0.06)]
 
 
+def _one_person_in_box(scan: LaserScan) -> LabelledScan:
+    """``scan`` labelled with one person at (2, 0) (9 returns) and a labelling box x 0-3 m, y -1-1 m."""
+    return LabelledScan(
+        scan=scan,
+        people=np.array([[2.0, 0.0]]),
+        returns=np.array([9]),
+        region=Region(box=(0.0, 3.0, -1.0, 1.0)),
+        source="t",
+        index=0,
+    )
+
+
 def test_weak_labels_find_the_walker_not_the_post() -> None:
     post = [(2.0, 1.0, 0.04)]
     scans = [_scan(post + (_person(3.0, -2.0 + 0.12 * k) if 10 <= k < 45 else []), k) for k in range(60)]
@@ -73,14 +85,7 @@ def test_weak_labels_need_one_laser() -> None:
 
 def test_targets_mask_outside_the_region_and_the_ring() -> None:
     scan = _scan([*_person(2.0, 0.0), (2.0, 0.55, 0.05), (4.0, 1.0, 0.05)])
-    ls = LabelledScan(
-        scan=scan,
-        people=np.array([[2.0, 0.0]]),
-        returns=np.array([9]),
-        region=Region(box=(0.0, 3.0, -1.0, 1.0)),
-        source="t",
-        index=0,
-    )
+    ls = _one_person_in_box(scan)
     idx = np.flatnonzero(scan.valid)
     t = beam_targets(ls, idx)
     pts = scan.points()[idx]
@@ -159,14 +164,7 @@ def test_background_outside_the_region_is_a_known_negative() -> None:
     idx = np.flatnonzero(scan.valid)
     pts = scan.points()[idx]
     far_post = np.linalg.norm(pts - [4.0, 1.0], axis=1) < 0.1
-    base = LabelledScan(
-        scan=scan,
-        people=np.array([[2.0, 0.0]]),
-        returns=np.array([9]),
-        region=Region(box=(0.0, 3.0, -1.0, 1.0)),
-        source="t",
-        index=0,
-    )
+    base = _one_person_in_box(scan)
     assert (beam_targets(base, idx).weight[far_post] == 0).all()
     bg = np.zeros(scan.ranges.size, dtype=bool)
     bg[idx[far_post]] = True
